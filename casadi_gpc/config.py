@@ -1,0 +1,91 @@
+"""Planner settings and the two presets, ``paper`` and ``improved``.
+
+The paper fixes H = 6 and the weights but not the sample time, the units or P; each
+field's docstring says where its value comes from. ``docs/model.md`` has the formulas
+and the measurements behind the choices.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, replace
+
+__all__ = ["PlannerConfig", "PRESETS", "preset", "DEFAULT_PRESET"]
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Everything that defines the GPC problem (not the robot, which is a scenario's)."""
+
+    name: str
+    sample_time_s: float
+    """T. Not in the paper; settled by measurement (docs/model.md)."""
+    horizon: int = 6
+    """H, prediction = control horizon (paper: 6)."""
+    xi_moving: float = 3.0
+    """xi1, weight of 1/(P dist^2) for moving obstacles (paper: 3)."""
+    xi_static: float = 3.0
+    """xi2, the same for static obstacles (paper: 3)."""
+    lambda1: float = 63.0
+    """Weight of dVr^2 + dVl^2, wheel-speed increments in m/s (paper: 63)."""
+    lambda2: float = 10.0
+    """Weight of (Vr - Vl)^2 in (m/s)^2 (paper: 10)."""
+    tracking_weight: float = 1.0
+    """Weight of the squared position error in m^2 (paper: 1)."""
+    heading_weight: float = 1.0
+    """Weight of the squared, wrapped heading error in rad^2 (paper: 1)."""
+    uncertainty_scale_m: float = 0.5
+    """P = 1 + (var_x + var_y) / uncertainty_scale_m^2: an obstacle whose predicted position
+    has this RMS uncertainty counts half."""
+    clearance_softening_m: float = 0.02
+    """The clearance d enters as (d + sqrt(d^2 + e^2)) / 2, a smooth positive stand-in for
+    d that keeps 1/d^2 finite (and growing) when the discs touch."""
+    influence_m: float | None = None
+    """If set, the obstacle term is xi/P (1/d - 1/d0)^2 for d < d0 and zero beyond, so
+    obstacles far away leave the path alone. None: the paper's xi/(P d^2) everywhere."""
+    clearance_margin_m: float | None = None
+    """If set, a soft constraint d >= margin + k sigma enforced by a steep penalty."""
+    clearance_penalty: float = 1e4
+    """Weight of the squared violation of the clearance margin."""
+    uncertainty_sigmas: float = 2.0
+    """k: how many predicted position standard deviations inflate the margin."""
+    max_lead_m: float | None = None
+    """If set, the reference point never runs more than this far ahead of the robot's
+    projection on the path (it waits while the robot yields). None: the paper's clock."""
+    max_moving: int = 3
+    """Moving-obstacle slots of the NLP (unused slots are switched off)."""
+    max_static: int = 3
+    """Static-obstacle slots of the NLP."""
+    multistart_range_m: float = 3.0
+    """Extra range, beyond the robot's reach in one horizon, within which an obstacle makes
+    the GPC solve from several initial guesses."""
+    swerve_turn_rate_rad_s: float = 0.5
+    """Turn rate of the swerve-left / swerve-right initial guesses."""
+    solver: str = "ipopt"
+    """NLP solver used by the controller."""
+
+    def with_overrides(self, **changes) -> "PlannerConfig":
+        return replace(self, **{k: v for k, v in changes.items() if v is not None})
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+PRESETS: dict[str, PlannerConfig] = {
+    "paper": PlannerConfig(name="paper", sample_time_s=1.5),
+    "improved": PlannerConfig(
+        name="improved",
+        sample_time_s=0.5,
+        horizon=12,
+        tracking_weight=4.0,
+        influence_m=1.5,
+        clearance_margin_m=0.15,
+        max_lead_m=0.5,
+    ),
+}
+DEFAULT_PRESET = "improved"
+
+
+def preset(name: str) -> PlannerConfig:
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise ValueError(f"unknown preset {name!r} (choose from {', '.join(PRESETS)})") from None

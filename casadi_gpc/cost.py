@@ -1,0 +1,206 @@
+"""The GPC problem written once in CasADi: rollout, the paper's cost and the limits.
+
+Decision variables: the wheel-speed increments ``u = [dVr_0, dVl_0, ..., dVr_{H-1},
+dVl_{H-1}]`` (m/s). Everything that changes from tick to tick is a parameter, packed by
+:class:`ParameterLayout`, so the NLP is built once and solved many times.
+
+Cost (``docs/model.md``)::
+
+    J = sum_i  wt ((x_i - xd_i)^2 + (y_i - yd_i)^2) + wh wrap(th_i - thd_i)^2
+      + sum_i  lambda1 (dVr_i^2 + dVl_i^2) + lambda2 (Vr_i - Vl_i)^2
+      + sum_j sum_i  xi / (P_ij dist_ij^2)          (paper; or xi/P (1/d - 1/d0)_+^2)
+      [+ sum_j sum_i  w (margin_ij - dist_ij)_+^2]   (improved: soft clearance constraint)
+
+with ``dist`` the clearance between the robot's disc and the obstacle's disc.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .config import PlannerConfig
+from .robot import RobotParams, robot_step
+from .types import ObstacleForecast, StaticObstacle
+
+__all__ = ["ParameterLayout", "GPCProblem", "build_problem", "FAR_AWAY_M"]
+
+FAR_AWAY_M = 1.0e4  # where unused obstacle slots are parked
+
+
+@dataclass(frozen=True)
+class ParameterLayout:
+    """Offsets of the named blocks in the NLP parameter vector."""
+
+    horizon: int
+    max_moving: int
+    max_static: int
+
+    @property
+    def blocks(self) -> dict[str, tuple[int, ...]]:
+        H, M, S = self.horizon, self.max_moving, self.max_static
+        return {
+            "x0": (5,),                  # x, y, heading, v_right, v_left
+            "ref": (H, 3),               # desired x, y, heading at steps 1..H
+            "mov_xy": (M, H, 2),         # predicted obstacle positions
+            "mov_p": (M, H),             # the paper's P (>= 1)
+            "mov_sigma": (M, H),         # predicted position std (m) for the margin
+            "mov_r": (M,),
+            "mov_on": (M,),
+            "sta_xy": (S, 2),
+            "sta_r": (S,),
+            "sta_on": (S,),
+        }
+
+    @property
+    def size(self) -> int:
+        return sum(int(np.prod(s)) for s in self.blocks.values())
+
+    def slices(self) -> dict[str, slice]:
+        out, k = {}, 0
+        for name, shape in self.blocks.items():
+            n = int(np.prod(shape))
+            out[name] = slice(k, k + n)
+            k += n
+        return out
+
+    def pack(
+        self,
+        x0: np.ndarray,
+        ref: np.ndarray,
+        forecasts: list[ObstacleForecast] | tuple = (),
+        statics: list[StaticObstacle] | tuple = (),
+        uncertainty_scale_m: float = 0.5,
+    ) -> np.ndarray:
+        """Parameter vector for one tick. The nearest obstacles fill the slots."""
+        H, M, S = self.horizon, self.max_moving, self.max_static
+        if len(forecasts) > M or len(statics) > S:
+            raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")
+        sl = self.slices()
+        p = np.zeros(self.size)
+        p[sl["x0"]] = x0
+        p[sl["ref"]] = np.asarray(ref, dtype=float).reshape(-1)
+        mov_xy = np.full((M, H, 2), FAR_AWAY_M)
+        mov_p = np.ones((M, H))
+        mov_sigma = np.zeros((M, H))
+        mov_r = np.zeros(M)
+        mov_on = np.zeros(M)
+        for j, f in enumerate(forecasts):
+            mov_xy[j] = f.means_m
+            var = np.trace(f.covs_m2, axis1=1, axis2=2)
+            mov_p[j] = 1.0 + var / uncertainty_scale_m ** 2
+            mov_sigma[j] = np.sqrt(np.linalg.eigvalsh(f.covs_m2)[:, -1])
+            mov_r[j] = f.radius_m
+            mov_on[j] = 1.0
+        sta_xy = np.full((S, 2), FAR_AWAY_M)
+        sta_r = np.zeros(S)
+        sta_on = np.zeros(S)
+        for j, s in enumerate(statics):
+            sta_xy[j] = s.position_m
+            sta_r[j] = s.radius_m
+            sta_on[j] = 1.0
+        for name, val in (("mov_xy", mov_xy), ("mov_p", mov_p), ("mov_sigma", mov_sigma),
+                          ("mov_r", mov_r), ("mov_on", mov_on), ("sta_xy", sta_xy),
+                          ("sta_r", sta_r), ("sta_on", sta_on)):
+            p[sl[name]] = val.reshape(-1)
+        return p
+
+    def unpack(self, p: np.ndarray) -> dict[str, np.ndarray]:
+        return {name: np.asarray(p[s]).reshape(self.blocks[name]) for name, s in self.slices().items()}
+
+
+@dataclass(frozen=True)
+class GPCProblem:
+    """The symbolic problem and the CasADi functions built from it (built once)."""
+
+    config: PlannerConfig
+    robot: RobotParams
+    layout: ParameterLayout
+    nlp: dict
+    """``{'x', 'p', 'f', 'g'}`` for ``nlpsol``."""
+    cost_fn: ca.Function
+    """``J(u, p)``."""
+    terms_fn: ca.Function
+    """``(tracking, effort, turning, obstacles, margin)(u, p)``: the cost by term."""
+    rollout_fn: ca.Function
+    """``(poses (H x 3), wheels (H x 2))(u, p)``."""
+    lbx: np.ndarray
+    ubx: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+
+    @property
+    def n_u(self) -> int:
+        return 2 * self.config.horizon
+
+
+def _smooth_positive(d, eps):
+    return 0.5 * (d + ca.sqrt(d * d + eps * eps))
+
+
+def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GPCProblem:
+    """Build the NLP of ``config`` for ``robot`` (CasADi SX, single shooting)."""
+    robot = robot or RobotParams()
+    H, T = config.horizon, config.sample_time_s
+    layout = ParameterLayout(H, config.max_moving, config.max_static)
+    u = ca.SX.sym("u", 2 * H)
+    p = ca.SX.sym("p", layout.size)
+    P = {name: p[s] for name, s in layout.slices().items()}
+    x0 = P["x0"]
+    ref = ca.reshape(P["ref"], 3, H).T  # row-major (H, 3) as packed
+    M, S = config.max_moving, config.max_static
+
+    x, y, th, vr, vl = x0[0], x0[1], x0[2], x0[3], x0[4]
+    tracking = effort = turning = obst = margin_pen = 0
+    poses, wheels, g = [], [], []
+    for i in range(H):
+        dvr, dvl = u[2 * i], u[2 * i + 1]
+        vr, vl = vr + dvr, vl + dvl
+        g += [vr, vl]
+        effort += config.lambda1 * (dvr ** 2 + dvl ** 2)
+        turning += config.lambda2 * (vr - vl) ** 2
+        x, y, th = robot_step(ca, x, y, th, vr, vl, T, robot.wheel_base_m)
+        poses.append(ca.horzcat(x, y, th))
+        wheels.append(ca.horzcat(vr, vl))
+        e_h = th - ref[i, 2]
+        tracking += config.tracking_weight * ((x - ref[i, 0]) ** 2 + (y - ref[i, 1]) ** 2)
+        tracking += config.heading_weight * ca.atan2(ca.sin(e_h), ca.cos(e_h)) ** 2
+        obstacles = []
+        for j in range(M):
+            k = (j * H + i) * 2
+            obstacles.append((P["mov_xy"][k], P["mov_xy"][k + 1], P["mov_r"][j], P["mov_on"][j],
+                              P["mov_p"][j * H + i], P["mov_sigma"][j * H + i], config.xi_moving))
+        for j in range(S):
+            obstacles.append((P["sta_xy"][2 * j], P["sta_xy"][2 * j + 1], P["sta_r"][j], P["sta_on"][j],
+                              1.0, 0.0, config.xi_static))
+        for ox, oy, r_o, on, p_unc, sigma, xi in obstacles:
+            centre = ca.sqrt((x - ox) ** 2 + (y - oy) ** 2 + 1e-12)
+            d = centre - robot.radius_m - r_o
+            d_eff = _smooth_positive(d, config.clearance_softening_m)
+            if config.influence_m is None:
+                obst += on * xi / (p_unc * d_eff ** 2)
+            else:
+                obst += on * xi / p_unc * ca.fmax(1.0 / d_eff - 1.0 / config.influence_m, 0.0) ** 2
+            if config.clearance_margin_m is not None:
+                m = config.clearance_margin_m + config.uncertainty_sigmas * sigma
+                margin_pen += on * config.clearance_penalty * ca.fmax(m - d, 0.0) ** 2
+    J = tracking + effort + turning + obst + margin_pen
+    g = ca.vertcat(*g)
+    dv = robot.max_step_change_mps(T)
+    vmax = robot.max_wheel_speed_mps
+    return GPCProblem(
+        config=config,
+        robot=robot,
+        layout=layout,
+        nlp={"x": u, "p": p, "f": J, "g": g},
+        cost_fn=ca.Function("J", [u, p], [J], ["u", "p"], ["J"]),
+        terms_fn=ca.Function("terms", [u, p], [tracking, effort, turning, obst, margin_pen], ["u", "p"],
+                             ["tracking", "effort", "turning", "obstacles", "margin"]),
+        rollout_fn=ca.Function("rollout", [u, p], [ca.vertcat(*poses), ca.vertcat(*wheels)], ["u", "p"],
+                               ["poses", "wheels"]),
+        lbx=np.full(2 * H, -dv),
+        ubx=np.full(2 * H, dv),
+        lbg=np.full(2 * H, -vmax),
+        ubg=np.full(2 * H, vmax),
+    )

@@ -1,0 +1,223 @@
+"""The GPC controller: obstacle EKFs, the NLP built once, multi-start IPOPT, fallback."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .config import PlannerConfig, preset
+from .cost import GPCProblem, build_problem
+from .ekf import EKFSettings, ObstacleEKF
+from .progress import ReferenceClock
+from .robot import RobotParams, brake_wheels
+from .types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
+
+__all__ = ["Plan", "GPCController", "initial_guesses"]
+
+_OK_STATUS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
+TIE_RELATIVE = 1e-7  # candidates closer than this in cost are a tie; the earlier one wins
+
+
+@dataclass(frozen=True)
+class Plan:
+    """One solved (or failed) control sequence."""
+
+    u: np.ndarray
+    cost: float
+    success: bool
+    status: str
+    iterations: int
+    guess: str
+    lam_x: np.ndarray | None = None
+    lam_g: np.ndarray | None = None
+    solve_time_s: float = 0.0
+
+
+def _wheels_to_increments(v0: np.ndarray, wheels: np.ndarray, dv_max: float, v_max: float) -> np.ndarray:
+    """Increments that follow target wheel speeds as closely as the limits allow."""
+    v = np.array(v0, dtype=float)
+    u = np.empty((len(wheels), 2))
+    for i, target in enumerate(wheels):
+        step = np.clip(target - v, -dv_max, dv_max)
+        step = np.clip(v + step, -v_max, v_max) - v
+        u[i] = step
+        v = v + step
+    return u.reshape(-1)
+
+
+def initial_guesses(problem: GPCProblem, x0: np.ndarray, ref_speed_mps: float) -> dict[str, np.ndarray]:
+    """Straight, swerve-right and swerve-left guesses (in the order ties are broken)."""
+    cfg, robot = problem.config, problem.robot
+    H, W = cfg.horizon, robot.wheel_base_m
+    dv_max, v_max = robot.max_step_change_mps(cfg.sample_time_s), robot.max_wheel_speed_mps
+    v = float(np.clip(ref_speed_mps, 0.0, v_max))
+    out = {}
+    half = max(1, H // 2)
+    for name, sign in (("swerve_right", -1.0), ("swerve_left", 1.0), ("straight", 0.0)):
+        w = np.where(np.arange(H) < half, sign, -sign) * cfg.swerve_turn_rate_rad_s
+        wheels = np.stack([v + 0.5 * w * W, v - 0.5 * w * W], axis=1)
+        out[name] = _wheels_to_increments(x0[3:5], wheels, dv_max, v_max)
+    return out
+
+
+@dataclass
+class GPCController:
+    """The paper's GPC with an EKF per moving obstacle. ``decide(observation)`` each sample."""
+
+    config: PlannerConfig = field(default_factory=lambda: preset("improved"))
+    robot: RobotParams = field(default_factory=RobotParams)
+    ekf_settings: EKFSettings = field(default_factory=EKFSettings)
+    ipopt_options: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.problem: GPCProblem = build_problem(self.config, self.robot)
+        opts = {
+            "print_time": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",
+            "ipopt.tol": 1e-9,
+            "ipopt.max_iter": 200,
+            "ipopt.warm_start_init_point": "yes",
+            "ipopt.warm_start_bound_push": 1e-9,
+            "ipopt.warm_start_mult_bound_push": 1e-9,
+            "ipopt.mu_init": 1e-3,
+        }
+        opts.update(self.ipopt_options)
+        self.solver = ca.nlpsol("gpc", "ipopt", self.problem.nlp, opts)
+        self.sample_time_s = self.config.sample_time_s
+        self.reset()
+
+    # --- state -----------------------------------------------------------------------
+    def reset(self) -> None:
+        self.tracks: dict[int, ObstacleEKF] = {}
+        self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
+        self._warm: Plan | None = None
+        self._last_wheels: np.ndarray | None = None
+        self.counters = {"solves": 0, "failed_solves": 0, "fallbacks": 0, "multistart": 0,
+                         "missed_measurements": 0, "outliers": 0}
+
+    # --- estimation --------------------------------------------------------------------
+    def estimate(self, obs: Observation) -> list[ObstacleForecast]:
+        """Fuse this sample's measurements and predict every track over the horizon."""
+        H = self.config.horizon
+        forecasts = []
+        for m in obs.moving:
+            track = self.tracks.get(m.obstacle_id)
+            if track is None:
+                track = self.tracks[m.obstacle_id] = ObstacleEKF(self.config.sample_time_s, self.ekf_settings)
+            event = track.step(m.position_m)
+            if event == "missed":
+                self.counters["missed_measurements"] += 1
+            elif event in ("outlier",):
+                self.counters["outliers"] += 1
+            if track.state_ is None:
+                continue
+            means, covs = track.predict(H)
+            forecasts.append(ObstacleForecast(m.obstacle_id, m.radius_m, means, covs))
+        return forecasts
+
+    def desired_poses(self, obs: Observation) -> np.ndarray:
+        self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
+        return obs.reference.pose_at_arclength(self.clock.horizon_arclengths(obs.reference, self.config.horizon))
+
+    # --- solving -----------------------------------------------------------------------
+    def solve(self, p: np.ndarray, u0: np.ndarray, guess: str = "", lam_x=None, lam_g=None) -> Plan:
+        """One IPOPT solve of the NLP at parameters ``p`` from ``u0``."""
+        pr = self.problem
+        args = dict(x0=u0, p=p, lbx=pr.lbx, ubx=pr.ubx, lbg=pr.lbg, ubg=pr.ubg)
+        if lam_x is not None:
+            args.update(lam_x0=lam_x, lam_g0=lam_g)
+        t0 = time.perf_counter()
+        try:
+            sol = self.solver(**args)
+            stats = self.solver.stats()
+            u = np.asarray(sol["x"]).reshape(-1)
+            cost = float(sol["f"])
+            status = stats.get("return_status", "unknown")
+            ok = status in _OK_STATUS and math.isfinite(cost) and np.all(np.isfinite(u))
+            plan = Plan(u, cost, bool(ok), status, int(stats.get("iter_count", -1)), guess,
+                        np.asarray(sol["lam_x"]).reshape(-1), np.asarray(sol["lam_g"]).reshape(-1))
+        except RuntimeError as exc:  # casadi raises on evaluation errors
+            plan = Plan(np.asarray(u0, float), float("nan"), False, f"error: {exc}", -1, guess)
+        self.counters["solves"] += 1
+        if not plan.success:
+            self.counters["failed_solves"] += 1
+        return Plan(**{**plan.__dict__, "solve_time_s": time.perf_counter() - t0})
+
+    def obstacles_near(self, x0: np.ndarray, forecasts, statics) -> bool:
+        cfg, robot = self.config, self.robot
+        reach = robot.max_wheel_speed_mps * cfg.horizon * cfg.sample_time_s + cfg.multistart_range_m
+        pts = [f.means_m for f in forecasts] + [np.asarray([s.position_m]) for s in statics]
+        return any(np.min(np.hypot(q[:, 0] - x0[0], q[:, 1] - x0[1])) < reach for q in pts)
+
+    def plan(self, p: np.ndarray, x0: np.ndarray, ref_speed_mps: float, multistart: bool,
+             warm: Plan | None = None) -> tuple[Plan, list[Plan]]:
+        """Solve from the warm start and, if ``multistart``, from the fixed guesses; keep the
+        cheapest successful plan. Exact ties keep the earliest guess (swerve right first)."""
+        candidates: list[Plan] = []
+        guesses = initial_guesses(self.problem, x0, ref_speed_mps) if (multistart or warm is None) else {}
+        for name, u0 in guesses.items():
+            candidates.append(self.solve(p, u0, name))
+        if warm is not None:
+            H = self.config.horizon
+            u_shift = np.concatenate([warm.u[2:], np.zeros(2)])
+            candidates.append(self.solve(p, u_shift, "warm", *self._shift_multipliers(warm, H)))
+        best = None
+        for c in candidates:
+            if not c.success:
+                continue
+            if best is None or c.cost < best.cost - TIE_RELATIVE * abs(best.cost):
+                best = c
+        return best, candidates
+
+    @staticmethod
+    def _shift_multipliers(warm: Plan, H: int):
+        if warm.lam_x is None:
+            return None, None
+        return (np.concatenate([warm.lam_x[2:], np.zeros(2)]), np.concatenate([warm.lam_g[2:], np.zeros(2)]))
+
+    # --- the step ----------------------------------------------------------------------
+    def decide(self, obs: Observation) -> ControlDecision:
+        cfg, robot = self.config, self.robot
+        forecasts = self.estimate(obs)
+        ref = self.desired_poses(obs)
+        x0 = obs.robot.as_array()
+        if len(forecasts) > cfg.max_moving:
+            forecasts = sorted(forecasts, key=lambda f: np.min(np.hypot(*(f.means_m - x0[:2]).T)))[: cfg.max_moving]
+        statics = list(obs.static)
+        if len(statics) > cfg.max_static:
+            statics = sorted(statics, key=lambda s: math.hypot(s.position_m[0] - x0[0], s.position_m[1] - x0[1]))
+            statics = statics[: cfg.max_static]
+        p = self.problem.layout.pack(x0, ref, forecasts, statics, cfg.uncertainty_scale_m)
+        near = self.obstacles_near(x0, forecasts, statics)
+        if near:
+            self.counters["multistart"] += 1
+        best, candidates = self.plan(p, x0, obs.reference.speed_mps, near, self._warm)
+        if best is None:
+            return self._fallback(obs, "all solves failed: " + ", ".join(sorted({c.status for c in candidates})))
+        self._warm = best
+        poses, wheels = (np.asarray(a) for a in self.problem.rollout_fn(best.u, p))
+        self._last_wheels = wheels
+        return ControlDecision(
+            float(wheels[0, 0]), float(wheels[0, 1]), False, best.guess, wheels, poses, best.cost,
+            {"iterations": best.iterations, "candidates": len(candidates), "forecasts": forecasts},
+        )
+
+    def _fallback(self, obs: Observation, reason: str) -> ControlDecision:
+        """The shifted previous plan if there is one, else braking within the limits."""
+        self.counters["fallbacks"] += 1
+        dv = self.robot.max_step_change_mps(self.config.sample_time_s)
+        if self._warm is not None and self._last_wheels is not None and len(self._last_wheels) > 1:
+            wheels = self._last_wheels[1:]
+            self._last_wheels = wheels
+            self._warm = Plan(np.concatenate([self._warm.u[2:], np.zeros(2)]), float("nan"), True, "shifted",
+                              0, "shifted")
+            vr, vl = (float(np.clip(w, v - dv, v + dv)) for w, v in
+                      zip(wheels[0], (obs.robot.v_right_mps, obs.robot.v_left_mps)))
+            return ControlDecision(vr, vl, True, "shifted previous plan; " + reason)
+        self._warm = None
+        vr, vl = brake_wheels(obs.robot.v_right_mps, obs.robot.v_left_mps, dv)
+        return ControlDecision(vr, vl, True, "brake; " + reason)

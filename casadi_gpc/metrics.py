@@ -1,0 +1,137 @@
+"""Episode metrics and the contract's RUN.json / EVAL.json documents."""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .simulator import RunLog
+
+__all__ = ["EpisodeMetrics", "episode_metrics", "run_document", "eval_document", "time_stats",
+           "longest_stop_s"]
+
+STOP_SPEED_MPS = 0.05
+
+
+def time_stats(values) -> dict:
+    v = np.asarray(list(values), dtype=float)
+    if v.size == 0:
+        return {"median": 0.0, "p95": 0.0, "max": 0.0, "count": 0}
+    return {"median": float(np.median(v)), "p95": float(np.percentile(v, 95)), "max": float(v.max()),
+            "count": int(v.size)}
+
+
+def longest_stop_s(log: RunLog) -> float:
+    """Longest time both wheels stayed under 0.05 m/s, excluding the start and the end."""
+    st = np.asarray(log.states)
+    slow = np.all(np.abs(st[:, 3:5]) < STOP_SPEED_MPS, axis=1)
+    slow[0] = False  # the robot starts at rest
+    if log.outcome == "reached_goal":
+        slow[-1] = False
+    best = run = 0
+    for s in slow[1:]:
+        run = run + 1 if s else 0
+        best = max(best, run)
+    return best * log.sample_time_s
+
+
+@dataclass(frozen=True)
+class EpisodeMetrics:
+    scenario: str
+    controller: str
+    outcome: str
+    min_clearance_m: float
+    tracking_rmse_m: float
+    time_to_goal_s: float | None
+    steps: int
+    fallbacks: int
+    longest_stop_s: float
+    compute_median_s: float
+
+    @property
+    def reached_goal(self) -> bool:
+        return self.outcome == "reached_goal"
+
+    @property
+    def collided(self) -> bool:
+        return self.outcome == "collided"
+
+
+def episode_metrics(log: RunLog) -> EpisodeMetrics:
+    st = np.asarray(log.states)
+    ref = np.asarray(log.ref_poses)
+    err = np.hypot(st[:, 0] - ref[:, 0], st[:, 1] - ref[:, 1])
+    return EpisodeMetrics(
+        scenario=log.scenario.name,
+        controller=log.controller,
+        outcome=log.outcome,
+        min_clearance_m=float(log.min_clearance_m) if math.isfinite(log.min_clearance_m) else 1e9,
+        tracking_rmse_m=float(np.sqrt(np.mean(err ** 2))),
+        time_to_goal_s=float(log.end_time_s) if log.outcome == "reached_goal" else None,
+        steps=len(log.compute_time_s),
+        fallbacks=int(log.fallbacks),
+        longest_stop_s=longest_stop_s(log),
+        compute_median_s=float(np.median(log.compute_time_s)) if log.compute_time_s else 0.0,
+    )
+
+
+def run_document(log: RunLog, extra: dict | None = None) -> dict:
+    """RUN.json as CONTRACT.md defines it (plus a few extra fields)."""
+    m = episode_metrics(log)
+    st = np.asarray(log.states)
+    obs_xy = np.asarray(log.obstacle_xy)  # (samples, n, 2)
+    obstacles = []
+    sc = log.scenario
+    kinds = [("moving", o.radius_m) for o in sc.moving] + [("static", o.radius_m) for o in sc.static]
+    for j, (kind, radius) in enumerate(kinds):
+        obstacles.append({"kind": kind, "radius_m": radius, "x": obs_xy[:, j, 0].tolist(),
+                          "y": obs_xy[:, j, 1].tolist()})
+    doc = {
+        "scenario": m.scenario,
+        "controller": m.controller,
+        "outcome": m.outcome,
+        "collided": m.collided,
+        "reached_goal": m.reached_goal,
+        "min_clearance_m": m.min_clearance_m,
+        "tracking_rmse_m": m.tracking_rmse_m,
+        "time_to_goal_s": m.time_to_goal_s,
+        "sample_time_s": log.sample_time_s,
+        "steps": m.steps,
+        "compute_time_s": time_stats(log.compute_time_s),
+        "fallbacks": m.fallbacks,
+        "longest_stop_s": m.longest_stop_s,
+        "clipped_commands": log.clipped_commands,
+        "events": {k: int(v) for k, v in log.events.items()},
+        "trajectory": {
+            "t": [float(t) for t in log.t],
+            "x": st[:, 0].tolist(), "y": st[:, 1].tolist(), "heading_rad": st[:, 2].tolist(),
+            "v_right_mps": st[:, 3].tolist(), "v_left_mps": st[:, 4].tolist(),
+        },
+        "reference": {"x": np.asarray(log.ref_poses)[:, 0].tolist(), "y": np.asarray(log.ref_poses)[:, 1].tolist()},
+        "obstacles": obstacles,
+    }
+    doc.update(extra or {})
+    return doc
+
+
+def eval_document(controller: str, metrics: list[EpisodeMetrics], compute_times: list[float],
+                  extra: dict | None = None) -> dict:
+    """EVAL.json as CONTRACT.md defines it."""
+    n = len(metrics)
+    clear = np.array([m.min_clearance_m for m in metrics]) if n else np.zeros(1)
+    rmse = np.array([m.tracking_rmse_m for m in metrics]) if n else np.zeros(1)
+    doc = {
+        "controller": controller,
+        "episodes": n,
+        "success_rate": sum(m.reached_goal for m in metrics) / max(n, 1),
+        "collision_rate": sum(m.collided for m in metrics) / max(n, 1),
+        "timeout_rate": sum(m.outcome == "timed_out" for m in metrics) / max(n, 1),
+        "min_clearance_m": {"min": float(clear.min()), "median": float(np.median(clear))},
+        "tracking_rmse_m": {"median": float(np.median(rmse))},
+        "compute_time_s": time_stats(compute_times),
+        "fallbacks": int(sum(m.fallbacks for m in metrics)),
+        "episodes_detail": [asdict(m) for m in metrics],
+    }
+    doc.update(extra or {})
+    return doc

@@ -1,0 +1,113 @@
+"""Figures in the style of the paper's Fig. 7 and animations, drawn from RUN documents."""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.patches import Circle  # noqa: E402
+
+__all__ = ["plot_run", "run_figure", "animate_run"]
+
+_OBSTACLE_COLOURS = ["tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan"]
+
+
+def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 3.0, title: str | None = None):
+    """Draw one run: reference, robot path with its footprint at intervals, obstacle paths
+    with their discs at the same instants, and the time written beside each footprint."""
+    tr = doc["trajectory"]
+    t = np.asarray(tr["t"])
+    x, y, h = (np.asarray(tr[k]) for k in ("x", "y", "heading_rad"))
+    if "reference_path" in doc:
+        rp = np.asarray(doc["reference_path"])
+        ax.plot(rp[:, 0], rp[:, 1], color="0.6", lw=1.0, ls="--", label="reference path")
+    ax.plot(x, y, color="tab:blue", lw=1.6, label="robot")
+    dt = float(doc["sample_time_s"])
+    step = max(1, int(round(mark_every_s / dt)))
+    marks = list(range(0, len(t), step))
+    for k in marks:
+        ax.add_patch(Circle((x[k], y[k]), robot_radius_m, fill=False, color="tab:blue", lw=0.8, alpha=0.8))
+        ax.plot([x[k], x[k] + robot_radius_m * np.cos(h[k])], [y[k], y[k] + robot_radius_m * np.sin(h[k])],
+                color="tab:blue", lw=0.8)
+        ax.annotate(f"{t[k]:.0f}", (x[k], y[k]), fontsize=6, color="tab:blue", ha="center", va="center")
+    for j, ob in enumerate(doc.get("obstacles", [])):
+        c = _OBSTACLE_COLOURS[j % len(_OBSTACLE_COLOURS)]
+        ox, oy = np.asarray(ob["x"]), np.asarray(ob["y"])
+        if ob["kind"] == "static":
+            ax.add_patch(Circle((ox[0], oy[0]), ob["radius_m"], color="0.3", alpha=0.6))
+            continue
+        ax.plot(ox, oy, color=c, lw=1.0, ls=":", label="moving obstacle" if j == 0 else None)
+        for k in marks:
+            if k < len(ox):
+                ax.add_patch(Circle((ox[k], oy[k]), ob["radius_m"], fill=False, color=c, lw=0.8))
+                ax.annotate(f"{t[k]:.0f}", (ox[k], oy[k]), fontsize=6, color=c, ha="center", va="center")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.grid(True, lw=0.3, alpha=0.5)
+    if title is None:
+        title = f"{doc['scenario']} - {doc['controller']}: {doc['outcome']}, clearance {doc['min_clearance_m']:.2f} m"
+    ax.set_title(title, fontsize=8)
+    return ax
+
+
+def run_figure(doc: dict, robot_radius_m: float = 0.35):
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    plot_run(ax, doc, robot_radius_m)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    return fig
+
+
+def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> None:
+    """A GIF of the run, one frame per sample."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    tr = doc["trajectory"]
+    x, y, h, t = (np.asarray(tr[k]) for k in ("x", "y", "heading_rad", "t"))
+    fig, ax = plt.subplots(figsize=(7, 4))
+    obs = doc.get("obstacles", [])
+    allx = np.concatenate([x] + [np.asarray(o["x"]) for o in obs])
+    ally = np.concatenate([y] + [np.asarray(o["y"]) for o in obs])
+    ax.set_xlim(allx.min() - 1, allx.max() + 1)
+    ax.set_ylim(ally.min() - 1, ally.max() + 1)
+    ax.set_aspect("equal")
+    if "reference_path" in doc:
+        rp = np.asarray(doc["reference_path"])
+        ax.plot(rp[:, 0], rp[:, 1], color="0.6", lw=1.0, ls="--")
+    path_line, = ax.plot([], [], color="tab:blue", lw=1.2)
+    robot = Circle((x[0], y[0]), robot_radius_m, fill=False, color="tab:blue")
+    ax.add_patch(robot)
+    discs = []
+    for j, o in enumerate(obs):
+        c = "0.3" if o["kind"] == "static" else _OBSTACLE_COLOURS[j % len(_OBSTACLE_COLOURS)]
+        d = Circle((o["x"][0], o["y"][0]), o["radius_m"], color=c, alpha=0.5)
+        ax.add_patch(d)
+        discs.append(d)
+    label = ax.set_title("")
+
+    def frame(k):
+        path_line.set_data(x[: k + 1], y[: k + 1])
+        robot.center = (x[k], y[k])
+        for d, o in zip(discs, obs):
+            kk = min(k, len(o["x"]) - 1)
+            d.center = (o["x"][kk], o["y"][kk])
+        label.set_text(f"{doc['scenario']}  t = {t[k]:.1f} s")
+        return [path_line, robot, *discs, label]
+
+    anim = FuncAnimation(fig, frame, frames=len(t), blit=False)
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".gif", dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp)
+    try:
+        anim.save(tmp, writer=PillowWriter(fps=fps))
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+        plt.close(fig)

@@ -1,0 +1,110 @@
+"""The differential-drive robot: parameters, state and the paper's exact-arc model.
+
+The motion over one interval with constant wheel speeds is written once, in
+:func:`arc_step`, against a math module ``xp`` (``numpy`` or ``casadi``), so the NLP,
+the simulator, the obstacle EKF and the deployed policy share one definition.
+
+The paper writes the step as ``x + V/A (sin(theta + A T) - sin(theta))``, which divides
+by zero when the wheels turn at the same speed. The identical half-angle form
+``x + V T sinc(A T / 2) cos(theta + A T / 2)`` is used instead, with a sinc that is a
+Taylor polynomial near zero, so the model is exact, finite and smooth everywhere.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "RobotParams",
+    "RobotState",
+    "sinc",
+    "arc_step",
+    "robot_step",
+    "wheel_to_unicycle",
+    "brake_wheels",
+]
+
+_SINC_SWITCH = 1e-3  # below this |u| the Taylor series is exact to ~1e-22
+
+
+@dataclass(frozen=True)
+class RobotParams:
+    """Geometry and limits of a Labmate-class differential-drive robot (CONTRACT defaults)."""
+
+    wheel_base_m: float = 0.5
+    """Distance W between the two driving wheels."""
+    radius_m: float = 0.35
+    """Radius of the disc that bounds the robot, used for clearances."""
+    max_wheel_speed_mps: float = 0.8
+    """Each wheel's speed limit, both directions."""
+    max_wheel_accel_mps2: float = 0.8
+    """Each wheel's acceleration limit: at most this times T change per step."""
+
+    def max_step_change_mps(self, sample_time_s: float) -> float:
+        """Largest change of one wheel's speed in one sample interval."""
+        return self.max_wheel_accel_mps2 * sample_time_s
+
+    def to_dict(self) -> dict:
+        return {
+            "wheel_base_m": self.wheel_base_m,
+            "radius_m": self.radius_m,
+            "max_wheel_speed_mps": self.max_wheel_speed_mps,
+            "max_wheel_accel_mps2": self.max_wheel_accel_mps2,
+        }
+
+
+@dataclass(frozen=True)
+class RobotState:
+    """Pose of the robot and the wheel speeds applied over the last interval."""
+
+    x_m: float
+    y_m: float
+    heading_rad: float
+    v_right_mps: float = 0.0
+    v_left_mps: float = 0.0
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.x_m, self.y_m, self.heading_rad, self.v_right_mps, self.v_left_mps])
+
+
+def sinc(xp, u):
+    """sin(u)/u, exact and smooth through u = 0, for ``xp`` = numpy or casadi."""
+    small = xp.fabs(u) < _SINC_SWITCH
+    u2 = u * u
+    taylor = 1.0 - u2 / 6.0 + u2 * u2 / 120.0
+    if xp is np:
+        safe_u = np.where(small, 1.0, u)
+        return np.where(small, taylor, np.sin(safe_u) / safe_u)
+    safe_u = xp.if_else(small, 1.0, u)
+    return xp.if_else(small, taylor, xp.sin(safe_u) / safe_u)
+
+
+def arc_step(xp, x, y, heading, speed, turn_rate, dt):
+    """Exact motion at constant speed (m/s) and turn rate (rad/s) for ``dt`` seconds.
+
+    Works element-wise on numpy arrays and on casadi expressions. Returns the new
+    ``(x, y, heading)``.
+    """
+    half = 0.5 * turn_rate * dt
+    chord = speed * dt * sinc(xp, half)
+    mid = heading + half
+    return x + chord * xp.cos(mid), y + chord * xp.sin(mid), heading + 2.0 * half
+
+
+def wheel_to_unicycle(v_right, v_left, wheel_base_m):
+    """Wheel speeds to (forward speed V, turn rate A) as in the paper."""
+    return 0.5 * (v_right + v_left), (v_right - v_left) / wheel_base_m
+
+
+def robot_step(xp, x, y, heading, v_right, v_left, dt, wheel_base_m):
+    """The paper's robot model: constant wheel speeds over ``dt`` seconds."""
+    speed, turn_rate = wheel_to_unicycle(v_right, v_left, wheel_base_m)
+    return arc_step(xp, x, y, heading, speed, turn_rate, dt)
+
+
+def brake_wheels(v_right: float, v_left: float, dv_max: float) -> tuple[float, float]:
+    """Both wheels one step towards zero within the acceleration limit ``dv_max`` (m/s)."""
+    def toward_zero(v):
+        return float(np.sign(v) * max(abs(v) - dv_max, 0.0))
+    return toward_zero(v_right), toward_zero(v_left)

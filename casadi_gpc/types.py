@@ -1,0 +1,86 @@
+"""Typed data passed between the stages: observations in, decisions out."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from .reference import ReferencePath
+from .robot import RobotState
+
+__all__ = [
+    "ObstacleMeasurement",
+    "StaticObstacle",
+    "Observation",
+    "ObstacleForecast",
+    "ControlDecision",
+    "Policy",
+]
+
+
+@dataclass(frozen=True)
+class ObstacleMeasurement:
+    """One moving obstacle as the sensor reports it this sample."""
+
+    obstacle_id: int
+    position_m: tuple[float, float] | None
+    """Measured position, or None when the measurement is missing."""
+    radius_m: float
+
+
+@dataclass(frozen=True)
+class StaticObstacle:
+    position_m: tuple[float, float]
+    radius_m: float
+
+
+@dataclass(frozen=True)
+class Observation:
+    """Everything a controller is told at one sample instant."""
+
+    t_s: float
+    robot: RobotState
+    reference: ReferencePath
+    moving: tuple[ObstacleMeasurement, ...] = ()
+    static: tuple[StaticObstacle, ...] = ()
+
+
+@dataclass(frozen=True)
+class ObstacleForecast:
+    """A moving obstacle's predicted positions over steps 1..H, from its EKF."""
+
+    obstacle_id: int
+    radius_m: float
+    means_m: np.ndarray
+    """Shape (H, 2)."""
+    covs_m2: np.ndarray
+    """Shape (H, 2, 2)."""
+
+
+@dataclass(frozen=True)
+class ControlDecision:
+    """A controller's answer: the wheel speeds for the next sample interval."""
+
+    v_right_mps: float
+    v_left_mps: float
+    fallback: bool = False
+    """True when the controller used its fallback instead of its normal answer."""
+    reason: str = ""
+    """Why a fallback was used, or which candidate won."""
+    planned_wheels_mps: np.ndarray | None = None
+    """(H, 2) planned right/left wheel speeds, when the controller plans."""
+    planned_poses: np.ndarray | None = None
+    """(H, 3) predicted poses after each planned step."""
+    cost: float = float("nan")
+    info: dict = field(default_factory=dict)
+
+
+class Policy(Protocol):
+    """What the simulator, the evaluator and the benchmark talk to."""
+
+    sample_time_s: float
+
+    def reset(self) -> None: ...
+
+    def decide(self, observation: Observation) -> ControlDecision: ...

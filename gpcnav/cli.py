@@ -1,0 +1,47 @@
+"""``gpcnav``: one command, one subcommand per job (CONTRACT.md)."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .errors import UsageError
+
+# subcommand name -> module under gpcnav.commands with add_arguments(parser) and run(args)
+COMMANDS = {
+    "simulate": "Run one closed-loop episode.",
+    "evaluate": "Run many episodes and write aggregate metrics.",
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse prints usage too)
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="gpcnav", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name, help_text in COMMANDS.items():
+        module = importlib.import_module(f"gpcnav.commands.{name}")
+        p = sub.add_parser(name, help=help_text, description=(module.__doc__ or help_text).strip())
+        module.add_arguments(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    from scenarios import ScenarioError
+    try:
+        return int(args._run(args) or 0)
+    except (UsageError, ScenarioError) as exc:
+        print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"gpcnav {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

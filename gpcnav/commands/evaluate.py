@@ -1,0 +1,116 @@
+"""Run many episodes (scenario files or a seeded random suite) in parallel worker
+processes and write aggregate metrics (EVAL.json)."""
+from __future__ import annotations
+
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from ..errors import UsageError
+from .common import add_controller_arguments, make_controller, planner_config, progress
+
+_WORKER = {}
+
+
+def add_arguments(p):
+    p.add_argument("scenarios", type=Path, nargs="*", help="scenario files")
+    p.add_argument("--suite", choices=("random", "random-multi"), default=None, help="a random suite instead of files")
+    p.add_argument("--count", type=int, default=100, help="episodes of the suite")
+    p.add_argument("--seed", type=int, default=0, help="seed of the suite")
+    add_controller_arguments(p)
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
+    p.add_argument("--out", type=Path, default=None, help="write EVAL.json here")
+    p.add_argument("--faults", default=None, metavar="SPEC",
+                   help="inject faults into every episode, e.g. 'dropout_prob=0.1,outlier_prob=0.02'")
+
+
+def _episode(job):
+    """Worker: one episode; the controller is built once per worker and robot."""
+    from casadi_gpc.metrics import episode_metrics
+    from casadi_gpc.simulator import simulate
+    scenario, kind, config, model = job
+    key = (kind, config, scenario.robot, str(model))
+    if key not in _WORKER:
+        _WORKER[key] = make_controller(kind, config, scenario.robot, model)
+    controller = _WORKER[key]
+    log = simulate(scenario, controller, kind)
+    return episode_metrics(log), log.compute_time_s, dict(log.events)
+
+
+def parse_faults(spec: str | None):
+    from scenarios import Faults
+    if not spec:
+        return None
+    fields = {f for f in Faults.__dataclass_fields__}
+    values = {}
+    for item in spec.split(","):
+        key, _, value = item.partition("=")
+        key = key.strip()
+        if key not in fields:
+            raise UsageError(f"--faults: unknown fault {key!r} (known: {', '.join(sorted(fields))})")
+        try:
+            values[key] = int(value) if key == "delay_steps" else float(value)
+        except ValueError:
+            raise UsageError(f"--faults: {key} needs a number, got {value!r}") from None
+    return Faults(**values)
+
+
+def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes"):
+    """Run every scenario; returns (metrics, all compute times, summed events)."""
+    jobs = [(s, kind, config, model) for s in scenarios]
+    metrics, times, events = [], [], {}
+    if workers <= 1 or len(jobs) <= 1:
+        results = map(_episode, jobs)
+        pool = None
+    else:
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)))
+        results = pool.map(_episode, jobs, chunksize=1)
+    try:
+        for m, t, ev in progress(results, total=len(jobs), desc=desc, unit="ep"):
+            metrics.append(m)
+            times.extend(t)
+            for k, v in ev.items():
+                events[k] = events.get(k, 0) + v
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+    return metrics, times, events
+
+
+def run(args) -> int:
+    from dataclasses import replace
+
+    from casadi_gpc.metrics import eval_document
+    from scenarios import load_scenario, random_suite
+    from ..io import write_json
+    if bool(args.scenarios) == bool(args.suite):
+        raise UsageError("give scenario files or --suite, not both and not neither")
+    if args.count < 1:
+        raise UsageError(f"--count must be at least 1, got {args.count}")
+    if args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    config = planner_config(args)
+    faults = parse_faults(args.faults)
+    if args.suite:
+        scenarios = random_suite(args.suite, args.count, args.seed)
+    else:
+        scenarios = [load_scenario(p) for p in args.scenarios]
+    if faults is not None:
+        scenarios = [replace(s, faults=faults) for s in scenarios]
+    if args.controller == "nn":
+        make_controller("nn", config, scenarios[0].robot, args.model)  # refuse a bad model before any work
+    metrics, times, events = evaluate(scenarios, args.controller, config, args.model, args.workers)
+    doc = eval_document(args.controller, metrics, times, {
+        "preset": config.name, "sample_time_s": config.sample_time_s, "suite": args.suite,
+        "seed": args.seed if args.suite else None, "events": events,
+        "faults": None if faults is None else faults.__dict__,
+    })
+    if args.out:
+        write_json(args.out, doc)
+    ct = doc["compute_time_s"]
+    print(f"{args.controller} [preset {config.name}] on {doc['episodes']} episodes: success "
+          f"{doc['success_rate']:.3f}  collision {doc['collision_rate']:.3f}  timeout {doc['timeout_rate']:.3f}  "
+          f"min clearance {doc['min_clearance_m']['min']:.3f} m (median {doc['min_clearance_m']['median']:.3f})  "
+          f"decision median {ct['median'] * 1e3:.2f} ms  fallbacks {doc['fallbacks']}", file=sys.stdout)
+    return 0

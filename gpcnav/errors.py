@@ -1,0 +1,2 @@
+class UsageError(Exception):
+    """Bad input from the user: reported as one line, exit status 2."""

@@ -1,0 +1,17 @@
+"""Scenario files, their loader and the random suites."""
+from pathlib import Path
+
+from .loader import ScenarioError, load_scenario, scenario_from_dict
+from .model import Faults, MovingObstacleSpec, Scenario, Sensing
+from .random_suite import SUITES, random_scenario, random_suite
+
+__all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "Scenario", "MovingObstacleSpec", "Sensing",
+           "Faults", "SUITES", "random_scenario", "random_suite", "PAPER_DIR", "paper_scenarios"]
+
+PAPER_DIR = Path(__file__).parent / "paper"
+PAPER_NAMES = ("fig7_1_head_on", "fig7_2_crossing", "fig7_3_crossing_off_path")
+
+
+def paper_scenarios() -> list[Scenario]:
+    """The paper's three Fig. 7 situations, in order."""
+    return [load_scenario(PAPER_DIR / f"{n}.toml") for n in PAPER_NAMES]

@@ -1,0 +1,198 @@
+"""Reading scenario files (TOML, CONTRACT.md) with strict validation.
+
+Every problem raises :class:`ScenarioError` whose message is one line naming the file,
+the field and what is wrong; nothing runs before the whole file has passed.
+"""
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from casadi_gpc.reference import ReferencePath, Segment
+from casadi_gpc.robot import RobotParams, RobotState
+from casadi_gpc.types import StaticObstacle
+
+from .model import Faults, MovingObstacleSpec, Scenario, Sensing
+
+__all__ = ["ScenarioError", "load_scenario", "scenario_from_dict"]
+
+_NAME = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot be used; the message is one line."""
+
+
+class _Reader:
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, field: str, what: str):
+        raise ScenarioError(f"{self.source}: {field}: {what}")
+
+    def table(self, data, field: str, allowed: set[str], required: set[str]) -> dict:
+        if not isinstance(data, dict):
+            self.fail(field, "must be a table")
+        for key in data:
+            if key not in allowed:
+                self.fail(f"{field}.{key}" if field else key, f"unknown key (allowed: {', '.join(sorted(allowed))})")
+        for key in sorted(required):
+            if key not in data:
+                self.fail(f"{field}.{key}" if field else key, "missing required field")
+        return data
+
+    def number(self, data: dict, key: str, field: str, *, default=None, positive=False,
+               nonnegative=False, integer=False, maximum=None):
+        name = f"{field}.{key}" if field else key
+        if key not in data:
+            if default is None:
+                self.fail(name, "missing required field")
+            return default
+        v = data[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.fail(name, f"must be a number, got {type(v).__name__}")
+        if integer and not isinstance(v, int):
+            self.fail(name, "must be an integer")
+        if not math.isfinite(v):
+            self.fail(name, f"must be finite, got {v}")
+        if positive and not v > 0:
+            self.fail(name, f"must be positive, got {v}")
+        if nonnegative and v < 0:
+            self.fail(name, f"must not be negative, got {v}")
+        if maximum is not None and v > maximum:
+            self.fail(name, f"must be at most {maximum}, got {v}")
+        return v
+
+    def point(self, data: dict, key: str, field: str) -> tuple[float, float]:
+        name = f"{field}.{key}" if field else key
+        if key not in data:
+            self.fail(name, "missing required field")
+        v = data[key]
+        if not isinstance(v, list) or len(v) != 2:
+            self.fail(name, "must be a list of two numbers [x, y]")
+        for c in v:
+            if isinstance(c, bool) or not isinstance(c, (int, float)):
+                self.fail(name, "must be a list of two numbers [x, y]")
+            if not math.isfinite(c):
+                self.fail(name, f"must be finite, got {c}")
+        return float(v[0]), float(v[1])
+
+    def array_of_tables(self, data: dict, key: str) -> list:
+        v = data.get(key, [])
+        if not isinstance(v, list) or not all(isinstance(t, dict) for t in v):
+            self.fail(key, "must be an array of tables ([[...]])")
+        return v
+
+
+def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
+    """Validate a parsed scenario document and build the :class:`Scenario`."""
+    r = _Reader(source)
+    top = {"name", "description", "duration_s", "robot", "reference", "moving_obstacles",
+           "static_obstacles", "sensing", "faults"}
+    r.table(data, "", top, {"name", "duration_s", "robot", "reference"})
+    name = data["name"]
+    if not isinstance(name, str) or not _NAME.match(name):
+        r.fail("name", "must be a string of letters, digits, '_' and '-'")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        r.fail("description", "must be a string")
+    duration = float(r.number(data, "duration_s", "", positive=True))
+
+    rob = r.table(data["robot"], "robot",
+                  {"position", "heading_deg", "wheel_base_m", "radius_m", "max_wheel_speed_mps",
+                   "max_wheel_accel_mps2"}, {"position", "heading_deg"})
+    defaults = RobotParams()
+    params = RobotParams(**{k: float(r.number(rob, k, "robot", default=getattr(defaults, k), positive=True))
+                            for k in ("wheel_base_m", "radius_m", "max_wheel_speed_mps", "max_wheel_accel_mps2")})
+    rx, ry = r.point(rob, "position", "robot")
+    start = RobotState(rx, ry, math.radians(r.number(rob, "heading_deg", "robot")))
+
+    ref = r.table(data["reference"], "reference", {"position", "heading_deg", "speed_mps", "segments"},
+                  {"position", "heading_deg", "speed_mps", "segments"})
+    segs_raw = ref["segments"]
+    if not isinstance(segs_raw, list) or not all(isinstance(t, dict) for t in segs_raw):
+        r.fail("reference.segments", "must be an array of tables ([[reference.segments]])")
+    if not segs_raw:
+        r.fail("reference.segments", "the path is empty (give at least one segment)")
+    segments = []
+    for i, seg in enumerate(segs_raw):
+        f = f"reference.segments[{i}]"
+        r.table(seg, f, {"line_m", "arc_radius_m", "arc_angle_deg"}, set())
+        if "line_m" in seg:
+            if set(seg) != {"line_m"}:
+                r.fail(f, "a segment is either line_m or arc_radius_m with arc_angle_deg, not both")
+            segments.append(Segment.line(r.number(seg, "line_m", f, positive=True)))
+        elif set(seg) == {"arc_radius_m", "arc_angle_deg"}:
+            radius = r.number(seg, "arc_radius_m", f, positive=True)
+            angle = r.number(seg, "arc_angle_deg", f)
+            if angle == 0:
+                r.fail(f"{f}.arc_angle_deg", "must not be 0")
+            segments.append(Segment.arc(radius, math.radians(angle)))
+        else:
+            r.fail(f, "needs line_m, or arc_radius_m and arc_angle_deg")
+    speed = float(r.number(ref, "speed_mps", "reference", positive=True))
+    reachable = params.max_wheel_speed_mps / max(
+        [1.0] + [1.0 + 0.5 * params.wheel_base_m * abs(s.curvature_1pm) for s in segments])
+    if speed > reachable + 1e-12:
+        r.fail("reference.speed_mps", f"{speed} m/s is above what the wheels can reach on this path "
+                                      f"({reachable:.3f} m/s with max_wheel_speed_mps {params.max_wheel_speed_mps})")
+    reference = ReferencePath(r.point(ref, "position", "reference"),
+                              math.radians(r.number(ref, "heading_deg", "reference")), tuple(segments), speed)
+
+    moving = []
+    for i, ob in enumerate(r.array_of_tables(data, "moving_obstacles")):
+        f = f"moving_obstacles[{i}]"
+        r.table(ob, f, {"position", "heading_deg", "speed_mps", "turn_rate_deg_s", "radius_m"},
+                {"position", "heading_deg", "speed_mps", "radius_m"})
+        moving.append(MovingObstacleSpec(
+            r.point(ob, "position", f), math.radians(r.number(ob, "heading_deg", f)),
+            float(r.number(ob, "speed_mps", f, nonnegative=True)), float(r.number(ob, "radius_m", f, positive=True)),
+            math.radians(r.number(ob, "turn_rate_deg_s", f, default=0.0))))
+    static = []
+    for i, ob in enumerate(r.array_of_tables(data, "static_obstacles")):
+        f = f"static_obstacles[{i}]"
+        r.table(ob, f, {"position", "radius_m"}, {"position", "radius_m"})
+        static.append(StaticObstacle(r.point(ob, "position", f), float(r.number(ob, "radius_m", f, positive=True))))
+
+    sensing = Sensing()
+    if "sensing" in data:
+        s = r.table(data["sensing"], "sensing", {"position_noise_std_m", "seed"}, set())
+        sensing = Sensing(float(r.number(s, "position_noise_std_m", "sensing", default=0.02, nonnegative=True)),
+                          int(r.number(s, "seed", "sensing", default=0, integer=True, nonnegative=True)))
+    faults = Faults()
+    if "faults" in data:
+        s = r.table(data["faults"], "faults", {"dropout_prob", "outlier_prob", "outlier_distance_m",
+                                               "delay_steps", "solver_failure_prob"}, set())
+        faults = Faults(
+            float(r.number(s, "dropout_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
+            float(r.number(s, "outlier_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
+            float(r.number(s, "outlier_distance_m", "faults", default=3.0, positive=True)),
+            int(r.number(s, "delay_steps", "faults", default=0, integer=True, nonnegative=True)),
+            float(r.number(s, "solver_failure_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
+        )
+
+    for kind, obstacles in (("moving_obstacles", moving), ("static_obstacles", static)):
+        for i, ob in enumerate(obstacles):
+            gap = math.hypot(ob.position_m[0] - rx, ob.position_m[1] - ry) - params.radius_m - ob.radius_m
+            if gap < 0:
+                r.fail(f"{kind}[{i}].position", f"the robot starts overlapping this obstacle (gap {gap:.3f} m)")
+    return Scenario(name, duration, start, reference, params, tuple(moving), tuple(static), sensing, faults,
+                    description, source)
+
+
+def load_scenario(path) -> Scenario:
+    """Read and validate a scenario file; raises :class:`ScenarioError` with one line."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{path}: cannot read the file ({exc.__class__.__name__}: {exc})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML ({exc})".replace("\n", " ")) from None
+    return scenario_from_dict(data, str(path))

@@ -1,0 +1,141 @@
+"""Export a trained :class:`~nn_export.train.WheelSpeedMLP` to one ONNX file (torch, onnx).
+
+The graph is the whole deployed map, in float32: standardise the features, the hidden layer,
+un-standardise, and clip both wheel speeds to the robot's limit, so the runtime adds nothing
+of its own. Input ``features`` (batch, n_features), output ``wheel_speeds_mps`` (batch, 2),
+right then left. The batch axis is dynamic.
+
+Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
+trained for; :class:`nn_export.policy.OnnxPolicy` refuses a file whose metadata do not match
+the preset, the robot or the feature layout it is asked to run with. Keys: ``format``,
+``feature_layout``, ``feature_layout_version``, ``feature_names``, ``label_names``,
+``n_features``, ``preset``, ``horizon``, ``sample_time_s``, ``planner_config``, ``robot``,
+``output_clip_mps``, ``dataset``, ``validation_rmse_mps``, ``validation_max_abs_error_mps``,
+``hidden``, ``activation``, ``trained_with``.
+"""
+from __future__ import annotations
+
+import io
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .train import WheelSpeedMLP
+
+__all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "REQUIRED_METADATA", "export_onnx", "ExportReport"]
+
+POLICY_FORMAT = "gpcnav-onnx-policy/1"
+INPUT_NAME = "features"
+OUTPUT_NAME = "wheel_speeds_mps"
+OPSET = 17
+PARITY_TOL = 1e-5
+REQUIRED_METADATA = ("format", "feature_layout", "feature_layout_version", "feature_names", "n_features", "preset",
+                     "horizon", "sample_time_s", "robot", "output_clip_mps", "dataset", "validation_rmse_mps")
+
+
+class _Deployed(torch.nn.Module):
+    """The trained map followed by the wheel-limit clip, in float32."""
+
+    def __init__(self, net, clip_mps: float):
+        super().__init__()
+        self.net = net
+        self.clip_mps = float(clip_mps)
+
+    def forward(self, x):
+        return torch.clamp(self.net(x), -self.clip_mps, self.clip_mps)
+
+
+class ExportReport(dict):
+    """What :func:`export_onnx` wrote and measured (a dict: path, bytes, parity_max_abs, ...)."""
+
+
+def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarray | None = None) -> ExportReport:
+    """Write ``model`` (fitted, or a folder saved by ``WheelSpeedMLP.save``) to ``out_path``.
+
+    The file is checked with ``onnx.checker`` and, on ``parity_X`` (default: a seeded set of
+    points spread over the training normalisation), run with onnxruntime and compared with
+    the torch model clipped the same way; a difference above 1e-5 m/s is an error.
+    The provenance stored with the model must say the preset, horizon, sample time, robot
+    and feature layout (``gpcnav train`` does).
+    """
+    import onnx
+    import onnxruntime as ort
+
+    if not isinstance(model, WheelSpeedMLP):
+        model = WheelSpeedMLP.load(model)
+    model._check_fitted()
+    prov = dict(getattr(model, "provenance_", None) or {})
+    missing = [k for k in ("preset", "horizon", "sample_time_s", "robot", "feature_layout", "feature_layout_version")
+               if k not in prov]
+    if missing:
+        raise ValueError(f"the model's provenance lacks {', '.join(missing)} (train it with `gpcnav train`)")
+    clip = float(prov["robot"]["max_wheel_speed_mps"])
+
+    deployed = _Deployed(_float32_copy(model.net_), clip).eval()
+    buf = io.BytesIO()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
+        torch.onnx.export(deployed, (torch.zeros(1, model.n_features_in_, dtype=torch.float32),), buf,
+                          dynamo=False, input_names=[INPUT_NAME], output_names=[OUTPUT_NAME],
+                          dynamic_axes={INPUT_NAME: {0: "batch"}, OUTPUT_NAME: {0: "batch"}},
+                          opset_version=OPSET, do_constant_folding=True)
+    proto = onnx.load_from_string(buf.getvalue())
+    proto.producer_name, proto.doc_string = "gpcnav", "GPC-imitating wheel-speed network (nn_export.export)"
+    meta = {
+        "format": POLICY_FORMAT,
+        "feature_layout": str(prov["feature_layout"]),
+        "feature_layout_version": str(prov["feature_layout_version"]),
+        "feature_names": json.dumps(model.feature_names_),
+        "label_names": json.dumps(model.label_names_),
+        "n_features": str(model.n_features_in_),
+        "preset": str(prov["preset"]),
+        "horizon": str(int(prov["horizon"])),
+        "sample_time_s": repr(float(prov["sample_time_s"])),
+        "planner_config": json.dumps(prov.get("planner_config", {})),
+        "robot": json.dumps(prov["robot"]),
+        "output_clip_mps": repr(clip),
+        "dataset": json.dumps(prov.get("dataset", {})),
+        "validation_rmse_mps": repr(float(np.sqrt(model.validation_mse_))),
+        "validation_max_abs_error_mps": repr(float(model.validation_max_abs_error_)),
+        "hidden": str(model.hidden),
+        "activation": model.activation,
+        "trained_with": json.dumps({"params": model.get_params(), "best_epoch": model.best_epoch_,
+                                    "stop_reason": model.stop_reason_, **prov.get("training", {})}),
+    }
+    del proto.metadata_props[:]
+    for k, v in meta.items():
+        proto.metadata_props.add(key=k, value=v)
+    onnx.checker.check_model(proto, full_check=True)
+    data = proto.SerializeToString()
+
+    # parity: onnxruntime on the bytes about to be written against the float64 torch model
+    if parity_X is None:
+        rng = np.random.default_rng(0)
+        p = model.numpy_params()
+        parity_X = p["x_mean"] + p["x_scale"] * rng.standard_normal((512, model.n_features_in_))
+    parity_X = np.asarray(parity_X, dtype=np.float64)
+    sess = ort.InferenceSession(data, providers=["CPUExecutionProvider"])
+    got = sess.run(None, {INPUT_NAME: parity_X.astype(np.float32)})[0]
+    want = np.clip(model.predict(parity_X), -clip, clip)
+    parity = float(np.max(np.abs(got - want))) if len(parity_X) else 0.0
+    if not parity <= PARITY_TOL:
+        raise RuntimeError(f"ONNX/torch parity {parity:.3g} m/s exceeds {PARITY_TOL:g}")
+
+    from gpcnav.io import atomic_path
+    out_path = Path(out_path)
+    tmp = atomic_path(out_path, ".onnx")
+    try:
+        tmp.write_bytes(data)
+        tmp.replace(out_path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return ExportReport(path=str(out_path), bytes=len(data), parity_max_abs_mps=parity, parity_samples=len(parity_X),
+                        metadata=meta)
+
+
+def _float32_copy(net):
+    import copy
+    return copy.deepcopy(net).float().eval()

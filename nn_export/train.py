@@ -1,0 +1,351 @@
+"""Training the wheel-speed network on GPC labels (torch; the ``train`` extra).
+
+:class:`WheelSpeedMLP` follows the estimator conventions: ``__init__`` only stores
+hyper-parameters, :meth:`WheelSpeedMLP.fit` validates the arrays and learns, and everything
+learned ends in ``_``. The default is the paper's network: one hidden layer of 35 tanh
+units and 2 outputs (right and left wheel speed, m/s). Inputs and outputs are standardised
+with statistics of the training split only; a seeded held-out split drives early stopping,
+and the best weights seen on it are kept.
+
+The training curve (the paper's Fig. 6) is recorded once per epoch: the mean squared error
+of the right and left wheel speed, (m/s)^2, on the whole training split and on the
+validation split. The paper plots the summed squared error over its N patterns; the mean is
+that sum divided by N (both N are stored), so runs of different sizes compare.
+
+A fitted model is saved to a folder (``save``/``load``): ``weights.npz`` (plain arrays, no
+pickle), ``model.json`` (hyper-parameters, normalisation, feature layout, provenance,
+validation error), ``training_curve.json`` and ``training_curve.png``.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+__all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure"]
+
+MODEL_FORMAT = "gpcnav-mlp/1"
+_ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "softsign": torch.nn.Softsign}
+_STD_FLOOR = 1e-6  # a constant input (e.g. the absent-obstacle code) must not divide by zero
+
+
+class _Net(torch.nn.Module):
+    """x -> (x - mu)/sd -> hidden -> output * y_sd + y_mu: the whole map in physical units."""
+
+    def __init__(self, n_in: int, hidden: int, n_out: int, activation: str):
+        super().__init__()
+        self.hidden = torch.nn.Linear(n_in, hidden)
+        self.act = _ACTIVATIONS[activation]()
+        self.out = torch.nn.Linear(hidden, n_out)
+        for name in ("x_mean", "x_scale", "y_mean", "y_scale"):
+            self.register_buffer(name, torch.zeros(n_out if name[0] == "y" else n_in))
+
+    def normalised(self, xn):
+        return self.out(self.act(self.hidden(xn)))
+
+    def forward(self, x):
+        return self.normalised((x - self.x_mean) / self.x_scale) * self.y_scale + self.y_mean
+
+
+class WheelSpeedMLP:
+    """One-hidden-layer perceptron from features to the two wheel speeds.
+
+    Parameters
+    ----------
+    hidden : int
+        Hidden units (paper: 35).
+    activation : {"tanh", "relu", "softsign"}
+        Hidden non-linearity (paper: a sigmoid-type unit; tanh is its zero-centred form).
+    max_epochs : int
+        Upper bound on passes over the training split.
+    batch_size : int
+        Mini-batch size of Adam.
+    learning_rate : float
+        Initial Adam step; divided by 3 when the validation error has not improved for
+        ``patience // 4`` epochs.
+    weight_decay : float
+        L2 penalty of Adam.
+    validation_fraction : float
+        Share of the samples (or of the groups, see ``fit``) held out for validation.
+    patience : int
+        Stop after this many epochs without a new best validation error.
+    random_state : int
+        Seeds the split, the initial weights and the batch order: equal seeds give equal
+        models on this machine.
+    """
+
+    def __init__(self, hidden: int = 35, activation: str = "tanh", max_epochs: int = 2000, batch_size: int = 256,
+                 learning_rate: float = 3e-3, weight_decay: float = 0.0, validation_fraction: float = 0.15,
+                 patience: int = 120, random_state: int = 0):
+        self.hidden = hidden
+        self.activation = activation
+        self.max_epochs = max_epochs
+        self.batch_size = batch_size
+        self.learning_rate = learning_rate
+        self.weight_decay = weight_decay
+        self.validation_fraction = validation_fraction
+        self.patience = patience
+        self.random_state = random_state
+
+    # --- hyper-parameters ------------------------------------------------------------
+    def get_params(self) -> dict:
+        return {k: getattr(self, k) for k in ("hidden", "activation", "max_epochs", "batch_size", "learning_rate",
+                                              "weight_decay", "validation_fraction", "patience", "random_state")}
+
+    def _check_params(self) -> None:
+        if not (isinstance(self.hidden, int) and self.hidden >= 1):
+            raise ValueError(f"hidden must be a positive integer, got {self.hidden!r}")
+        if self.activation not in _ACTIVATIONS:
+            raise ValueError(f"activation must be one of {', '.join(_ACTIVATIONS)}, got {self.activation!r}")
+        if not (0.0 < self.validation_fraction < 1.0):
+            raise ValueError(f"validation_fraction must be in (0, 1), got {self.validation_fraction}")
+        for name in ("max_epochs", "batch_size", "patience"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
+        if not self.learning_rate > 0:
+            raise ValueError(f"learning_rate must be positive, got {self.learning_rate}")
+
+    # --- learning --------------------------------------------------------------------
+    def fit(self, X, Y, groups=None, feature_names=None, label_names=None, progress=None) -> "WheelSpeedMLP":
+        """Learn the map ``X -> Y``.
+
+        Parameters
+        ----------
+        X : array (n, n_features)
+            Features, all finite.
+        Y : array (n, 2)
+            Labels: right and left wheel speed, m/s.
+        groups : array (n,), optional
+            Samples with the same group id go to the same side of the validation split
+            (a situation and its mirror image must, or the validation error leaks).
+        feature_names, label_names : sequence of str, optional
+            Stored with the model and checked against its input and output sizes.
+        progress : callable(epoch, train_mse, val_mse), optional
+            Called after each epoch (the CLI's progress bar).
+        """
+        self._check_params()
+        X = np.asarray(X, dtype=np.float64)
+        Y = np.asarray(Y, dtype=np.float64)
+        if X.ndim != 2 or Y.ndim != 2:
+            raise ValueError(f"X and Y must be 2-D, got shapes {X.shape} and {Y.shape}")
+        if len(X) != len(Y):
+            raise ValueError(f"X has {len(X)} rows but Y has {len(Y)}")
+        if len(X) < 10:
+            raise ValueError(f"need at least 10 samples to train and validate, got {len(X)}")
+        if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Y))):
+            raise ValueError("X and Y must be finite")
+        if feature_names is not None and len(feature_names) != X.shape[1]:
+            raise ValueError(f"{len(feature_names)} feature names for {X.shape[1]} features")
+        if label_names is not None and len(label_names) != Y.shape[1]:
+            raise ValueError(f"{len(label_names)} label names for {Y.shape[1]} labels")
+
+        rng = np.random.default_rng(self.random_state)
+        train_idx, val_idx = self._split(len(X), groups, rng)
+        torch.manual_seed(self.random_state)
+        gen = torch.Generator().manual_seed(self.random_state)
+
+        x_mean, x_scale = X[train_idx].mean(0), np.maximum(X[train_idx].std(0), _STD_FLOOR)
+        y_mean, y_scale = Y[train_idx].mean(0), np.maximum(Y[train_idx].std(0), _STD_FLOOR)
+        net = _Net(X.shape[1], self.hidden, Y.shape[1], self.activation).double()
+        with torch.no_grad():
+            net.x_mean.copy_(torch.from_numpy(x_mean))
+            net.x_scale.copy_(torch.from_numpy(x_scale))
+            net.y_mean.copy_(torch.from_numpy(y_mean))
+            net.y_scale.copy_(torch.from_numpy(y_scale))
+        Xn = torch.from_numpy((X - x_mean) / x_scale)
+        Yn = torch.from_numpy((Y - y_mean) / y_scale)
+        ysc = torch.from_numpy(y_scale)
+        xt, yt, xv, yv = Xn[train_idx], Yn[train_idx], Xn[val_idx], Yn[val_idx]
+
+        def mse(xn, yn):  # physical units: mean over samples and both wheels, (m/s)^2
+            with torch.no_grad():
+                return float((((net.normalised(xn) - yn) * ysc) ** 2).mean())
+
+        opt = torch.optim.Adam(net.parameters(), lr=self.learning_rate, weight_decay=self.weight_decay)
+        sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=1 / 3, patience=max(1, self.patience // 4),
+                                                           min_lr=self.learning_rate * 1e-3)
+        curve = {"epoch": [0], "train_mse": [mse(xt, yt)], "val_mse": [mse(xv, yv)], "learning_rate": [self.learning_rate]}
+        best_val, best_state, best_epoch, stale = curve["val_mse"][0], _copy_state(net), 0, 0
+        t0 = time.perf_counter()
+        n_train, bs = len(xt), int(self.batch_size)
+        stop_reason = "max_epochs"
+        for epoch in range(1, int(self.max_epochs) + 1):
+            net.train()
+            order = torch.randperm(n_train, generator=gen)
+            for start in range(0, n_train, bs):
+                b = order[start:start + bs]
+                opt.zero_grad(set_to_none=True)
+                loss = ((net.normalised(xt[b]) - yt[b]) ** 2).mean()
+                loss.backward()
+                opt.step()
+            net.eval()
+            tr, va = mse(xt, yt), mse(xv, yv)
+            if not (math.isfinite(tr) and math.isfinite(va)):
+                raise FloatingPointError(f"training diverged at epoch {epoch} (learning_rate {self.learning_rate})")
+            sched.step(va)
+            lr = opt.param_groups[0]["lr"]
+            curve["epoch"].append(epoch)
+            curve["train_mse"].append(tr)
+            curve["val_mse"].append(va)
+            curve["learning_rate"].append(lr)
+            if progress is not None:
+                progress(epoch, tr, va)
+            if va < best_val * (1 - 1e-4):
+                best_val, best_state, best_epoch, stale = va, _copy_state(net), epoch, 0
+            else:
+                stale += 1
+                if stale >= self.patience:
+                    stop_reason = "early_stopping"
+                    break
+        net.load_state_dict(best_state)
+        net.eval()
+
+        self.net_ = net
+        self.n_features_in_ = X.shape[1]
+        self.n_outputs_ = Y.shape[1]
+        self.feature_names_ = list(feature_names) if feature_names is not None else [f"x{i}" for i in range(X.shape[1])]
+        self.label_names_ = list(label_names) if label_names is not None else ["v_right_mps", "v_left_mps"][: Y.shape[1]]
+        self.train_indices_, self.validation_indices_ = train_idx, val_idx
+        self.best_epoch_ = best_epoch
+        self.stop_reason_ = stop_reason
+        self.train_mse_ = mse(xt, yt)
+        self.validation_mse_ = mse(xv, yv)
+        self.validation_max_abs_error_ = float(np.max(np.abs(self.predict(X[val_idx]) - Y[val_idx])))
+        self.curve_ = {**curve, "n_train": int(len(train_idx)), "n_validation": int(len(val_idx)),
+                       "best_epoch": best_epoch, "stop_reason": stop_reason,
+                       "train_time_s": time.perf_counter() - t0, "units": "(m/s)^2, mean over samples and wheels"}
+        return self
+
+    def _split(self, n: int, groups, rng: np.random.Generator):
+        if groups is None:
+            perm = rng.permutation(n)
+            n_val = max(1, int(round(self.validation_fraction * n)))
+            return np.sort(perm[n_val:]), np.sort(perm[:n_val])
+        groups = np.asarray(groups)
+        if groups.shape != (n,):
+            raise ValueError(f"groups must have shape ({n},), got {groups.shape}")
+        uniq = np.unique(groups)
+        if len(uniq) < 2:
+            raise ValueError("groups must hold at least two distinct ids")
+        n_val = max(1, int(round(self.validation_fraction * len(uniq))))
+        val_groups = rng.permutation(uniq)[:n_val]
+        is_val = np.isin(groups, val_groups)
+        return np.flatnonzero(~is_val), np.flatnonzero(is_val)
+
+    # --- using -----------------------------------------------------------------------
+    def _check_fitted(self):
+        if not hasattr(self, "net_"):
+            raise RuntimeError("this WheelSpeedMLP is not fitted yet: call fit() or load()")
+
+    def predict(self, X) -> np.ndarray:
+        """Wheel speeds (n, 2), m/s, unclipped (the exported graph clips to the wheel limits)."""
+        self._check_fitted()
+        X = np.asarray(X, dtype=np.float64)
+        if X.ndim != 2 or X.shape[1] != self.n_features_in_:
+            raise ValueError(f"X must have shape (n, {self.n_features_in_}), got {X.shape}")
+        with torch.no_grad():
+            return self.net_(torch.from_numpy(X)).numpy()
+
+    def numpy_params(self) -> dict:
+        """The learned arrays, float64: x_mean, x_scale, W1 (hidden, in), b1, W2 (out, hidden), b2, y_mean, y_scale."""
+        self._check_fitted()
+        n = self.net_
+        return {"x_mean": n.x_mean.numpy().copy(), "x_scale": n.x_scale.numpy().copy(),
+                "W1": n.hidden.weight.detach().numpy().copy(), "b1": n.hidden.bias.detach().numpy().copy(),
+                "W2": n.out.weight.detach().numpy().copy(), "b2": n.out.bias.detach().numpy().copy(),
+                "y_mean": n.y_mean.numpy().copy(), "y_scale": n.y_scale.numpy().copy()}
+
+    # --- files -----------------------------------------------------------------------
+    def save(self, model_dir, provenance: dict | None = None) -> Path:
+        """Write the fitted model to ``model_dir`` (created); ``provenance`` (dataset, preset,
+        robot, layout...) is stored in ``model.json`` and travels on into the ONNX file."""
+        self._check_fitted()
+        from gpcnav.io import atomic_path, write_json
+        model_dir = Path(model_dir)
+        model_dir.mkdir(parents=True, exist_ok=True)
+        tmp = atomic_path(model_dir / "weights.npz", ".npz")
+        try:
+            np.savez(tmp, **self.numpy_params())
+            tmp.replace(model_dir / "weights.npz")
+        finally:
+            tmp.unlink(missing_ok=True)
+        write_json(model_dir / "training_curve.json", self.curve_)
+        save_curve_figure(self.curve_, model_dir / "training_curve.png")
+        write_json(model_dir / "model.json", {
+            "format": MODEL_FORMAT, "params": self.get_params(), "n_features": self.n_features_in_,
+            "n_outputs": self.n_outputs_, "feature_names": self.feature_names_, "label_names": self.label_names_,
+            "train_mse": self.train_mse_, "validation_mse": self.validation_mse_,
+            "validation_rmse_mps": math.sqrt(self.validation_mse_),
+            "validation_max_abs_error_mps": self.validation_max_abs_error_,
+            "n_train": int(len(self.train_indices_)), "n_validation": int(len(self.validation_indices_)),
+            "best_epoch": self.best_epoch_, "stop_reason": self.stop_reason_,
+            "provenance": provenance or {},
+        })
+        np.save(model_dir / "validation_indices.npy", self.validation_indices_)
+        self.provenance_ = dict(provenance or {})
+        return model_dir
+
+    @classmethod
+    def load(cls, model_dir) -> "WheelSpeedMLP":
+        """A fitted model from a folder written by :meth:`save`."""
+        model_dir = Path(model_dir)
+        meta_path = model_dir / "model.json"
+        if not meta_path.is_file():
+            raise FileNotFoundError(f"{model_dir}: not a trained model folder (no model.json)")
+        meta = json.loads(meta_path.read_text())
+        if meta.get("format") != MODEL_FORMAT:
+            raise ValueError(f"{meta_path}: format {meta.get('format')!r}, expected {MODEL_FORMAT!r}")
+        self = cls(**meta["params"])
+        with np.load(model_dir / "weights.npz") as w:
+            arrays = {k: w[k] for k in w.files}
+        net = _Net(meta["n_features"], self.hidden, meta["n_outputs"], self.activation).double()
+        with torch.no_grad():
+            net.hidden.weight.copy_(torch.from_numpy(arrays["W1"]))
+            net.hidden.bias.copy_(torch.from_numpy(arrays["b1"]))
+            net.out.weight.copy_(torch.from_numpy(arrays["W2"]))
+            net.out.bias.copy_(torch.from_numpy(arrays["b2"]))
+            for k in ("x_mean", "x_scale", "y_mean", "y_scale"):
+                getattr(net, k).copy_(torch.from_numpy(arrays[k]))
+        net.eval()
+        self.net_ = net
+        self.n_features_in_, self.n_outputs_ = meta["n_features"], meta["n_outputs"]
+        self.feature_names_, self.label_names_ = meta["feature_names"], meta["label_names"]
+        self.train_mse_, self.validation_mse_ = meta["train_mse"], meta["validation_mse"]
+        self.validation_max_abs_error_ = meta["validation_max_abs_error_mps"]
+        self.best_epoch_, self.stop_reason_ = meta["best_epoch"], meta["stop_reason"]
+        self.provenance_ = meta.get("provenance", {})
+        vi = model_dir / "validation_indices.npy"
+        self.validation_indices_ = np.load(vi) if vi.is_file() else None
+        curve = model_dir / "training_curve.json"
+        self.curve_ = json.loads(curve.read_text()) if curve.is_file() else None
+        return self
+
+
+def _copy_state(net):
+    return {k: v.detach().clone() for k, v in net.state_dict().items()}
+
+
+def save_curve_figure(curve: dict, path) -> None:
+    """The paper's Fig. 6: error against training iteration (epoch), training and validation."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gpcnav.io import save_figure
+    fig, ax = plt.subplots(figsize=(6.0, 3.8))
+    ax.semilogy(curve["epoch"], curve["train_mse"], label=f"training ({curve.get('n_train', '?')} samples)")
+    ax.semilogy(curve["epoch"], curve["val_mse"], label=f"validation ({curve.get('n_validation', '?')} samples)")
+    if "best_epoch" in curve:
+        ax.axvline(curve["best_epoch"], color="0.6", ls="--", lw=0.8, label="kept (best validation)")
+    ax.set_xlabel("iteration (epoch)")
+    ax.set_ylabel("mean squared wheel-speed error, (m/s)$^2$")
+    ax.set_title("Training error (cf. paper Fig. 6)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    save_figure(fig, path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,175 @@
+"""The obstacle EKF (casadi_gpc.ekf): convergence, predicted covariance against Monte Carlo,
+missing measurements and outliers."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from casadi_gpc.config import PRESETS
+from casadi_gpc.ekf import EKFSettings, ObstacleEKF, obstacle_model_step
+from casadi_gpc.robot import RobotState
+from casadi_gpc.reference import ReferencePath, Segment
+from casadi_gpc.types import ObstacleMeasurement, Observation
+from scenarios.model import MovingObstacleSpec
+
+SPEED, TURN = 0.4, 0.15  # m/s, rad/s
+OBSTACLE = MovingObstacleSpec((2.0, -1.0), 0.3, SPEED, 0.3, TURN)
+SAMPLE_TIMES = sorted({c.sample_time_s for c in PRESETS.values()})
+
+
+def wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def run_filter(T: float, steps: int, noise: float, seed: int, settings: EKFSettings | None = None) -> ObstacleEKF:
+    """Track OBSTACLE (an exact arc) from ``steps`` noisy position measurements."""
+    rng = np.random.default_rng(seed)
+    ekf = ObstacleEKF(T, settings or EKFSettings(measurement_std_m=max(noise, 1e-3)))
+    for k in range(steps):
+        x, y, _ = OBSTACLE.state_at(k * T)
+        ekf.step(np.array([x, y]) + rng.normal(0.0, noise, 2))
+    return ekf
+
+
+def truth(T: float, k: int) -> np.ndarray:
+    """The model state of OBSTACLE at sample k. Sampled every T s, an arc has constant chord
+    length V T sinc(w T / 2) and chord heading (heading at mid-interval) turning w T a step."""
+    x, y, h = OBSTACLE.state_at(k * T)
+    chord_speed = SPEED * np.sinc(TURN * T / 2 / np.pi)
+    return np.array([x, y, chord_speed, h - TURN * T / 2, TURN * T])
+
+
+@pytest.mark.parametrize("T", SAMPLE_TIMES)
+def test_converges_exactly_without_noise(T):
+    """An exact arc fits the model exactly: the estimate goes to the true chord speed and
+    heading increment."""
+    ekf = run_filter(T, int(40 / T), noise=0.0, seed=0)
+    want = truth(T, int(40 / T) - 1)
+    s = ekf.state_
+    assert np.hypot(*(s[:2] - want[:2])) < 2e-3
+    assert s[2] == pytest.approx(want[2], abs=2e-3)
+    assert wrap(s[3] - want[3]) == pytest.approx(0.0, abs=2e-3)
+    assert s[4] == pytest.approx(want[4], abs=1e-3)
+
+
+@pytest.mark.parametrize("T", SAMPLE_TIMES)
+@pytest.mark.parametrize("seed", range(4))
+def test_converges_on_a_turning_obstacle_with_noise(T, seed):
+    n = int(30 / T)
+    ekf = run_filter(T, n, noise=0.02, seed=seed)
+    want = truth(T, n - 1)
+    s, sd = ekf.state_, np.sqrt(np.diag(ekf.cov_))
+    err = np.array([s[0] - want[0], s[1] - want[1], s[2] - want[2], wrap(s[3] - want[3]), s[4] - want[4]])
+    # close to the truth in absolute terms ...
+    assert np.hypot(err[0], err[1]) < 0.06
+    assert abs(err[2]) < 0.05  # m/s
+    assert abs(err[4]) < 0.2 * TURN * T + 0.01  # rad per step
+    # ... and consistent with the filter's own uncertainty
+    assert np.all(np.abs(err) < 4.0 * sd), (err, sd)
+    # the young track (after two measurements) knew nothing of the turn
+    young = run_filter(T, 2, noise=0.02, seed=seed)
+    assert young.state_[4] == 0.0
+    assert abs(err[4]) < 0.5 * TURN * T
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_predicted_covariance_matches_monte_carlo(name):
+    """Sample the EKF's Gaussian, propagate with the same model and process noise Q; the
+    spread of the positions at steps 1..H matches the predicted covariances within 20 %."""
+    cfg = PRESETS[name]
+    T, H = cfg.sample_time_s, cfg.horizon
+    ekf = run_filter(T, int(20 / T), noise=0.02, seed=11)
+    st = ekf.settings
+    Q = ekf._Q()
+    np.testing.assert_allclose(np.diag(Q), [st.position_noise_m ** 2, st.position_noise_m ** 2,
+                                            (st.speed_noise_mps2 * T) ** 2, st.heading_noise_rad ** 2,
+                                            st.turn_noise_rad ** 2])
+    means, covs = ekf.predict(H)
+    assert means.shape == (H, 2) and covs.shape == (H, 2, 2)
+    rng = np.random.default_rng(5)
+    n = 40000
+    s = rng.multivariate_normal(ekf.state_, ekf.cov_, n)
+    for j in range(H):
+        s = obstacle_model_step(s, T) + rng.multivariate_normal(np.zeros(5), Q, n)
+        c = np.cov(s[:, :2].T)
+        rel = np.linalg.norm(c - covs[j]) / np.linalg.norm(covs[j])
+        assert rel < 0.2, (j, rel)
+        assert np.trace(c) / np.trace(covs[j]) == pytest.approx(1.0, abs=0.2)
+        # the mean follows the noise-free prediction (to a fraction of the spread)
+        assert np.hypot(*(s[:, :2].mean(axis=0) - means[j])) < 0.5 * math.sqrt(np.trace(covs[j]))
+    # and the covariance grows along the horizon
+    assert np.all(np.diff(np.trace(covs, axis1=1, axis2=2)) > 0)
+
+
+@pytest.mark.parametrize("missing", [None, [float("nan"), 1.0], (float("inf"), 0.0)])
+def test_missing_measurement_skips_the_update_and_grows_the_covariance(missing):
+    T = 0.5
+    ekf = run_filter(T, 20, noise=0.02, seed=1)
+    before_s, before_p = ekf.state_.copy(), ekf.cov_.copy()
+    assert ekf.step(missing) == "missed"
+    assert ekf.missed_ == 1
+    # the state is the model's prediction, untouched by any measurement
+    np.testing.assert_allclose(ekf.state_, obstacle_model_step(before_s, T), atol=1e-15)
+    assert np.trace(ekf.cov_[:2, :2]) > np.trace(before_p[:2, :2])
+    grown = np.trace(ekf.cov_[:2, :2])
+    assert ekf.step(None) == "missed"
+    assert ekf.missed_ == 2
+    assert np.trace(ekf.cov_[:2, :2]) > grown
+    # a good measurement again: the update shrinks it
+    x, y, _ = OBSTACLE.state_at(21 * T)
+    assert ekf.step([x, y]) == "update"
+    assert np.trace(ekf.cov_[:2, :2]) < grown
+
+
+def test_missing_before_the_track_starts_is_counted():
+    ekf = ObstacleEKF(0.5)
+    assert ekf.step(None) == "missed"
+    assert ekf.state_ is None and ekf.missed_ == 1
+    assert ekf.step([1.0, 2.0]) == "start"
+    p1 = np.trace(ekf.cov_[:2, :2])
+    assert ekf.step([float("nan"), 2.0]) == "missed"
+    assert ekf.missed_ == 2
+    assert np.trace(ekf.cov_[:2, :2]) > p1
+    assert ekf.step([1.1, 2.0]) == "update"
+    assert ekf.initialised
+    with pytest.raises(RuntimeError):
+        ObstacleEKF(0.5).predict(3)
+
+
+def test_outlier_is_gated_then_the_track_restarts():
+    T = 0.5
+    ekf = run_filter(T, 20, noise=0.02, seed=2)
+    s0, p0 = ekf.state_.copy(), ekf.cov_.copy()
+    x, y, _ = OBSTACLE.state_at(20 * T)
+    assert ekf.step([x + 3.0, y]) == "outlier"
+    assert ekf.outliers_ == 1
+    np.testing.assert_allclose(ekf.state_, obstacle_model_step(s0, T), atol=1e-15)  # no update
+    assert np.trace(ekf.cov_[:2, :2]) > np.trace(p0[:2, :2])
+    # the next good measurement is accepted
+    x, y, _ = OBSTACLE.state_at(21 * T)
+    assert ekf.step([x, y]) == "update"
+    # max_rejections outliers in a row: the obstacle really is elsewhere, start over there
+    far = np.array([50.0, 50.0])
+    events = [ekf.step(far + 0.01 * k) for k in range(ekf.settings.max_rejections)]
+    assert events == ["outlier"] * (ekf.settings.max_rejections - 1) + ["start"]
+    np.testing.assert_allclose(ekf.state_[:2], far + 0.01 * (ekf.settings.max_rejections - 1))
+
+
+def test_controller_counts_missed_measurements_and_outliers():
+    from casadi_gpc.gpc import GPCController
+    cfg = PRESETS["paper"]
+    ctrl = GPCController(cfg)
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(10.0),), 0.4)
+    T = cfg.sample_time_s
+    zs = [OBSTACLE.state_at(k * T)[:2] for k in range(12)]
+    zs = [(float(x), float(y)) for x, y in zs]
+    zs[5] = None
+    zs[8] = (zs[8][0] + 4.0, zs[8][1])
+    for k, z in enumerate(zs):
+        obs = Observation(k * T, RobotState(0.0, 0.0, 0.0), ref, (ObstacleMeasurement(0, z, 0.3),))
+        forecasts = ctrl.estimate(obs)
+        assert len(forecasts) == 1 and forecasts[0].means_m.shape == (cfg.horizon, 2)
+    assert ctrl.counters["missed_measurements"] == 1
+    assert ctrl.counters["outliers"] == 1

@@ -30,7 +30,8 @@ __all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure"]
 
 MODEL_FORMAT = "gpcnav-mlp/1"
 _ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "softsign": torch.nn.Softsign}
-_STD_FLOOR = 1e-6  # a constant input (e.g. the absent-obstacle code) must not divide by zero
+_STD_FLOOR = 1e-9  # below this a feature is constant (e.g. an absent-obstacle code): its scale is 1,
+# as in scikit-learn's StandardScaler, so that it neither divides by zero nor magnifies float32 rounding
 
 
 class _Net(torch.nn.Module):
@@ -148,8 +149,8 @@ class WheelSpeedMLP:
         torch.manual_seed(self.random_state)
         gen = torch.Generator().manual_seed(self.random_state)
 
-        x_mean, x_scale = X[train_idx].mean(0), np.maximum(X[train_idx].std(0), _STD_FLOOR)
-        y_mean, y_scale = Y[train_idx].mean(0), np.maximum(Y[train_idx].std(0), _STD_FLOOR)
+        x_mean, x_scale = X[train_idx].mean(0), _scale(X[train_idx])
+        y_mean, y_scale = Y[train_idx].mean(0), _scale(Y[train_idx])
         net = _Net(X.shape[1], self.hidden, Y.shape[1], self.activation).double()
         with torch.no_grad():
             net.x_mean.copy_(torch.from_numpy(x_mean))
@@ -323,6 +324,11 @@ class WheelSpeedMLP:
         curve = model_dir / "training_curve.json"
         self.curve_ = json.loads(curve.read_text()) if curve.is_file() else None
         return self
+
+
+def _scale(A: np.ndarray) -> np.ndarray:
+    sd = A.std(0)
+    return np.where(sd > _STD_FLOOR * np.maximum(1.0, np.abs(A.mean(0))), sd, 1.0)
 
 
 def _copy_state(net):

@@ -1,0 +1,165 @@
+"""The trainer (estimator conventions, normalisation, split, early stopping, reproducibility,
+Fig. 6 curve) and the ONNX export (checker, metadata, clip inside the graph, parity)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+onnx = pytest.importorskip("onnx")
+ort = pytest.importorskip("onnxruntime")
+
+from nn_export.export import INPUT_NAME, POLICY_FORMAT, REQUIRED_METADATA, export_onnx  # noqa: E402
+from nn_export.train import WheelSpeedMLP  # noqa: E402
+
+PROV = {"preset": "paper", "horizon": 6, "sample_time_s": 1.5, "feature_layout": "paper",
+        "feature_layout_version": 1, "robot": {"wheel_base_m": 0.5, "radius_m": 0.35, "max_wheel_speed_mps": 0.8,
+                                                "max_wheel_accel_mps2": 0.8},
+        "dataset": {"id": "synthetic"}}
+
+
+def _data(n=1500, seed=0, scale=0.5):
+    """A smooth known map from 17 inputs (one constant, like an absent-obstacle code) to 2."""
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(n, 17)) * np.linspace(0.1, 3.0, 17) + np.arange(17)
+    X[:, 4] = 7.0
+    Z = (X - np.arange(17)) / np.linspace(0.1, 3.0, 17)
+    Y = scale * np.stack([np.tanh(0.8 * Z[:, 0] - 0.4 * Z[:, 2]), 0.5 * np.tanh(Z[:, 1] + 0.3 * Z[:, 5])], axis=1)
+    return X, Y
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    X, Y = _data()
+    return WheelSpeedMLP(hidden=16, max_epochs=150, batch_size=128, patience=40, random_state=3).fit(X, Y), X, Y
+
+
+def test_init_only_stores_hyper_parameters():
+    m = WheelSpeedMLP(hidden=7, random_state=5)
+    assert m.get_params()["hidden"] == 7 and m.get_params()["random_state"] == 5
+    assert not [k for k in vars(m) if k.endswith("_")]  # nothing learned before fit
+    assert WheelSpeedMLP().hidden == 35  # the paper's network by default
+    with pytest.raises(RuntimeError, match="not fitted"):
+        m.predict(np.zeros((1, 17)))
+
+
+@pytest.mark.parametrize("X, Y, match", [
+    (np.zeros((20, 17)), np.zeros((19, 2)), "rows"),
+    (np.zeros(20), np.zeros((20, 2)), "2-D"),
+    (np.full((20, 17), np.nan), np.zeros((20, 2)), "finite"),
+    (np.zeros((5, 17)), np.zeros((5, 2)), "at least 10"),
+])
+def test_fit_validates_arrays(X, Y, match):
+    with pytest.raises(ValueError, match=match):
+        WheelSpeedMLP(max_epochs=1).fit(X, Y)
+
+
+@pytest.mark.parametrize("kw", [{"hidden": 0}, {"activation": "cosine"}, {"validation_fraction": 1.0},
+                                {"learning_rate": -1.0}, {"patience": 0}])
+def test_fit_validates_hyper_parameters(kw):
+    X, Y = _data(50)
+    with pytest.raises(ValueError):
+        WheelSpeedMLP(max_epochs=1, **kw).fit(X, Y)
+
+
+def test_learns_a_known_map_and_keeps_the_best_epoch(fitted):
+    m, X, Y = fitted
+    # the labels span about +-0.5 m/s; a fitted net must get far below their variance
+    assert m.validation_mse_ < 0.02 * Y.var()
+    # the kept weights are the best seen on validation, and the curve says so
+    assert m.validation_mse_ == pytest.approx(min(m.curve_["val_mse"]), rel=1e-9)
+    assert m.curve_["val_mse"][m.best_epoch_] == pytest.approx(m.validation_mse_, rel=1e-9)
+    assert len(m.curve_["epoch"]) == len(m.curve_["train_mse"]) == len(m.curve_["val_mse"])
+    assert m.curve_["val_mse"][-1] < m.curve_["val_mse"][0] / 10
+
+
+def test_normalisation_uses_the_training_split_only(fitted):
+    m, X, Y = fitted
+    p = m.numpy_params()
+    tr = m.train_indices_
+    np.testing.assert_allclose(p["x_mean"], X[tr].mean(0), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(p["y_mean"], Y[tr].mean(0), rtol=0, atol=1e-12)
+    assert p["x_scale"][4] == 1.0  # a constant input is not a division by zero
+    assert not np.array_equal(p["x_mean"], X.mean(0))  # the validation rows are left out
+    assert len(set(m.train_indices_) & set(m.validation_indices_)) == 0
+    assert len(m.train_indices_) + len(m.validation_indices_) == len(X)
+
+
+def test_groups_stay_on_one_side_of_the_split():
+    X, Y = _data(400)
+    groups = np.arange(400) // 2  # a situation and its mirror image
+    m = WheelSpeedMLP(hidden=4, max_epochs=2).fit(X, Y, groups=groups)
+    assert not set(groups[m.train_indices_]) & set(groups[m.validation_indices_])
+
+
+def test_reproducible_from_the_seed():
+    X, Y = _data(300)
+    a = WheelSpeedMLP(hidden=8, max_epochs=10, random_state=11).fit(X, Y).numpy_params()
+    b = WheelSpeedMLP(hidden=8, max_epochs=10, random_state=11).fit(X, Y).numpy_params()
+    c = WheelSpeedMLP(hidden=8, max_epochs=10, random_state=12).fit(X, Y).numpy_params()
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k])
+    assert not np.array_equal(a["W1"], c["W1"])
+
+
+def test_early_stopping_stops_when_validation_stalls():
+    X, Y = _data(300, seed=1)
+    Y = np.random.default_rng(9).normal(size=Y.shape)  # pure noise: nothing to learn
+    m = WheelSpeedMLP(hidden=8, max_epochs=2000, patience=10, random_state=0).fit(X, Y)
+    assert m.stop_reason_ == "early_stopping"
+    assert len(m.curve_["epoch"]) - 1 == m.best_epoch_ + 10
+
+
+def test_save_load_roundtrip_and_curve_files(fitted, tmp_path):
+    m, X, _ = fitted
+    m.save(tmp_path / "m", PROV)
+    for name in ("weights.npz", "model.json", "training_curve.json", "training_curve.png"):
+        assert (tmp_path / "m" / name).is_file()
+    curve = json.loads((tmp_path / "m" / "training_curve.json").read_text())
+    assert curve["val_mse"] == m.curve_["val_mse"] and curve["n_validation"] == len(m.validation_indices_)
+    m2 = WheelSpeedMLP.load(tmp_path / "m")
+    np.testing.assert_array_equal(m2.predict(X), m.predict(X))
+    assert m2.provenance_["preset"] == "paper"
+
+
+def test_export_parity_checker_and_metadata(fitted, tmp_path):
+    m, X, _ = fitted
+    m.save(tmp_path / "m", PROV)
+    val = X[m.validation_indices_]
+    rep = export_onnx(tmp_path / "m", tmp_path / "m.onnx", val)
+    proto = onnx.load(tmp_path / "m.onnx")
+    onnx.checker.check_model(proto, full_check=True)
+    meta = {p.key: p.value for p in proto.metadata_props}
+    assert set(REQUIRED_METADATA) <= set(meta)
+    assert meta["format"] == POLICY_FORMAT and meta["preset"] == "paper" and meta["horizon"] == "6"
+    assert float(meta["validation_rmse_mps"]) == pytest.approx(np.sqrt(m.validation_mse_))
+    assert json.loads(meta["robot"]) == PROV["robot"]
+    # independent parity check: onnxruntime on the validation set against the torch model
+    sess = ort.InferenceSession(str(tmp_path / "m.onnx"), providers=["CPUExecutionProvider"])
+    got = sess.run(None, {INPUT_NAME: val.astype(np.float32)})[0]
+    want = np.clip(m.predict(val), -0.8, 0.8)
+    assert np.max(np.abs(got - want)) <= 1e-5
+    assert rep["parity_max_abs_mps"] <= 1e-5
+    assert rep["bytes"] < 20_000  # a few KB
+
+
+def test_clip_to_the_wheel_limit_is_inside_the_graph(tmp_path):
+    X, Y = _data(400, scale=3.0)  # labels up to 3 m/s: the net will exceed the 0.8 m/s limit
+    m = WheelSpeedMLP(hidden=8, max_epochs=60, random_state=0).fit(X, Y)
+    m.save(tmp_path / "m", PROV)
+    export_onnx(tmp_path / "m", tmp_path / "m.onnx")
+    sess = ort.InferenceSession(str(tmp_path / "m.onnx"), providers=["CPUExecutionProvider"])
+    raw = m.predict(X)
+    assert np.abs(raw).max() > 1.5
+    got = sess.run(None, {INPUT_NAME: X.astype(np.float32)})[0]
+    assert np.abs(got).max() == pytest.approx(0.8, abs=1e-7)
+    np.testing.assert_allclose(got, np.clip(raw, -0.8, 0.8), atol=1e-5)
+
+
+def test_export_refuses_a_model_without_provenance(fitted, tmp_path):
+    m, _, _ = fitted
+    m.save(tmp_path / "m", {"preset": "paper"})
+    with pytest.raises(ValueError, match="provenance lacks"):
+        export_onnx(tmp_path / "m", tmp_path / "m.onnx")

@@ -472,21 +472,34 @@ class SituationTracker:
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self.counters = {"missed_measurements": 0, "outliers": 0}
 
+    def observe(self, obs: Observation) -> None:
+        """Fuse one sample's measurements and advance the clock, without building the
+        situation (for samples whose decision is not wanted)."""
+        self._fuse(obs)
+        self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
+
     def update(self, obs: Observation) -> Situation:
-        cfg = self.config
-        H, T = cfg.horizon, cfg.sample_time_s
-        tracks = []
+        """Fuse one sample and return the situation at it (call once per sample)."""
+        H, T = self.config.horizon, self.config.sample_time_s
+        seen = self._fuse(obs)
+        tracks = tuple(track_estimate(ekf, m.obstacle_id, m.radius_m, H) for m, ekf in seen)
+        self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
+        ref = reference_poses(obs.reference, self.clock.s_m, T, H)
+        return Situation(obs.robot, ref, T, obs.reference.speed_mps, tracks, tuple(obs.static))
+
+    def _fuse(self, obs: Observation) -> list:
+        """Step every measured obstacle's EKF (as ``GPCController.estimate``); returns the
+        (measurement, filter) pairs of the tracks that have a state."""
+        seen = []
         for m in obs.moving:
             ekf = self.tracks.get(m.obstacle_id)
             if ekf is None:
-                ekf = self.tracks[m.obstacle_id] = ObstacleEKF(T, self.ekf_settings)
+                ekf = self.tracks[m.obstacle_id] = ObstacleEKF(self.config.sample_time_s, self.ekf_settings)
             event = ekf.step(m.position_m)
             if event == "missed":
                 self.counters["missed_measurements"] += 1
             elif event == "outlier":
                 self.counters["outliers"] += 1
             if ekf.state_ is not None:
-                tracks.append(track_estimate(ekf, m.obstacle_id, m.radius_m, H))
-        self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
-        ref = reference_poses(obs.reference, self.clock.s_m, T, H)
-        return Situation(obs.robot, ref, T, obs.reference.speed_mps, tuple(tracks), tuple(obs.static))
+                seen.append((m, ekf))
+        return seen

@@ -17,3 +17,42 @@ def write_scenario(tmp_path):
         path.write_text(text, encoding="utf-8")
         return path
     return write
+
+
+def check_run_document(doc: dict) -> None:
+    """Assert that ``doc`` is a RUN.json as CONTRACT.md defines it (the same checks as
+    ../shared/tools/check_outputs.py, which a fresh clone does not have)."""
+    import json
+    import math
+
+    doc = json.loads(json.dumps(doc, allow_nan=False))  # plain JSON, all numbers finite
+    num = (int, float)
+
+    def is_num(v):
+        return isinstance(v, num) and not isinstance(v, bool) and math.isfinite(v)
+
+    assert isinstance(doc["scenario"], str) and isinstance(doc["controller"], str)
+    assert doc["outcome"] in ("reached_goal", "collided", "timed_out")
+    assert doc["collided"] is (doc["outcome"] == "collided")
+    assert doc["reached_goal"] is (doc["outcome"] == "reached_goal")
+    for key in ("min_clearance_m", "tracking_rmse_m", "sample_time_s"):
+        assert is_num(doc[key]), key
+    assert doc["tracking_rmse_m"] >= 0 and doc["sample_time_s"] > 0
+    if doc["reached_goal"]:
+        assert is_num(doc["time_to_goal_s"]) and doc["time_to_goal_s"] > 0
+    else:
+        assert doc["time_to_goal_s"] is None
+    assert isinstance(doc["steps"], int) and not isinstance(doc["steps"], bool) and doc["steps"] >= 1
+    ct = doc["compute_time_s"]
+    assert all(is_num(ct[k]) for k in ("median", "p95", "max"))
+    assert 0 <= ct["median"] <= ct["p95"] <= ct["max"]
+    assert isinstance(doc["fallbacks"], int) and doc["fallbacks"] >= 0
+    tr = doc["trajectory"]
+    keys = ("t", "x", "y", "heading_rad", "v_right_mps", "v_left_mps")
+    assert all(isinstance(tr[k], list) for k in keys)
+    assert {len(tr[k]) for k in keys} == {doc["steps"] + 1}
+    assert all(is_num(v) for k in keys for v in tr[k])
+    assert isinstance(doc["obstacles"], list)
+    for ob in doc["obstacles"]:
+        assert ob["kind"] in ("moving", "static") and is_num(ob["radius_m"]) and ob["radius_m"] > 0
+        assert len(ob["x"]) == len(ob["y"]) == doc["steps"] + 1

@@ -1,0 +1,209 @@
+"""The closed loop (casadi_gpc.simulator) and the RUN document: outcome rules with known
+answers, collisions between samples, reproducibility from the seed, RUN.json fields."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from casadi_gpc.config import PRESETS
+from casadi_gpc.gpc import GPCController
+from casadi_gpc.metrics import episode_metrics, longest_stop_s, run_document
+from casadi_gpc.reference import ReferencePath, Segment
+from casadi_gpc.robot import RobotParams, RobotState
+from casadi_gpc.simulator import GOAL_TOLERANCE_M, SUBSTEPS, simulate
+from casadi_gpc.types import ControlDecision, StaticObstacle
+from conftest import check_run_document
+from scenarios import paper_scenarios, random_scenario, random_suite
+from scenarios.model import MovingObstacleSpec, Scenario, Sensing
+
+ROBOT = RobotParams()
+LINE6 = ReferencePath((0.0, 0.0), 0.0, (Segment.line(6.0),), 0.4)  # 15 s to the end
+
+
+class Scripted:
+    """A policy that plays wheel speeds given by ``wheels(t, robot_state)``."""
+
+    def __init__(self, wheels, sample_time_s=0.5):
+        self.wheels, self.sample_time_s = wheels, sample_time_s
+        self.resets = 0
+
+    def reset(self):
+        self.resets += 1
+
+    def decide(self, obs):
+        vr, vl = self.wheels(obs.t_s, obs.robot)
+        return ControlDecision(vr, vl)
+
+
+def straight(speed):
+    return Scripted(lambda t, r: (speed, speed))
+
+
+def scenario(moving=(), static=(), duration_s=40.0, reference=LINE6, start=RobotState(0.0, 0.0, 0.0)):
+    return Scenario("test", duration_s, start, reference, ROBOT, tuple(moving), tuple(static), Sensing(0.02, 0))
+
+
+def test_substeps_meet_the_contract():
+    assert SUBSTEPS >= 10
+
+
+def test_following_the_reference_exactly_reaches_the_goal_when_the_reference_does():
+    log = simulate(scenario(), straight(0.4))
+    assert log.outcome == "reached_goal"
+    assert log.end_time_s == pytest.approx(15.0)
+    assert len(log.compute_time_s) == 30
+    np.testing.assert_allclose(log.states[-1][:2], [6.0, 0.0], atol=1e-12)
+    m = episode_metrics(log)
+    assert m.tracking_rmse_m == pytest.approx(0.0, abs=1e-12)
+    assert m.time_to_goal_s == pytest.approx(15.0) and m.steps == 30
+
+
+def test_goal_needs_the_reference_point_at_the_end():
+    """A robot that arrives early and waits is at the goal only when the reference gets there."""
+    early = Scripted(lambda t, r: (0.4, 0.4) if r.x_m < 6.0 - 1e-9 else (0.0, 0.0))
+    log = simulate(scenario(start=RobotState(3.0, 0.0, 0.0)), early)
+    assert log.states[15][0] == pytest.approx(6.0)  # there after 7.5 s
+    assert log.outcome == "reached_goal" and log.end_time_s == pytest.approx(15.0)
+
+
+@pytest.mark.parametrize("short_m, outcome", [(0.2, "reached_goal"), (0.4, "timed_out")])
+def test_goal_tolerance(short_m, outcome):
+    """Stopping 0.2 m before the end is within the contract's 0.3 m, 0.4 m is not."""
+    assert 0.2 < GOAL_TOLERANCE_M < 0.4
+    pol = Scripted(lambda t, r: (0.4, 0.4) if r.x_m < 6.0 - short_m - 1e-9 else (0.0, 0.0))
+    log = simulate(scenario(duration_s=20.0), pol)
+    assert log.states[-1][0] == pytest.approx(6.0 - short_m)
+    assert log.outcome == outcome
+
+
+def test_time_limit_gives_timed_out():
+    log = simulate(scenario(duration_s=7.5), straight(0.4))
+    assert log.outcome == "timed_out"
+    assert log.end_time_s == pytest.approx(7.5) and len(log.compute_time_s) == 15
+    assert episode_metrics(log).time_to_goal_s is None
+
+
+def test_driving_into_an_obstacle_collides_at_the_right_time():
+    # robot radius 0.35 + obstacle 0.3: contact when the robot's centre reaches x = 4.35, t = 10.875 s
+    log = simulate(scenario(static=[StaticObstacle((5.0, 0.0), 0.3)]), straight(0.4))
+    assert log.outcome == "collided"
+    assert 10.875 - 1e-9 <= log.end_time_s <= 10.875 + 0.5 / SUBSTEPS + 1e-9
+    assert log.min_clearance_m < 0
+    assert episode_metrics(log).collided
+
+
+def test_collision_between_samples_is_caught():
+    """A fast obstacle passes through a robot standing still between two samples: at every
+    sample instant the discs are apart, in between they overlap."""
+    ob = MovingObstacleSpec((-3.0, 0.0), 0.0, 2.0, 0.3)  # at x = -3, -1, 1, 3 at t = 0, 1, 2, 3
+    sc = scenario(moving=[ob], duration_s=5.0)
+    log = simulate(sc, Scripted(lambda t, r: (0.0, 0.0), sample_time_s=1.0))
+    gaps_at_samples = [np.hypot(*(o[0] - s[:2])) - 0.65 for s, o in zip(log.states, log.obstacle_xy)]
+    assert min(gaps_at_samples) > 0.3
+    assert log.outcome == "collided"
+    assert 1.0 < log.end_time_s < 2.0
+    # the same pass 0.7 m to the side misses, with the smallest gap, 0.05 m, between samples
+    ob_side = MovingObstacleSpec((-3.0, 0.7), 0.0, 2.0, 0.3)
+    log = simulate(scenario(moving=[ob_side], duration_s=5.0), Scripted(lambda t, r: (0.0, 0.0), 1.0))
+    assert log.outcome == "timed_out"
+    assert log.min_clearance_m == pytest.approx(0.05, abs=1e-12)
+
+
+def test_moving_robot_jumping_past_an_obstacle_between_samples_collides():
+    # T = 2 s at 0.8 m/s: 1.6 m per step; the obstacle at x = 2.4 is 0.8 m from the samples
+    # x = 1.6 and 3.2, more than 0.35 + 0.1, yet the robot drives straight through it
+    sc = scenario(static=[StaticObstacle((2.4, 0.0), 0.1)], reference=ReferencePath((0, 0), 0, (Segment.line(8.0),), 0.4))
+    log = simulate(sc, Scripted(lambda t, r: (0.8, 0.8), sample_time_s=2.0))
+    assert log.outcome == "collided"
+    assert log.end_time_s == pytest.approx(2.0 + 2.0 * math.ceil((1.95 / 0.8 - 2.0) / 2.0 * SUBSTEPS) / SUBSTEPS)
+
+
+def test_longest_stop_known_answer():
+    """Drive, stand still from t = 4 s to t = 7 s, drive on: a stop of 3 s."""
+    pol = Scripted(lambda t, r: (0.0, 0.0) if 4.0 - 1e-9 <= t < 7.0 - 1e-9 else (0.4, 0.4))
+    log = simulate(scenario(duration_s=30.0, reference=ReferencePath((0, 0), 0, (Segment.line(4.0),), 0.4)), pol)
+    assert log.outcome == "reached_goal"
+    assert longest_stop_s(log) == pytest.approx(3.0)
+    assert episode_metrics(log).longest_stop_s == pytest.approx(3.0)
+    # the start at rest and the rest at the goal do not count
+    assert longest_stop_s(simulate(scenario(), straight(0.4))) == 0.0
+
+
+def test_command_limits_are_enforced_and_counted():
+    pol = Scripted(lambda t, r: (5.0, -5.0))  # far beyond speed and acceleration limits
+    log = simulate(scenario(duration_s=3.0), pol)
+    st = np.asarray(log.states)
+    dv = ROBOT.max_step_change_mps(0.5)
+    assert np.all(np.abs(np.diff(st[:, 3:5], axis=0)) <= dv + 1e-12)
+    assert np.all(np.abs(st[:, 3:5]) <= ROBOT.max_wheel_speed_mps + 1e-12)
+    assert log.clipped_commands == len(log.compute_time_s)
+    pol_nan = Scripted(lambda t, r: (float("nan"), 0.4))
+    log = simulate(scenario(duration_s=3.0), pol_nan)
+    assert log.events["non_finite_commands"] == len(log.compute_time_s)
+    assert np.all(np.isfinite(np.asarray(log.states)))
+
+
+def test_gpc_reaches_the_goal_with_no_obstacle_near():
+    far = MovingObstacleSpec((50.0, 50.0), 0.0, 0.3, 0.3)
+    log = simulate(scenario(moving=[far], static=[StaticObstacle((-40.0, 10.0), 0.3)]),
+                   GPCController(PRESETS["paper"], ROBOT), "gpc")
+    m = episode_metrics(log)
+    assert m.outcome == "reached_goal" and m.fallbacks == 0
+    assert 15.0 <= m.time_to_goal_s <= 15.0 + 3 * 1.5
+    assert m.min_clearance_m > 40
+
+
+def test_runs_are_reproducible_from_the_seed():
+    sc = paper_scenarios()[1]
+    runs = [simulate(s, GPCController(PRESETS["paper"], s.robot), "gpc") for s in (sc, sc, sc.with_seed(99))]
+    a, b, c = (np.asarray(r.states) for r in runs)
+    np.testing.assert_array_equal(a, b)
+    assert [d.v_right_mps for d in runs[0].decisions] == [d.v_right_mps for d in runs[1].decisions]
+    assert a.shape != c.shape or np.max(np.abs(a - c)) > 1e-9  # other measurement noise, another run
+    # the controller object is reset by simulate: reusing it gives the same run
+    ctrl = GPCController(PRESETS["paper"], sc.robot)
+    first = np.asarray(simulate(sc, ctrl).states)
+    np.testing.assert_array_equal(np.asarray(simulate(sc, ctrl).states), first)
+
+
+def test_random_suites_are_reproducible():
+    for kind in ("random", "random-multi"):
+        a, b = random_suite(kind, 4, 3), random_suite(kind, 4, 3)
+        assert a == b
+        assert random_scenario(kind, 2, 3) == random_suite(kind, 7, 3)[2]  # independent of the count
+        assert random_suite(kind, 4, 4) != a
+        assert len({s.sensing.seed for s in a}) == 4
+
+
+def test_run_document_fields():
+    sc = paper_scenarios()[0]
+    log = simulate(sc, GPCController(PRESETS["paper"], sc.robot), "gpc")
+    doc = run_document(log)
+    check_run_document(doc)
+    assert doc["scenario"] == sc.name and doc["controller"] == "gpc"
+    assert doc["sample_time_s"] == 1.5 and doc["steps"] == len(log.compute_time_s)
+    tr = doc["trajectory"]
+    np.testing.assert_allclose(tr["t"], 1.5 * np.arange(doc["steps"] + 1))
+    # the metrics recomputed from the document's own arrays
+    ref = np.array([doc["reference"]["x"], doc["reference"]["y"]]).T
+    err = np.hypot(np.asarray(tr["x"]) - ref[:, 0], np.asarray(tr["y"]) - ref[:, 1])
+    assert doc["tracking_rmse_m"] == pytest.approx(math.sqrt(np.mean(err ** 2)), rel=1e-12)
+    (ob,) = doc["obstacles"]
+    assert ob["kind"] == "moving" and ob["radius_m"] == 0.3
+    true_x = [sc.moving[0].state_at(t)[0] for t in tr["t"]]
+    np.testing.assert_allclose(ob["x"], true_x, atol=1e-12)
+    at_samples = np.hypot(np.asarray(ob["x"]) - tr["x"], np.asarray(ob["y"]) - tr["y"]) - 0.3 - sc.robot.radius_m
+    assert doc["min_clearance_m"] <= at_samples.min() + 1e-12
+    assert doc["min_clearance_m"] > at_samples.min() - 0.8 * 1.5  # sub-sampling finds at most one step's travel less
+    ct = doc["compute_time_s"]
+    assert ct["median"] == pytest.approx(float(np.median(log.compute_time_s)))
+    assert ct["max"] == pytest.approx(max(log.compute_time_s))
+    assert doc["reached_goal"] and doc["time_to_goal_s"] == pytest.approx(log.end_time_s)
+    # the other two outcomes also give conforming documents
+    for sc2, pol in ((scenario(static=[StaticObstacle((5.0, 0.0), 0.3)]), straight(0.4)),
+                     (scenario(duration_s=3.0), straight(0.4))):
+        d = run_document(simulate(sc2, pol, "scripted"))
+        check_run_document(d)
+        assert d["outcome"] in ("collided", "timed_out") and d["time_to_goal_s"] is None

@@ -11,6 +11,7 @@ from .errors import UsageError
 COMMANDS = {
     "simulate": "Run one closed-loop episode.",
     "evaluate": "Run many episodes and write aggregate metrics.",
+    "dataset": "Label situations with the GPC (resumable).",
 }
 
 

@@ -1,0 +1,148 @@
+"""Label random driving situations with the GPC into a dataset directory (shards and
+manifest.json); resumable after any interruption: run it again with the same arguments.
+
+With --dagger MODEL the command instead appends one round of on-policy data to an existing
+dataset: it runs the network MODEL on --episodes random episodes and labels every situation
+it visits with the GPC (DAgger)."""
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from ..errors import UsageError
+from .common import add_preset_arguments, planner_config, progress
+
+
+def add_arguments(p):
+    p.add_argument("--out", type=Path, required=True, help="dataset directory (created, or resumed)")
+    p.add_argument("--samples", type=int, default=None,
+                   help="labelled samples wanted, mirror samples included (required unless --dagger)")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local worker processes (default) or a Ray cluster")
+    p.add_argument("--address", default=None,
+                   help="address of an existing Ray cluster (--backend ray; default: start a local one)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the situations (default 0)")
+    add_preset_arguments(p)
+    p.add_argument("--layout", choices=("paper", "multi"), default="paper",
+                   help="feature layout: the paper's (one moving obstacle) or multi (3 moving + 3 static)")
+    p.add_argument("--shard-size", type=int, default=1000, help="samples per shard (even; default 1000)")
+    p.add_argument("--no-mirror", action="store_true", help="do not add the mirror image of each situation")
+    p.add_argument("--mirror-check-every", type=int, default=25, metavar="K",
+                   help="solve the mirrored situation for every K-th situation as a check of the labels (0: never)")
+    p.add_argument("--solver", default=None,
+                   help="the planner's NLP solver for labelling (default: the fastest the planner offers)")
+    p.add_argument("--dagger", type=Path, default=None, metavar="MODEL.onnx",
+                   help="append one round of on-policy data from this network to the dataset at --out")
+    p.add_argument("--episodes", type=int, default=100, help="episodes of the random suite for --dagger")
+    p.add_argument("--round", type=int, default=1, help="DAgger round number (names the part: dagger<R>)")
+
+
+def _layout_and_config(args):
+    from nn_export.features import layout_for
+    config = planner_config(args)
+    return config, layout_for(args.layout, config.horizon)
+
+
+def run(args) -> int:
+    from nn_export.dataset import DatasetMismatch, DatasetSpec, generate
+    from nn_export.labels import fastest_solver
+    if args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.address and args.backend != "ray":
+        raise UsageError("--address needs --backend ray")
+    if args.dagger is not None:
+        return _dagger(args)
+    if args.samples is None:
+        raise UsageError("--samples is required")
+    if args.samples < 1:
+        raise UsageError(f"--samples must be at least 1, got {args.samples}")
+    if args.shard_size < 2 or args.shard_size % 2:
+        raise UsageError(f"--shard-size must be an even number of at least 2, got {args.shard_size}")
+    if args.mirror_check_every < 0:
+        raise UsageError(f"--mirror-check-every must be 0 or more, got {args.mirror_check_every}")
+    if args.out.exists() and not args.out.is_dir():
+        raise UsageError(f"--out {args.out} exists and is not a directory")
+    if args.backend == "ray":
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise UsageError("--backend ray needs Ray: pip install 'gpcnav[distributed]'") from None
+    config, layout = _layout_and_config(args)
+    spec = DatasetSpec(samples=args.samples, config=config, layout=layout, seed=args.seed,
+                       solver=args.solver or fastest_solver(), shard_size=args.shard_size,
+                       mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every)
+    _check_solver(spec)
+
+    def log(msg):
+        print(f"gpcnav dataset: {msg}", file=sys.stderr)
+
+    try:
+        man = generate(args.out, spec, args.workers, args.backend, args.address,
+                       progress=lambda **kw: progress(desc="labelling", **kw), log=log)
+    except DatasetMismatch as exc:
+        raise UsageError(str(exc)) from None
+    part = man["parts"]["offpolicy"]
+    last, st = part["last_run"], part["stats"]
+    rate = f"{last['samples_per_s']:.0f} samples/s" if last["samples_per_s"] else "nothing left to do"
+    print(f"{args.out}: {man['samples']} samples in {len(man['shards'])} shards "
+          f"(this run: {last['samples_done']} samples in {last['elapsed_s']:.1f} s, {rate}, "
+          f"{last['workers']} {last['backend']} workers); layout {layout.name} v{layout.version} "
+          f"({layout.size} features), preset {config.name}, solver {spec.solver}; "
+          f"{st['not_converged']} of {st['situations']} situations not converged; mirror check: "
+          f"{st['mirror_checked']} checked, max diff {st['mirror_max_diff_mps']:.1e} m/s, "
+          f"{st['mirror_over_tolerance']} over {st['mirror_tolerance_mps']:.0e}")
+    return 0
+
+
+def _check_solver(spec) -> None:
+    """Refuse an unknown solver name before any work (one line)."""
+    try:
+        from nn_export.labels import Labeller
+        Labeller(spec.config, spec.robot, spec.solver)
+    except (ValueError, RuntimeError) as exc:
+        raise UsageError(f"--solver {spec.solver}: {str(exc).splitlines()[0]}") from None
+
+
+def _dagger(args) -> int:
+    """One DAgger round: the network drives, the GPC labels what it sees."""
+    from nn_export.dataset import DatasetMismatch, _PART_STRIDE, append_part, collect_on_policy, read_manifest
+    from nn_export.features import layout_from_dict
+    from nn_export.labels import Labeller, fastest_solver
+    from scenarios import random_suite
+    from .common import make_controller
+    if not (args.out / "manifest.json").is_file():
+        raise UsageError(f"--dagger appends to an existing dataset, and {args.out} has no manifest.json")
+    if args.episodes < 1:
+        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.round < 1:
+        raise UsageError(f"--round must be at least 1, got {args.round}")
+    man = read_manifest(args.out)
+    config = planner_config(args)
+    if man.get("preset") != config.name:
+        raise UsageError(f"{args.out} was labelled under preset {man.get('preset')!r}, not {config.name!r}")
+    layout = layout_from_dict(man["feature_layout"])
+    from casadi_gpc.robot import RobotParams
+    policy = make_controller("nn", config, RobotParams(), args.dagger)
+    suite = "random-multi" if layout.name == "multi" else "random"
+    scenarios = random_suite(suite, args.episodes, args.seed + 1000 * args.round)
+    labeller = Labeller(config, solver=args.solver or fastest_solver())
+    episodes = progress(scenarios, desc=f"dagger round {args.round}", unit="ep")
+    arrays, stats = collect_on_policy(policy, episodes, config, layout, labeller, mirror=not args.no_mirror,
+                                      id_base=args.round * _PART_STRIDE,
+                                      mirror_check_every=args.mirror_check_every)
+    info = {"round": args.round, "model": str(args.dagger), "suite": suite, "episodes": args.episodes,
+            "suite_seed": args.seed + 1000 * args.round, "solver": labeller.solver}
+    try:
+        doc = append_part(args.out, f"dagger{args.round}", arrays, stats, info)
+    except DatasetMismatch as exc:
+        raise UsageError(str(exc)) from None
+    outcomes = {}
+    for e in stats["episodes"]:
+        outcomes[e["outcome"]] = outcomes.get(e["outcome"], 0) + 1
+    print(f"{args.out}: dagger round {args.round} added {len(arrays['labels'])} samples "
+          f"({stats['situations']} situations, {stats['not_converged']} not converged) from {args.episodes} "
+          f"episodes of {suite} ({', '.join(f'{k} {v}' for k, v in sorted(outcomes.items()))}); "
+          f"dataset now {doc['samples']} samples")
+    return 0

@@ -1,0 +1,151 @@
+"""GPC labels for situations: the planner's first control, its plan, cost and status.
+
+Each situation is solved the way the planner solves a fresh problem: from the fixed initial
+guesses (swerve right, swerve left, straight) with the planner's own tie-break
+(:meth:`casadi_gpc.gpc.GPCController.plan`), on the NLP parameters the planner would pack.
+Only converged solutions become samples; the others are counted.
+
+Mirror samples: a situation reflected about the reference's tangent has the mirrored
+features (:func:`~nn_export.features.mirror_features`) and, because the GPC problem is
+mirror-equivariant, the label with the wheels swapped. :meth:`Labeller.mirror_check`
+solves the mirrored situation for real and returns the largest difference, which the
+dataset writer records for a share of the situations as a check of the labels. (An exact
+tie between a left and a right swerve is the one place where the answer is not
+equivariant: the tie-break picks the right swerve both times.)
+
+This module needs CasADi (it runs the planner); the features it uses are numpy only.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from casadi_gpc.config import PlannerConfig
+from casadi_gpc.robot import RobotParams
+
+from .features import FeatureLayout, Situation, compute_features, mirror_features
+
+__all__ = ["LABEL_NAMES", "GUESS_NAMES", "Label", "Labeller", "fastest_solver", "mirror_label"]
+
+LABEL_NAMES = ("v_right_mps", "v_left_mps")
+"""The network's outputs: the wheel speeds to apply over the next interval."""
+GUESS_NAMES = ("swerve_right", "swerve_left", "straight")
+
+
+@dataclass(frozen=True)
+class Label:
+    """The GPC's answer for one situation."""
+
+    converged: bool
+    wheels_mps: np.ndarray
+    """(2,) right and left wheel speeds of the first step (the label)."""
+    plan_wheels_mps: np.ndarray
+    """(H, 2) the whole planned wheel-speed sequence."""
+    cost: float
+    status: str
+    """The solver's status of the winning candidate (or the first failure)."""
+    guess: str
+    """Which initial guess won."""
+    iterations: int
+    candidate_costs: np.ndarray
+    """(3,) cost from each guess in :data:`GUESS_NAMES` order, NaN where it did not converge."""
+    solve_time_s: float
+
+    @property
+    def n_converged(self) -> int:
+        return int(np.count_nonzero(np.isfinite(self.candidate_costs)))
+
+
+def mirror_label(label_wheels: np.ndarray) -> np.ndarray:
+    """Wheel speeds of the mirrored situation: right and left swapped (last axis)."""
+    return np.asarray(label_wheels)[..., ::-1]
+
+
+def fastest_solver() -> str:
+    """The fastest NLP solver the planner offers (``casadi_gpc.solvers`` once it exists),
+    else the planner's default."""
+    try:
+        from casadi_gpc import solvers
+    except ImportError:
+        return PlannerConfig.solver
+    for attr in ("FASTEST", "FASTEST_SOLVER", "fastest"):
+        value = getattr(solvers, attr, None)
+        if isinstance(value, str):
+            return value
+        if callable(value):
+            return value()
+    return PlannerConfig.solver
+
+
+class Labeller:
+    """Labels situations with the GPC of ``config`` (the solver is built once).
+
+    ``solver``: the planner's solver name; ``None`` takes :func:`fastest_solver`.
+    """
+
+    def __init__(self, config: PlannerConfig, robot: RobotParams | None = None, solver: str | None = None):
+        from casadi_gpc.gpc import GPCController
+        self.solver = solver or fastest_solver()
+        self.config = config if config.solver == self.solver else config.with_overrides(solver=self.solver)
+        self.robot = robot or RobotParams()
+        self.controller = GPCController(self.config, self.robot)
+        self.counters = {"situations": 0, "not_converged": 0, "solves": 0}
+
+    def parameters(self, situation: Situation) -> np.ndarray:
+        """The NLP parameter vector the planner would use, slots filled as ``decide`` fills them."""
+        cfg = self.config
+        if situation.horizon != cfg.horizon:
+            raise ValueError(f"situation horizon {situation.horizon} != planner horizon {cfg.horizon}")
+        x0 = situation.robot.as_array()
+        forecasts = situation.forecasts()
+        if len(forecasts) > cfg.max_moving:
+            forecasts = sorted(forecasts, key=lambda f: np.min(np.hypot(*(f.means_m - x0[:2]).T)))[: cfg.max_moving]
+        statics = list(situation.statics)
+        if len(statics) > cfg.max_static:
+            statics = sorted(statics, key=lambda s: math.hypot(s.position_m[0] - x0[0], s.position_m[1] - x0[1]))
+            statics = statics[: cfg.max_static]
+        return self.controller.problem.layout.pack(x0, situation.ref_poses[1:], forecasts, statics,
+                                                   cfg.uncertainty_scale_m)
+
+    def label(self, situation: Situation) -> Label:
+        """Solve from every initial guess and keep the planner's choice."""
+        ctl = self.controller
+        x0 = situation.robot.as_array()
+        p = self.parameters(situation)
+        best, candidates = ctl.plan(p, x0, situation.ref_speed_mps, True, None)
+        self.counters["situations"] += 1
+        self.counters["solves"] += len(candidates)
+        costs = np.full(len(GUESS_NAMES), np.nan)
+        for c in candidates:
+            if c.success and c.guess in GUESS_NAMES:
+                costs[GUESS_NAMES.index(c.guess)] = c.cost
+        t = float(sum(c.solve_time_s for c in candidates))
+        H = self.config.horizon
+        if best is None:
+            self.counters["not_converged"] += 1
+            status = candidates[0].status if candidates else "no candidates"
+            return Label(False, np.full(2, np.nan), np.full((H, 2), np.nan), float("nan"), status, "", -1, costs, t)
+        # the planned wheel speeds: the previous ones plus the cumulated increments (the
+        # decision variables of casadi_gpc.cost)
+        wheels = x0[3:5] + np.cumsum(np.asarray(best.u).reshape(H, 2), axis=0)
+        return Label(True, wheels[0].copy(), wheels, float(best.cost), best.status, best.guess, best.iterations,
+                     costs, t)
+
+    def mirror_check(self, situation: Situation, label: Label) -> float:
+        """Largest difference (m/s) between the mirrored label and the GPC's answer on the
+        mirrored situation (NaN if either did not converge)."""
+        other = self.label(situation.mirrored())
+        if not (label.converged and other.converged):
+            return float("nan")
+        return float(np.max(np.abs(mirror_label(label.plan_wheels_mps) - other.plan_wheels_mps)))
+
+    def sample(self, layout: FeatureLayout, situation: Situation, report: dict | None = None):
+        """``(features, label)`` of one situation (label may be unconverged)."""
+        return compute_features(layout, situation, report=report), self.label(situation)
+
+
+def mirrored_sample(layout: FeatureLayout, features: np.ndarray, label: Label) -> tuple[np.ndarray, np.ndarray]:
+    """Features and plan of the mirror sample."""
+    return mirror_features(layout, features), mirror_label(label.plan_wheels_mps)

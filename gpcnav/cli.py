@@ -12,6 +12,8 @@ COMMANDS = {
     "simulate": "Run one closed-loop episode.",
     "evaluate": "Run many episodes and write aggregate metrics.",
     "dataset": "Label situations with the GPC (resumable).",
+    "train": "Train the network on a dataset.",
+    "export": "Export a trained network to ONNX.",
 }
 
 

@@ -8,7 +8,7 @@ right then left. The batch axis is dynamic.
 Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
 trained for; :class:`nn_export.policy.OnnxPolicy` refuses a file whose metadata do not match
 the preset, the robot or the feature layout it is asked to run with. Keys: ``format``,
-``feature_layout``, ``feature_layout_version``, ``feature_names``, ``label_names``,
+``feature_layout``, ``feature_layout_version``, ``feature_layout_spec``, ``feature_names``, ``label_names``,
 ``n_features``, ``preset``, ``horizon``, ``sample_time_s``, ``planner_config``, ``robot``,
 ``output_clip_mps``, ``dataset``, ``validation_rmse_mps``, ``validation_max_abs_error_mps``,
 ``hidden``, ``activation``, ``trained_with``.
@@ -88,6 +88,8 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
         "format": POLICY_FORMAT,
         "feature_layout": str(prov["feature_layout"]),
         "feature_layout_version": str(prov["feature_layout_version"]),
+        "feature_layout_spec": json.dumps(prov.get("feature_layout_spec", {
+            "name": prov["feature_layout"], "version": prov["feature_layout_version"], "horizon": prov["horizon"]})),
         "feature_names": json.dumps(model.feature_names_),
         "label_names": json.dumps(model.label_names_),
         "n_features": str(model.n_features_in_),

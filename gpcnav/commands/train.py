@@ -1,0 +1,113 @@
+"""Train the wheel-speed network on one or more dataset directories (from ``gpcnav
+dataset``, with any on-policy parts) and write a model folder: weights, model.json with the
+provenance that ``gpcnav export`` puts into the ONNX file, and the training curve (the
+paper's Fig. 6) as training_curve.json and training_curve.png."""
+from __future__ import annotations
+
+import hashlib
+import sys
+from pathlib import Path
+
+from ..errors import UsageError
+from .common import add_preset_arguments, planner_config, progress
+
+
+def add_arguments(p):
+    p.add_argument("datasets", type=Path, nargs="+", metavar="DATASET_DIR", help="dataset folder(s) to train on")
+    p.add_argument("--out", type=Path, required=True, help="model folder to write")
+    p.add_argument("--hidden", type=int, default=35, help="hidden units (paper: 35)")
+    p.add_argument("--activation", choices=("tanh", "relu", "softsign"), default="tanh", help="hidden non-linearity")
+    p.add_argument("--layout", choices=("paper", "multi"), default=None,
+                   help="feature layout the datasets must have (default: whatever they have)")
+    p.add_argument("--epochs", type=int, default=2000, help="maximum epochs (early stopping ends sooner)")
+    p.add_argument("--patience", type=int, default=120, help="epochs without a better validation error before stopping")
+    p.add_argument("--batch-size", type=int, default=256, help="mini-batch size")
+    p.add_argument("--lr", type=float, default=3e-3, help="initial Adam learning rate")
+    p.add_argument("--weight-decay", type=float, default=0.0, help="L2 penalty")
+    p.add_argument("--validation-fraction", type=float, default=0.15, help="share of situations held out")
+    p.add_argument("--seed", type=int, default=0, help="seeds the split, the initial weights and the batch order")
+    add_preset_arguments(p)
+
+
+def _dataset_id(manifests) -> str:
+    import json
+    h = hashlib.sha256()
+    for m in manifests:
+        h.update(json.dumps({k: m.get(k) for k in ("samples", "shards", "parts", "seed")}, sort_keys=True,
+                            default=str).encode())
+    return h.hexdigest()[:16]
+
+
+def run(args) -> int:
+    import numpy as np
+    try:
+        from nn_export.train import WheelSpeedMLP
+    except ImportError as exc:
+        raise UsageError(f"training needs the train extra (pip install -e '.[train]'): {exc}") from None
+    from nn_export.dataset import load_dataset
+    cfg = planner_config(args)
+    for name, v, lo in (("--hidden", args.hidden, 1), ("--epochs", args.epochs, 1), ("--patience", args.patience, 1),
+                        ("--batch-size", args.batch_size, 1)):
+        if v < lo:
+            raise UsageError(f"{name} must be at least {lo}, got {v}")
+    if not args.lr > 0:
+        raise UsageError(f"--lr must be positive, got {args.lr}")
+    if not 0 < args.validation_fraction < 1:
+        raise UsageError(f"--validation-fraction must be in (0, 1), got {args.validation_fraction}")
+    sets = []
+    for d in args.datasets:
+        if not (d / "manifest.json").is_file():
+            raise UsageError(f"{d}: not a dataset folder (no manifest.json)")
+        try:
+            sets.append(load_dataset(d))
+        except (ValueError, KeyError, OSError) as exc:
+            raise UsageError(f"{d}: cannot read the dataset: {exc}") from None
+    first = sets[0]
+    for d, s in zip(args.datasets, sets):
+        man = s.manifest
+        if man.get("preset") != cfg.name:
+            raise UsageError(f"{d}: dataset labelled under preset {man.get('preset')!r}, not --preset {cfg.name}")
+        if man.get("planner_config") != cfg.to_dict():
+            raise UsageError(f"{d}: dataset labelled with another planner configuration than preset {cfg.name!r} "
+                             f"(with the given overrides)")
+        if args.layout is not None and s.layout.name != args.layout:
+            raise UsageError(f"{d}: dataset has feature layout {s.layout.name!r}, not --layout {args.layout}")
+        if s.layout != first.layout or man.get("robot") != first.manifest.get("robot"):
+            raise UsageError(f"{d}: feature layout or robot differs from {args.datasets[0]}")
+    X = np.concatenate([s.X for s in sets])
+    Y = np.concatenate([s.Y for s in sets])
+    # situation ids are unique within a dataset; offset them so that datasets do not collide
+    G = np.concatenate([s.groups.astype(np.int64) * len(sets) + i for i, s in enumerate(sets)])
+    model = WheelSpeedMLP(hidden=args.hidden, activation=args.activation, max_epochs=args.epochs,
+                          batch_size=args.batch_size, learning_rate=args.lr, weight_decay=args.weight_decay,
+                          validation_fraction=args.validation_fraction, patience=args.patience,
+                          random_state=args.seed)
+    bar = progress(total=args.epochs, desc="epochs", unit="epoch")
+
+    def tick(epoch, tr, va):
+        bar.update(1)
+        bar.set_postfix_str(f"train {tr:.2e}  val {va:.2e} (m/s)^2", refresh=False)
+
+    try:
+        model.fit(X, Y, groups=G, feature_names=first.layout.feature_names,
+                  label_names=first.manifest.get("label_names"), progress=tick)
+    except (ValueError, FloatingPointError) as exc:
+        raise UsageError(f"training failed: {exc}") from None
+    finally:
+        bar.close()
+    lay = first.layout
+    provenance = {
+        "preset": cfg.name, "horizon": cfg.horizon, "sample_time_s": cfg.sample_time_s,
+        "planner_config": cfg.to_dict(), "robot": first.manifest["robot"], "feature_layout": lay.name,
+        "feature_layout_version": lay.version, "feature_layout_spec": lay.to_dict(),
+        "dataset": {"id": _dataset_id([s.manifest for s in sets]), "paths": [str(d) for d in args.datasets],
+                    "samples": int(len(X)),
+                    "parts": {str(d): sorted(s.manifest.get("parts", {})) for d, s in zip(args.datasets, sets)}},
+    }
+    model.save(args.out, provenance)
+    np.save(args.out / "validation_features.npy", X[model.validation_indices_])
+    print(f"trained {lay.name} layout ({X.shape[1]}-{args.hidden}-2) on {len(model.train_indices_)} samples, "
+          f"validated on {len(model.validation_indices_)}: validation RMSE {np.sqrt(model.validation_mse_):.4f} m/s "
+          f"(max {model.validation_max_abs_error_:.3f}), best epoch {model.best_epoch_} ({model.stop_reason_}), "
+          f"wrote {args.out}", file=sys.stdout)
+    return 0

@@ -1,0 +1,266 @@
+"""The deployed controller: the ONNX network run with onnxruntime (numpy + onnxruntime only).
+
+:class:`OnnxPolicy` answers ``decide(observation) -> ControlDecision`` like the GPC
+controller, with the same obstacle EKF and reference clock (through
+:class:`nn_export.features.SituationTracker`) and the same feature definition as the
+dataset. It runs the paper's two-pass scheme (section 4):
+
+1. predict the robot's next H poses with the network as if there were no obstacle: the
+   network is rolled forward H steps with the robot model, each step's features computed
+   from the predicted state and the desired poses ahead of it;
+2. if that predicted path comes closer than ``safety_distance_m`` (clearance: centre
+   distance minus both radii) to a predicted obstacle position at the same step (moving)
+   or to a static obstacle, the predicted poses become the new desired trajectory and the
+   network is run once more, now with the obstacles; otherwise the first control of the
+   obstacle-free pass is applied.
+
+``two_pass=False`` is the plain variant: one call with the obstacles and the real reference.
+
+A model file is checked when it is loaded, never at the first decision: it must be a
+readable ONNX graph written by :mod:`nn_export.export` (format key), with one float input
+of the size its feature layout says and one (batch, 2) output, a feature layout name and
+version this code computes, and a preset, horizon, sample time and robot equal to the ones
+it is asked to run with. Anything else is a one-line ``ValueError``
+(``FileNotFoundError`` for a missing file).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import onnxruntime as ort
+
+from casadi_gpc.config import DEFAULT_PRESET, PlannerConfig, preset as preset_config
+from casadi_gpc.ekf import EKFSettings
+from casadi_gpc.robot import RobotParams, RobotState, robot_step
+from casadi_gpc.types import ControlDecision, Observation
+
+from .features import FeatureLayout, Situation, SituationTracker, compute_features, layout_from_dict, reference_poses
+
+__all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadata", "POLICY_FORMAT",
+           "DEFAULT_SAFETY_DISTANCE_M"]
+
+MODELS_DIR = Path(__file__).parent / "models"
+POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.export (kept equal by a test)
+INPUT_NAME, OUTPUT_NAME = "features", "wheel_speeds_mps"
+DEFAULT_SAFETY_DISTANCE_M = {"paper": 1.0, "improved": 1.0}
+"""Clearance below which the second pass runs, per preset (measured: docs/nn.md)."""
+_REQUIRED = ("format", "feature_layout", "feature_layout_version", "feature_names", "n_features", "preset", "horizon",
+             "sample_time_s", "robot", "output_clip_mps", "dataset", "validation_rmse_mps")
+
+
+def shipped_model_path(preset: str) -> Path:
+    """The model the package ships for ``preset``."""
+    return MODELS_DIR / f"{preset}.onnx"
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[0][:200] if text else type(exc).__name__
+
+
+def read_model_metadata(session: ort.InferenceSession) -> dict:
+    return dict(session.get_modelmeta().custom_metadata_map)
+
+
+def _load_session(path: Path) -> tuple[ort.InferenceSession, bytes]:
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such model file")
+    data = path.read_bytes()
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = 1  # a 17-35-2 net gains nothing from threads, and loses to their wake-up
+    opts.inter_op_num_threads = 1
+    opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+    opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    opts.log_severity_level = 3
+    try:
+        return ort.InferenceSession(data, opts, providers=["CPUExecutionProvider"]), data
+    except Exception as exc:  # onnxruntime raises its own classes for truncated or corrupt files
+        raise ValueError(f"{path}: not a readable ONNX model ({_one_line(exc)})") from None
+
+
+def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str | None,
+              robot: RobotParams) -> tuple[FeatureLayout, PlannerConfig]:
+    """The checks of the module docstring; returns the layout and the preset's config."""
+    if meta.get("format") != POLICY_FORMAT:
+        raise ValueError(f"{path}: not a gpcnav policy model (metadata format {meta.get('format')!r}, "
+                         f"expected {POLICY_FORMAT!r})")
+    missing = [k for k in _REQUIRED if k not in meta]
+    if missing:
+        raise ValueError(f"{path}: model metadata lacks {', '.join(missing)}")
+    try:
+        spec = json.loads(meta["feature_layout_spec"]) if "feature_layout_spec" in meta else {
+            "name": meta["feature_layout"], "version": meta["feature_layout_version"], "horizon": meta["horizon"]}
+        spec["feature_names"] = json.loads(meta["feature_names"])
+        n_features, horizon = int(meta["n_features"]), int(meta["horizon"])
+        sample_time_s = float(meta["sample_time_s"])
+        model_robot = json.loads(meta["robot"])
+        clip = float(meta["output_clip_mps"])
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"{path}: malformed model metadata ({_one_line(exc)})") from None
+    try:
+        layout = layout_from_dict(spec)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    if layout.size != n_features:
+        raise ValueError(f"{path}: layout {layout.name!r} has {layout.size} inputs but the metadata say {n_features}")
+    inputs, outputs = session.get_inputs(), session.get_outputs()
+    if len(inputs) != 1 or inputs[0].name != INPUT_NAME or inputs[0].type != "tensor(float)":
+        raise ValueError(f"{path}: the graph must have one float input {INPUT_NAME!r}")
+    if len(inputs[0].shape) != 2 or inputs[0].shape[1] != n_features:
+        raise ValueError(f"{path}: the graph's input has shape {inputs[0].shape}, the layout needs "
+                         f"[batch, {n_features}]")
+    if len(outputs) != 1 or len(outputs[0].shape) != 2 or outputs[0].shape[1] != 2:
+        raise ValueError(f"{path}: the graph must have one output of shape [batch, 2]")
+    name = meta["preset"]
+    if preset is not None and name != preset:
+        raise ValueError(f"{path}: model trained for preset {name!r}, refusing to run it under preset {preset!r}")
+    try:
+        cfg = preset_config(name)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    if cfg.horizon != horizon or layout.horizon != horizon or not math.isclose(cfg.sample_time_s, sample_time_s):
+        raise ValueError(f"{path}: model made for H={horizon}, T={sample_time_s} s but preset {name!r} has "
+                         f"H={cfg.horizon}, T={cfg.sample_time_s} s")
+    if model_robot != robot.to_dict():
+        diff = sorted(k for k in set(model_robot) | set(robot.to_dict()) if model_robot.get(k) != robot.to_dict().get(k))
+        raise ValueError(f"{path}: model trained for another robot ({', '.join(diff)} differ: "
+                         f"{ {k: model_robot.get(k) for k in diff} } vs { {k: robot.to_dict().get(k) for k in diff} })")
+    if not math.isclose(clip, robot.max_wheel_speed_mps):
+        raise ValueError(f"{path}: output clip {clip} m/s differs from the wheel limit {robot.max_wheel_speed_mps}")
+    return layout, cfg
+
+
+class OnnxPolicy:
+    """The network controller (see the module docstring).
+
+    Parameters
+    ----------
+    model : path or None
+        An ONNX file from ``gpcnav export``; None loads the model shipped for ``preset``.
+    preset : str or None
+        The planner preset the model must have been trained for (None: the model's own
+        preset, or the default preset when ``model`` is None as well).
+    robot : RobotParams, optional
+        The robot it drives; must equal the robot the model was trained for.
+    two_pass : bool
+        The paper's two-pass scheme (default) or one plain pass with the obstacles.
+    safety_distance_m : float, optional
+        Clearance that triggers the second pass (default per preset,
+        :data:`DEFAULT_SAFETY_DISTANCE_M`).
+    ekf_settings : EKFSettings, optional
+        The obstacle filter's noise levels (default as the GPC's).
+    """
+
+    def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
+                 two_pass: bool = True, safety_distance_m: float | None = None,
+                 ekf_settings: EKFSettings | None = None):
+        t0 = time.perf_counter()
+        self.robot = robot or RobotParams()
+        path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
+        self.session, data = _load_session(path)
+        meta = read_model_metadata(self.session)
+        self.layout, self.config = _validate(path, self.session, meta, preset, self.robot)
+        self.sample_time_s = self.config.sample_time_s
+        self.horizon = self.config.horizon
+        self.two_pass = bool(two_pass)
+        self.safety_distance_m = float(DEFAULT_SAFETY_DISTANCE_M[self.config.name] if safety_distance_m is None
+                                       else safety_distance_m)
+        if not math.isfinite(self.safety_distance_m):
+            raise ValueError(f"safety_distance_m must be finite, got {safety_distance_m}")
+        self.tracker = SituationTracker(self.config, ekf_settings)
+        # one preallocated float32 input row bound once; ``_net`` writes into it in place
+        self._x = np.zeros((1, self.layout.size), dtype=np.float32)
+        self._y = np.zeros((1, 2), dtype=np.float32)
+        self._f64 = np.zeros(self.layout.size)
+        self._binding = self.session.io_binding()
+        self._binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._x))
+        self._binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
+        self._run = self.session.run_with_iobinding
+        self._run()  # first call allocates; do it now, not in the first decision
+        self.model_info = {
+            "path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
+            "preset": meta["preset"], "feature_layout": self.layout.name, "feature_layout_version": self.layout.version,
+            "n_features": self.layout.size, "horizon": self.horizon, "sample_time_s": self.sample_time_s,
+            "hidden": int(meta.get("hidden", 0)) or None, "dataset": json.loads(meta["dataset"]),
+            "validation_rmse_mps": float(meta["validation_rmse_mps"]), "two_pass": self.two_pass,
+            "safety_distance_m": self.safety_distance_m,
+        }
+        self.load_time_s = time.perf_counter() - t0
+        self.reset()
+
+    # --- state -----------------------------------------------------------------------
+    def reset(self) -> None:
+        self.tracker.reset()
+        self.counters = {"decisions": 0, "second_pass": 0, "fallbacks": 0, "feature_report": {}}
+
+    # --- the network -----------------------------------------------------------------
+    def _net(self, situation: Situation) -> tuple[float, float]:
+        """One network call on ``situation``'s features (preallocated buffers)."""
+        compute_features(self.layout, situation, self._f64, self.counters["feature_report"])
+        self._x[0] = self._f64
+        self._run()
+        return float(self._y[0, 0]), float(self._y[0, 1])
+
+    def network(self, features: np.ndarray) -> np.ndarray:
+        """The raw network on a batch of feature rows (n, n_features) -> (n, 2), m/s."""
+        X = np.ascontiguousarray(features, dtype=np.float32).reshape(-1, self.layout.size)
+        return self.session.run([OUTPUT_NAME], {INPUT_NAME: X})[0]
+
+    def predict_free_path(self, situation: Situation, ref_ahead: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pass 1: roll the network forward H steps without obstacles.
+
+        ``ref_ahead``: desired poses at steps 0..2H-1 (the window of step j is j..j+H).
+        Returns predicted poses (H, 3) after each step and the wheel speeds (H, 2).
+        """
+        H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
+        free = situation.without_obstacles()
+        r = situation.robot
+        x, y, th, vr, vl = r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps
+        poses, wheels = np.empty((H, 3)), np.empty((H, 2))
+        for j in range(H):
+            s = free if j == 0 else replace(free, robot=RobotState(x, y, th, vr, vl), ref_poses=ref_ahead[j:j + H + 1])
+            vr, vl = self._net(s)
+            x, y, th = (float(v) for v in robot_step(np, x, y, th, vr, vl, T, W))
+            poses[j] = x, y, th
+            wheels[j] = vr, vl
+        return poses, wheels
+
+    def closest_clearance(self, situation: Situation, poses: np.ndarray) -> float:
+        """Smallest clearance of the predicted robot poses (H, 3) to the obstacles' predicted
+        positions at the same steps (moving) and to the static obstacles, m."""
+        best = math.inf
+        rr = self.robot.radius_m
+        for tr in situation.tracks:
+            d = np.hypot(poses[:, 0] - tr.means_m[:, 0], poses[:, 1] - tr.means_m[:, 1])
+            best = min(best, float(d.min()) - rr - tr.radius_m)
+        for st in situation.statics:
+            d = np.hypot(poses[:, 0] - st.position_m[0], poses[:, 1] - st.position_m[1])
+            best = min(best, float(d.min()) - rr - st.radius_m)
+        return best
+
+    # --- the step --------------------------------------------------------------------
+    def decide(self, obs: Observation) -> ControlDecision:
+        situation = self.tracker.update(obs)
+        self.counters["decisions"] += 1
+        if not self.two_pass:
+            vr, vl = self._net(situation)
+            return ControlDecision(vr, vl, False, "one pass")
+        H = self.horizon
+        ref_ahead = reference_poses(obs.reference, self.tracker.clock.s_m, self.sample_time_s, 2 * H - 1)
+        poses, wheels = self.predict_free_path(situation, ref_ahead)
+        clearance = self.closest_clearance(situation, poses)
+        if clearance >= self.safety_distance_m:
+            return ControlDecision(float(wheels[0, 0]), float(wheels[0, 1]), False, "pass 1: path clear",
+                                   wheels, poses, info={"predicted_clearance_m": clearance})
+        self.counters["second_pass"] += 1
+        r = obs.robot
+        desired = np.vstack([[r.x_m, r.y_m, r.heading_rad], poses])
+        vr, vl = self._net(situation.with_reference(desired))
+        return ControlDecision(vr, vl, False, "pass 2: avoiding", wheels, poses,
+                               info={"predicted_clearance_m": clearance})

@@ -1,7 +1,12 @@
 """Shared fixtures: the repository's paths and a writer of scenario files."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+# Tiny matrices only: OpenBLAS worker threads do not help here, and on a loaded 2-core
+# machine they made scipy's SLSQP (test_gpc_optimum) up to 10x slower. Set before numpy loads.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import pytest
 

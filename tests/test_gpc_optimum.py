@@ -22,7 +22,23 @@ from casadi_gpc.types import ObstacleForecast, StaticObstacle
 # --- an independent numpy implementation of the cost ------------------------------------
 def numpy_cost(u, x0, ref, forecasts, statics, cfg, robot: RobotParams):
     """J(u) for increments ``u`` of shape (..., 2H) (vectorised over the leading axes)."""
-    u = np.asarray(u, dtype=float)
+    return make_numpy_cost(x0, ref, forecasts, statics, cfg, robot)(u)
+
+
+def make_numpy_cost(x0, ref, forecasts, statics, cfg, robot: RobotParams):
+    """The cost of one tick as a function of the increments alone (obstacle terms prepared once)."""
+    H = cfg.horizon
+    obstacles = []  # (positions (H, 2), radius, P (H,), sigma (H,), xi)
+    for f in forecasts:
+        p_unc = 1.0 + (f.covs_m2[:, 0, 0] + f.covs_m2[:, 1, 1]) / cfg.uncertainty_scale_m ** 2
+        sigma = np.sqrt([np.max(np.linalg.eigvalsh(c)) for c in f.covs_m2])
+        obstacles.append((f.means_m, f.radius_m, p_unc, sigma, cfg.xi_moving))
+    for s in statics:
+        obstacles.append((np.tile(s.position_m, (H, 1)), s.radius_m, np.ones(H), np.zeros(H), cfg.xi_static))
+    return lambda u: _cost(np.asarray(u, dtype=float), x0, ref, obstacles, cfg, robot)
+
+
+def _cost(u, x0, ref, obstacles, cfg, robot):
     H, T, W = cfg.horizon, cfg.sample_time_s, robot.wheel_base_m
     du = u.reshape(u.shape[:-1] + (H, 2))
     vr = x0[3] + np.cumsum(du[..., 0], axis=-1)
@@ -43,13 +59,6 @@ def numpy_cost(u, x0, ref, forecasts, statics, cfg, robot: RobotParams):
     J = np.sum(cfg.tracking_weight * ((x - ref[:, 0]) ** 2 + (y - ref[:, 1]) ** 2) + cfg.heading_weight * e_h ** 2,
                axis=-1)
     J = J + cfg.lambda1 * np.sum(du ** 2, axis=(-1, -2)) + cfg.lambda2 * np.sum((vr - vl) ** 2, axis=-1)
-    obstacles = []  # (positions (H, 2), radius, P (H,), sigma (H,), xi)
-    for f in forecasts:
-        p_unc = 1.0 + (f.covs_m2[:, 0, 0] + f.covs_m2[:, 1, 1]) / cfg.uncertainty_scale_m ** 2
-        sigma = np.sqrt([np.max(np.linalg.eigvalsh(c)) for c in f.covs_m2])
-        obstacles.append((f.means_m, f.radius_m, p_unc, sigma, cfg.xi_moving))
-    for s in statics:
-        obstacles.append((np.tile(s.position_m, (H, 1)), s.radius_m, np.ones(H), np.zeros(H), cfg.xi_static))
     eps = cfg.clearance_softening_m
     for pos, radius, p_unc, sigma, xi in obstacles:
         d = np.hypot(x - pos[:, 0], y - pos[:, 1]) - robot.radius_m - radius
@@ -212,9 +221,7 @@ def test_gpc_optimum_not_worse_than_scipy(name):
         wheels = x0[3:5] + np.cumsum(best.u.reshape(H, 2), axis=0)
         assert np.all(np.abs(wheels) <= vmax + 1e-8)
 
-        def fun(u):
-            return numpy_cost(u, x0, ref, forecasts, statics, cfg, robot)
-
+        fun = make_numpy_cost(x0, ref, forecasts, statics, cfg, robot)
         gpc_cost = float(fun(best.u))
         assert gpc_cost == pytest.approx(best.cost, rel=1e-9)
         starts = [np.zeros(2 * H)] + list(initial_guesses(pr, x0, speed).values())

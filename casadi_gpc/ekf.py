@@ -79,6 +79,7 @@ class ObstacleEKF:
     outliers_: int = 0
     _last_z: np.ndarray | None = None
     _rejections_in_row: int = 0
+    _steps_since_first: int = 1  # samples between the first and the second measurement
 
     def _R(self) -> np.ndarray:
         return np.eye(2) * max(self.settings.measurement_std_m, 1e-3) ** 2
@@ -102,10 +103,12 @@ class ObstacleEKF:
         self.measurements_seen_ = 1
         self._last_z = z
         self._rejections_in_row = 0
+        self._steps_since_first = 1
 
     def _second(self, z: np.ndarray) -> None:
         """Two positions give speed and heading by finite difference."""
-        st, T = self.settings, self.sample_time_s
+        st = self.settings
+        T = self.sample_time_s * self._steps_since_first  # missed samples in between lengthen the baseline
         d = z - self._last_z
         v = float(np.hypot(*d)) / T
         r = max(st.measurement_std_m, 1e-3) ** 2
@@ -132,6 +135,7 @@ class ObstacleEKF:
         if self.measurements_seen_ == 1:
             if z is None:
                 self.missed_ += 1
+                self._steps_since_first += 1
                 # a stationary guess whose uncertainty grows with the unknown speed
                 self.cov_[:2, :2] += np.eye(2) * (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
                 return "missed"

@@ -138,6 +138,25 @@ def test_missing_before_the_track_starts_is_counted():
         ObstacleEKF(0.5).predict(3)
 
 
+@pytest.mark.parametrize("gap", [1, 2, 4])
+def test_missed_samples_between_the_first_two_measurements(gap):
+    """The first speed estimate divides by the real time between the two measurements
+    (it used to divide by one sample time, doubling the speed after one dropout)."""
+    T = 0.5
+    ekf = ObstacleEKF(T)
+    ekf.step([1.0, 1.0])
+    for _ in range(gap - 1):
+        assert ekf.step(None) == "missed"
+    assert ekf.step([1.0 + 0.3 * gap * T, 1.0 + 0.4 * gap * T]) == "update"
+    assert ekf.state_[2] == pytest.approx(0.5, rel=1e-12)
+    assert ekf.state_[3] == pytest.approx(math.atan2(0.4, 0.3), rel=1e-12)
+    assert ekf.missed_ == gap - 1
+    # and it then tracks the straight motion exactly
+    for k in range(gap + 1, gap + 6):
+        ekf.step([1.0 + 0.3 * k * T, 1.0 + 0.4 * k * T])
+    assert ekf.state_[2] == pytest.approx(0.5, abs=1e-3)
+
+
 def test_outlier_is_gated_then_the_track_restarts():
     T = 0.5
     ekf = run_filter(T, 20, noise=0.02, seed=2)

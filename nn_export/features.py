@@ -61,6 +61,10 @@ one-hidden-layer network needs no gating. Obstacles beyond the range are counted
 (``report["out_of_range"]``); ones that do not fit the layout's slots are counted
 (``report["dropped_moving"]``, ``report["dropped_static"]``).
 
+A track that has seen a single position (its speed and heading are unknown; the EKF
+predicts it standing still with a growing uncertainty) is encoded at its position with
+speed 0, heading pi and turn 0, like the absent obstacle's motion.
+
 Which obstacles fill the slots: the nearest first, by the smallest distance from the
 robot's current position to the obstacle's current or predicted positions (steps 1..H).
 
@@ -229,6 +233,9 @@ class TrackEstimate:
     """Predicted positions at steps 1..H, shape (H, 2)."""
     covs_m2: np.ndarray
     """Their covariances, shape (H, 2, 2)."""
+    initialised: bool = True
+    """False while the filter has seen a single position: speed and heading are unknown
+    (the filter assumes it stands still, with a growing uncertainty)."""
 
     def forecast(self) -> ObstacleForecast:
         return ObstacleForecast(self.obstacle_id, self.radius_m, self.means_m, self.covs_m2)
@@ -322,7 +329,8 @@ def reference_poses(path: ReferencePath, s0_m: float, sample_time_s: float, hori
 def track_estimate(ekf: ObstacleEKF, obstacle_id: int, radius_m: float, horizon: int) -> TrackEstimate:
     """Snapshot of a running EKF with its H-step forecast (as the GPC's ``estimate``)."""
     means, covs = ekf.predict(horizon)
-    return TrackEstimate(int(obstacle_id), float(radius_m), ekf.state_.copy(), ekf.cov_.copy(), means, covs)
+    return TrackEstimate(int(obstacle_id), float(radius_m), ekf.state_.copy(), ekf.cov_.copy(), means, covs,
+                         bool(ekf.initialised))
 
 
 def order_by_distance(robot_xy, tracks=(), statics=()) -> tuple[list, list]:
@@ -381,7 +389,10 @@ def _moving_slot(layout: FeatureLayout, robot: RobotState, tr: TrackEstimate | N
     c, s = math.cos(robot.heading_rad), math.sin(robot.heading_rad)
     x, y, v, th, dth = (float(a) for a in tr.state)
     dx, dy = x - robot.x_m, y - robot.y_m
-    vals = [c * dx + s * dy, -s * dx + c * dy, v, (th + dth - robot.heading_rad) % _TWO_PI, dth]
+    if tr.initialised:
+        vals = [c * dx + s * dy, -s * dx + c * dy, v, (th + dth - robot.heading_rad) % _TWO_PI, dth]
+    else:  # one position seen: standing still as far as anyone knows, heading unknown
+        vals = [c * dx + s * dy, -s * dx + c * dy, 0.0, math.pi, 0.0]
     if layout.flags:
         cov_h = tr.covs_m2[-1] if len(tr.covs_m2) else tr.cov[:2, :2]
         vals = [1.0] + vals + [tr.radius_m, math.sqrt(max(0.5 * float(np.trace(cov_h)), 0.0))]

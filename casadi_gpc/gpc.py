@@ -11,11 +11,12 @@ import numpy as np
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
 from .ekf import EKFSettings, ObstacleEKF
+from .guesses import initial_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
 from .types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
 
-__all__ = ["Plan", "GPCController", "initial_guesses"]
+__all__ = ["Plan", "GPCController"]
 
 _OK_STATUS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 TIE_RELATIVE = 1e-7  # candidates closer than this in cost are a tie; the earlier one wins
@@ -34,33 +35,6 @@ class Plan:
     lam_x: np.ndarray | None = None
     lam_g: np.ndarray | None = None
     solve_time_s: float = 0.0
-
-
-def _wheels_to_increments(v0: np.ndarray, wheels: np.ndarray, dv_max: float, v_max: float) -> np.ndarray:
-    """Increments that follow target wheel speeds as closely as the limits allow."""
-    v = np.array(v0, dtype=float)
-    u = np.empty((len(wheels), 2))
-    for i, target in enumerate(wheels):
-        step = np.clip(target - v, -dv_max, dv_max)
-        step = np.clip(v + step, -v_max, v_max) - v
-        u[i] = step
-        v = v + step
-    return u.reshape(-1)
-
-
-def initial_guesses(problem: GPCProblem, x0: np.ndarray, ref_speed_mps: float) -> dict[str, np.ndarray]:
-    """Straight, swerve-right and swerve-left guesses (in the order ties are broken)."""
-    cfg, robot = problem.config, problem.robot
-    H, W = cfg.horizon, robot.wheel_base_m
-    dv_max, v_max = robot.max_step_change_mps(cfg.sample_time_s), robot.max_wheel_speed_mps
-    v = float(np.clip(ref_speed_mps, 0.0, v_max))
-    out = {}
-    half = max(1, H // 2)
-    for name, sign in (("swerve_right", -1.0), ("swerve_left", 1.0), ("straight", 0.0)):
-        w = np.where(np.arange(H) < half, sign, -sign) * cfg.swerve_turn_rate_rad_s
-        wheels = np.stack([v + 0.5 * w * W, v - 0.5 * w * W], axis=1)
-        out[name] = _wheels_to_increments(x0[3:5], wheels, dv_max, v_max)
-    return out
 
 
 @dataclass
@@ -158,7 +132,8 @@ class GPCController:
         """Solve from the warm start and, if ``multistart``, from the fixed guesses; keep the
         cheapest successful plan. Exact ties keep the earliest guess (swerve right first)."""
         candidates: list[Plan] = []
-        guesses = initial_guesses(self.problem, x0, ref_speed_mps) if (multistart or warm is None) else {}
+        ref_poses = self.problem.layout.unpack(p)["ref"]
+        guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses) if (multistart or warm is None) else {}
         for name, u0 in guesses.items():
             candidates.append(self.solve(p, u0, name))
         if warm is not None:

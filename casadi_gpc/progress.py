@@ -18,29 +18,50 @@ class ReferenceClock:
     point moves at the reference speed but never more than ``max_lead_m`` ahead of the
     robot's projection on the path, so a robot that yields to an obstacle is not left
     chasing a point that ran away (and it never moves backwards).
+
+    Waiting must not become a deadlock (a gap too narrow to pass is a local minimum where
+    a robot held on a short leash would wait forever): after ``patience_s`` without
+    progress along the path, the allowed lead grows at the reference speed, so the pull
+    of the reference grows as it does under the paper's clock until going around is
+    cheaper than waiting. Progress shrinks the lead back at the same rate.
     """
 
     sample_time_s: float
     max_lead_m: float | None = None
+    patience_s: float = 5.0
     s_m: float = 0.0
     _proj_m: float = 0.0
+    _stalled_s: float = 0.0
+    _extra_lead_m: float = 0.0
 
     def reset(self) -> None:
         self.s_m = 0.0
         self._proj_m = 0.0
+        self._stalled_s = 0.0
+        self._extra_lead_m = 0.0
 
     def update(self, path: ReferencePath, t_s: float, robot_xy) -> float:
         """The reference arc length for the sample at ``t_s`` (call once per sample)."""
         if self.max_lead_m is None:
             self.s_m = float(path.arclength_at_time(t_s))
             return self.s_m
+        previous = self._proj_m
         self._proj_m = path.project(robot_xy, self._proj_m, window_m=1.0)
         nominal = float(path.arclength_at_time(t_s))
         if t_s <= 0.0:
             self.s_m = 0.0
+            return self.s_m
+        step = path.speed_mps * self.sample_time_s
+        if self._proj_m - previous < 0.25 * step and self.s_m < nominal:
+            self._stalled_s += self.sample_time_s
         else:
-            step = path.speed_mps * self.sample_time_s
-            self.s_m = min(self.s_m + step, max(self.s_m, self._proj_m + self.max_lead_m), nominal)
+            self._stalled_s = 0.0
+        if self._stalled_s > self.patience_s:
+            self._extra_lead_m += step
+        else:
+            self._extra_lead_m = max(0.0, self._extra_lead_m - step)
+        lead = self.max_lead_m + self._extra_lead_m
+        self.s_m = min(self.s_m + step, max(self.s_m, self._proj_m + lead), nominal)
         return self.s_m
 
     def horizon_arclengths(self, path: ReferencePath, horizon: int) -> np.ndarray:

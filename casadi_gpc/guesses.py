@@ -1,0 +1,79 @@
+"""Initial guesses for the multi-start solve.
+
+The cost is not convex near obstacles: a head-on encounter has a pass-left and a
+pass-right minimum, and an obstacle (or a gap too narrow to pass) in front of a stopped
+robot has a "wait" minimum. Solving from several guesses and keeping the cheapest answer
+finds the minimum a single warm start would miss. The order of the guesses is the order
+ties are broken in (``TIE_ORDER``): swerve right first, so an exact tie passes on the right.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .robot import robot_step
+
+__all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "initial_guesses"]
+
+TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left")
+DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
+
+
+def wheels_to_increments(v0, wheels, dv_max: float, v_max: float) -> np.ndarray:
+    """Increments that follow target wheel speeds as closely as the limits allow."""
+    v = np.array(v0, dtype=float)
+    u = np.empty((len(wheels), 2))
+    for i, target in enumerate(wheels):
+        step = np.clip(np.asarray(target) - v, -dv_max, dv_max)
+        step = np.clip(v + step, -v_max, v_max) - v
+        u[i] = step
+        v = v + step
+    return u.reshape(-1)
+
+
+def swerve_guesses(cfg, robot, x0, ref_speed_mps: float) -> dict[str, np.ndarray]:
+    """Turn one way for half the horizon and back the other way (and straight on)."""
+    H, W = cfg.horizon, robot.wheel_base_m
+    dv_max, v_max = robot.max_step_change_mps(cfg.sample_time_s), robot.max_wheel_speed_mps
+    v = float(np.clip(ref_speed_mps, 0.0, v_max))
+    half = max(1, H // 2)
+    out = {}
+    for name, sign in (("swerve_right", -1.0), ("swerve_left", 1.0), ("straight", 0.0)):
+        w = np.where(np.arange(H) < half, sign, -sign) * cfg.swerve_turn_rate_rad_s
+        wheels = np.stack([v + 0.5 * w * W, v - 0.5 * w * W], axis=1)
+        out[name] = wheels_to_increments(x0[3:5], wheels, dv_max, v_max)
+    return out
+
+
+def detour_guesses(cfg, robot, x0, ref_poses, ref_speed_mps: float, gain: float = 1.5) -> dict[str, np.ndarray]:
+    """Steer towards the reference shifted sideways (a way around what blocks the path):
+    a simple pursuit of the shifted points, rolled out with the robot model."""
+    H, W, T = cfg.horizon, robot.wheel_base_m, cfg.sample_time_s
+    dv_max, v_max = robot.max_step_change_mps(T), robot.max_wheel_speed_mps
+    ref_poses = np.asarray(ref_poses, dtype=float)
+    normal = np.stack([-np.sin(ref_poses[:, 2]), np.cos(ref_poses[:, 2])], axis=1)
+    out = {}
+    for name, offset in zip(("detour_right", "detour_left"), DETOUR_OFFSETS_M):
+        targets = ref_poses[:, :2] + offset * normal
+        x, y, th = x0[0], x0[1], x0[2]
+        v = np.array(x0[3:5], dtype=float)
+        u = np.empty((H, 2))
+        for i in range(H):
+            dx, dy = targets[i] - (x, y)
+            err = np.arctan2(dy, dx) - th
+            err = np.arctan2(np.sin(err), np.cos(err))
+            speed = min(max(ref_speed_mps, 0.1), np.hypot(dx, dy) / T) * max(np.cos(err), 0.0)
+            w = gain * err
+            target = np.array([speed + 0.5 * w * W, speed - 0.5 * w * W])
+            u[i] = wheels_to_increments(v, [target], dv_max, v_max)
+            v = v + u[i]
+            x, y, th = robot_step(np, x, y, th, v[0], v[1], T, W)
+        out[name] = u.reshape(-1)
+    return out
+
+
+def initial_guesses(problem, x0, ref_speed_mps: float, ref_poses=None) -> dict[str, np.ndarray]:
+    """All fixed guesses in tie-break order (detours only when the reference is known)."""
+    guesses = swerve_guesses(problem.config, problem.robot, x0, ref_speed_mps)
+    if ref_poses is not None:
+        guesses.update(detour_guesses(problem.config, problem.robot, x0, ref_poses, ref_speed_mps))
+    return {k: guesses[k] for k in TIE_ORDER if k in guesses}

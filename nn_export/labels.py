@@ -32,6 +32,8 @@ __all__ = ["LABEL_NAMES", "GUESS_NAMES", "Label", "Labeller", "fastest_solver", 
 LABEL_NAMES = ("v_right_mps", "v_left_mps")
 """The network's outputs: the wheel speeds to apply over the next interval."""
 GUESS_NAMES = ("swerve_right", "swerve_left", "straight")
+LABEL_TOLERANCE = 1e-12
+"""Solver tolerance of the labels (the planner's closed loop uses 1e-9)."""
 
 
 @dataclass(frozen=True)
@@ -90,7 +92,12 @@ class Labeller:
         self.solver = solver or fastest_solver()
         self.config = config if config.solver == self.solver else config.with_overrides(solver=self.solver)
         self.robot = robot or RobotParams()
-        self.controller = GPCController(self.config, self.robot)
+        # labels are solved tighter than the closed loop needs: when several initial guesses
+        # reach the same optimum, the tie-break's pick must not show through the solver's
+        # tolerance (at IPOPT's 1e-9 the first control differs by up to ~5e-6 m/s between
+        # starts; at 1e-12 by ~1e-7)
+        kw = {"ipopt_options": {"ipopt.tol": LABEL_TOLERANCE}} if self.solver == "ipopt" else {}
+        self.controller = GPCController(self.config, self.robot, **kw)
         self.counters = {"situations": 0, "not_converged": 0, "solves": 0}
 
     def parameters(self, situation: Situation) -> np.ndarray:

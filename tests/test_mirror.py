@@ -1,0 +1,87 @@
+"""Mirror symmetry: the GPC's answer on a situation reflected about the reference's tangent
+is the original answer with the wheels swapped, to 1e-6 m/s on random situations (the check
+the dataset writer applies to its labels), and the dataset's mirror samples are exactly the
+mirror map of their partners."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from casadi_gpc.config import preset
+from nn_export.features import compute_features, layout_for, mirror_features
+from nn_export.labels import Labeller, mirror_label
+from nn_export.sampler import sample_situation
+
+TOL_MPS = 1e-6
+
+
+@pytest.fixture(scope="module")
+def labellers():
+    return {}
+
+
+def _labeller(cache, name):
+    if name not in cache:
+        cache[name] = Labeller(preset(name))
+    return cache[name]
+
+
+@pytest.mark.parametrize("preset_name, layout_name, count", [("paper", "paper", 25), ("improved", "paper", 15),
+                                                              ("improved", "multi", 10)])
+def test_gpc_answer_is_mirror_symmetric(labellers, preset_name, layout_name, count):
+    lab = _labeller(labellers, preset_name)
+    rng = np.random.default_rng(2024)
+    checked, worst = 0, 0.0
+    for _ in range(count):
+        sit = sample_situation(rng, lab.config, layout_name)
+        a = lab.label(sit)
+        b = lab.label(sit.mirrored())
+        assert a.converged == b.converged
+        if not a.converged:
+            continue
+        diff = float(np.max(np.abs(mirror_label(a.wheels_mps) - b.wheels_mps)))
+        worst = max(worst, diff)
+        assert diff <= TOL_MPS, (diff, a.guess, b.guess, a.candidate_costs, b.candidate_costs)
+        assert b.cost == pytest.approx(a.cost, rel=1e-7, abs=1e-9)
+        checked += 1
+    assert checked >= count - 2
+
+
+def test_mirror_map_swaps_wheels_and_negates_lateral_quantities():
+    lay = layout_for("paper", 6)
+    f = np.arange(1.0, lay.size + 1.0)
+    f[lay.index("mov1_heading_rad")] = 1.0
+    m = dict(zip(lay.feature_names, mirror_features(lay, f)))
+    orig = dict(zip(lay.feature_names, f))
+    assert (m["v_right_prev_mps"], m["v_left_prev_mps"]) == (orig["v_left_prev_mps"], orig["v_right_prev_mps"])
+    for name in lay.feature_names:
+        if name.endswith(("_y_m", "_turn_rad")) or name.startswith("ref_curvature") or name == "ref_heading_rad":
+            assert m[name] == -orig[name], name
+        elif name == "mov1_heading_rad":
+            assert m[name] == pytest.approx(2 * np.pi - 1.0)
+        elif name not in ("v_right_prev_mps", "v_left_prev_mps"):
+            assert m[name] == orig[name], name
+    np.testing.assert_array_equal(mirror_label(np.array([[0.3, 0.1]])), [[0.1, 0.3]])
+
+
+def test_mirror_samples_in_a_shard_are_the_mirror_of_their_partners(labellers):
+    from nn_export.dataset import DatasetSpec, label_shard
+    cfg = preset("paper")
+    spec = DatasetSpec(samples=16, config=cfg, layout=layout_for("paper", cfg.horizon), seed=4, shard_size=16,
+                       solver=_labeller(labellers, "paper").solver, mirror_check_every=2)
+    _, a, stats = label_shard(spec, 0)
+    lay = spec.layout
+    orig, mir = ~a["mirror"], a["mirror"]
+    assert orig.sum() == mir.sum() == 8
+    np.testing.assert_array_equal(a["situation_id"][orig], a["situation_id"][mir])
+    np.testing.assert_allclose(a["features"][mir], mirror_features(lay, a["features"][orig]), atol=0, rtol=0)
+    np.testing.assert_array_equal(a["labels"][mir], a["labels"][orig][:, ::-1])
+    np.testing.assert_array_equal(a["plan_wheels_mps"][mir], a["plan_wheels_mps"][orig][:, :, ::-1])
+    # the writer's own check ran on every second situation and found the labels symmetric
+    checks = a["mirror_check_mps"][orig][::2]
+    assert np.all(np.isfinite(checks)) and np.all(checks <= TOL_MPS)
+    assert stats["mirror_checked"] == 4 and stats["mirror_over_tolerance"] == 0
+    # and the stored features are those of the situations themselves
+    rng = np.random.default_rng([4, 0])
+    first = sample_situation(rng, cfg, "paper")
+    np.testing.assert_array_equal(a["features"][0], compute_features(lay, first))

@@ -13,7 +13,8 @@ import pytest
 from scipy.optimize import LinearConstraint, minimize
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.gpc import GPCController, initial_guesses
+from casadi_gpc.gpc import GPCController
+from casadi_gpc.guesses import initial_guesses
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams
 from casadi_gpc.types import ObstacleForecast, StaticObstacle
@@ -215,7 +216,8 @@ def test_gpc_optimum_not_worse_than_scipy(name):
         p = pr.layout.pack(x0, ref, forecasts, statics, cfg.uncertainty_scale_m)
         best, candidates = ctrl.plan(p, x0, speed, multistart=True, warm=None)
         assert best is not None and best.success, [c.status for c in candidates]
-        assert len(candidates) == 3
+        guesses = initial_guesses(pr, x0, speed, ref)
+        assert len(candidates) == len(guesses) >= 3
         # the GPC's plan is feasible and its reported cost is the cost of its plan
         assert np.all(np.abs(best.u) <= dv + 1e-8)
         wheels = x0[3:5] + np.cumsum(best.u.reshape(H, 2), axis=0)
@@ -224,7 +226,7 @@ def test_gpc_optimum_not_worse_than_scipy(name):
         fun = make_numpy_cost(x0, ref, forecasts, statics, cfg, robot)
         gpc_cost = float(fun(best.u))
         assert gpc_cost == pytest.approx(best.cost, rel=1e-9)
-        starts = [np.zeros(2 * H)] + list(initial_guesses(pr, x0, speed).values())
+        starts = [np.zeros(2 * H)] + list(guesses.values())  # scipy from the GPC's starts, and more
         starts += [feasible_random_start(rng, x0, H, dv, vmax) for _ in range(3)]
         sp_cost, _ = scipy_minimum(fun, starts, H, x0, dv, vmax)
         report.append((gpc_cost, sp_cost))

@@ -41,6 +41,7 @@ from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, Observation
 
 from .features import FeatureLayout, Situation, SituationTracker, compute_features, layout_from_dict, reference_poses
+from .safety import SafetyFilter
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadata", "POLICY_FORMAT",
            "DEFAULT_SAFETY_DISTANCE_M"]
@@ -155,11 +156,17 @@ class OnnxPolicy:
         :data:`DEFAULT_SAFETY_DISTANCE_M`).
     ekf_settings : EKFSettings, optional
         The obstacle filter's noise levels (default as the GPC's).
+    safety_filter : bool or SafetyFilter
+        Check every command with :class:`nn_export.safety.SafetyFilter` (default on); a
+        filter object to use one with other settings; False to run the bare network.
+    fallback : object with ``decide(observation)``, optional
+        The planner the safety filter hands over to (e.g. the GPC in a
+        :class:`~nn_export.safety.StandbyPlanner`); without one it brakes or swerves.
     """
 
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
                  two_pass: bool = True, safety_distance_m: float | None = None,
-                 ekf_settings: EKFSettings | None = None):
+                 ekf_settings: EKFSettings | None = None, safety_filter=True, fallback=None):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
@@ -191,6 +198,13 @@ class OnnxPolicy:
             "validation_rmse_mps": float(meta["validation_rmse_mps"]), "two_pass": self.two_pass,
             "safety_distance_m": self.safety_distance_m,
         }
+        if isinstance(safety_filter, SafetyFilter):
+            self.safety = safety_filter
+        elif safety_filter:
+            self.safety = SafetyFilter(self.robot, self.sample_time_s, self.horizon, fallback=fallback)
+        else:
+            self.safety = None
+        self.model_info["safety_filter"] = self.safety is not None
         self.load_time_s = time.perf_counter() - t0
         self.reset()
 
@@ -198,6 +212,8 @@ class OnnxPolicy:
     def reset(self) -> None:
         self.tracker.reset()
         self.counters = {"decisions": 0, "second_pass": 0, "fallbacks": 0, "feature_report": {}}
+        if self.safety is not None:
+            self.safety.reset()
 
     # --- the network -----------------------------------------------------------------
     def _net(self, situation: Situation) -> tuple[float, float]:
@@ -247,6 +263,35 @@ class OnnxPolicy:
     # --- the step --------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:
         situation = self.tracker.update(obs)
+        dec = self._decide(obs, situation)
+        return dec if self.safety is None else self._checked(obs, situation, dec)
+
+    def _checked(self, obs: Observation, situation: Situation, dec: ControlDecision) -> ControlDecision:
+        """The decision through the safety filter; an intervention is a counted fallback."""
+        t0 = time.perf_counter()
+        # the pass-1 plan is the candidate's own continuation only when its first step is applied
+        plan = dec.planned_wheels_mps
+        own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
+        cand = plan if own else np.array([dec.v_right_mps, dec.v_left_mps])
+        v = self.safety.filter(obs, cand, situation.forecasts(), situation.statics)
+        for k, n in self.safety.counters.items():
+            self.counters["safety_" + k] = n
+        info = dec.info  # the decision is new each step: annotate it in place
+        info["safety_time_s"] = time.perf_counter() - t0
+        info["safety_clearance_m"] = v.check.min_clearance_m
+        if not v.intervened:
+            return dec
+        self.counters["fallbacks"] += 1
+        for k in ("solves", "failed_solves", "fallbacks"):  # the standby planner's own failures
+            n = getattr(self.safety.fallback, "counters", {}).get(k)
+            if n is not None:
+                self.counters["safety_fallback_" + k] = n
+        return ControlDecision(v.v_right_mps, v.v_left_mps, True, v.reason, v.planned_wheels_mps, None,
+                               info={**info, "network_wheels_mps": (dec.v_right_mps, dec.v_left_mps),
+                                     "safety_source": v.source})
+
+    def _decide(self, obs: Observation, situation: Situation) -> ControlDecision:
+        """The network's own decision (one or two passes), before the safety filter."""
         self.counters["decisions"] += 1
         if not self.two_pass:
             vr, vl = self._net(situation)

@@ -1,0 +1,477 @@
+"""A safety filter around the network: check its wheel speeds against the predicted
+obstacles and replace them when they come too close (numpy only).
+
+A network that imitates an optimiser has no guarantee. Each sample, :class:`SafetyFilter`
+rolls the candidate wheel-speed sequence out over the horizon with the one robot model
+(:func:`casadi_gpc.robot.robot_step`, sub-sampled inside every interval like the
+simulator's collision check), and measures the clearance to every obstacle disc:
+
+    clearance(t) = |p_robot(t) - q_obstacle(t)| - r_robot - r_obstacle - k sigma(t)
+
+where ``q`` is the EKF's predicted position (linearly interpolated between samples) and
+``sigma`` the standard deviation of the predicted position along its worst direction
+(the square root of the largest eigenvalue of the 2x2 covariance at the end of the
+interval), so an uncertain obstacle is a larger disc. Static discs have ``sigma = 0``.
+Between two sub-samples the robot and the obstacle move on straight chords and the
+closest approach on each chord is computed exactly, so a fast pass between sub-samples is
+not missed.
+
+A candidate is the command for the next interval, optionally with the candidate's own plan
+for the whole horizon (the network's pass-1 roll-out). It is **accepted** when its plan keeps
+the smallest clearance over the horizon at or above ``margin_m``, or, failing that (or
+without a plan), when after one interval of the command at least one manoeuvre of the fixed
+set below still does: there is still a way out, checked against every obstacle over the
+whole horizon. When the robot is already inside the margin (an obstacle first seen close
+by), a sequence that makes the clearance no smaller than it is now also passes. Otherwise
+the filter **intervenes**, in this order:
+
+1. the fallback planner, if one was given (an object with ``decide(observation)``, usually
+   the GPC kept on standby by :class:`StandbyPlanner`), unless its own answer is a
+   fallback;
+2. else the best of a small fixed set of manoeuvres within the speed and acceleration
+   limits (brake, swerve left/right, slow turns, reverse, dash ahead), each a constant
+   wheel-speed target approached at the acceleration limit: the one whose roll-out keeps the
+   largest predicted clearance (ties go to the earlier one in :data:`MANOEUVRES`, braking
+   first). If none is better than the candidate itself, the candidate is kept and that is
+   counted (``no_safer_option``).
+
+Every check and every intervention is counted in :attr:`SafetyFilter.counters`.
+``docs/faults.md`` documents the settings and the measured cost.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from casadi_gpc.robot import RobotParams, robot_step
+from casadi_gpc.types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
+
+__all__ = ["MANOEUVRES", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "StandbyPlanner"]
+
+MANOEUVRES: tuple[tuple[str, float, float], ...] = (
+    ("brake", 0.0, 0.0),
+    ("swerve_right", -0.25, 0.25),
+    ("swerve_left", 0.25, -0.25),
+    ("slow_right", 0.0, 0.5),
+    ("slow_left", 0.5, 0.0),
+    ("reverse", -0.5, -0.5),
+    ("reverse_right", -0.5, -0.2),
+    ("reverse_left", -0.2, -0.5),
+    ("dash", 1.0, 1.0),
+)
+"""(name, right, left) wheel-speed targets as fractions of the speed limit. The two swerves
+are offsets added to the current mean wheel speed (at least a quarter of the limit), the
+others are absolute targets. 'right'/'left' name the side the robot turns towards."""
+
+_TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
+_NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
+
+
+@dataclass(frozen=True)
+class SafetyCheck:
+    """The verdict on one wheel-speed sequence."""
+
+    safe: bool
+    min_clearance_m: float
+    """Smallest inflated clearance over the horizon (``inf`` without obstacles)."""
+    current_clearance_m: float
+    """Inflated clearance now, before the robot moves."""
+    time_s: float
+    """When the smallest clearance occurs, from now."""
+    obstacle: str
+    """Which obstacle: ``"moving <id>"`` or ``"static <index>"`` (empty without obstacles)."""
+    continuation: str
+    """What follows the command in the sequence judged: ``"plan"`` (the candidate's own)
+    or ``"then <manoeuvre>"`` (the best way out after one interval of the command)."""
+
+
+@dataclass(frozen=True)
+class SafetyVerdict:
+    """What the filter lets through."""
+
+    v_right_mps: float
+    v_left_mps: float
+    intervened: bool
+    reason: str
+    """Why it intervened and what replaced the candidate (empty when accepted)."""
+    source: str
+    """``"candidate"``, ``"fallback"`` or ``"manoeuvre:<name>"``."""
+    check: SafetyCheck
+    """The check of the candidate."""
+    planned_wheels_mps: np.ndarray | None = None
+    """(H, 2) the sequence that was let through, when known."""
+
+
+class SafetyFilter:
+    """Checks candidate wheel speeds against the predicted obstacles; see the module text.
+
+    Parameters
+    ----------
+    robot : RobotParams
+        Geometry and limits (radius, wheel base, speed and acceleration limits).
+    sample_time_s : float
+        T, the interval over which each wheel-speed pair is held.
+    horizon : int
+        H, the number of intervals checked (the forecasts must cover them).
+    margin_m : float
+        Smallest acceptable inflated clearance, m.
+    sigmas : float
+        k, how many predicted standard deviations inflate a moving obstacle.
+    substeps : int
+        Sub-samples per interval of the roll-out (closest approach exact between them).
+    fallback : object with ``decide(observation) -> ControlDecision``, optional
+        The planner to hand over to (the GPC). If it has ``observe(observation)``, the
+        filter calls it on every sample it does not hand over, so it stays in step.
+    """
+
+    def __init__(self, robot: RobotParams, sample_time_s: float, horizon: int, margin_m: float = 0.05,
+                 sigmas: float = 2.0, substeps: int = 4, fallback=None):
+        if not (math.isfinite(sample_time_s) and sample_time_s > 0):
+            raise ValueError(f"sample_time_s must be positive, got {sample_time_s}")
+        if int(horizon) != horizon or horizon < 1:
+            raise ValueError(f"horizon must be a positive integer, got {horizon}")
+        if int(substeps) != substeps or substeps < 1:
+            raise ValueError(f"substeps must be a positive integer, got {substeps}")
+        if not (math.isfinite(margin_m) and margin_m >= 0):
+            raise ValueError(f"margin_m must be finite and not negative, got {margin_m}")
+        if not (math.isfinite(sigmas) and sigmas >= 0):
+            raise ValueError(f"sigmas must be finite and not negative, got {sigmas}")
+        if fallback is not None and not callable(getattr(fallback, "decide", None)):
+            raise TypeError("fallback must have a decide(observation) method")
+        self.robot = robot
+        self.sample_time_s = float(sample_time_s)
+        self.horizon = int(horizon)
+        self.margin_m = float(margin_m)
+        self.sigmas = float(sigmas)
+        self.substeps = int(substeps)
+        self.fallback = fallback
+        S, T = self.substeps, self.sample_time_s
+        self._tau = T * np.arange(1, S + 1) / S          # sub-sample times inside an interval
+        self._frac = np.arange(1, S + 1) / S              # the same as fractions of T
+        self._steps = np.arange(1, self.horizon + 1)
+        # obstacle positions at the sub-sample instants (and now) from steps 1..H: linear
+        # between steps; now is the step back from step 1 (the EKF's model moves an obstacle
+        # by a near-constant chord each step)
+        H, N = self.horizon, self.horizon * S
+        known = np.zeros((H, H + 1))                      # steps 0..H from steps 1..H
+        known[:, 1:] = np.eye(H)
+        known[0, 0] = 2.0 if H > 1 else 1.0
+        if H > 1:
+            known[1, 0] = -1.0
+        self._interp = np.zeros((H, N + 1))
+        self._interp[:, 0] = known[:, 0]
+        for k in range(H):
+            self._interp[:, 1 + k * S:1 + (k + 1) * S] = (known[:, k:k + 1] * (1.0 - self._frac)
+                                                          + known[:, k + 1:k + 2] * self._frac)
+        # the inflation of each chord is the one at the end of its interval (the larger)
+        self._spread = np.kron(np.eye(H), np.ones((1, S)))
+        self._names = [m[0] for m in MANOEUVRES]
+        self._targets = np.array([m[1:] for m in MANOEUVRES], dtype=float)
+        self._swerves = np.array([m[0].startswith("swerve") for m in MANOEUVRES])
+        self.reset()
+
+    def reset(self) -> None:
+        self.counters = {"checks": 0, "interventions": 0, "fallback_used": 0, "fallback_failed": 0,
+                         "manoeuvres": 0, "no_safer_option": 0, "candidate_limited": 0,
+                         "non_finite_candidate": 0}
+        if self.fallback is not None and hasattr(self.fallback, "reset"):
+            self.fallback.reset()
+
+    # --- roll-out and clearances ---------------------------------------------------------
+    # Written for speed: every step of the filter is a handful of whole-array operations
+    # (numpy's per-call overhead, not the arithmetic, is what costs at these sizes).
+    def limit(self, v0, wheels: np.ndarray) -> np.ndarray:
+        """``wheels`` (..., H, 2) followed within the limits from the current speeds ``v0``,
+        exactly as the simulator clips them (rate first, then speed)."""
+        dv, vmax = self.robot.max_step_change_mps(self.sample_time_s), self.robot.max_wheel_speed_mps
+        out = np.empty_like(wheels)
+        v = np.broadcast_to(np.asarray(v0, dtype=float), wheels[..., 0, :].shape)
+        for i in range(wheels.shape[-2]):
+            v = np.minimum(np.maximum(np.minimum(np.maximum(wheels[..., i, :], v - dv), v + dv), -vmax), vmax)
+            out[..., i, :] = v
+        return out
+
+    def within_limits(self, v0, wheels: np.ndarray) -> bool:
+        """Whether the (H, 2) sequence ``wheels`` already keeps the speed and rate limits."""
+        dv, vmax = self.robot.max_step_change_mps(self.sample_time_s), self.robot.max_wheel_speed_mps
+        tol = 1e-9
+        if np.abs(wheels).max() > vmax + tol:
+            return False
+        return bool(np.abs(np.diff(wheels, axis=0, prepend=np.asarray(v0, float)[None])).max() <= dv + tol)
+
+    def rollout(self, state, wheels: np.ndarray) -> np.ndarray:
+        """Robot positions at the sub-sample instants as complex numbers x + iy,
+        ``(M, H * substeps + 1)``, the first column now. ``state`` = (x, y, heading, ...),
+        ``wheels`` (M, H, 2)."""
+        T, W = self.sample_time_s, self.robot.wheel_base_m
+        vr, vl = wheels[..., 0], wheels[..., 1]
+        # heading at the start of each interval: the model turns by (vr - vl) T / W per interval
+        turn = (vr - vl) * (T / W)
+        h0 = (state[2] - turn) + np.add.accumulate(turn, axis=-1)
+        # one call of the model for every sub-sample of every interval, from a local origin
+        dx, dy, _ = robot_step(np, 0.0, 0.0, h0[..., None], vr[..., None], vl[..., None], self._tau, W)
+        d = dx + 1j * dy                                                      # (M, H, S)
+        # interval start points: the cumulated full-interval displacements (last sub-sample)
+        end = d[..., -1]
+        start = (complex(state[0], state[1]) - end) + np.add.accumulate(end, axis=-1)
+        M, N = wheels.shape[0], self.horizon * self.substeps
+        p = np.empty((M, N + 1), dtype=complex)
+        p[:, 0] = complex(state[0], state[1])
+        p[:, 1:] = (start[..., None] + d).reshape(M, N)
+        return p
+
+    def obstacle_tracks(self, forecasts, statics) -> tuple:
+        """The obstacles at the roll-out's instants, as complex positions ``(n, H * substeps
+        + 1)``, the distance at which each chord touches ``(n, H * substeps)`` (radii plus k
+        sigma, m), and the obstacles themselves (for the labels)."""
+        H, N = self.horizon, self.horizon * self.substeps
+        nm, n = len(forecasts), len(forecasts) + len(statics)
+        q = np.empty((n, N + 1), dtype=complex)
+        touch = np.empty((n, N))
+        if nm:
+            try:
+                m = np.array([f.means_m for f in forecasts], dtype=float)     # (n, H, 2)
+                c = np.array([f.covs_m2 for f in forecasts], dtype=float)     # (n, H, 2, 2)
+            except ValueError:
+                raise ValueError("obstacle forecasts of different lengths") from None
+            if m.shape[1:] != (H, 2) or c.shape[1:] != (H, 2, 2):
+                raise ValueError(f"obstacle forecasts must cover {H} steps with (H, 2) means and (H, 2, 2) "
+                                 f"covariances, got {m.shape[1:]} and {c.shape[1:]}")
+            # now and the sub-sample instants, by one constant linear map of steps 1..H
+            q[:nm] = (m[..., 0] + 1j * m[..., 1]) @ self._interp
+            a, b, d = c[..., 0, 0], c[..., 0, 1], c[..., 1, 1]
+            half = 0.5 * (a - d)
+            sig = np.sqrt(np.maximum(0.5 * (a + d) + np.sqrt(half * half + b * b), 0.0))   # (n, H)
+            radii = np.array([f.radius_m for f in forecasts], dtype=float)
+            touch[:nm] = (self.sigmas * sig) @ self._spread + (radii[:, None] + self.robot.radius_m)
+        for i, st in enumerate(statics):
+            q[nm + i] = complex(st.position_m[0], st.position_m[1])
+            touch[nm + i] = st.radius_m + self.robot.radius_m
+        return q, touch, (tuple(forecasts), tuple(statics))
+
+    @staticmethod
+    def _label(obstacles, j: int) -> str:
+        moving, statics = obstacles[2]
+        return f"moving {moving[j].obstacle_id}" if j < len(moving) else f"static {j - len(moving)}"
+
+    def clearances(self, state, wheels: np.ndarray, obstacles) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                        np.ndarray]:
+        """For each sequence in ``wheels`` (M, H, 2): the smallest inflated clearance over the
+        horizon, the clearance now, the chord index and the obstacle of the minimum."""
+        q, touch, _ = obstacles
+        M = wheels.shape[0]
+        if not len(q):
+            inf = np.full(M, np.inf)
+            return inf, inf, np.zeros(M, int), np.zeros(M, int)
+        rel = self.rollout(state, wheels)[:, None, :] - q[None]            # (M, n, N+1) robot - obstacle
+        r0 = rel[..., :-1]                                                  # chord starts
+        u = rel[..., 1:] - r0                                               # chord directions
+        # closest approach on each chord: the relative motion is linear between sub-samples
+        s = (r0.real * u.real + r0.imag * u.imag) / (u.real * u.real + u.imag * u.imag + 1e-18)
+        s = np.minimum(np.maximum(-s, 0.0), 1.0)
+        gap = np.abs(r0 + s * u) - touch
+        flat = gap.reshape(M, -1)
+        k = flat.argmin(axis=1)
+        now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
+        n_chords = gap.shape[-1]
+        return flat[np.arange(M), k], now, k % n_chords, k // n_chords
+
+    # --- candidates ----------------------------------------------------------------------
+    def manoeuvres(self, v0, steps: int | None = None) -> tuple[list[str], np.ndarray]:
+        """The fixed manoeuvres from wheel speeds ``v0``: names and (M, steps, 2) wheel
+        speeds (``steps`` = H by default), each target approached at the acceleration limit
+        and then held."""
+        steps = self.horizon if steps is None else steps
+        vmax, dv = self.robot.max_wheel_speed_mps, self.robot.max_step_change_mps(self.sample_time_s)
+        v0 = np.asarray(v0, dtype=float)
+        tgt = self._targets * vmax
+        tgt[self._swerves] += max(0.5 * float(v0[0] + v0[1]), 0.25 * vmax)
+        tgt = np.minimum(np.maximum(tgt, -vmax), vmax)                          # (M, 2)
+        reach = dv * self._steps[None, :steps, None]                             # (1, steps, 1)
+        w = v0 + np.minimum(np.maximum(tgt[:, None, :] - v0, -reach), reach)
+        return self._names, np.minimum(np.maximum(w, -vmax), vmax)
+
+    def _escapes(self, cmd: np.ndarray) -> np.ndarray:
+        """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there."""
+        _, man = self.manoeuvres(cmd, self.horizon - 1)
+        W = np.empty((len(self._names), self.horizon, 2))
+        W[:, 0] = cmd
+        W[:, 1:] = man
+        return W
+
+    def _as_candidate(self, state, wheels) -> tuple[np.ndarray | None, np.ndarray | None, bool]:
+        """(command (2,), own plan (H, 2) or None, whether it had to be limited); None
+        command when it is not finite."""
+        w = np.asarray(wheels, dtype=float)
+        if w.shape == (2,):
+            plan = None
+        elif w.shape == (self.horizon, 2):
+            plan = w
+        else:
+            raise ValueError(f"candidate wheel speeds must have shape (2,) or ({self.horizon}, 2), got {w.shape}")
+        if not np.all(np.isfinite(w)):
+            return None, None, False
+        seq = w.reshape(-1, 2)
+        limited = not self.within_limits(state[3:5], seq)
+        if limited:
+            seq = self.limit(state[3:5], seq)
+        return seq[0].copy(), (seq if plan is not None else None), limited
+
+    def _judge(self, cmin: float, now: float) -> bool:
+        return cmin >= self.margin_m or (now < self.margin_m and cmin >= now - _NOT_WORSE_M)
+
+    def _assess(self, state, cmd, plan, obstacles) -> SafetyCheck:
+        """The check of a command (and its own plan, if any): its plan first; if that fails
+        or there is none, the command followed by each manoeuvre."""
+        if not len(obstacles[0]):
+            return SafetyCheck(True, math.inf, math.inf, 0.0, "", "")
+        T, S = self.sample_time_s, self.substeps
+        if plan is not None:
+            cmin, now, chord, which = self.clearances(state, plan[None], obstacles)
+            if self._judge(float(cmin[0]), float(now[0])):
+                return SafetyCheck(True, float(cmin[0]), float(now[0]), float(chord[0] + 1) * T / S,
+                                   self._label(obstacles, int(which[0])), "plan")
+            plan_check = SafetyCheck(False, float(cmin[0]), float(now[0]), float(chord[0] + 1) * T / S,
+                                     self._label(obstacles, int(which[0])), "plan")
+        cmin, now, chord, which = self.clearances(state, self._escapes(cmd), obstacles)
+        i = int(np.argmax(cmin >= cmin.max() - _TIE_M))
+        check = SafetyCheck(self._judge(float(cmin[i]), float(now[i])), float(cmin[i]), float(now[i]),
+                            float(chord[i] + 1) * T / S, self._label(obstacles, int(which[i])), "then " + self._names[i])
+        if not check.safe and plan is not None and plan_check.min_clearance_m > check.min_clearance_m:
+            return plan_check
+        return check
+
+    def check(self, state, wheels, forecasts=(), statics=()) -> SafetyCheck:
+        """The verdict on a candidate from ``state`` = (x, y, heading, v_right, v_left).
+
+        ``wheels``: the command ``(2,)``, or the candidate's own plan ``(H, 2)`` whose first
+        row is the command. It is safe when its plan keeps the clearance, or when after one
+        interval of the command some manoeuvre of :data:`MANOEUVRES` does (there is still a
+        way out). Sequences outside the limits are checked as the robot would follow them.
+        """
+        state = np.asarray(state, dtype=float)
+        if state.shape != (5,) or not np.all(np.isfinite(state)):
+            raise ValueError(f"state must be 5 finite numbers (x, y, heading, v_right, v_left), got {state}")
+        cmd, plan, _ = self._as_candidate(state, wheels)
+        if cmd is None:
+            return SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate")
+        return self._assess(state, cmd, plan, self.obstacle_tracks(forecasts, statics))
+
+    def best_manoeuvre(self, state, obstacles) -> tuple[str, np.ndarray, float]:
+        """The manoeuvre from now with the largest predicted clearance: (name, (H, 2)
+        wheels, clearance). Ties go to the earlier one in :data:`MANOEUVRES`."""
+        names, W = self.manoeuvres(np.asarray(state, float)[3:5])
+        cmin, _, _, _ = self.clearances(np.asarray(state, float), W, obstacles)
+        best = int(np.argmax(cmin >= cmin.max() - _TIE_M))
+        return names[best], W[best], float(cmin[best])
+
+    # --- the filter ----------------------------------------------------------------------
+    def filter(self, observation: Observation, wheels, forecasts=(), statics=None) -> SafetyVerdict:
+        """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
+        replace it (see :meth:`check`).
+
+        ``forecasts`` are the obstacle forecasts the candidate was made with (steps 1..H);
+        ``statics`` default to the observation's. The fallback planner, if any, sees
+        ``observation`` either way.
+        """
+        statics = observation.static if statics is None else statics
+        r = observation.robot
+        state = np.array([r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps], dtype=float)
+        self.counters["checks"] += 1
+        obstacles = self.obstacle_tracks(forecasts, statics)
+        cmd, plan, limited = self._as_candidate(state, wheels)
+        if cmd is None:
+            self.counters["non_finite_candidate"] += 1
+            check = SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate")
+            return self._intervene(observation, state, obstacles, check, None)
+        if limited:
+            # the simulator (and the robot) would clip it: what is checked is what would happen
+            self.counters["candidate_limited"] += 1
+        check = self._assess(state, cmd, plan, obstacles)
+        if check.safe:
+            if self.fallback is not None and hasattr(self.fallback, "observe"):
+                self.fallback.observe(observation)
+            return SafetyVerdict(float(cmd[0]), float(cmd[1]), False, "", "candidate", check, plan)
+        return self._intervene(observation, state, obstacles, check, cmd)
+
+    def _intervene(self, observation, state, obstacles, check: SafetyCheck, cmd) -> SafetyVerdict:
+        self.counters["interventions"] += 1
+        if math.isfinite(check.min_clearance_m):
+            why = (f"safety: {check.obstacle} predicted clearance {check.min_clearance_m:.2f} m at "
+                   f"+{check.time_s:.1f} s (margin {self.margin_m:.2f} m)")
+        else:
+            why = f"safety: {check.continuation}"
+        if self.fallback is not None:
+            dec: ControlDecision = self.fallback.decide(observation)
+            fcmd = np.array([dec.v_right_mps, dec.v_left_mps], dtype=float)
+            if not dec.fallback and np.all(np.isfinite(fcmd)):
+                self.counters["fallback_used"] += 1
+                lim = self.limit(state[3:5], fcmd[None])[0]
+                plan = dec.planned_wheels_mps
+                return SafetyVerdict(float(lim[0]), float(lim[1]), True, why + "; fallback planner", "fallback",
+                                     check, None if plan is None else np.asarray(plan, float))
+            self.counters["fallback_failed"] += 1
+            why += f"; fallback planner failed ({dec.reason})"
+        name, mw, cm = self.best_manoeuvre(state, obstacles)
+        if cmd is not None and cm <= check.min_clearance_m:
+            # nothing in the set does better than the candidate: keep it, and say so
+            self.counters["no_safer_option"] += 1
+            return SafetyVerdict(float(cmd[0]), float(cmd[1]), True, why + "; no safer manoeuvre, candidate kept",
+                                 "candidate", check, None)
+        self.counters["manoeuvres"] += 1
+        return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
+                             why + f"; manoeuvre {name} (clearance {cm:.2f} m)", f"manoeuvre:{name}", check, mw)
+
+
+class StandbyPlanner:
+    """A planner kept on standby: it is told every observation but solves only when asked.
+
+    ``observe(observation)`` stores the observation; ``decide(observation)`` first replays
+    the stored ones through the planner's estimation and reference clock (its
+    ``estimate`` and ``desired_poses``, or its ``decide`` when it has neither) so that its
+    obstacle filters and clock are exactly where they would have been, then decides. So
+    the GPC behind a network costs nothing while the network is trusted. At most
+    ``max_lag`` observations wait: beyond that the oldest is replayed at once, which bounds
+    the catch-up time of a long run.
+    """
+
+    def __init__(self, planner, max_lag: int = 400):
+        if not callable(getattr(planner, "decide", None)):
+            raise TypeError("planner must have a decide(observation) method")
+        self.planner = planner
+        self.max_lag = int(max_lag)
+        self.sample_time_s = getattr(planner, "sample_time_s", None)
+        self._pending: list[Observation] = []
+        self.replayed = 0
+
+    @property
+    def counters(self) -> dict:
+        return getattr(self.planner, "counters", {})
+
+    def reset(self) -> None:
+        if hasattr(self.planner, "reset"):
+            self.planner.reset()
+        self._pending = []
+        self.replayed = 0
+
+    def _replay(self, obs: Observation) -> None:
+        p = self.planner
+        if hasattr(p, "estimate") and hasattr(p, "desired_poses"):
+            p.estimate(obs)
+            p.desired_poses(obs)
+        else:
+            p.decide(obs)
+        self.replayed += 1
+
+    def observe(self, observation: Observation) -> None:
+        self._pending.append(observation)
+        while len(self._pending) > self.max_lag:
+            self._replay(self._pending.pop(0))
+
+    def decide(self, observation: Observation) -> ControlDecision:
+        for obs in self._pending:
+            self._replay(obs)
+        self._pending = []
+        return self.planner.decide(observation)

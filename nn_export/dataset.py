@@ -23,7 +23,7 @@ key                    shape         meaning
 ``status``             (n,)          the solver status of the winning candidate
 ``guess``              (n,)          which initial guess won
 ``iterations``         (n,)          solver iterations of the winner
-``candidate_costs``    (n, 3)        cost from swerve right / left / straight, NaN if failed
+``candidate_costs``    (n, G)        cost from each initial guess (manifest ``guess_names``), NaN if failed
 ``mirror``             (n,)          True for the mirror image of the previous sample
 ``situation_id``       (n,)          unique per situation; a sample and its mirror share it
 ``sample_id``          (n,)          unique per sample (2 situation_id + mirror)
@@ -56,7 +56,7 @@ from casadi_gpc.config import PlannerConfig
 from casadi_gpc.robot import RobotParams
 
 from .features import FeatureLayout, compute_features, layout_from_dict, mirror_features
-from .labels import GUESS_NAMES, LABEL_NAMES, Labeller, mirror_label
+from .labels import GUESS_NAMES, LABEL_NAMES, MIRROR_GUESS_ORDER, Labeller, mirror_guess, mirror_label
 from .sampler import SamplerSettings, sample_situation
 
 __all__ = [
@@ -167,9 +167,9 @@ class _ShardBuilder:
         a["plan_wheels_mps"][k] = plan
         a["cost"][k] = label.cost
         a["status"].append(label.status)
-        a["guess"].append(_mirror_guess(label.guess) if mirror else label.guess)
+        a["guess"].append(mirror_guess(label.guess) if mirror else label.guess)
         a["iterations"][k] = label.iterations
-        a["candidate_costs"][k] = label.candidate_costs[[1, 0, 2]] if mirror else label.candidate_costs
+        a["candidate_costs"][k] = label.candidate_costs[MIRROR_GUESS_ORDER] if mirror else label.candidate_costs
         a["mirror"][k] = mirror
         a["situation_id"][k] = situation_id
         a["sample_id"][k] = 2 * situation_id + int(mirror)
@@ -181,10 +181,6 @@ class _ShardBuilder:
         out["status"] = np.array(out["status"], dtype=str)
         out["guess"] = np.array(out["guess"], dtype=str)
         return out
-
-
-def _mirror_guess(name: str) -> str:
-    return {"swerve_right": "swerve_left", "swerve_left": "swerve_right"}.get(name, name)
 
 
 def _new_stats() -> dict:
@@ -202,7 +198,7 @@ def _label_situations(builder: _ShardBuilder, stats: dict, situations, layout: F
             break
         label = labeller.label(sit)
         stats["situations"] += 1
-        stats["solves"] += 3
+        stats["solves"] += label.solves
         stats["solve_time_s"] += label.solve_time_s
         if not label.converged:
             stats["not_converged"] += 1
@@ -213,7 +209,7 @@ def _label_situations(builder: _ShardBuilder, stats: dict, situations, layout: F
         check = float("nan")
         if check_every and j % check_every == 0:
             other = labeller.label(sit.mirrored())
-            stats["solves"] += 3
+            stats["solves"] += other.solves
             if other.converged:
                 check = float(np.max(np.abs(mirror_label(label.wheels_mps) - other.wheels_mps)))
                 stats["mirror_checked"] += 1
@@ -303,11 +299,13 @@ def read_manifest(directory) -> dict:
         return json.load(fh)
 
 
-def _write_json(path: Path, doc: dict) -> None:
+def _write_json(path: Path, doc: dict) -> dict:
+    """Write ``doc`` atomically; returns it as it reads back (tuples become lists)."""
+    text = json.dumps(doc, indent=1, allow_nan=False, default=_json_default) + "\n"
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(json.dumps(doc, indent=1, allow_nan=False, default=_json_default) + "\n")
+            fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, _file_mode())
@@ -315,6 +313,7 @@ def _write_json(path: Path, doc: dict) -> None:
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+    return json.loads(text)
 
 
 def _json_default(o):
@@ -484,6 +483,7 @@ def generate(out_dir, spec: DatasetSpec, workers: int = 1, backend: str = "local
             "label_names": list(LABEL_NAMES), "feature_layout": spec.layout.to_dict(), "preset": spec.config.name,
             "planner_config": spec.config.to_dict(), "robot": spec.robot.to_dict(), "seed": spec.seed,
             "solver": spec.solver, "samples_requested": spec.samples, "arrays": list(ARRAY_KEYS),
+            "guess_names": list(GUESS_NAMES),
         }
 
         def record(complete: bool, run: dict) -> dict:
@@ -495,8 +495,7 @@ def generate(out_dir, spec: DatasetSpec, workers: int = 1, backend: str = "local
             }
             doc = _manifest(out, parts, base)
             doc["complete"] = all(p.get("complete", False) for p in parts.values())
-            _write_json(out / MANIFEST, doc)
-            return doc
+            return _write_json(out / MANIFEST, doc)
 
         run = {"backend": backend, "workers": workers, "resumed_shards": len(done), "stale_temporaries_removed": stale,
                "shards_done": 0, "samples_done": 0, "elapsed_s": 0.0, "samples_per_s": None}
@@ -646,5 +645,4 @@ def append_part(out_dir, part: str, arrays: dict, stats: dict, info: dict | None
         base = {k: v for k, v in man.items() if k not in ("samples", "shards", "parts")}
         doc = _manifest(out, parts, base)
         doc["complete"] = all(p.get("complete", False) for p in parts.values())
-        _write_json(out / MANIFEST, doc)
-        return doc
+        return _write_json(out / MANIFEST, doc)

@@ -1,7 +1,8 @@
 """GPC labels for situations: the planner's first control, its plan, cost and status.
 
-Each situation is solved the way the planner solves a fresh problem: from the fixed initial
-guesses (swerve right, swerve left, straight) with the planner's own tie-break
+Each situation is solved the way the planner solves a fresh problem: from the planner's fixed
+initial guesses (:data:`GUESS_NAMES`: swerve right, swerve left, straight, and the detours
+where the planner has them) with the planner's own tie-break
 (:meth:`casadi_gpc.gpc.GPCController.plan`), on the NLP parameters the planner would pack.
 Only converged solutions become samples; the others are counted.
 
@@ -27,11 +28,15 @@ from casadi_gpc.robot import RobotParams
 
 from .features import FeatureLayout, Situation, compute_features, mirror_features
 
-__all__ = ["LABEL_NAMES", "GUESS_NAMES", "Label", "Labeller", "fastest_solver", "mirror_label"]
+__all__ = ["LABEL_NAMES", "GUESS_NAMES", "MIRROR_GUESS_ORDER", "Label", "Labeller", "fastest_solver", "mirror_label",
+           "mirror_guess"]
 
 LABEL_NAMES = ("v_right_mps", "v_left_mps")
 """The network's outputs: the wheel speeds to apply over the next interval."""
-GUESS_NAMES = ("swerve_right", "swerve_left", "straight")
+try:  # the planner's initial guesses, in its tie-break order
+    from casadi_gpc.guesses import TIE_ORDER as GUESS_NAMES
+except ImportError:  # pragma: no cover - older planner
+    GUESS_NAMES = ("swerve_right", "swerve_left", "straight")
 LABEL_TOLERANCE = 1e-12
 """Solver tolerance of the labels (the planner's closed loop uses 1e-9)."""
 
@@ -52,17 +57,46 @@ class Label:
     """Which initial guess won."""
     iterations: int
     candidate_costs: np.ndarray
-    """(3,) cost from each guess in :data:`GUESS_NAMES` order, NaN where it did not converge."""
+    """Cost from each guess in :data:`GUESS_NAMES` order, NaN where it did not converge."""
     solve_time_s: float
+    solves: int = 0
 
     @property
     def n_converged(self) -> int:
         return int(np.count_nonzero(np.isfinite(self.candidate_costs)))
 
 
+def mirror_guess(name: str) -> str:
+    """The guess that is the mirror image of ``name`` (right and left swapped)."""
+    if name.endswith("_right"):
+        return name[: -len("_right")] + "_left"
+    if name.endswith("_left"):
+        return name[: -len("_left")] + "_right"
+    return name
+
+
+MIRROR_GUESS_ORDER = np.array([GUESS_NAMES.index(mirror_guess(g)) for g in GUESS_NAMES])
+"""Index map: ``candidate_costs[MIRROR_GUESS_ORDER]`` are the mirror situation's costs."""
+
+
 def mirror_label(label_wheels: np.ndarray) -> np.ndarray:
     """Wheel speeds of the mirrored situation: right and left swapped (last axis)."""
     return np.asarray(label_wheels)[..., ::-1]
+
+
+def available_solvers() -> tuple[str, ...]:
+    """Solver names the planner accepts (``casadi_gpc.solvers`` once it exists)."""
+    try:
+        from casadi_gpc import solvers
+    except ImportError:
+        return ("ipopt",)
+    for attr in ("SOLVERS", "SOLVER_NAMES", "available_solvers", "available"):
+        value = getattr(solvers, attr, None)
+        if callable(value):
+            value = value()
+        if value:
+            return tuple(value)
+    return ("ipopt",)
 
 
 def fastest_solver() -> str:
@@ -90,6 +124,8 @@ class Labeller:
     def __init__(self, config: PlannerConfig, robot: RobotParams | None = None, solver: str | None = None):
         from casadi_gpc.gpc import GPCController
         self.solver = solver or fastest_solver()
+        if self.solver not in available_solvers():
+            raise ValueError(f"unknown solver {self.solver!r} (the planner offers {', '.join(available_solvers())})")
         self.config = config if config.solver == self.solver else config.with_overrides(solver=self.solver)
         self.robot = robot or RobotParams()
         # labels are solved tighter than the closed loop needs: when several initial guesses
@@ -133,12 +169,13 @@ class Labeller:
         if best is None:
             self.counters["not_converged"] += 1
             status = candidates[0].status if candidates else "no candidates"
-            return Label(False, np.full(2, np.nan), np.full((H, 2), np.nan), float("nan"), status, "", -1, costs, t)
+            return Label(False, np.full(2, np.nan), np.full((H, 2), np.nan), float("nan"), status, "", -1, costs, t,
+                         len(candidates))
         # the planned wheel speeds: the previous ones plus the cumulated increments (the
         # decision variables of casadi_gpc.cost)
         wheels = x0[3:5] + np.cumsum(np.asarray(best.u).reshape(H, 2), axis=0)
         return Label(True, wheels[0].copy(), wheels, float(best.cost), best.status, best.guess, best.iterations,
-                     costs, t)
+                     costs, t, len(candidates))
 
     def mirror_check(self, situation: Situation, label: Label) -> float:
         """Largest difference (m/s) between the mirrored label and the GPC's answer on the

@@ -1,0 +1,260 @@
+"""Datasets (nn_export.dataset, gpcnav dataset): manifest and shard contents, determinism
+per (seed, shard), resuming after a SIGKILL with exactly the samples asked for and none
+twice, refusal of mismatched arguments, on-policy (DAgger) parts."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from casadi_gpc.config import preset
+from casadi_gpc.types import ControlDecision
+from nn_export.dataset import (
+    ARRAY_KEYS, DatasetMismatch, DatasetSpec, append_part, collect_on_policy, generate, load_dataset, read_manifest,
+    read_shard,
+)
+from nn_export.features import compute_features, layout_for
+from nn_export.labels import LABEL_NAMES, Labeller
+
+PAPER = preset("paper")
+
+
+def _spec(samples=60, shard=20, seed=3, **kw):
+    return DatasetSpec(samples=samples, config=PAPER, layout=layout_for("paper", PAPER.horizon), seed=seed,
+                       shard_size=shard, mirror_check_every=kw.pop("mirror_check_every", 0),
+                       solver=Labeller(PAPER).solver, **kw)
+
+
+def _all_arrays(directory: Path, keys=("features", "labels", "sample_id", "situation_id")) -> dict:
+    man = read_manifest(directory)
+    parts = [read_shard(directory / s, keys=keys) for s in man["shards"]]
+    return {k: np.concatenate([p[k] for p in parts]) for k in keys}
+
+
+@pytest.fixture(scope="module")
+def reference_dataset(tmp_path_factory):
+    """60 samples in 3 shards, written by one in-process worker."""
+    out = tmp_path_factory.mktemp("ref") / "ds"
+    man = generate(out, _spec(), workers=1)
+    return out, man
+
+
+def test_manifest_has_the_contract_fields(reference_dataset):
+    out, man = reference_dataset
+    assert man == read_manifest(out)
+    assert man["samples"] == 60 and man["complete"] is True
+    assert man["shards"] == ["shard-00000.npz", "shard-00001.npz", "shard-00002.npz"]
+    lay = layout_for("paper", 6)
+    assert man["feature_names"] == list(lay.feature_names) and len(man["feature_names"]) == 17
+    assert man["label_names"] == list(LABEL_NAMES)
+    assert man["feature_layout"]["name"] == "paper" and man["feature_layout"]["version"] == lay.version
+    assert man["preset"] == "paper" and man["planner_config"]["sample_time_s"] == 1.5 and man["seed"] == 3
+    for s in man["shards"]:
+        a = read_shard(out / s)
+        assert set(ARRAY_KEYS) <= set(a) and len(a["labels"]) == 20
+        assert a["features"].shape == (20, 17) and a["plan_wheels_mps"].shape == (20, 6, 2)
+        assert np.all(np.isfinite(a["features"])) and np.all(np.isfinite(a["labels"]))
+        assert np.all(np.abs(a["labels"]) <= 0.8 + 1e-6)  # within the wheel limits
+        np.testing.assert_array_equal(a["labels"], a["plan_wheels_mps"][:, 0])
+    a = _all_arrays(out)
+    assert len(np.unique(a["sample_id"])) == 60 and len(np.unique(a["situation_id"])) == 30
+    ds = load_dataset(out)
+    assert ds.X.shape == (60, 17) and ds.Y.shape == (60, 2) and ds.layout == lay
+    np.testing.assert_array_equal(ds.groups, a["situation_id"])
+
+
+def test_shard_contents_depend_only_on_seed_and_index(reference_dataset, tmp_path):
+    out, _ = reference_dataset
+    other = tmp_path / "two_workers"
+    generate(other, _spec(), workers=2)
+    for s in read_manifest(out)["shards"]:
+        a, b = read_shard(out / s), read_shard(other / s)
+        for k in ARRAY_KEYS:
+            np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+    # another seed gives other situations
+    third = tmp_path / "seed4"
+    generate(third, _spec(samples=20, seed=4), workers=1)
+    assert not np.array_equal(read_shard(third / "shard-00000.npz")["features"],
+                              read_shard(out / "shard-00000.npz")["features"])
+
+
+def test_resume_redoes_only_missing_or_broken_shards(reference_dataset, tmp_path):
+    src, _ = reference_dataset
+    out = tmp_path / "ds"
+    out.mkdir()
+    for name in ("manifest.json", "shard-00000.npz", "shard-00001.npz", "shard-00002.npz"):
+        (out / name).write_bytes((src / name).read_bytes())
+    (out / "shard-00001.npz").unlink()                       # never finished
+    (out / "shard-00002.npz").write_bytes(b"PK\x03\x04 truncated")  # broken (cannot be, but must not count)
+    (out / ".shard-00001.npz.abc.tmp").write_bytes(b"half")  # a temporary of a killed run
+    before = (out / "shard-00000.npz").stat().st_mtime_ns
+    man = generate(out, _spec(), workers=1)
+    run = man["parts"]["offpolicy"]["last_run"]
+    assert run["resumed_shards"] == 1 and run["shards_done"] == 2 and run["stale_temporaries_removed"] == 1
+    assert (out / "shard-00000.npz").stat().st_mtime_ns == before  # not redone
+    assert man["samples"] == 60 and not list(out.glob(".*.tmp"))
+    for s in man["shards"]:
+        np.testing.assert_array_equal(read_shard(out / s)["features"], read_shard(src / s)["features"])
+    # a finished dataset: nothing to do
+    again = generate(out, _spec(), workers=1)
+    assert again["parts"]["offpolicy"]["last_run"]["shards_done"] == 0
+
+
+def test_other_arguments_are_refused(reference_dataset):
+    out, _ = reference_dataset
+    with pytest.raises(DatasetMismatch, match="seed"):
+        generate(out, _spec(seed=9), workers=1)
+    proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--samples", "60",
+                           "--shard-size", "20", "--preset", "paper", "--seed", "9", "--workers", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and "other arguments" in proc.stderr
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--samples", "0"], "--samples"),
+    (["--samples", "10", "--shard-size", "7"], "--shard-size"),
+    (["--samples", "10", "--workers", "0"], "--workers"),
+    (["--samples", "10", "--address", "1.2.3.4:6379"], "--address"),
+    (["--samples", "10", "--solver", "no-such-solver"], "--solver"),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, argv, words):
+    proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(tmp_path / "d"), *argv],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and words in proc.stderr
+    assert not (tmp_path / "d" / "manifest.json").exists()
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+    except OSError:
+        return []
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:  # a zombie is dead
+        return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
+    except OSError:
+        return False
+
+
+def test_sigkill_partway_then_restart_gives_exactly_the_samples(tmp_path):
+    out = tmp_path / "ds"
+    argv = [sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--samples", "600", "--shard-size", "30",
+            "--workers", "2", "--preset", "paper", "--seed", "7", "--mirror-check-every", "0"]
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while len(list(out.glob("shard-*.npz"))) < 3:
+        assert proc.poll() is None, "finished before it could be killed: make the run longer"
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    workers = _children(proc.pid)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    finished = {p.name: p.stat().st_mtime_ns for p in out.glob("shard-*.npz")}
+    assert 3 <= len(finished) < 20
+    # the workers die with their parent, so nothing keeps computing or writing
+    deadline = time.monotonic() + 10
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(_alive(w) for w in workers)
+    man = read_manifest(out)
+    assert man["samples"] <= 30 * len(finished) and not man["complete"]
+
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    man = read_manifest(out)
+    assert man["samples"] == 600 and man["complete"] and len(man["shards"]) == 20
+    run = man["parts"]["offpolicy"]["last_run"]
+    assert run["resumed_shards"] == len(finished) and run["shards_done"] == 20 - len(finished)
+    for name, mtime in finished.items():  # no finished shard was redone
+        assert (out / name).stat().st_mtime_ns == mtime
+    a = _all_arrays(out)  # every shard readable
+    assert len(a["labels"]) == 600
+    assert len(np.unique(a["sample_id"])) == 600
+    assert len(np.unique(a["features"], axis=0)) == 600
+    assert not list(out.glob(".*.tmp"))
+
+
+class _SlowStraight:
+    """A stand-in for a trained policy: drives straight at 0.3 m/s."""
+
+    sample_time_s = PAPER.sample_time_s
+
+    def reset(self):
+        pass
+
+    def decide(self, obs):
+        return ControlDecision(0.3, 0.3)
+
+
+def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, tmp_path):
+    from dataclasses import replace
+    from scenarios import random_suite
+    src, _ = reference_dataset
+    out = tmp_path / "ds"
+    out.mkdir()
+    for p in src.iterdir():
+        if p.is_file() and not p.name.startswith("."):
+            (out / p.name).write_bytes(p.read_bytes())
+    scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 2, 0)]  # 6 samples each
+    lay = layout_for("paper", 6)
+    lab = Labeller(PAPER)
+    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, id_base=10 ** 12)
+    assert stats["situations"] == 12 and len(stats["episodes"]) == 2
+    n = len(arrays["labels"])
+    assert n == 2 * (12 - stats["not_converged"])
+    # the visited situations are what the deployed tracker sees: recompute the first one
+    from casadi_gpc.simulator import simulate
+    from nn_export.features import SituationTracker
+    seen = []
+
+    class _Spy(_SlowStraight):
+        def __init__(self):
+            self.t = SituationTracker(PAPER)
+
+        def reset(self):
+            self.t.reset()
+
+        def decide(self, obs):
+            seen.append(self.t.update(obs))
+            return super().decide(obs)
+
+    simulate(scenarios[0], _Spy())
+    np.testing.assert_array_equal(arrays["features"][0], compute_features(lay, seen[0]))
+    man = append_part(out, "dagger1", arrays, stats, {"round": 1})
+    assert man["samples"] == 60 + n and man["parts"]["dagger1"]["samples"] == n
+    assert "dagger1-00000.npz" in man["shards"]
+    ds = load_dataset(out)
+    assert len(ds.X) == 60 + n and len(np.unique(ds.groups)) == 30 + n // 2
+    with pytest.raises(DatasetMismatch):
+        append_part(out, "dagger1", arrays, stats)
+    # resuming the off-policy part keeps the on-policy part
+    man = generate(out, _spec(), workers=1)
+    assert man["samples"] == 60 + n and "dagger1" in man["parts"]
+
+
+@pytest.mark.slow
+@pytest.mark.benchmark
+def test_two_workers_label_at_least_1_7_times_faster_than_one(tmp_path):
+    """Throughput ratio measured in one run (paper preset)."""
+    rates = {}
+    for w in (1, 2):
+        t0 = time.perf_counter()
+        man = generate(tmp_path / f"w{w}", _spec(samples=2000, shard=100, seed=11), workers=w)
+        rates[w] = man["samples"] / (time.perf_counter() - t0)
+    print(json.dumps(rates))
+    assert rates[2] >= 1.7 * rates[1]

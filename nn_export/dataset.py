@@ -61,7 +61,7 @@ from .sampler import SamplerSettings, sample_situation
 
 __all__ = [
     "DATASET_FORMAT", "DatasetSpec", "DatasetMismatch", "label_shard", "generate", "read_manifest", "read_shard",
-    "load_dataset", "LoadedDataset", "collect_on_policy", "append_part", "ARRAY_KEYS",
+    "load_dataset", "LoadedDataset", "collect_on_policy", "append_part", "ARRAY_KEYS", "prepare_labeller",
 ]
 
 DATASET_FORMAT = "gpcnav-dataset/1"
@@ -134,6 +134,12 @@ def _digest(doc) -> str:
 # workers: one labeller per process, built on first use
 # --------------------------------------------------------------------------------------
 _LABELLERS: dict = {}
+
+
+def prepare_labeller(spec: "DatasetSpec") -> Labeller:
+    """Build (once per process) the labeller ``spec`` needs; raises ValueError for an
+    unknown solver. Local workers are forked after this, so they inherit it built."""
+    return _labeller(spec.config, spec.robot, spec.solver)
 
 
 def _labeller(config: PlannerConfig, robot: RobotParams, solver: str) -> Labeller:
@@ -242,6 +248,7 @@ def label_shard(spec: DatasetSpec, index: int) -> tuple[int, dict, dict]:
     _label_situations(builder, stats, stream(), spec.layout, labeller, spec.mirror, spec.mirror_check_every,
                       index * _SHARD_STRIDE)
     stats["elapsed_s"] = time.perf_counter() - t0
+    stats["worker_peak_rss_mb"] = _peak_rss_mb()
     return index, builder.arrays(), stats
 
 
@@ -346,9 +353,15 @@ def _remove_stale_temporaries(directory: Path) -> int:
     return n
 
 
+def _peak_rss_mb() -> float:
+    """Peak resident memory of this process so far, MB (Linux reports kB)."""
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def _merge_stats(total: dict, s: dict) -> None:
     for k, v in s.items():
-        if k == "mirror_max_diff_mps":
+        if k in ("mirror_max_diff_mps", "worker_peak_rss_mb"):
             total[k] = max(total.get(k, 0.0), v)
         elif isinstance(v, dict):
             d = total.setdefault(k, {})
@@ -516,6 +529,8 @@ def generate(out_dir, spec: DatasetSpec, workers: int = 1, backend: str = "local
                 run["samples_done"] += n
                 run["elapsed_s"] = time.perf_counter() - t0
                 run["samples_per_s"] = run["samples_done"] / max(run["elapsed_s"], 1e-9)
+                run["parent_peak_rss_mb"] = _peak_rss_mb()
+                run["worker_peak_rss_mb"] = max(run.get("worker_peak_rss_mb", 0.0), st.get("worker_peak_rss_mb", 0.0))
                 manifest = record(len(done) == spec.n_shards, run)
                 if bar is not None:
                     bar.update(n)

@@ -28,8 +28,8 @@ from casadi_gpc.robot import RobotParams
 
 from .features import FeatureLayout, Situation, compute_features, mirror_features
 
-__all__ = ["LABEL_NAMES", "GUESS_NAMES", "MIRROR_GUESS_ORDER", "Label", "Labeller", "fastest_solver", "mirror_label",
-           "mirror_guess"]
+__all__ = ["LABEL_NAMES", "GUESS_NAMES", "MIRROR_GUESS_ORDER", "Label", "Labeller", "fastest_solver",
+           "available_solvers", "mirror_label", "mirror_guess"]
 
 LABEL_NAMES = ("v_right_mps", "v_left_mps")
 """The network's outputs: the wheel speeds to apply over the next interval."""
@@ -90,29 +90,18 @@ def available_solvers() -> tuple[str, ...]:
         from casadi_gpc import solvers
     except ImportError:
         return ("ipopt",)
-    for attr in ("SOLVERS", "SOLVER_NAMES", "available_solvers", "available"):
-        value = getattr(solvers, attr, None)
-        if callable(value):
-            value = value()
-        if value:
-            return tuple(value)
-    return ("ipopt",)
+    names = tuple(getattr(solvers, "SOLVER_NAMES", ()) or ()) + tuple(getattr(solvers, "ALIASES", {}) or {})
+    return names or ("ipopt",)
 
 
 def fastest_solver() -> str:
-    """The fastest NLP solver the planner offers (``casadi_gpc.solvers`` once it exists),
+    """The fastest NLP solver the planner offers (``casadi_gpc.solvers.FASTEST_SOLVER``),
     else the planner's default."""
     try:
         from casadi_gpc import solvers
     except ImportError:
         return PlannerConfig.solver
-    for attr in ("FASTEST", "FASTEST_SOLVER", "fastest"):
-        value = getattr(solvers, attr, None)
-        if isinstance(value, str):
-            return value
-        if callable(value):
-            return value()
-    return PlannerConfig.solver
+    return str(getattr(solvers, "FASTEST_SOLVER", PlannerConfig.solver))
 
 
 class Labeller:
@@ -132,7 +121,7 @@ class Labeller:
         # reach the same optimum, the tie-break's pick must not show through the solver's
         # tolerance (at IPOPT's 1e-9 the first control differs by up to ~5e-6 m/s between
         # starts; at 1e-12 by ~1e-7)
-        kw = {"ipopt_options": {"ipopt.tol": LABEL_TOLERANCE}} if self.solver == "ipopt" else {}
+        kw = {"ipopt_options": {"ipopt.tol": LABEL_TOLERANCE}} if self.solver.startswith("ipopt") else {}
         self.controller = GPCController(self.config, self.robot, **kw)
         self.counters = {"situations": 0, "not_converged": 0, "solves": 0}
 

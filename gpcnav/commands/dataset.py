@@ -98,9 +98,9 @@ def run(args) -> int:
 
 def _check_solver(spec) -> None:
     """Refuse an unknown solver name before any work (one line)."""
+    from nn_export.dataset import prepare_labeller
     try:
-        from nn_export.labels import Labeller
-        Labeller(spec.config, spec.robot, spec.solver)
+        prepare_labeller(spec)  # local workers are forked afterwards and inherit the built solver
     except (ValueError, RuntimeError) as exc:
         raise UsageError(f"--solver {spec.solver}: {str(exc).splitlines()[0]}") from None
 

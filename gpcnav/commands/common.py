@@ -30,11 +30,25 @@ def add_controller_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--controller", choices=("gpc", "nn"), default="gpc", help="the GPC planner or the network")
     p.add_argument("--model", type=Path, default=None,
                    help="ONNX model for --controller nn (default: the one shipped for --preset)")
+    p.add_argument("--no-safety-filter", action="store_true",
+                   help="--controller nn: run the bare network, without the safety filter (docs/faults.md)")
+    p.add_argument("--safety-fallback", choices=("gpc", "brake"), default="gpc",
+                   help="--controller nn: what the safety filter hands over to: the GPC on standby (default) "
+                        "or the best braking/turning manoeuvre")
     add_preset_arguments(p)
 
 
-def make_controller(kind: str, config, robot, model=None):
-    """The controller object for ``kind`` (both answer ``decide(observation)``)."""
+def safety_mode(args) -> str:
+    """``"off"``, ``"gpc"`` or ``"brake"`` from the controller options."""
+    return "off" if getattr(args, "no_safety_filter", False) else getattr(args, "safety_fallback", "gpc")
+
+
+def make_controller(kind: str, config, robot, model=None, safety: str = "gpc"):
+    """The controller object for ``kind`` (both answer ``decide(observation)``).
+
+    ``safety`` (network only): ``"gpc"`` the safety filter with the GPC on standby as its
+    fallback, ``"brake"`` the filter with its braking/turning manoeuvres only, ``"off"`` none.
+    """
     if kind == "gpc":
         from casadi_gpc.gpc import GPCController
         return GPCController(config, robot)
@@ -43,8 +57,20 @@ def make_controller(kind: str, config, robot, model=None):
             from nn_export import OnnxPolicy
         except ImportError as exc:
             raise UsageError(f"--controller nn is not available: {exc}") from None
+        if safety not in ("gpc", "brake", "off"):
+            raise UsageError(f"unknown safety mode {safety!r} (gpc, brake or off)")
+        fallback = None
+        if safety == "gpc":
+            try:
+                from casadi_gpc.gpc import GPCController
+                from nn_export.safety import StandbyPlanner
+            except ImportError as exc:
+                raise UsageError(f"--safety-fallback gpc needs the planner ({exc}); use --safety-fallback brake") \
+                    from None
+            fallback = StandbyPlanner(GPCController(config, robot))
         try:
-            return OnnxPolicy(model, preset=config.name, robot=robot)
+            return OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=safety != "off",
+                              fallback=fallback)
         except (FileNotFoundError, ValueError) as exc:
             raise UsageError(str(exc)) from None
     raise UsageError(f"unknown controller {kind!r}")

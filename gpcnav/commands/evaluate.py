@@ -8,7 +8,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_controller_arguments, make_controller, planner_config, progress
+from .common import add_controller_arguments, make_controller, planner_config, progress, safety_mode
 
 _WORKER = {}
 
@@ -29,10 +29,10 @@ def _episode(job):
     """Worker: one episode; the controller is built once per worker and robot."""
     from casadi_gpc.metrics import episode_metrics
     from casadi_gpc.simulator import simulate
-    scenario, kind, config, model = job
-    key = (kind, config, scenario.robot, str(model))
+    scenario, kind, config, model, safety = job
+    key = (kind, config, scenario.robot, str(model), safety)
     if key not in _WORKER:
-        _WORKER[key] = make_controller(kind, config, scenario.robot, model)
+        _WORKER[key] = make_controller(kind, config, scenario.robot, model, safety)
     controller = _WORKER[key]
     log = simulate(scenario, controller, kind)
     return episode_metrics(log), log.compute_time_s, dict(log.events)
@@ -56,9 +56,9 @@ def parse_faults(spec: str | None):
     return Faults(**values)
 
 
-def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes"):
+def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", safety="gpc"):
     """Run every scenario; returns (metrics, all compute times, summed events)."""
-    jobs = [(s, kind, config, model) for s in scenarios]
+    jobs = [(s, kind, config, model, safety) for s in scenarios]
     metrics, times, events = [], [], {}
     if workers <= 1 or len(jobs) <= 1:
         results = map(_episode, jobs)
@@ -99,12 +99,13 @@ def run(args) -> int:
     if faults is not None:
         scenarios = [replace(s, faults=faults) for s in scenarios]
     if args.controller == "nn":
-        make_controller("nn", config, scenarios[0].robot, args.model)  # refuse a bad model before any work
-    metrics, times, events = evaluate(scenarios, args.controller, config, args.model, args.workers)
+        make_controller("nn", config, scenarios[0].robot, args.model, "off")  # refuse a bad model before any work
+    safety = safety_mode(args) if args.controller == "nn" else None
+    metrics, times, events = evaluate(scenarios, args.controller, config, args.model, args.workers, safety=safety)
     doc = eval_document(args.controller, metrics, times, {
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": args.suite,
         "seed": args.seed if args.suite else None, "events": events,
-        "faults": None if faults is None else faults.__dict__,
+        "faults": None if faults is None else faults.__dict__, "safety_filter": safety,
     })
     if args.out:
         write_json(args.out, doc)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import add_controller_arguments, make_controller, planner_config
+from .common import add_controller_arguments, make_controller, planner_config, safety_mode
 
 
 def add_arguments(p):
@@ -16,11 +16,11 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=None, help="override the scenario's sensing seed")
 
 
-def run_one(scenario, controller_kind, config, model=None):
+def run_one(scenario, controller_kind, config, model=None, safety="gpc"):
     """Simulate ``scenario`` and return its RUN document."""
     from casadi_gpc.metrics import run_document
     from casadi_gpc.simulator import simulate
-    controller = make_controller(controller_kind, config, scenario.robot, model)
+    controller = make_controller(controller_kind, config, scenario.robot, model, safety)
     log = simulate(scenario, controller, controller_kind)
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
              "robot_radius_m": scenario.robot.radius_m}
@@ -37,7 +37,7 @@ def run(args) -> int:
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
     config = planner_config(args)
-    doc = run_one(scenario, args.controller, config, args.model)
+    doc = run_one(scenario, args.controller, config, args.model, safety_mode(args))
     if args.out:
         write_json(args.out, doc)
     if args.plot:

@@ -145,5 +145,9 @@ def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
     else:
         log.outcome, log.end_time_s = "timed_out", n_steps * T
     for name, value in getattr(controller, "counters", {}).items():
-        log.events[name] = value
+        if isinstance(value, dict):  # a nested report (e.g. the policy's feature report): flatten it
+            for sub, n in value.items():
+                log.events[f"{name}.{sub}"] = n
+        else:
+            log.events[name] = value
     return log

@@ -1,0 +1,428 @@
+"""The safety filter (nn_export.safety) against independent brute-force answers, and the
+network behind it: an obstacle-blind network collides without the filter and does not
+with it, every intervention counted."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from casadi_gpc.reference import ReferencePath, Segment
+from casadi_gpc.robot import RobotParams, RobotState, robot_step
+from casadi_gpc.types import ControlDecision, ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
+from nn_export.safety import MANOEUVRES, SafetyFilter, StandbyPlanner
+
+from conftest import PAPER_DIR, check_run_document
+from synthetic_models import tracker_model
+
+ROBOT = RobotParams()
+HEAD_ON = PAPER_DIR / "fig7_1_head_on.toml"
+
+
+def forecast(start, velocity, T, H, cov=((1e-4, 0.0), (0.0, 1e-4)), radius=0.3, oid=0) -> ObstacleForecast:
+    """An obstacle moving at constant ``velocity`` from ``start`` (its position now)."""
+    k = np.arange(1, H + 1)[:, None]
+    means = np.asarray(start, float) + k * T * np.asarray(velocity, float)
+    return ObstacleForecast(oid, radius, means, np.tile(np.asarray(cov, float), (H, 1, 1)))
+
+
+def brute_clearance(state, wheels, forecasts, statics, T, sigmas, n=4000) -> float:
+    """Independent reference: sequential integration of the robot model sampled ``n`` times per
+    interval, the obstacle linear between its predicted steps (now = the step back from step
+    1), inflated by ``sigmas`` times the largest standard deviation at the end of each interval."""
+    x, y, h = (float(v) for v in state[:3])
+    best = np.inf
+    tau = T * np.arange(1, n + 1) / n
+    for k, (vr, vl) in enumerate(wheels):
+        px, py, _ = robot_step(np, x, y, h, vr, vl, tau, ROBOT.wheel_base_m)
+        for f in forecasts:
+            m = f.means_m
+            m_prev = (2 * m[0] - m[1]) if k == 0 else m[k - 1]
+            q = m_prev + (tau / T)[:, None] * (m[k] - m_prev)
+            sig = np.sqrt(np.linalg.eigvalsh(f.covs_m2[k]).max())
+            d = np.hypot(px - q[:, 0], py - q[:, 1]) - ROBOT.radius_m - f.radius_m - sigmas * sig
+            best = min(best, d.min())
+        for s in statics:
+            d = np.hypot(px - s.position_m[0], py - s.position_m[1]) - ROBOT.radius_m - s.radius_m
+            best = min(best, d.min())
+        x, y, h = (float(v) for v in robot_step(np, x, y, h, vr, vl, T, ROBOT.wheel_base_m))
+    return float(best)
+
+
+def observation(state, statics=(), t=0.0) -> Observation:
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
+    return Observation(t, RobotState(*(float(v) for v in state)), ref, (), tuple(statics))
+
+
+# --- the roll-out and the clearance -------------------------------------------------------
+@pytest.mark.parametrize("T,H", [(0.5, 12), (1.5, 6)])
+def test_rollout_equals_sequential_robot_model(T, H):
+    rng = np.random.default_rng(3)
+    f = SafetyFilter(ROBOT, T, H, substeps=5)
+    state = np.array([1.0, -2.0, 0.7, 0.1, -0.2])
+    wheels = rng.uniform(-0.8, 0.8, (3, H, 2))
+    p = f.rollout(state, wheels)
+    assert p.shape == (3, H * 5 + 1)
+    for m in range(3):
+        x, y, h = state[:3]
+        pts = [complex(x, y)]
+        for vr, vl in wheels[m]:
+            for j in range(1, 6):
+                xx, yy, _ = robot_step(np, x, y, h, vr, vl, T * j / 5, ROBOT.wheel_base_m)
+                pts.append(complex(xx, yy))
+            x, y, h = robot_step(np, x, y, h, vr, vl, T, ROBOT.wheel_base_m)
+        np.testing.assert_allclose(p[m], pts, atol=1e-12)
+
+
+def test_clearance_known_answers():
+    T, H = 0.5, 4
+    f = SafetyFilter(ROBOT, T, H, sigmas=2.0)
+    still = np.zeros((H, 2))
+    state = np.zeros(5)
+    # a static disc: centre distance minus both radii, exactly
+    c = f.check(state, still, (), (StaticObstacle((2.0, 0.0), 0.3),))
+    assert c.min_clearance_m == pytest.approx(2.0 - 0.35 - 0.3, abs=1e-12)
+    # a standing moving obstacle with std 0.3 m along its worst direction (rotated covariance)
+    a = 0.6
+    R = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    cov = R @ np.diag([0.09, 0.01]) @ R.T
+    fc = forecast((0.0, 3.0), (0.0, 0.0), T, H, cov=cov, radius=0.25)
+    c = f.check(state, still, (fc,), ())
+    assert c.min_clearance_m == pytest.approx(3.0 - 0.35 - 0.25 - 2.0 * 0.3, abs=1e-12)
+    assert c.obstacle == "moving 0"
+    # no obstacles: nothing to fear
+    c = f.check(state, still)
+    assert c.safe and c.min_clearance_m == np.inf
+
+
+@pytest.mark.parametrize("T,H,substeps", [(0.5, 12, 4), (1.5, 6, 4), (1.5, 6, 1)])
+def test_clearance_matches_brute_force_between_sub_samples(T, H, substeps):
+    """A fast pass between sub-samples and a turning robot: the chord-wise closest approach
+    agrees with a 4000-points-per-interval brute force (within the arc-vs-chord error)."""
+    rng = np.random.default_rng(11)
+    f = SafetyFilter(ROBOT, T, H, margin_m=0.05, sigmas=1.5, substeps=substeps)
+    for trial in range(12):
+        state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), 0.0, 0.0])
+        wheels = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)))
+        fc = forecast(rng.uniform(-4, 4, 2), rng.uniform(-0.5, 0.5, 2), T, H,
+                      cov=np.diag(rng.uniform(1e-4, 0.02, 2)), radius=0.3)
+        st = (StaticObstacle(tuple(rng.uniform(-3, 3, 2)), 0.2),)
+        want = brute_clearance(state, wheels, [fc], st, T, 1.5)
+        obstacles = f.obstacle_tracks([fc], st)
+        got = f.clearances(state, wheels[None], obstacles)[0][0]
+        # exact on chords; an arc departs from its chord by at most V A tau^2 / 8 (sub-interval tau)
+        v, w = 0.5 * np.abs(wheels.sum(1)), np.abs(wheels[:, 0] - wheels[:, 1]) / ROBOT.wheel_base_m
+        sag = float(np.max(v * w) * (T / substeps) ** 2 / 8)
+        assert abs(got - want) <= sag + 1e-6, (trial, got, want, sag)
+        if substeps >= 4:  # the default: the chord error stays well inside the margin
+            assert sag < 0.5 * f.margin_m
+
+
+def test_bound_is_never_above_the_roll_out():
+    """The roll-out-free lower bound that lets far-away situations skip the roll-out is a
+    lower bound, for plans and for 'the command, then any manoeuvre'."""
+    rng = np.random.default_rng(5)
+    for T, H in ((0.5, 12), (1.5, 6)):
+        f = SafetyFilter(ROBOT, T, H)
+        for _ in range(25):
+            state = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi), *rng.uniform(-0.8, 0.8, 2)])
+            plan = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)))
+            fcs = [forecast(rng.uniform(-6, 6, 2), rng.uniform(-0.5, 0.5, 2), T, H,
+                            cov=np.diag(rng.uniform(1e-4, 0.05, 2)), oid=i) for i in range(2)]
+            st = (StaticObstacle(tuple(rng.uniform(-6, 6, 2)), 0.3),)
+            obs = f.obstacle_tracks(fcs, st)
+            sig = f.sigmas
+            assert f.bound(state, plan[0], plan, obs)[0] <= brute_clearance(state, plan, fcs, st, T, sig, 50)
+            worst = min(brute_clearance(state, w, fcs, st, T, sig, 50) for w in f._escapes(plan[0]))
+            assert f.bound(state, plan[0], None, obs)[0] <= worst
+
+
+# --- the verdicts --------------------------------------------------------------------------
+def test_safe_plan_is_accepted_unchanged():
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H)
+    state = np.array([0.0, 0.0, 0.0, 0.4, 0.4])
+    plan = np.full((H, 2), 0.4)
+    v = f.filter(observation(state), plan, [forecast((2.5, 2.0), (0.0, 0.0), T, H)])
+    assert not v.intervened and v.source == "candidate"
+    assert (v.v_right_mps, v.v_left_mps) == (0.4, 0.4)
+    assert f.counters["checks"] == 1 and f.counters["interventions"] == 0
+
+
+def test_plan_into_an_obstacle_passes_while_a_way_out_remains():
+    """Driving at an obstacle far ahead is allowed as long as, after this interval, some
+    manoeuvre still keeps the margin; the check names the way out."""
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H)
+    state = np.array([0.0, 0.0, 0.0, 0.4, 0.4])
+    plan = np.full((H, 2), 0.4)
+    fc = forecast((3.0, 0.0), (0.0, 0.0), T, H)     # standing on the path 3 m ahead
+    c = f.check(state, plan, [fc])
+    assert c.safe and c.continuation.startswith("then ")
+    assert c.min_clearance_m >= f.margin_m
+    # the plan itself would hit it
+    obs = f.obstacle_tracks([fc], ())
+    assert f.clearances(state, plan[None], obs)[0][0] < 0
+
+
+def test_no_way_out_takes_the_best_manoeuvre():
+    """At full speed 0.2 m short of a wide static disc no sequence keeps the margin: the
+    filter (no fallback planner) takes the manoeuvre that a brute force finds best."""
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H)
+    state = np.array([0.0, 0.0, 0.0, 0.8, 0.8])
+    wall = (StaticObstacle((0.35 + 0.2 + 1.0, 0.0), 1.0),)
+    v = f.filter(observation(state, wall), np.array([0.8, 0.8]), (), wall)
+    assert v.intervened and v.source.startswith("manoeuvre:")
+    assert f.counters == {**f.counters, "interventions": 1, "manoeuvres": 1}
+    names, W = f.manoeuvres(state[3:])
+    brute = [brute_clearance(state, w, [], wall, T, 2.0, n=400) for w in W]
+    assert v.source == f"manoeuvre:{names[int(np.argmax(brute))]}"
+    assert max(brute) > v.check.min_clearance_m  # better than what the network asked
+    # within the limits from the current wheel speeds
+    dv = ROBOT.max_step_change_mps(T)
+    for got, was in ((v.v_right_mps, 0.8), (v.v_left_mps, 0.8)):
+        assert abs(got) <= ROBOT.max_wheel_speed_mps and abs(got - was) <= dv + 1e-12
+
+
+def test_inside_the_margin_a_sequence_that_does_not_close_in_passes():
+    """An obstacle first seen 0.03 m away (clearance), inside the 0.1 m margin: standing
+    still or backing off passes (the clearance never gets smaller than now), following it
+    faster than it moves does not."""
+    T, H = 0.5, 6
+    f = SafetyFilter(ROBOT, T, H, margin_m=0.1, sigmas=0.0)
+    state = np.zeros(5)
+    fc = forecast((0.35 + 0.3 + 0.03, 0.0), (0.3, 0.0), T, H)   # moving off at 0.3 m/s
+    c = f.check(state, np.zeros((H, 2)), [fc])
+    assert c.safe and c.current_clearance_m == pytest.approx(0.03, abs=1e-12)
+    assert f.check(state, np.full((H, 2), -0.4), [fc]).safe
+    c = f.check(state, np.array([0.4, 0.4]), [fc])
+    assert not c.safe and c.min_clearance_m < 0.03
+
+
+def test_fallback_planner_first_then_manoeuvres_and_everything_counted():
+    T, H = 0.5, 12
+    state = np.array([0.0, 0.0, 0.0, 0.8, 0.8])
+    wall = (StaticObstacle((1.55, 0.0), 1.0),)
+
+    class Planner:
+        def __init__(self, fail):
+            self.fail, self.seen, self.asked = fail, [], []
+
+        def reset(self):
+            self.seen, self.asked = [], []
+
+        def observe(self, obs):
+            self.seen.append(obs.t_s)
+
+        def decide(self, obs):
+            self.asked.append(obs.t_s)
+            if self.fail:
+                return ControlDecision(0.0, 0.0, True, "brake; all solves failed")
+            return ControlDecision(0.5, 0.7, False, "ok", np.tile([0.5, 0.7], (H, 1)))
+
+    p = Planner(fail=False)
+    f = SafetyFilter(ROBOT, T, H, fallback=p)
+    # safe: the planner only sees the observation
+    v = f.filter(observation(np.zeros(5), (), t=0.0), np.zeros((H, 2)), ())
+    assert not v.intervened and p.seen == [0.0] and p.asked == []
+    # unsafe: handed over
+    v = f.filter(observation(state, wall, t=0.5), np.array([0.8, 0.8]), ())
+    assert v.intervened and v.source == "fallback" and (v.v_right_mps, v.v_left_mps) == (0.5, 0.7)
+    assert p.asked == [0.5] and "fallback planner" in v.reason
+    assert f.counters["fallback_used"] == 1 and f.counters["interventions"] == 1
+    # a failing planner: its answer is not trusted, the manoeuvres take over
+    q = Planner(fail=True)
+    g = SafetyFilter(ROBOT, T, H, fallback=q)
+    v = g.filter(observation(state, wall), np.array([0.8, 0.8]), ())
+    assert v.source.startswith("manoeuvre:") and "fallback planner failed" in v.reason
+    assert g.counters["fallback_failed"] == 1 and g.counters["manoeuvres"] == 1
+    # a non-finite candidate is never passed on
+    v = g.filter(observation(np.zeros(5)), np.array([np.nan, 0.2]), ())
+    assert v.intervened and np.isfinite([v.v_right_mps, v.v_left_mps]).all()
+    assert g.counters["non_finite_candidate"] == 1 and g.counters["interventions"] == 2
+    assert g.counters["checks"] == 2
+
+
+def test_candidate_outside_the_limits_is_checked_as_followed_and_counted():
+    T, H = 0.5, 6
+    f = SafetyFilter(ROBOT, T, H)
+    v = f.filter(observation(np.zeros(5)), np.full((H, 2), 0.8), ())
+    assert not v.intervened and f.counters["candidate_limited"] == 1
+    dv = ROBOT.max_step_change_mps(T)
+    assert (v.v_right_mps, v.v_left_mps) == (dv, dv)  # what the robot can do from rest
+    np.testing.assert_allclose(v.planned_wheels_mps[:, 0], np.minimum(dv * np.arange(1, H + 1), 0.8))
+
+
+def test_bad_settings_and_shapes_raise_value_error():
+    with pytest.raises(ValueError, match="sample_time_s"):
+        SafetyFilter(ROBOT, 0.0, 6)
+    with pytest.raises(ValueError, match="horizon"):
+        SafetyFilter(ROBOT, 0.5, 0)
+    with pytest.raises(ValueError, match="margin_m"):
+        SafetyFilter(ROBOT, 0.5, 6, margin_m=float("nan"))
+    with pytest.raises(TypeError, match="decide"):
+        SafetyFilter(ROBOT, 0.5, 6, fallback=object())
+    f = SafetyFilter(ROBOT, 0.5, 6)
+    with pytest.raises(ValueError, match="shape"):
+        f.check(np.zeros(5), np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="state"):
+        f.check(np.array([0, 0, np.nan, 0, 0]), np.zeros(2))
+    with pytest.raises(ValueError, match="cover 6 steps"):
+        f.check(np.zeros(5), np.zeros(2), [forecast((3, 0), (0, 0), 0.5, 4)])
+
+
+# --- the standby planner ---------------------------------------------------------------------
+def test_standby_planner_replays_what_it_missed_exactly():
+    """The GPC on standby, asked after 9 unseen samples, has the same obstacle filter and
+    reference clock as a GPC that saw every sample, and decides the same."""
+    pytest.importorskip("casadi")
+    from casadi_gpc.config import preset
+    from casadi_gpc.gpc import GPCController
+
+    cfg = preset("improved")
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
+    obs = []
+    for k in range(10):
+        t = k * cfg.sample_time_s
+        z = None if k == 4 else (6.0 - 0.3 * t, 0.05 * t)
+        obs.append(Observation(t, RobotState(0.35 * t, 0.0, 0.0, 0.35, 0.35), ref,
+                               (ObstacleMeasurement(0, z, 0.3),)))
+    direct = GPCController(cfg)
+    standby = StandbyPlanner(GPCController(cfg))
+    standby.reset()
+    for o in obs[:-1]:
+        direct.decide(o)
+        standby.observe(o)
+    assert standby.replayed == 0
+    a, b = direct.decide(obs[-1]), standby.decide(obs[-1])
+    assert standby.replayed == 9
+    np.testing.assert_array_equal(direct.tracks[0].state_, standby.planner.tracks[0].state_)
+    np.testing.assert_array_equal(direct.tracks[0].cov_, standby.planner.tracks[0].cov_)
+    assert direct.clock.s_m == standby.planner.clock.s_m
+    np.testing.assert_allclose([a.v_right_mps, a.v_left_mps], [b.v_right_mps, b.v_left_mps], atol=1e-6)
+
+
+def test_standby_planner_bounds_its_lag():
+    class Counting:
+        def __init__(self):
+            self.decided = []
+
+        def decide(self, obs):
+            self.decided.append(obs)
+            return ControlDecision(0.0, 0.0)
+
+    p = StandbyPlanner(Counting(), max_lag=3)
+    for k in range(10):
+        p.observe(k)
+    assert p.replayed == 7 and len(p._pending) == 3
+    p.decide(10)
+    assert p.planner.decided == list(range(11))
+
+
+# --- the network behind the filter ------------------------------------------------------------
+@pytest.fixture(scope="module")
+def tracker_path(tmp_path_factory):
+    return tracker_model(tmp_path_factory.mktemp("models") / "tracker_improved.onnx", "improved")
+
+
+def _run(policy, scenario):
+    from casadi_gpc.simulator import simulate
+    return simulate(scenario, policy, "nn")
+
+
+def test_obstacle_blind_network_collides_without_the_filter_and_not_with_it(tracker_path):
+    from casadi_gpc.metrics import run_document
+    from nn_export import OnnxPolicy
+    from scenarios import load_scenario
+
+    head_on = load_scenario(HEAD_ON)
+    bare = _run(OnnxPolicy(tracker_path, preset="improved", safety_filter=False), head_on)
+    assert bare.outcome == "collided" and bare.fallbacks == 0
+    pol = OnnxPolicy(tracker_path, preset="improved")
+    log = _run(pol, head_on)
+    assert log.outcome != "collided" and log.min_clearance_m > 0.0
+    n = pol.counters["safety_interventions"]
+    assert n > 0 and log.fallbacks == n == pol.counters["fallbacks"]
+    assert pol.counters["safety_checks"] == len(log.decisions)
+    doc = run_document(log)
+    check_run_document(doc)
+    assert doc["fallbacks"] == n and doc["events"]["safety_interventions"] == n
+    for d in log.decisions:
+        assert np.isfinite([d.v_right_mps, d.v_left_mps]).all()
+        if d.fallback:
+            assert d.reason.startswith("safety: ") and d.info["safety_source"] != "candidate"
+    # every command within the limits from the wheel speeds it was given
+    st = np.asarray(log.states)
+    dv = ROBOT.max_step_change_mps(pol.sample_time_s)
+    for k, d in enumerate(log.decisions):
+        if d.fallback:
+            assert np.all(np.abs([d.v_right_mps - st[k, 3], d.v_left_mps - st[k, 4]]) <= dv + 1e-9)
+            assert max(abs(d.v_right_mps), abs(d.v_left_mps)) <= ROBOT.max_wheel_speed_mps
+
+
+def test_the_gpc_on_standby_takes_over(tracker_path):
+    pytest.importorskip("casadi")
+    from casadi_gpc.gpc import GPCController
+    from nn_export import OnnxPolicy
+    from scenarios import load_scenario
+
+    head_on = load_scenario(HEAD_ON)
+    pol = OnnxPolicy(tracker_path, preset="improved",
+                     fallback=StandbyPlanner(GPCController(preset_config("improved"), head_on.robot)))
+    log = _run(pol, head_on)
+    assert log.outcome == "reached_goal" and log.min_clearance_m > 0.0
+    assert pol.counters["safety_fallback_used"] > 0
+    assert log.fallbacks == pol.counters["safety_interventions"]
+    sources = {d.info.get("safety_source") for d in log.decisions if d.fallback}
+    assert "fallback" in sources
+
+
+def preset_config(name):
+    from casadi_gpc.config import preset
+    return preset(name)
+
+
+def _cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "gpcnav", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=300)
+
+
+def test_cli_safety_options_reach_run_json(tracker_path, tmp_path):
+    out_on, out_off = tmp_path / "on.json", tmp_path / "off.json"
+    r = _cli("simulate", HEAD_ON, "--controller", "nn", "--model", tracker_path, "--safety-fallback", "brake",
+             "--out", out_on)
+    assert r.returncode == 0, r.stderr
+    r = _cli("simulate", HEAD_ON, "--controller", "nn", "--model", tracker_path, "--no-safety-filter",
+             "--out", out_off)
+    assert r.returncode == 0, r.stderr
+    on, off = json.loads(out_on.read_text()), json.loads(out_off.read_text())
+    check_run_document(on)
+    check_run_document(off)
+    assert off["outcome"] == "collided" and off["fallbacks"] == 0
+    assert on["outcome"] != "collided" and on["fallbacks"] == on["events"]["safety_interventions"] > 0
+
+
+@pytest.mark.benchmark
+def test_filter_costs_at_most_30_percent_of_the_decision(tracker_path):
+    """Same run, same observations: the time inside the filter against the rest of the
+    decision (estimation, features, both network passes), medians."""
+    from casadi_gpc.simulator import simulate
+    from nn_export import OnnxPolicy
+    from scenarios import load_scenario
+
+    pol = OnnxPolicy(tracker_path, preset="improved")
+    filt, rest = [], []
+    for name in ("fig7_2_crossing.toml", "fig7_3_crossing_off_path.toml"):
+        log = simulate(load_scenario(PAPER_DIR / name), pol, "nn")
+        for d, t in zip(log.decisions, log.compute_time_s):
+            if not d.fallback:  # an intervention's fallback is not the filter's own cost
+                filt.append(d.info["safety_time_s"])
+                rest.append(t - d.info["safety_time_s"])
+    share = np.median(filt) / np.median(rest)
+    assert share <= 0.30, share

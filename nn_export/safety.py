@@ -75,16 +75,18 @@ class SafetyCheck:
 
     safe: bool
     min_clearance_m: float
-    """Smallest inflated clearance over the horizon (``inf`` without obstacles)."""
+    """Smallest inflated clearance over the horizon (``inf`` without obstacles); with
+    ``continuation == "bound"`` a lower bound of it (see :meth:`SafetyFilter.bound`)."""
     current_clearance_m: float
-    """Inflated clearance now, before the robot moves."""
+    """Inflated clearance now, before the robot moves (a lower bound, as above)."""
     time_s: float
     """When the smallest clearance occurs, from now."""
     obstacle: str
     """Which obstacle: ``"moving <id>"`` or ``"static <index>"`` (empty without obstacles)."""
     continuation: str
-    """What follows the command in the sequence judged: ``"plan"`` (the candidate's own)
-    or ``"then <manoeuvre>"`` (the best way out after one interval of the command)."""
+    """What follows the command in the sequence judged: ``"plan"`` (the candidate's own),
+    ``"then <manoeuvre>"`` (the best way out after one interval of the command), or
+    ``"bound"`` (far enough from everything that no roll-out was needed)."""
 
 
 @dataclass(frozen=True)
@@ -151,22 +153,22 @@ class SafetyFilter:
         self._tau = T * np.arange(1, S + 1) / S          # sub-sample times inside an interval
         self._frac = np.arange(1, S + 1) / S              # the same as fractions of T
         self._steps = np.arange(1, self.horizon + 1)
-        # obstacle positions at the sub-sample instants (and now) from steps 1..H: linear
-        # between steps; now is the step back from step 1 (the EKF's model moves an obstacle
-        # by a near-constant chord each step)
+        # obstacle positions now and at steps 1..H from steps 1..H: now is the step back from
+        # step 1 (the EKF's model moves an obstacle by a near-constant chord each step) ...
         H, N = self.horizon, self.horizon * S
-        known = np.zeros((H, H + 1))                      # steps 0..H from steps 1..H
-        known[:, 1:] = np.eye(H)
-        known[0, 0] = 2.0 if H > 1 else 1.0
+        self._known = np.zeros((H, H + 1))
+        self._known[:, 1:] = np.eye(H)
+        self._known[0, 0] = 2.0 if H > 1 else 1.0
         if H > 1:
-            known[1, 0] = -1.0
-        self._interp = np.zeros((H, N + 1))
-        self._interp[:, 0] = known[:, 0]
+            self._known[1, 0] = -1.0
+        # ... and at the sub-sample instants, linear between steps
+        self._interp = np.zeros((H + 1, N + 1))
+        self._interp[0, 0] = 1.0
         for k in range(H):
-            self._interp[:, 1 + k * S:1 + (k + 1) * S] = (known[:, k:k + 1] * (1.0 - self._frac)
-                                                          + known[:, k + 1:k + 2] * self._frac)
-        # the inflation of each chord is the one at the end of its interval (the larger)
-        self._spread = np.kron(np.eye(H), np.ones((1, S)))
+            self._interp[k, 1 + k * S:1 + (k + 1) * S] = 1.0 - self._frac
+            self._interp[k + 1, 1 + k * S:1 + (k + 1) * S] = self._frac
+        # path length bound of 'the command, then anything within the limits' after step 1
+        self._full_reach = self.robot.max_wheel_speed_mps * T * np.arange(H)
         self._names = [m[0] for m in MANOEUVRES]
         self._targets = np.array([m[1:] for m in MANOEUVRES], dtype=float)
         self._swerves = np.array([m[0].startswith("swerve") for m in MANOEUVRES])
@@ -222,14 +224,14 @@ class SafetyFilter:
         p[:, 1:] = (start[..., None] + d).reshape(M, N)
         return p
 
-    def obstacle_tracks(self, forecasts, statics) -> tuple:
-        """The obstacles at the roll-out's instants, as complex positions ``(n, H * substeps
-        + 1)``, the distance at which each chord touches ``(n, H * substeps)`` (radii plus k
-        sigma, m), and the obstacles themselves (for the labels)."""
-        H, N = self.horizon, self.horizon * self.substeps
+    def obstacle_tracks(self, forecasts, statics) -> "_Obstacles":
+        """The obstacles at the sample instants: positions now and at steps 1..H (complex
+        x + iy, ``(n, H + 1)``) and the distance at which the robot touches each one over
+        each interval ``(n, H)`` (radii plus k sigma at the end of the interval, m)."""
+        H = self.horizon
         nm, n = len(forecasts), len(forecasts) + len(statics)
-        q = np.empty((n, N + 1), dtype=complex)
-        touch = np.empty((n, N))
+        q = np.empty((n, H + 1), dtype=complex)
+        touch = np.empty((n, H))
         if nm:
             try:
                 m = np.array([f.means_m for f in forecasts], dtype=float)     # (n, H, 2)
@@ -239,32 +241,44 @@ class SafetyFilter:
             if m.shape[1:] != (H, 2) or c.shape[1:] != (H, 2, 2):
                 raise ValueError(f"obstacle forecasts must cover {H} steps with (H, 2) means and (H, 2, 2) "
                                  f"covariances, got {m.shape[1:]} and {c.shape[1:]}")
-            # now and the sub-sample instants, by one constant linear map of steps 1..H
-            q[:nm] = (m[..., 0] + 1j * m[..., 1]) @ self._interp
+            q[:nm] = (m[..., 0] + 1j * m[..., 1]) @ self._known
             a, b, d = c[..., 0, 0], c[..., 0, 1], c[..., 1, 1]
             half = 0.5 * (a - d)
             sig = np.sqrt(np.maximum(0.5 * (a + d) + np.sqrt(half * half + b * b), 0.0))   # (n, H)
             radii = np.array([f.radius_m for f in forecasts], dtype=float)
-            touch[:nm] = (self.sigmas * sig) @ self._spread + (radii[:, None] + self.robot.radius_m)
+            touch[:nm] = self.sigmas * sig + (radii[:, None] + self.robot.radius_m)
         for i, st in enumerate(statics):
             q[nm + i] = complex(st.position_m[0], st.position_m[1])
             touch[nm + i] = st.radius_m + self.robot.radius_m
-        return q, touch, (tuple(forecasts), tuple(statics))
+        return _Obstacles(q, touch, tuple(forecasts), tuple(statics), self)
 
-    @staticmethod
-    def _label(obstacles, j: int) -> str:
-        moving, statics = obstacles[2]
-        return f"moving {moving[j].obstacle_id}" if j < len(moving) else f"static {j - len(moving)}"
+    def bound(self, state, cmd, plan, obstacles: "_Obstacles") -> tuple[float, int, int]:
+        """A lower bound of the clearance over the horizon that needs no roll-out: over
+        interval k the robot is within its path length S_k of where it is now, and the
+        obstacle within its chord of where it is at step k, so the clearance is at least
+        ``|p_now - q_k| - S_k - |q_k - q_(k-1)| - touch_k``. S_k is the plan's path length,
+        or, with a command alone, the command's interval then full speed (any way out).
+        Returns the bound, the obstacle and the interval (0-based) where it is smallest."""
+        T = self.sample_time_s
+        if plan is not None:
+            reach = np.add.accumulate(np.abs(plan[:, 0] + plan[:, 1])) * (0.5 * T)
+        else:
+            reach = abs(0.5 * float(cmd[0] + cmd[1])) * T + self._full_reach
+        q = obstacles.q
+        gap = (np.abs(q[:, 1:] - complex(state[0], state[1])) - np.abs(q[:, 1:] - q[:, :-1])) - obstacles.touch
+        low = gap - reach
+        i = int(low.argmin())
+        return float(low.flat[i]), i // self.horizon, i % self.horizon
 
-    def clearances(self, state, wheels: np.ndarray, obstacles) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                                        np.ndarray]:
+    def clearances(self, state, wheels: np.ndarray, obstacles: "_Obstacles") -> tuple[np.ndarray, np.ndarray,
+                                                                                  np.ndarray, np.ndarray]:
         """For each sequence in ``wheels`` (M, H, 2): the smallest inflated clearance over the
         horizon, the clearance now, the chord index and the obstacle of the minimum."""
-        q, touch, _ = obstacles
         M = wheels.shape[0]
-        if not len(q):
+        if not len(obstacles.q):
             inf = np.full(M, np.inf)
             return inf, inf, np.zeros(M, int), np.zeros(M, int)
+        q, touch = obstacles.sub_samples()
         rel = self.rollout(state, wheels)[:, None, :] - q[None]            # (M, n, N+1) robot - obstacle
         r0 = rel[..., :-1]                                                  # chord starts
         u = rel[..., 1:] - r0                                               # chord directions
@@ -325,20 +339,24 @@ class SafetyFilter:
     def _assess(self, state, cmd, plan, obstacles) -> SafetyCheck:
         """The check of a command (and its own plan, if any): its plan first; if that fails
         or there is none, the command followed by each manoeuvre."""
-        if not len(obstacles[0]):
+        if not len(obstacles.q):
             return SafetyCheck(True, math.inf, math.inf, 0.0, "", "")
         T, S = self.sample_time_s, self.substeps
+        lower, j, k = self.bound(state, cmd, plan, obstacles)
+        if lower >= self.margin_m:
+            # far from everything whatever follows: no roll-out needed
+            return SafetyCheck(True, lower, lower, (k + 1) * T, obstacles.label(j), "bound")
         if plan is not None:
             cmin, now, chord, which = self.clearances(state, plan[None], obstacles)
             if self._judge(float(cmin[0]), float(now[0])):
                 return SafetyCheck(True, float(cmin[0]), float(now[0]), float(chord[0] + 1) * T / S,
-                                   self._label(obstacles, int(which[0])), "plan")
+                                   obstacles.label(int(which[0])), "plan")
             plan_check = SafetyCheck(False, float(cmin[0]), float(now[0]), float(chord[0] + 1) * T / S,
-                                     self._label(obstacles, int(which[0])), "plan")
+                                     obstacles.label(int(which[0])), "plan")
         cmin, now, chord, which = self.clearances(state, self._escapes(cmd), obstacles)
         i = int(np.argmax(cmin >= cmin.max() - _TIE_M))
         check = SafetyCheck(self._judge(float(cmin[i]), float(now[i])), float(cmin[i]), float(now[i]),
-                            float(chord[i] + 1) * T / S, self._label(obstacles, int(which[i])), "then " + self._names[i])
+                            float(chord[i] + 1) * T / S, obstacles.label(int(which[i])), "then " + self._names[i])
         if not check.safe and plan is not None and plan_check.min_clearance_m > check.min_clearance_m:
             return plan_check
         return check
@@ -423,6 +441,27 @@ class SafetyFilter:
         self.counters["manoeuvres"] += 1
         return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
                              why + f"; manoeuvre {name} (clearance {cm:.2f} m)", f"manoeuvre:{name}", check, mw)
+
+
+class _Obstacles:
+    """The obstacles of one check at the sample instants, with their sub-sampled form made
+    once when a roll-out needs it."""
+
+    __slots__ = ("q", "touch", "moving", "statics", "_filter", "_sub")
+
+    def __init__(self, q, touch, moving, statics, flt: SafetyFilter):
+        self.q, self.touch, self.moving, self.statics, self._filter, self._sub = q, touch, moving, statics, flt, None
+
+    def sub_samples(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions ``(n, H * substeps + 1)`` and touching distances ``(n, H * substeps)``."""
+        if self._sub is None:
+            f = self._filter
+            self._sub = (self.q @ f._interp, np.repeat(self.touch, f.substeps, axis=1))
+        return self._sub
+
+    def label(self, j: int) -> str:
+        n = len(self.moving)
+        return f"moving {self.moving[j].obstacle_id}" if j < n else f"static {j - n}"
 
 
 class StandbyPlanner:

@@ -101,7 +101,7 @@ def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
     ref = scenario.reference
     dv_max = robot.max_step_change_mps(T)
     obstacles = _all_obstacles(scenario)
-    n_steps = int(np.ceil(scenario.duration_s / T - 1e-9))
+    n_steps = int(np.floor(scenario.duration_s / T + 1e-9))  # never run past duration_s
     gaps0 = [np.hypot(*(pos(0.0) - state[:2])) - r - robot.radius_m for r, pos in obstacles]
     log.min_clearance_m = float(min(gaps0)) if gaps0 else float("inf")
 

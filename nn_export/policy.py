@@ -263,6 +263,7 @@ class OnnxPolicy:
     # --- the step --------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:
         situation = self.tracker.update(obs)
+        self.counters.update(self.tracker.counters)  # missed measurements and gated outliers
         dec = self._decide(obs, situation)
         return dec if self.safety is None else self._checked(obs, situation, dec)
 

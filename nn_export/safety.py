@@ -30,10 +30,12 @@ the filter **intervenes**, in this order:
    fallback;
 2. else the best of a small fixed set of manoeuvres within the speed and acceleration
    limits (brake, swerve left/right, slow turns, reverse, dash ahead), each a constant
-   wheel-speed target approached at the acceleration limit: the one whose roll-out keeps the
-   largest predicted clearance (ties go to the earlier one in :data:`MANOEUVRES`, braking
-   first). If none is better than the candidate itself, the candidate is kept and that is
-   counted (``no_safer_option``).
+   wheel-speed target approached at the acceleration limit. Best means: the clearance stays
+   above the margin for the longest time (a violation late in the horizon, where the
+   forecast's uncertainty has grown, is not as bad as one in the next second), then the
+   largest smallest clearance, then the earlier one in :data:`MANOEUVRES` (braking first).
+   If none is better than the candidate itself, the candidate is kept and that is counted
+   (``no_safer_option``).
 
 Every check and every intervention is counted in :attr:`SafetyFilter.counters`.
 ``docs/faults.md`` documents the settings and the measured cost.
@@ -87,6 +89,9 @@ class SafetyCheck:
     """What follows the command in the sequence judged: ``"plan"`` (the candidate's own),
     ``"then <manoeuvre>"`` (the best way out after one interval of the command), or
     ``"bound"`` (far enough from everything that no roll-out was needed)."""
+    kept_s: float = math.inf
+    """How long from now the clearance stays at or above the margin (or, inside the margin,
+    at or above the clearance now); the horizon when it always does."""
 
 
 @dataclass(frozen=True)
@@ -273,11 +278,13 @@ class SafetyFilter:
     def clearances(self, state, wheels: np.ndarray, obstacles: "_Obstacles") -> tuple[np.ndarray, np.ndarray,
                                                                                   np.ndarray, np.ndarray]:
         """For each sequence in ``wheels`` (M, H, 2): the smallest inflated clearance over the
-        horizon, the clearance now, the chord index and the obstacle of the minimum."""
-        M = wheels.shape[0]
+        horizon, the clearance now, the chord index and the obstacle of the minimum, and how
+        many chords pass before the clearance first falls below the threshold (the margin,
+        or, inside it, the clearance now): H * substeps when it never does."""
+        M, N = wheels.shape[0], self.horizon * self.substeps
         if not len(obstacles.q):
             inf = np.full(M, np.inf)
-            return inf, inf, np.zeros(M, int), np.zeros(M, int)
+            return inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N)
         q, touch = obstacles.sub_samples()
         rel = self.rollout(state, wheels)[:, None, :] - q[None]            # (M, n, N+1) robot - obstacle
         r0 = rel[..., :-1]                                                  # chord starts
@@ -289,8 +296,9 @@ class SafetyFilter:
         flat = gap.reshape(M, -1)
         k = flat.argmin(axis=1)
         now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
-        n_chords = gap.shape[-1]
-        return flat[np.arange(M), k], now, k % n_chords, k // n_chords
+        below = gap.min(axis=1) < np.minimum(self.margin_m, now - _NOT_WORSE_M)[:, None]
+        kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
+        return flat[np.arange(M), k], now, k % N, k // N, kept
 
     # --- candidates ----------------------------------------------------------------------
     def manoeuvres(self, v0, steps: int | None = None) -> tuple[list[str], np.ndarray]:
@@ -333,33 +341,47 @@ class SafetyFilter:
             seq = self.limit(state[3:5], seq)
         return seq[0].copy(), (seq if plan is not None else None), limited
 
-    def _judge(self, cmin: float, now: float) -> bool:
-        return cmin >= self.margin_m or (now < self.margin_m and cmin >= now - _NOT_WORSE_M)
+    def _checks(self, state, wheels, obstacles, label: str | list) -> list[SafetyCheck]:
+        """One :class:`SafetyCheck` per sequence of ``wheels`` (M, H, 2)."""
+        cmin, now, chord, which, kept = self.clearances(state, wheels, obstacles)
+        N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
+        return [SafetyCheck(bool(kept[i] == N), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
+                            obstacles.label(int(which[i])), label if isinstance(label, str) else label[i],
+                            float(kept[i]) * tau) for i in range(len(cmin))]
+
+    @staticmethod
+    def _best(checks: list[SafetyCheck]) -> int:
+        """The index of the best check: the longest time before the clearance falls below
+        the threshold (a violation late in the horizon, where the forecasts are uncertain, is
+        not as bad as one in the next second), then the largest smallest clearance, then
+        the first."""
+        best = 0
+        for i, c in enumerate(checks):
+            b = checks[best]
+            if c.kept_s > b.kept_s + 1e-12 or (abs(c.kept_s - b.kept_s) <= 1e-12
+                                                and c.min_clearance_m > b.min_clearance_m + _TIE_M):
+                best = i
+        return best
 
     def _assess(self, state, cmd, plan, obstacles) -> SafetyCheck:
         """The check of a command (and its own plan, if any): its plan first; if that fails
-        or there is none, the command followed by each manoeuvre."""
+        or there is none, the command followed by each manoeuvre (the best of them)."""
+        horizon_s = self.horizon * self.sample_time_s
         if not len(obstacles.q):
-            return SafetyCheck(True, math.inf, math.inf, 0.0, "", "")
-        T, S = self.sample_time_s, self.substeps
+            return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", horizon_s)
         lower, j, k = self.bound(state, cmd, plan, obstacles)
         if lower >= self.margin_m:
             # far from everything whatever follows: no roll-out needed
-            return SafetyCheck(True, lower, lower, (k + 1) * T, obstacles.label(j), "bound")
+            return SafetyCheck(True, lower, lower, (k + 1) * self.sample_time_s, obstacles.label(j), "bound",
+                               horizon_s)
         if plan is not None:
-            cmin, now, chord, which = self.clearances(state, plan[None], obstacles)
-            if self._judge(float(cmin[0]), float(now[0])):
-                return SafetyCheck(True, float(cmin[0]), float(now[0]), float(chord[0] + 1) * T / S,
-                                   obstacles.label(int(which[0])), "plan")
-            plan_check = SafetyCheck(False, float(cmin[0]), float(now[0]), float(chord[0] + 1) * T / S,
-                                     obstacles.label(int(which[0])), "plan")
-        cmin, now, chord, which = self.clearances(state, self._escapes(cmd), obstacles)
-        i = int(np.argmax(cmin >= cmin.max() - _TIE_M))
-        check = SafetyCheck(self._judge(float(cmin[i]), float(now[i])), float(cmin[i]), float(now[i]),
-                            float(chord[i] + 1) * T / S, obstacles.label(int(which[i])), "then " + self._names[i])
-        if not check.safe and plan is not None and plan_check.min_clearance_m > check.min_clearance_m:
-            return plan_check
-        return check
+            plan_check = self._checks(state, plan[None], obstacles, "plan")[0]
+            if plan_check.safe:
+                return plan_check
+        escapes = self._checks(state, self._escapes(cmd), obstacles, ["then " + n for n in self._names])
+        if plan is not None:
+            escapes.append(plan_check)
+        return escapes[self._best(escapes)]
 
     def check(self, state, wheels, forecasts=(), statics=()) -> SafetyCheck:
         """The verdict on a candidate from ``state`` = (x, y, heading, v_right, v_left).
@@ -374,16 +396,15 @@ class SafetyFilter:
             raise ValueError(f"state must be 5 finite numbers (x, y, heading, v_right, v_left), got {state}")
         cmd, plan, _ = self._as_candidate(state, wheels)
         if cmd is None:
-            return SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate")
+            return SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
         return self._assess(state, cmd, plan, self.obstacle_tracks(forecasts, statics))
 
-    def best_manoeuvre(self, state, obstacles) -> tuple[str, np.ndarray, float]:
-        """The manoeuvre from now with the largest predicted clearance: (name, (H, 2)
-        wheels, clearance). Ties go to the earlier one in :data:`MANOEUVRES`."""
+    def best_manoeuvre(self, state, obstacles) -> tuple[str, np.ndarray, SafetyCheck]:
+        """The best manoeuvre from now (see :meth:`_best`): name, (H, 2) wheels and its check."""
         names, W = self.manoeuvres(np.asarray(state, float)[3:5])
-        cmin, _, _, _ = self.clearances(np.asarray(state, float), W, obstacles)
-        best = int(np.argmax(cmin >= cmin.max() - _TIE_M))
-        return names[best], W[best], float(cmin[best])
+        checks = self._checks(np.asarray(state, float), W, obstacles, names)
+        i = self._best(checks)
+        return names[i], W[i], checks[i]
 
     # --- the filter ----------------------------------------------------------------------
     def filter(self, observation: Observation, wheels, forecasts=(), statics=None) -> SafetyVerdict:
@@ -402,7 +423,7 @@ class SafetyFilter:
         cmd, plan, limited = self._as_candidate(state, wheels)
         if cmd is None:
             self.counters["non_finite_candidate"] += 1
-            check = SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate")
+            check = SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
             return self._intervene(observation, state, obstacles, check, None)
         if limited:
             # the simulator (and the robot) would clip it: what is checked is what would happen
@@ -432,15 +453,16 @@ class SafetyFilter:
                                      check, None if plan is None else np.asarray(plan, float))
             self.counters["fallback_failed"] += 1
             why += f"; fallback planner failed ({dec.reason})"
-        name, mw, cm = self.best_manoeuvre(state, obstacles)
-        if cmd is not None and cm <= check.min_clearance_m:
+        name, mw, mc = self.best_manoeuvre(state, obstacles)
+        if cmd is not None and self._best([check, mc]) == 0:
             # nothing in the set does better than the candidate: keep it, and say so
             self.counters["no_safer_option"] += 1
             return SafetyVerdict(float(cmd[0]), float(cmd[1]), True, why + "; no safer manoeuvre, candidate kept",
                                  "candidate", check, None)
         self.counters["manoeuvres"] += 1
         return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
-                             why + f"; manoeuvre {name} (clearance {cm:.2f} m)", f"manoeuvre:{name}", check, mw)
+                             why + f"; manoeuvre {name} (clearance {mc.min_clearance_m:.2f} m, margin kept "
+                             f"{mc.kept_s:.1f} s)", f"manoeuvre:{name}", check, mw)
 
 
 class _Obstacles:

@@ -122,8 +122,11 @@ class ObstacleEKF:
         """Advance one sample and fuse measurement ``z`` (``None`` or non-finite = missing).
 
         Returns what happened: ``"start"``, ``"update"``, ``"missed"`` or ``"outlier"``.
+        Raises ``ValueError`` when ``z`` is not a position (two numbers).
         """
         z = None if z is None else np.asarray(z, dtype=float)
+        if z is not None and z.shape != (2,):
+            raise ValueError(f"an obstacle measurement is a position (x, y), got shape {z.shape}")
         if z is not None and not np.all(np.isfinite(z)):
             z = None
         if self.state_ is None:

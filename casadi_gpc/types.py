@@ -1,6 +1,7 @@
 """Typed data passed between the stages: observations in, decisions out."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -37,13 +38,24 @@ class StaticObstacle:
 
 @dataclass(frozen=True)
 class Observation:
-    """Everything a controller is told at one sample instant."""
+    """Everything a controller is told at one sample instant.
+
+    Raises ``ValueError`` when the time or the robot's own state is not finite: no
+    controller can answer that safely. A missing or non-finite obstacle *measurement* is a
+    sensor fault, not an error: the obstacle filters skip it and count it.
+    """
 
     t_s: float
     robot: RobotState
     reference: ReferencePath
     moving: tuple[ObstacleMeasurement, ...] = ()
     static: tuple[StaticObstacle, ...] = ()
+
+    def __post_init__(self):
+        r = self.robot
+        if not (math.isfinite(self.t_s) and math.isfinite(r.x_m) and math.isfinite(r.y_m)
+                and math.isfinite(r.heading_rad) and math.isfinite(r.v_right_mps) and math.isfinite(r.v_left_mps)):
+            raise ValueError(f"observation at t={self.t_s} s has a non-finite time or robot state: {r}")
 
 
 @dataclass(frozen=True)

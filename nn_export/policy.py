@@ -190,6 +190,8 @@ class OnnxPolicy:
         self._binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
         self._run = self.session.run_with_iobinding
         self._run()  # first call allocates; do it now, not in the first decision
+        if not np.all(np.isfinite(self._y)):  # corrupt numbers in an otherwise valid file
+            raise ValueError(f"{path}: the network gives non-finite wheel speeds (corrupt weights?)")
         self.model_info = {
             "path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
             "preset": meta["preset"], "feature_layout": self.layout.name, "feature_layout_version": self.layout.version,

@@ -65,9 +65,10 @@ def model_metadata(config: PlannerConfig, robot: RobotParams, layout, **override
 
 
 def tracker_model(path, preset_name: str = "improved", robot: RobotParams | None = None, layout_name: str = "paper",
-                  n_inputs: int | None = None, **meta_overrides) -> Path:
+                  n_inputs: int | None = None, weight_fill: float | None = None, **meta_overrides) -> Path:
     """Write the obstacle-blind tracker as ``path``; ``n_inputs`` makes the graph's input
-    another size than the layout's (a mismatched file), ``meta_overrides`` change metadata."""
+    another size than the layout's (a mismatched file), ``weight_fill`` overwrites every
+    weight (NaN: a file whose numbers are corrupt), ``meta_overrides`` change metadata."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
@@ -78,6 +79,8 @@ def tracker_model(path, preset_name: str = "improved", robot: RobotParams | None
     n = layout.size if n_inputs is None else int(n_inputs)
     if n != layout.size:
         W = np.resize(W, (n, 2))
+    if weight_fill is not None:
+        W = np.full_like(W, weight_fill)
     clip = robot.max_wheel_speed_mps
     graph = helper.make_graph(
         [helper.make_node("MatMul", ["features", "W"], ["xw"]),

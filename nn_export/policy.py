@@ -188,7 +188,7 @@ class OnnxPolicy:
         self._binding = self.session.io_binding()
         self._binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._x))
         self._binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
-        self._run = self.session.run_with_iobinding
+        self._run = lambda: self.session.run_with_iobinding(self._binding)
         self._run()  # first call allocates; do it now, not in the first decision
         if not np.all(np.isfinite(self._y)):  # corrupt numbers in an otherwise valid file
             raise ValueError(f"{path}: the network gives non-finite wheel speeds (corrupt weights?)")

@@ -19,14 +19,27 @@ def add_arguments(p):
     p.add_argument("--activation", choices=("tanh", "relu", "softsign"), default="tanh", help="hidden non-linearity")
     p.add_argument("--layout", choices=("paper", "multi"), default=None,
                    help="feature layout the datasets must have (default: whatever they have)")
-    p.add_argument("--epochs", type=int, default=2000, help="maximum epochs (early stopping ends sooner)")
-    p.add_argument("--patience", type=int, default=120, help="epochs without a better validation error before stopping")
-    p.add_argument("--batch-size", type=int, default=256, help="mini-batch size")
+    p.add_argument("--optimizer", choices=("lbfgs", "adam"), default="lbfgs",
+                   help="full-batch L-BFGS (default) or mini-batch Adam")
+    p.add_argument("--epochs", type=int, default=3000,
+                   help="maximum L-BFGS iterations or Adam epochs (early stopping ends sooner)")
+    p.add_argument("--patience", type=int, default=150,
+                   help="iterations/epochs without a better validation error before stopping")
+    p.add_argument("--batch-size", type=int, default=1024, help="Adam mini-batch size")
     p.add_argument("--lr", type=float, default=3e-3, help="initial Adam learning rate")
     p.add_argument("--weight-decay", type=float, default=0.0, help="L2 penalty")
     p.add_argument("--validation-fraction", type=float, default=0.15, help="share of situations held out")
     p.add_argument("--seed", type=int, default=0, help="seeds the split, the initial weights and the batch order")
     add_preset_arguments(p)
+
+
+_NOT_THE_PROBLEM = {"solver", "time_budget_s"}  # how the NLP is solved, not which NLP it is
+
+
+def _config_differences(a: dict, b: dict) -> list[str]:
+    """Fields that define the GPC problem and differ (a field one side lacks counts only
+    when the other side sets it, so a config field added later with default None is fine)."""
+    return sorted(k for k in set(a) | set(b) if k not in _NOT_THE_PROBLEM and a.get(k) != b.get(k))
 
 
 def _dataset_id(manifests) -> str:
@@ -67,9 +80,10 @@ def run(args) -> int:
         man = s.manifest
         if man.get("preset") != cfg.name:
             raise UsageError(f"{d}: dataset labelled under preset {man.get('preset')!r}, not --preset {cfg.name}")
-        if man.get("planner_config") != cfg.to_dict():
+        differ = _config_differences(man.get("planner_config") or {}, cfg.to_dict())
+        if differ:
             raise UsageError(f"{d}: dataset labelled with another planner configuration than preset {cfg.name!r} "
-                             f"(with the given overrides)")
+                             f"({', '.join(differ)} differ)")
         if args.layout is not None and s.layout.name != args.layout:
             raise UsageError(f"{d}: dataset has feature layout {s.layout.name!r}, not --layout {args.layout}")
         if s.layout != first.layout or man.get("robot") != first.manifest.get("robot"):
@@ -78,11 +92,11 @@ def run(args) -> int:
     Y = np.concatenate([s.Y for s in sets])
     # situation ids are unique within a dataset; offset them so that datasets do not collide
     G = np.concatenate([s.groups.astype(np.int64) * len(sets) + i for i, s in enumerate(sets)])
-    model = WheelSpeedMLP(hidden=args.hidden, activation=args.activation, max_epochs=args.epochs,
+    model = WheelSpeedMLP(hidden=args.hidden, activation=args.activation, optimizer=args.optimizer, max_epochs=args.epochs,
                           batch_size=args.batch_size, learning_rate=args.lr, weight_decay=args.weight_decay,
                           validation_fraction=args.validation_fraction, patience=args.patience,
                           random_state=args.seed)
-    bar = progress(total=args.epochs, desc="epochs", unit="epoch")
+    bar = progress(total=args.epochs, desc="training", unit="it")
 
     def tick(epoch, tr, va):
         bar.update(1)

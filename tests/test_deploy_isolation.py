@@ -1,0 +1,65 @@
+"""The deployment path: ``from nn_export import OnnxPolicy`` and a decision work with torch
+and casadi made unimportable, and pull in neither."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from nn_export.policy import shipped_model_path
+
+BLOCKER = textwrap.dedent("""
+    import sys
+
+    class _Blocker:
+        BLOCKED = ("torch", "casadi", "onnx", "matplotlib", "scipy")
+
+        def find_spec(self, name, path=None, target=None):
+            if name.split(".")[0] in self.BLOCKED:
+                raise ImportError(f"{name} is blocked: the deployed policy must not import it")
+            return None
+
+    sys.meta_path.insert(0, _Blocker())
+""")
+
+SCRIPT = BLOCKER + textwrap.dedent("""
+    import numpy as np
+    from nn_export import OnnxPolicy
+    from casadi_gpc.reference import ReferencePath, Segment
+    from casadi_gpc.robot import RobotState
+    from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
+
+    for preset in ("paper", "improved"):
+        policy = OnnxPolicy(preset=preset)
+        T = policy.sample_time_s
+        ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(10.0),), 0.4)
+        robot = RobotState(0.0, 0.0, 0.0, 0.0, 0.0)
+        decisions = []
+        for k in range(4):
+            obs = Observation(k * T, robot, ref, (ObstacleMeasurement(0, (6.0 - 0.4 * k * T, 0.0), 0.3),),
+                              (StaticObstacle((3.0, 1.5), 0.3),))
+            d = policy.decide(obs)
+            assert np.isfinite(d.v_right_mps) and np.isfinite(d.v_left_mps)
+            assert abs(d.v_right_mps) <= 0.8 and abs(d.v_left_mps) <= 0.8
+            decisions.append((d.v_right_mps, d.v_left_mps))
+        print(preset, decisions[-1])
+    for mod in ("torch", "casadi", "onnx", "scipy", "matplotlib"):
+        assert mod not in sys.modules, mod
+    print("OK")
+""")
+
+
+@pytest.mark.skipif(not shipped_model_path("paper").is_file(), reason="no shipped model yet")
+def test_policy_runs_with_torch_and_casadi_blocked():
+    out = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().endswith("OK")
+
+
+def test_the_blocker_really_blocks():
+    """The same blocker makes an import of the planner (which needs casadi) fail."""
+    out = subprocess.run([sys.executable, "-c", BLOCKER + "import casadi_gpc.gpc"], capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode != 0 and "blocked" in out.stderr

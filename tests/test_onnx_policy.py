@@ -1,0 +1,284 @@
+"""OnnxPolicy: load-time refusal of bad or mismatched model files, the two-pass scheme checked
+against an independent re-computation, the shipped models, and a model retrained from
+scratch through the command line."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from casadi_gpc.config import preset
+from casadi_gpc.reference import ReferencePath, Segment
+from casadi_gpc.robot import RobotParams, RobotState, robot_step
+from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
+from nn_export.features import compute_features, layout_for, reference_poses
+from nn_export.policy import POLICY_FORMAT, OnnxPolicy, shipped_model_path
+
+torch = pytest.importorskip("torch")
+onnx = pytest.importorskip("onnx")
+
+
+def _model(tmp_path, preset_name="paper", layout="paper", robot=None, name="m", seed=0):
+    """A small network with real provenance, trained on synthetic data (fast)."""
+    from nn_export.export import POLICY_FORMAT as EXPORT_FORMAT, export_onnx
+    from nn_export.train import WheelSpeedMLP
+    assert EXPORT_FORMAT == POLICY_FORMAT
+    cfg = preset(preset_name)
+    lay = layout_for(layout, cfg.horizon)
+    robot = robot or RobotParams()
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(300, lay.size))
+    Y = 0.3 * np.tanh(X[:, :2]) + 0.3
+    m = WheelSpeedMLP(hidden=8, max_epochs=30, random_state=seed).fit(X, Y, feature_names=lay.feature_names)
+    m.save(tmp_path / name, {
+        "preset": cfg.name, "horizon": cfg.horizon, "sample_time_s": cfg.sample_time_s, "planner_config": cfg.to_dict(),
+        "robot": robot.to_dict(), "feature_layout": lay.name, "feature_layout_version": lay.version,
+        "feature_layout_spec": lay.to_dict(), "dataset": {"id": "synthetic"}})
+    path = tmp_path / f"{name}.onnx"
+    export_onnx(tmp_path / name, path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def paper_model(tmp_path_factory):
+    return _model(tmp_path_factory.mktemp("models"))
+
+
+def _edit_metadata(src, dst, **changes):
+    proto = onnx.load(src)
+    meta = {p.key: p.value for p in proto.metadata_props}
+    meta.update({k: v for k, v in changes.items() if v is not None})
+    for k in [k for k, v in changes.items() if v is None]:
+        meta.pop(k)
+    del proto.metadata_props[:]
+    for k, v in meta.items():
+        proto.metadata_props.add(key=k, value=v)
+    onnx.save(proto, dst)
+    return dst
+
+
+def _one_line_refusal(exc_info, path):
+    msg = str(exc_info.value)
+    assert "\n" not in msg and str(path) in msg
+    return msg
+
+
+# --- load-time checks ---------------------------------------------------------------------
+def test_loads_and_reports_metadata(paper_model):
+    p = OnnxPolicy(paper_model, preset="paper", safety_filter=False)
+    assert p.sample_time_s == 1.5 and p.horizon == 6
+    info = p.model_info
+    assert info["preset"] == "paper" and info["feature_layout"] == "paper" and info["n_features"] == 17
+    assert info["dataset"] == {"id": "synthetic"} and len(info["sha256"]) == 64
+    assert OnnxPolicy(paper_model, safety_filter=False).config.name == "paper"  # preset from the file
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError) as e:
+        OnnxPolicy(tmp_path / "nope.onnx")
+    _one_line_refusal(e, tmp_path / "nope.onnx")
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage", "empty", "flipped"])
+def test_damaged_files_are_refused_at_load_time(paper_model, tmp_path, damage):
+    data = paper_model.read_bytes()
+    bad = {"truncated": data[: len(data) // 2], "garbage": b"not an onnx model at all" * 10, "empty": b"",
+           "flipped": data[:40] + bytes(b ^ 0xFF for b in data[40:400]) + data[400:]}[damage]
+    path = tmp_path / f"{damage}.onnx"
+    path.write_bytes(bad)
+    with pytest.raises(ValueError) as e:
+        OnnxPolicy(path, preset="paper")
+    _one_line_refusal(e, path)
+
+
+@pytest.mark.parametrize("changes, match", [
+    ({"format": "something-else/1"}, "not a gpcnav policy model"),
+    ({"preset": "improved"}, "H=6"),
+    ({"feature_layout_version": "99", "feature_layout_spec": None}, "version 99"),
+    ({"n_features": "18"}, "18"),
+    ({"horizon": "7", "feature_layout_spec": None}, "horizon|H=7|inputs|feature names"),
+    ({"robot": json.dumps({**RobotParams().to_dict(), "wheel_base_m": 0.6})}, "another robot"),
+    ({"dataset": None}, "lacks dataset"),
+    ({"robot": "{not json"}, "malformed"),
+])
+def test_mismatched_metadata_is_refused(paper_model, tmp_path, changes, match):
+    path = _edit_metadata(paper_model, tmp_path / "edited.onnx", **changes)
+    with pytest.raises(ValueError, match=match) as e:
+        OnnxPolicy(path)
+    _one_line_refusal(e, path)
+
+
+def test_never_runs_under_another_preset(paper_model):
+    with pytest.raises(ValueError, match="trained for preset 'paper', refusing .* 'improved'") as e:
+        OnnxPolicy(paper_model, preset="improved")
+    _one_line_refusal(e, paper_model)
+
+
+def test_another_robot_is_refused(paper_model):
+    with pytest.raises(ValueError, match="another robot"):
+        OnnxPolicy(paper_model, robot=RobotParams(max_wheel_speed_mps=1.0))
+
+
+def test_a_foreign_onnx_graph_is_refused(tmp_path):
+    from onnx import TensorProto, helper
+    g = helper.make_graph([helper.make_node("Identity", ["features"], ["wheel_speeds_mps"])], "g",
+                          [helper.make_tensor_value_info("features", TensorProto.FLOAT, [None, 17])],
+                          [helper.make_tensor_value_info("wheel_speeds_mps", TensorProto.FLOAT, [None, 17])])
+    path = tmp_path / "foreign.onnx"
+    onnx.save(helper.make_model(g, opset_imports=[helper.make_opsetid("", 17)], ir_version=8), path)
+    with pytest.raises(ValueError, match="not a gpcnav policy model"):
+        OnnxPolicy(path)
+
+
+def test_cli_refuses_a_mismatched_model_with_exit_2(paper_model, tmp_path):
+    out = subprocess.run([sys.executable, "-m", "gpcnav", "simulate", "scenarios/paper/fig7_1_head_on.toml",
+                          "--controller", "nn", "--model", str(paper_model), "--preset", "improved"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2
+    assert len(out.stderr.strip().splitlines()) == 1 and "refusing" in out.stderr
+
+
+# --- the two passes, against an independent re-computation --------------------------------
+def _obs(t, robot, obstacle_xy=None, statics=()):
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(8.0), Segment.arc(4.0, 0.6), Segment.line(6.0)), 0.4)
+    moving = () if obstacle_xy is None else (ObstacleMeasurement(0, obstacle_xy, 0.3),)
+    return Observation(t, robot, ref, moving, statics)
+
+
+def _net(policy, f):
+    return policy.network(f[None, :])[0].astype(float)
+
+
+def _free_rollout(policy, obs):
+    """Pass 1 written out again: features of the obstacle-free situation at each predicted
+    state against the desired poses from that step on; the robot model in between."""
+    cfg, lay = policy.config, policy.layout
+    H, T = cfg.horizon, cfg.sample_time_s
+    s_m = policy.tracker.clock.s_m  # the clock after this sample's update
+    ref = reference_poses(obs.reference, s_m, T, 2 * H - 1)
+    r = obs.robot
+    state = [r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps]
+    poses, wheels = [], []
+    from nn_export.features import Situation
+    for j in range(H):
+        sit = Situation(RobotState(*state), ref[j:j + H + 1], T, obs.reference.speed_mps)
+        w = _net(policy, compute_features(lay, sit))
+        x, y, th = robot_step(np, state[0], state[1], state[2], w[0], w[1], T, policy.robot.wheel_base_m)
+        state = [float(x), float(y), float(th), float(w[0]), float(w[1])]
+        poses.append(state[:3])
+        wheels.append(w)
+    return np.array(poses), np.array(wheels)
+
+
+def test_pass_one_is_the_networks_free_rollout(paper_model):
+    p = OnnxPolicy(paper_model, safety_filter=False, safety_distance_m=-1e9)  # never a second pass
+    obs = _obs(3.0, RobotState(1.0, 0.2, 0.1, 0.3, 0.35), obstacle_xy=(4.0, 0.0))
+    d = p.decide(obs)
+    poses, wheels = _free_rollout(p, obs)
+    np.testing.assert_allclose(d.planned_poses, poses, atol=1e-6)
+    np.testing.assert_allclose(d.planned_wheels_mps, wheels, atol=1e-6)
+    assert (d.v_right_mps, d.v_left_mps) == pytest.approx(tuple(wheels[0]), abs=1e-6)
+    assert p.counters["second_pass"] == 0
+
+
+def test_pass_two_follows_the_predicted_path_with_the_obstacle(paper_model):
+    p = OnnxPolicy(paper_model, safety_filter=False, safety_distance_m=1e9)  # always a second pass
+    robot = RobotState(1.0, 0.2, 0.1, 0.3, 0.35)
+    obs = _obs(3.0, robot, obstacle_xy=(4.0, 0.0), statics=(StaticObstacle((3.0, 1.5), 0.3),))
+    d = p.decide(obs)
+    poses, _ = _free_rollout(p, obs)
+    sit = p.tracker.update.__self__  # the tracker after this sample (its state is what decide used)
+    assert sit is p.tracker
+    # the situation decide saw, rebuilt: same tracks (one EKF step), the predicted poses as reference
+    q = OnnxPolicy(paper_model, safety_filter=False)
+    situation = q.tracker.update(obs)
+    desired = np.vstack([[robot.x_m, robot.y_m, robot.heading_rad], poses])
+    w = _net(p, compute_features(p.layout, situation.with_reference(desired)))
+    assert (d.v_right_mps, d.v_left_mps) == pytest.approx(tuple(w), abs=1e-6)
+    assert p.counters["second_pass"] == 1 and d.reason.startswith("pass 2")
+
+
+def test_one_pass_variant_uses_the_real_reference_and_the_obstacles(paper_model):
+    p = OnnxPolicy(paper_model, safety_filter=False, two_pass=False)
+    obs = _obs(1.5, RobotState(0.5, -0.1, 0.0, 0.2, 0.2), obstacle_xy=(5.0, 0.5))
+    d = p.decide(obs)
+    q = OnnxPolicy(paper_model, safety_filter=False)
+    w = _net(p, compute_features(p.layout, q.tracker.update(obs)))
+    assert (d.v_right_mps, d.v_left_mps) == pytest.approx(tuple(w), abs=1e-6)
+
+
+def test_second_pass_triggers_on_the_predicted_clearance(paper_model):
+    p = OnnxPolicy(paper_model, safety_filter=False, safety_distance_m=0.5)
+    robot = RobotState(0.0, 0.0, 0.0, 0.3, 0.3)
+    far = p.decide(_obs(0.0, robot, obstacle_xy=(0.0, 30.0)))  # far away: one pass is enough
+    assert far.reason.startswith("pass 1") and p.counters["second_pass"] == 0
+    p.reset()  # a fresh track: a jump of the same obstacle would be gated as an outlier
+    near = p.decide(_obs(0.0, robot, obstacle_xy=(float(far.planned_poses[2, 0]), float(far.planned_poses[2, 1]))))
+    assert near.reason.startswith("pass 2") and p.counters["second_pass"] == 1
+    assert near.info["predicted_clearance_m"] < 0.5
+
+
+# --- the shipped models --------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["paper", "improved"])
+def test_shipped_model_matches_its_preset(name):
+    path = shipped_model_path(name)
+    if not path.is_file():
+        pytest.skip("model not shipped yet")
+    p = OnnxPolicy(preset=name, safety_filter=False)
+    cfg = preset(name)
+    assert p.model_info["preset"] == name and p.sample_time_s == cfg.sample_time_s and p.horizon == cfg.horizon
+    assert p.model_info["feature_layout"] == "paper" and p.model_info["n_features"] == 11 + cfg.horizon
+    assert path.stat().st_size < 20_000
+    other = "improved" if name == "paper" else "paper"
+    with pytest.raises(ValueError, match="refusing"):
+        OnnxPolicy(path, preset=other)
+
+
+def test_default_policy_is_the_improved_preset():
+    if not shipped_model_path("improved").is_file():
+        pytest.skip("model not shipped yet")
+    assert OnnxPolicy(safety_filter=False).config.name == "improved"
+
+
+# --- a small model retrained from scratch through the command line ------------------------
+def test_retrain_a_small_model_from_scratch(tmp_path):
+    """dataset -> train -> export -> OnnxPolicy, all through ``gpcnav``, on a tiny dataset:
+    the exported network must reproduce the torch model, fit its training labels far below
+    their spread, and drive the robot along an obstacle-free line."""
+    def gpcnav(*args):
+        out = subprocess.run([sys.executable, "-m", "gpcnav", *map(str, args)], capture_output=True, text=True,
+                             timeout=600)
+        assert out.returncode == 0, out.stderr[-2000:]
+        return out.stdout
+
+    gpcnav("dataset", "--out", tmp_path / "data", "--samples", 600, "--preset", "paper", "--workers", 1, "--seed", 3,
+           "--shard-size", 300, "--mirror-check-every", 0)
+    gpcnav("train", tmp_path / "data", "--out", tmp_path / "model", "--preset", "paper", "--hidden", 16,
+           "--epochs", 300, "--seed", 0)
+    out = gpcnav("export", tmp_path / "model", "--out", tmp_path / "m.onnx")
+    assert "parity" in out
+    for name in ("training_curve.json", "training_curve.png", "model.json", "weights.npz"):
+        assert (tmp_path / "model" / name).is_file()
+    from nn_export.dataset import load_dataset
+    from nn_export.train import WheelSpeedMLP
+    data = load_dataset(tmp_path / "data")
+    m = WheelSpeedMLP.load(tmp_path / "model")
+    p = OnnxPolicy(tmp_path / "m.onnx", preset="paper", safety_filter=False)
+    got = p.network(data.X)
+    np.testing.assert_allclose(got, np.clip(m.predict(data.X), -0.8, 0.8), atol=1e-5)
+    tr = m.train_indices_
+    rmse = float(np.sqrt(np.mean((got[tr] - data.Y[tr]) ** 2)))
+    assert rmse < 0.5 * float(np.std(data.Y)), (rmse, float(np.std(data.Y)))
+    # closed loop on an obstacle-free straight line: it moves along the path towards the goal
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(6.0),), 0.3)
+    state = RobotState(0.0, 0.0, 0.0)
+    for k in range(10):
+        d = p.decide(Observation(k * 1.5, state, ref))
+        x, y, th = robot_step(np, state.x_m, state.y_m, state.heading_rad, d.v_right_mps, d.v_left_mps, 1.5, 0.5)
+        state = RobotState(float(x), float(y), float(th), d.v_right_mps, d.v_left_mps)
+    assert 3.0 < state.x_m < 7.0 and abs(state.y_m) < 0.5, state

@@ -175,6 +175,7 @@ class SafetyFilter:
         # path length bound of 'the command, then anything within the limits' after step 1
         self._full_reach = self.robot.max_wheel_speed_mps * T * np.arange(H)
         self._names = [m[0] for m in MANOEUVRES]
+        self._then_names = ["then " + n for n in self._names]
         self._targets = np.array([m[1:] for m in MANOEUVRES], dtype=float)
         self._swerves = np.array([m[0].startswith("swerve") for m in MANOEUVRES])
         self.reset()
@@ -193,6 +194,14 @@ class SafetyFilter:
         """``wheels`` (..., H, 2) followed within the limits from the current speeds ``v0``,
         exactly as the simulator clips them (rate first, then speed)."""
         dv, vmax = self.robot.max_step_change_mps(self.sample_time_s), self.robot.max_wheel_speed_mps
+        if wheels.ndim == 2:  # one sequence: plain floats beat numpy calls on pairs
+            vr, vl = float(v0[0]), float(v0[1])
+            rows = []
+            for r, l in wheels.tolist():
+                vr = min(max(min(max(r, vr - dv), vr + dv), -vmax), vmax)
+                vl = min(max(min(max(l, vl - dv), vl + dv), -vmax), vmax)
+                rows.append((vr, vl))
+            return np.array(rows)
         out = np.empty_like(wheels)
         v = np.broadcast_to(np.asarray(v0, dtype=float), wheels[..., 0, :].shape)
         for i in range(wheels.shape[-2]):
@@ -204,9 +213,9 @@ class SafetyFilter:
         """Whether the (H, 2) sequence ``wheels`` already keeps the speed and rate limits."""
         dv, vmax = self.robot.max_step_change_mps(self.sample_time_s), self.robot.max_wheel_speed_mps
         tol = 1e-9
-        if np.abs(wheels).max() > vmax + tol:
+        if np.abs(wheels).max() > vmax + tol or np.abs(wheels[0] - v0).max() > dv + tol:
             return False
-        return bool(np.abs(np.diff(wheels, axis=0, prepend=np.asarray(v0, float)[None])).max() <= dv + tol)
+        return len(wheels) < 2 or bool(np.abs(wheels[1:] - wheels[:-1]).max() <= dv + tol)
 
     def rollout(self, state, wheels: np.ndarray) -> np.ndarray:
         """Robot positions at the sub-sample instants as complex numbers x + iy,
@@ -341,27 +350,25 @@ class SafetyFilter:
             seq = self.limit(state[3:5], seq)
         return seq[0].copy(), (seq if plan is not None else None), limited
 
-    def _checks(self, state, wheels, obstacles, label: str | list) -> list[SafetyCheck]:
-        """One :class:`SafetyCheck` per sequence of ``wheels`` (M, H, 2)."""
+    def _check_best(self, state, wheels, obstacles, labels: list[str]) -> SafetyCheck:
+        """The check of the best sequence of ``wheels`` (M, H, 2): the one that keeps the
+        clearance above the threshold longest (a violation late in the horizon, where the
+        forecasts are uncertain, is not as bad as one in the next second), then the one with
+        the largest smallest clearance, then the first."""
         cmin, now, chord, which, kept = self.clearances(state, wheels, obstacles)
+        i = 0
+        if len(cmin) > 1:
+            longest = kept == kept.max()
+            i = int(np.argmax(longest & (cmin >= cmin[longest].max() - _TIE_M)))
         N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
-        return [SafetyCheck(bool(kept[i] == N), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
-                            obstacles.label(int(which[i])), label if isinstance(label, str) else label[i],
-                            float(kept[i]) * tau) for i in range(len(cmin))]
+        return SafetyCheck(bool(kept[i] == N), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
+                           obstacles.label(int(which[i])), labels[i], float(kept[i]) * tau)
 
     @staticmethod
-    def _best(checks: list[SafetyCheck]) -> int:
-        """The index of the best check: the longest time before the clearance falls below
-        the threshold (a violation late in the horizon, where the forecasts are uncertain, is
-        not as bad as one in the next second), then the largest smallest clearance, then
-        the first."""
-        best = 0
-        for i, c in enumerate(checks):
-            b = checks[best]
-            if c.kept_s > b.kept_s + 1e-12 or (abs(c.kept_s - b.kept_s) <= 1e-12
-                                                and c.min_clearance_m > b.min_clearance_m + _TIE_M):
-                best = i
-        return best
+    def _better(a: SafetyCheck, b: SafetyCheck) -> bool:
+        """Whether ``a`` is strictly better than ``b`` by the order of :meth:`_check_best`."""
+        return a.kept_s > b.kept_s + 1e-12 or (abs(a.kept_s - b.kept_s) <= 1e-12
+                                               and a.min_clearance_m > b.min_clearance_m + _TIE_M)
 
     def _assess(self, state, cmd, plan, obstacles) -> SafetyCheck:
         """The check of a command (and its own plan, if any): its plan first; if that fails
@@ -375,13 +382,13 @@ class SafetyFilter:
             return SafetyCheck(True, lower, lower, (k + 1) * self.sample_time_s, obstacles.label(j), "bound",
                                horizon_s)
         if plan is not None:
-            plan_check = self._checks(state, plan[None], obstacles, "plan")[0]
+            plan_check = self._check_best(state, plan[None], obstacles, ["plan"])
             if plan_check.safe:
                 return plan_check
-        escapes = self._checks(state, self._escapes(cmd), obstacles, ["then " + n for n in self._names])
-        if plan is not None:
-            escapes.append(plan_check)
-        return escapes[self._best(escapes)]
+        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names)
+        if plan is not None and self._better(plan_check, way_out):
+            return plan_check
+        return way_out
 
     def check(self, state, wheels, forecasts=(), statics=()) -> SafetyCheck:
         """The verdict on a candidate from ``state`` = (x, y, heading, v_right, v_left).
@@ -400,11 +407,11 @@ class SafetyFilter:
         return self._assess(state, cmd, plan, self.obstacle_tracks(forecasts, statics))
 
     def best_manoeuvre(self, state, obstacles) -> tuple[str, np.ndarray, SafetyCheck]:
-        """The best manoeuvre from now (see :meth:`_best`): name, (H, 2) wheels and its check."""
+        """The best manoeuvre from now (see :meth:`_check_best`): name, (H, 2) wheels and its check."""
         names, W = self.manoeuvres(np.asarray(state, float)[3:5])
-        checks = self._checks(np.asarray(state, float), W, obstacles, names)
-        i = self._best(checks)
-        return names[i], W[i], checks[i]
+        check = self._check_best(np.asarray(state, float), W, obstacles, names)
+        i = names.index(check.continuation)
+        return names[i], W[i], check
 
     # --- the filter ----------------------------------------------------------------------
     def filter(self, observation: Observation, wheels, forecasts=(), statics=None) -> SafetyVerdict:
@@ -454,7 +461,7 @@ class SafetyFilter:
             self.counters["fallback_failed"] += 1
             why += f"; fallback planner failed ({dec.reason})"
         name, mw, mc = self.best_manoeuvre(state, obstacles)
-        if cmd is not None and self._best([check, mc]) == 0:
+        if cmd is not None and not self._better(mc, check):
             # nothing in the set does better than the candidate: keep it, and say so
             self.counters["no_safer_option"] += 1
             return SafetyVerdict(float(cmd[0]), float(cmd[1]), True, why + "; no safer manoeuvre, candidate kept",

@@ -36,7 +36,7 @@ class Sensing:
 
 @dataclass(frozen=True)
 class Faults:
-    """Injected faults (the ``[faults]`` table; docs/scenarios.md)."""
+    """Injected faults (the ``[faults]`` table; docs/faults.md)."""
 
     dropout_prob: float = 0.0
     """Probability that a moving obstacle's measurement is missing at a sample."""

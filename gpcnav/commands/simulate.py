@@ -27,6 +27,7 @@ def run_one(scenario, controller_kind, config, model=None, safety="gpc"):
     model_info = getattr(controller, "model_info", None)
     if model_info:
         extra["model"] = model_info
+        extra["safety_filter"] = safety  # gpc, brake or off (docs/faults.md)
     return run_document(log, extra)
 
 

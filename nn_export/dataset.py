@@ -29,7 +29,10 @@ key                    shape         meaning
 ``sample_id``          (n,)          unique per sample (2 situation_id + mirror)
 ``mirror_check_mps``   (n,)          for checked situations: max |mirrored label - GPC
                                      answer on the mirrored situation| of the first
-                                     control, m/s; NaN where not checked
+                                     control, m/s; NaN where not checked. Above 1e-6
+                                     the two sides found different optima, and the
+                                     cheaper one is kept for both samples (counted in
+                                     ``mirror_check_replaced``)
 =====================  ============  ==================================================
 
 plus ``spec_id`` (which request made it) and ``stats_json`` (the shard's counters).
@@ -192,7 +195,7 @@ class _ShardBuilder:
 def _new_stats() -> dict:
     return {"situations": 0, "not_converged": 0, "failure_statuses": {}, "solves": 0, "solve_time_s": 0.0,
             "mirror_checked": 0, "mirror_check_failed": 0, "mirror_max_diff_mps": 0.0,
-            "mirror_over_tolerance": 0, "features": {}, "elapsed_s": 0.0}
+            "mirror_over_tolerance": 0, "mirror_check_replaced": 0, "features": {}, "elapsed_s": 0.0}
 
 
 def _label_situations(builder: _ShardBuilder, stats: dict, situations, layout: FeatureLayout, labeller: Labeller,
@@ -220,7 +223,13 @@ def _label_situations(builder: _ShardBuilder, stats: dict, situations, layout: F
                 check = float(np.max(np.abs(mirror_label(label.wheels_mps) - other.wheels_mps)))
                 stats["mirror_checked"] += 1
                 stats["mirror_max_diff_mps"] = max(stats["mirror_max_diff_mps"], check)
-                stats["mirror_over_tolerance"] += int(check > MIRROR_TOLERANCE_MPS)
+                if check > MIRROR_TOLERANCE_MPS:
+                    stats["mirror_over_tolerance"] += 1
+                    # the two sides' multi-starts reached different optima: the cheaper one is
+                    # the GPC's answer for both (the other side's starts missed it)
+                    if other.cost < label.cost:
+                        label = other.mirrored()
+                        stats["mirror_check_replaced"] += 1
             else:
                 stats["mirror_check_failed"] += 1
         sid = id_base + j

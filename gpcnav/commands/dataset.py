@@ -107,9 +107,14 @@ def _check_solver(spec) -> None:
 
 def _dagger(args) -> int:
     """One DAgger round: the network drives, the GPC labels what it sees."""
-    from nn_export.dataset import DatasetMismatch, _PART_STRIDE, append_part, collect_on_policy, read_manifest
+    import functools
+
+    from casadi_gpc.robot import RobotParams
+    from nn_export.dataset import (
+        _PART_STRIDE, DatasetMismatch, append_part, collect_on_policy_parallel, prepare_labeller, read_manifest,
+    )
     from nn_export.features import layout_from_dict
-    from nn_export.labels import Labeller, fastest_solver
+    from nn_export.labels import fastest_solver
     from scenarios import random_suite
     from .common import make_controller
     if not (args.out / "manifest.json").is_file():
@@ -122,18 +127,27 @@ def _dagger(args) -> int:
     config = planner_config(args)
     if man.get("preset") != config.name:
         raise UsageError(f"{args.out} was labelled under preset {man.get('preset')!r}, not {config.name!r}")
+    if f"dagger{args.round}" in man.get("parts", {}):
+        raise UsageError(f"{args.out} already has DAgger round {args.round}")
     layout = layout_from_dict(man["feature_layout"])
-    from casadi_gpc.robot import RobotParams
-    policy = make_controller("nn", config, RobotParams(), args.dagger)
+    robot = RobotParams()
+    factory = functools.partial(make_controller, "nn", config, robot, args.dagger)
+    factory()  # refuse a bad model before any work (one line)
+    solver = args.solver or fastest_solver()
+    from nn_export.dataset import DatasetSpec
+    try:
+        prepare_labeller(DatasetSpec(1, config, layout, solver=solver))
+    except (ValueError, RuntimeError) as exc:
+        raise UsageError(f"--solver {solver}: {str(exc).splitlines()[0]}") from None
     suite = "random-multi" if layout.name == "multi" else "random"
-    scenarios = random_suite(suite, args.episodes, args.seed + 1000 * args.round)
-    labeller = Labeller(config, solver=args.solver or fastest_solver())
-    episodes = progress(scenarios, desc=f"dagger round {args.round}", unit="ep")
-    arrays, stats = collect_on_policy(policy, episodes, config, layout, labeller, mirror=not args.no_mirror,
-                                      id_base=args.round * _PART_STRIDE,
-                                      mirror_check_every=args.mirror_check_every)
+    suite_seed = args.seed + 1000 * args.round
+    scenarios = random_suite(suite, args.episodes, suite_seed)
+    arrays, stats = collect_on_policy_parallel(
+        factory, scenarios, config, layout, solver, robot, args.workers, args.backend, args.address,
+        mirror=not args.no_mirror, id_base=args.round * _PART_STRIDE, mirror_check_every=args.mirror_check_every,
+        progress=lambda **kw: progress(desc=f"dagger round {args.round}", **kw))
     info = {"round": args.round, "model": str(args.dagger), "suite": suite, "episodes": args.episodes,
-            "suite_seed": args.seed + 1000 * args.round, "solver": labeller.solver}
+            "suite_seed": suite_seed, "solver": solver}
     try:
         doc = append_part(args.out, f"dagger{args.round}", arrays, stats, info)
     except DatasetMismatch as exc:

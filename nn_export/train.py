@@ -36,7 +36,9 @@ _STD_FLOOR = 1e-9  # below this a feature is constant (e.g. an absent-obstacle c
 
 
 class _Net(torch.nn.Module):
-    """x -> (x - mu)/sd -> hidden -> output * y_sd + y_mu: the whole map in physical units."""
+    """x -> (x - mu)/sd -> hidden -> (output * u_sd + u_mu) @ mix^T: the whole map in physical
+    units. ``mix`` maps the learned output basis u to the wheel speeds (identity, or
+    [[1, 1], [1, -1]] for u = (mean speed, half difference))."""
 
     def __init__(self, n_in: int, hidden: int, n_out: int, activation: str):
         super().__init__()
@@ -45,12 +47,13 @@ class _Net(torch.nn.Module):
         self.out = torch.nn.Linear(hidden, n_out)
         for name in ("x_mean", "x_scale", "y_mean", "y_scale"):
             self.register_buffer(name, torch.zeros(n_out if name[0] == "y" else n_in))
+        self.register_buffer("y_mix", torch.eye(n_out))
 
     def normalised(self, xn):
         return self.out(self.act(self.hidden(xn)))
 
     def forward(self, x):
-        return self.normalised((x - self.x_mean) / self.x_scale) * self.y_scale + self.y_mean
+        return (self.normalised((x - self.x_mean) / self.x_scale) * self.y_scale + self.y_mean) @ self.y_mix.T
 
 
 class WheelSpeedMLP:
@@ -62,6 +65,13 @@ class WheelSpeedMLP:
         Hidden units (paper: 35).
     activation : {"tanh", "relu", "softsign"}
         Hidden non-linearity (paper: a sigmoid-type unit; tanh is its zero-centred form).
+    output_basis : {"speed_turn", "wheels"}
+        What the network learns, each output standardised on its own: ``speed_turn``
+        (default) the mean speed (vr + vl)/2 and the half difference (vr - vl)/2, mapped back
+        to the wheels by a fixed matrix in the graph; ``wheels`` the two wheel speeds. The
+        turning part of a swerve is small beside the speed; standardised alone it weighs as
+        much as the speed in the loss, and the network learns the swerves (measured:
+        docs/nn.md).
     optimizer : {"lbfgs", "adam"}
         ``lbfgs`` (default): full-batch L-BFGS with a strong-Wolfe line search, one
         iteration per curve point (a 17-35-2 net has ~700 weights: second-order steps reach
@@ -84,12 +94,14 @@ class WheelSpeedMLP:
         models on this machine.
     """
 
-    def __init__(self, hidden: int = 35, activation: str = "tanh", optimizer: str = "lbfgs", max_epochs: int = 3000,
+    def __init__(self, hidden: int = 35, activation: str = "tanh", output_basis: str = "speed_turn",
+                 optimizer: str = "lbfgs", max_epochs: int = 3000,
                  batch_size: int = 1024, learning_rate: float = 3e-3, weight_decay: float = 0.0,
                  validation_fraction: float = 0.15, patience: int = 150, random_state: int = 0):
         self.hidden = hidden
         self.activation = activation
         self.optimizer = optimizer
+        self.output_basis = output_basis
         self.max_epochs = max_epochs
         self.batch_size = batch_size
         self.learning_rate = learning_rate
@@ -100,7 +112,7 @@ class WheelSpeedMLP:
 
     # --- hyper-parameters ------------------------------------------------------------
     def get_params(self) -> dict:
-        return {k: getattr(self, k) for k in ("hidden", "activation", "optimizer", "max_epochs", "batch_size", "learning_rate",
+        return {k: getattr(self, k) for k in ("hidden", "activation", "output_basis", "optimizer", "max_epochs", "batch_size", "learning_rate",
                                               "weight_decay", "validation_fraction", "patience", "random_state")}
 
     def _check_params(self) -> None:
@@ -108,6 +120,8 @@ class WheelSpeedMLP:
             raise ValueError(f"hidden must be a positive integer, got {self.hidden!r}")
         if self.activation not in _ACTIVATIONS:
             raise ValueError(f"activation must be one of {', '.join(_ACTIVATIONS)}, got {self.activation!r}")
+        if self.output_basis not in ("speed_turn", "wheels"):
+            raise ValueError(f"output_basis must be 'speed_turn' or 'wheels', got {self.output_basis!r}")
         if self.optimizer not in ("lbfgs", "adam"):
             raise ValueError(f"optimizer must be 'lbfgs' or 'adam', got {self.optimizer!r}")
         if not (0.0 < self.validation_fraction < 1.0):
@@ -159,21 +173,27 @@ class WheelSpeedMLP:
         gen = torch.Generator().manual_seed(self.random_state)
 
         x_mean, x_scale = X[train_idx].mean(0), _scale(X[train_idx])
-        y_mean, y_scale = Y[train_idx].mean(0), _scale(Y[train_idx])
+        if self.output_basis == "speed_turn" and Y.shape[1] != 2:
+            raise ValueError(f"output_basis 'speed_turn' needs 2 outputs, Y has {Y.shape[1]}")
+        mix = np.array([[1.0, 1.0], [1.0, -1.0]]) if self.output_basis == "speed_turn" else np.eye(Y.shape[1])
+        U = Y @ np.linalg.inv(mix).T  # the learned basis: wheels = U @ mix^T
+        y_mean, y_scale = U[train_idx].mean(0), _scale(U[train_idx])
         net = _Net(X.shape[1], self.hidden, Y.shape[1], self.activation).double()
         with torch.no_grad():
+            net.y_mix.copy_(torch.from_numpy(mix))
             net.x_mean.copy_(torch.from_numpy(x_mean))
             net.x_scale.copy_(torch.from_numpy(x_scale))
             net.y_mean.copy_(torch.from_numpy(y_mean))
             net.y_scale.copy_(torch.from_numpy(y_scale))
         Xn = torch.from_numpy((X - x_mean) / x_scale)
-        Yn = torch.from_numpy((Y - y_mean) / y_scale)
+        Yn = torch.from_numpy((U - y_mean) / y_scale)
         ysc = torch.from_numpy(y_scale)
+        mixt = torch.from_numpy(mix)
         xt, yt, xv, yv = Xn[train_idx], Yn[train_idx], Xn[val_idx], Yn[val_idx]
 
         def mse(xn, yn):  # physical units: mean over samples and both wheels, (m/s)^2
             with torch.no_grad():
-                return float((((net.normalised(xn) - yn) * ysc) ** 2).mean())
+                return float(((((net.normalised(xn) - yn) * ysc) @ mixt.T) ** 2).mean())
 
         lbfgs = self.optimizer == "lbfgs"
         if lbfgs:
@@ -198,10 +218,18 @@ class WheelSpeedMLP:
         t0 = time.perf_counter()
         n_train, bs = len(xt), int(self.batch_size)
         stop_reason = "max_epochs"
+        restarts = 0
         for epoch in range(1, int(self.max_epochs) + 1):
             net.train()
             if lbfgs:
+                before = [q.detach().clone() for q in net.parameters()]
                 opt.step(closure)
+                if all(torch.equal(a, b) for a, b in zip(before, net.parameters())):
+                    # torch's L-BFGS stops moving for good once its curvature history gives a
+                    # non-descent direction; restart it from steepest descent
+                    opt.state.clear()
+                    restarts += 1
+                    opt.step(closure)
             else:
                 order = torch.randperm(n_train, generator=gen)
                 for start in range(0, n_train, bs):
@@ -245,7 +273,7 @@ class WheelSpeedMLP:
         self.validation_mse_ = mse(xv, yv)
         self.validation_max_abs_error_ = float(np.max(np.abs(self.predict(X[val_idx]) - Y[val_idx])))
         self.curve_ = {**curve, "optimizer": self.optimizer, "n_train": int(len(train_idx)), "n_validation": int(len(val_idx)),
-                       "best_epoch": best_epoch, "stop_reason": stop_reason,
+                       "best_epoch": best_epoch, "stop_reason": stop_reason, "lbfgs_restarts": restarts,
                        "train_time_s": time.perf_counter() - t0, "units": "(m/s)^2, mean over samples and wheels"}
         return self
 
@@ -280,13 +308,15 @@ class WheelSpeedMLP:
             return self.net_(torch.from_numpy(X)).numpy()
 
     def numpy_params(self) -> dict:
-        """The learned arrays, float64: x_mean, x_scale, W1 (hidden, in), b1, W2 (out, hidden), b2, y_mean, y_scale."""
+        """The learned arrays, float64: x_mean, x_scale, W1 (hidden, in), b1, W2 (out, hidden), b2, y_mean,
+        y_scale (of the learned basis) and y_mix (basis -> wheels)."""
         self._check_fitted()
         n = self.net_
         return {"x_mean": n.x_mean.numpy().copy(), "x_scale": n.x_scale.numpy().copy(),
                 "W1": n.hidden.weight.detach().numpy().copy(), "b1": n.hidden.bias.detach().numpy().copy(),
                 "W2": n.out.weight.detach().numpy().copy(), "b2": n.out.bias.detach().numpy().copy(),
-                "y_mean": n.y_mean.numpy().copy(), "y_scale": n.y_scale.numpy().copy()}
+                "y_mean": n.y_mean.numpy().copy(), "y_scale": n.y_scale.numpy().copy(),
+                "y_mix": n.y_mix.numpy().copy()}
 
     # --- files -----------------------------------------------------------------------
     def save(self, model_dir, provenance: dict | None = None) -> Path:
@@ -339,6 +369,8 @@ class WheelSpeedMLP:
             net.out.bias.copy_(torch.from_numpy(arrays["b2"]))
             for k in ("x_mean", "x_scale", "y_mean", "y_scale"):
                 getattr(net, k).copy_(torch.from_numpy(arrays[k]))
+            if "y_mix" in arrays:
+                net.y_mix.copy_(torch.from_numpy(arrays["y_mix"]))
         net.eval()
         self.net_ = net
         self.n_features_in_, self.n_outputs_ = meta["n_features"], meta["n_outputs"]

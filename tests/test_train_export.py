@@ -80,7 +80,11 @@ def test_normalisation_uses_the_training_split_only(fitted):
     p = m.numpy_params()
     tr = m.train_indices_
     np.testing.assert_allclose(p["x_mean"], X[tr].mean(0), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(p["y_mean"], Y[tr].mean(0), rtol=0, atol=1e-12)
+    # outputs are learned as (mean speed, half difference), standardised on the training split
+    U = np.stack([Y[tr].mean(1), 0.5 * (Y[tr, 0] - Y[tr, 1])], axis=1)
+    np.testing.assert_allclose(p["y_mean"], U.mean(0), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(p["y_scale"], U.std(0), rtol=1e-12)
+    np.testing.assert_array_equal(p["y_mix"], [[1.0, 1.0], [1.0, -1.0]])
     assert p["x_scale"][4] == 1.0  # a constant input is not a division by zero
     assert not np.array_equal(p["x_mean"], X.mean(0))  # the validation rows are left out
     assert len(set(m.train_indices_) & set(m.validation_indices_)) == 0

@@ -242,7 +242,7 @@ def _label_situations(builder: _ShardBuilder, stats: dict, situations, layout: F
 
 def label_shard(spec: DatasetSpec, index: int) -> tuple[int, dict, dict]:
     """Compute shard ``index`` of ``spec``: ``(index, arrays, stats)``. Deterministic."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     labeller = _labeller(spec.config, spec.robot, spec.solver)
     n = spec.shard_samples(index)
     builder = _ShardBuilder(n, spec.layout.size, spec.config.horizon)
@@ -258,6 +258,7 @@ def label_shard(spec: DatasetSpec, index: int) -> tuple[int, dict, dict]:
     _label_situations(builder, stats, stream(), spec.layout, labeller, spec.mirror, spec.mirror_check_every,
                       index * _SHARD_STRIDE)
     stats["elapsed_s"] = time.perf_counter() - t0
+    stats["cpu_s"] = time.process_time() - c0
     stats["worker_peak_rss_mb"] = _peak_rss_mb()
     return index, builder.arrays(), stats
 
@@ -539,6 +540,10 @@ def generate(out_dir, spec: DatasetSpec, workers: int = 1, backend: str = "local
                 run["samples_done"] += n
                 run["elapsed_s"] = time.perf_counter() - t0
                 run["samples_per_s"] = run["samples_done"] / max(run["elapsed_s"], 1e-9)
+                # CPU seconds the workers spent: on a busy machine, samples per worker CPU
+                # second times the number of free cores is what the machine alone would do
+                run["worker_cpu_s"] = run.get("worker_cpu_s", 0.0) + st.get("cpu_s", 0.0)
+                run["samples_per_worker_cpu_s"] = run["samples_done"] / max(run["worker_cpu_s"], 1e-9)
                 run["parent_peak_rss_mb"] = _peak_rss_mb()
                 run["worker_peak_rss_mb"] = max(run.get("worker_peak_rss_mb", 0.0), st.get("worker_peak_rss_mb", 0.0))
                 manifest = record(len(done) == spec.n_shards, run)

@@ -109,3 +109,27 @@ def test_mirror_samples_in_a_shard_are_the_mirror_of_their_partners(labellers):
     rng = np.random.default_rng([4, 0])
     first = sample_situation(rng, cfg, "paper")
     np.testing.assert_array_equal(a["features"][0], compute_features(lay, first))
+
+
+@pytest.mark.parametrize("preset_name", ["paper", "improved"])
+def test_known_answer_label_on_the_reference_without_obstacles(labellers, preset_name):
+    """A robot on a straight reference at the reference speed, nothing around: the GPC keeps
+    both wheels at that speed (every cost term is zero there), and the features say so."""
+    import math
+
+    from casadi_gpc.reference import ReferencePath, Segment
+    from casadi_gpc.robot import RobotState
+    from nn_export.features import Situation, reference_poses
+    lab = _labeller(labellers, preset_name)
+    cfg = lab.config
+    path = ReferencePath((0.0, 0.0), 0.3, (Segment.line(40.0),), 0.4)
+    x, y, h = (float(v) for v in path.pose_at_arclength(5.0))
+    ref = reference_poses(path, 5.0, cfg.sample_time_s, cfg.horizon)
+    sit = Situation(RobotState(x, y, h, 0.4, 0.4), ref, cfg.sample_time_s, 0.4)
+    a = lab.label(sit)
+    assert a.converged and a.cost == pytest.approx(0.0, abs=1e-10)
+    np.testing.assert_allclose(a.plan_wheels_mps, 0.4, atol=1e-6)
+    lay = layout_for("paper", cfg.horizon)
+    f = dict(zip(lay.feature_names, compute_features(lay, sit)))
+    assert f["ref_x_m"] == pytest.approx(0.4 * cfg.sample_time_s) and f["ref_speed_mps"] == pytest.approx(0.4)
+    assert math.isclose(f["ref_y_m"], 0.0, abs_tol=1e-12)

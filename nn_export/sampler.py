@@ -130,7 +130,9 @@ class EpisodeTail:
 
 
 def _choice(rng, probs) -> int:
-    return int(rng.choice(len(probs), p=np.asarray(probs) / np.sum(probs)))
+    """An index drawn with probabilities ``probs`` (normalised)."""
+    c = np.cumsum(probs)
+    return min(int(np.searchsorted(c, rng.random() * c[-1], side="right")), len(probs) - 1)
 
 
 def _curvature(rng, st: SamplerSettings) -> float:

@@ -406,26 +406,33 @@ def _worker_init():
 
 
 def _run_local(fn, tasks: list, workers: int):
-    """Yield ``fn(*task)`` results as they finish, at most ``2 workers`` in flight."""
+    """Yield ``fn(*task)`` results as they finish, at most ``2 workers`` in flight.
+
+    The worker processes are forked here, before the caller starts any thread (a progress
+    bar's monitor), so no child inherits a lock held by another thread."""
     if workers <= 1:
-        for t in tasks:
-            yield fn(*t)
-        return
+        return (fn(*t) for t in tasks)
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
-    pending, queue = set(), list(tasks)
-    try:
-        while queue or pending:
-            while queue and len(pending) < 2 * workers:
-                pending.add(pool.submit(fn, *queue.pop(0)))
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                yield fut.result()
-            del done
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    queue = list(tasks)
+    pending = {pool.submit(fn, *queue.pop(0)) for _ in range(min(2 * workers, len(queue)))}
+
+    def results():
+        nonlocal pending
+        try:
+            while queue or pending:
+                while queue and len(pending) < 2 * workers:
+                    pending.add(pool.submit(fn, *queue.pop(0)))
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    yield fut.result()
+                del done
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    return results()
 
 
 def _run_ray(fn, tasks: list, workers: int, address: str | None):
@@ -528,10 +535,11 @@ def generate(out_dir, spec: DatasetSpec, workers: int = 1, backend: str = "local
             log(f"resuming: {len(done)} of {spec.n_shards} shards already finished")
         if not todo:
             return manifest
-        bar = progress(total=spec.samples, initial=sum(done.values()), unit="sample") if progress else None
         t0 = time.perf_counter()
+        results = run_tasks(label_shard, [(spec, i) for i in todo], workers, backend, address)
+        bar = progress(total=spec.samples, initial=sum(done.values()), unit="sample") if progress else None
         try:
-            for index, arrays, st in run_tasks(label_shard, [(spec, i) for i in todo], workers, backend, address):
+            for index, arrays, st in results:
                 write_shard(out / shard_name(index), arrays, spec_id, st)
                 n = len(arrays["labels"])
                 done[index] = n
@@ -678,9 +686,10 @@ def collect_on_policy_parallel(policy_factory, scenarios, config: PlannerConfig,
     tasks = [(policy_factory, c, config, layout, solver, robot, mirror, mirror_check_every, id_base, i)
              for i, c in enumerate(chunks)]
     results = {}
+    pending = run_tasks(_on_policy_chunk, tasks, workers, backend, address)
     bar = progress(total=len(scenarios), unit="ep") if progress else None
     try:
-        for i, arrays, stats in run_tasks(_on_policy_chunk, tasks, workers, backend, address):
+        for i, arrays, stats in pending:
             results[i] = (arrays, stats)
             if bar is not None:
                 bar.update(len(chunks[i]))

@@ -31,6 +31,7 @@ __all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure"]
 
 MODEL_FORMAT = "gpcnav-mlp/1"
 _ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "softsign": torch.nn.Softsign}
+LBFGS_ITERATIONS_PER_STEP = 10
 _STD_FLOOR = 1e-9  # below this a feature is constant (e.g. an absent-obstacle code): its scale is 1,
 # as in scikit-learn's StandardScaler, so that it neither divides by zero nor magnifies float32 rounding
 
@@ -73,11 +74,11 @@ class WheelSpeedMLP:
         much as the speed in the loss, and the network learns the swerves (measured:
         docs/nn.md).
     optimizer : {"lbfgs", "adam"}
-        ``lbfgs`` (default): full-batch L-BFGS with a strong-Wolfe line search, one
-        iteration per curve point (a 17-35-2 net has ~700 weights: second-order steps reach
+        ``lbfgs`` (default): full-batch L-BFGS with a strong-Wolfe line search, 10
+        iterations per step and per curve point (a 17-35-2 net has ~700 weights: second-order steps reach
         a lower error in seconds); ``adam``: mini-batch Adam, one epoch per curve point.
     max_epochs : int
-        Upper bound on iterations (L-BFGS) or passes over the training split (Adam).
+        Upper bound on steps (L-BFGS, 10 iterations each) or passes over the training split (Adam).
     batch_size : int
         Mini-batch size of Adam (unused by L-BFGS).
     learning_rate : float
@@ -95,9 +96,9 @@ class WheelSpeedMLP:
     """
 
     def __init__(self, hidden: int = 35, activation: str = "tanh", output_basis: str = "speed_turn",
-                 optimizer: str = "lbfgs", max_epochs: int = 3000,
+                 optimizer: str = "lbfgs", max_epochs: int = 400,
                  batch_size: int = 1024, learning_rate: float = 3e-3, weight_decay: float = 0.0,
-                 validation_fraction: float = 0.15, patience: int = 150, random_state: int = 0):
+                 validation_fraction: float = 0.15, patience: int = 40, random_state: int = 0):
         self.hidden = hidden
         self.activation = activation
         self.optimizer = optimizer
@@ -197,7 +198,8 @@ class WheelSpeedMLP:
 
         lbfgs = self.optimizer == "lbfgs"
         if lbfgs:
-            opt = torch.optim.LBFGS(net.parameters(), lr=1.0, max_iter=1, history_size=50,
+            # 10 iterations per step: with one, torch's L-BFGS can stall for good (measured)
+            opt = torch.optim.LBFGS(net.parameters(), lr=1.0, max_iter=LBFGS_ITERATIONS_PER_STEP, history_size=50,
                                     line_search_fn="strong_wolfe")
             sched = None
         else:
@@ -225,9 +227,7 @@ class WheelSpeedMLP:
                 before = [q.detach().clone() for q in net.parameters()]
                 opt.step(closure)
                 if all(torch.equal(a, b) for a, b in zip(before, net.parameters())):
-                    # torch's L-BFGS stops moving for good once its curvature history gives a
-                    # non-descent direction; restart it from steepest descent
-                    opt.state.clear()
+                    opt.state.clear()  # no move at all: restart from steepest descent
                     restarts += 1
                     opt.step(closure)
             else:
@@ -407,7 +407,7 @@ def save_curve_figure(curve: dict, path) -> None:
     ax.semilogy(curve["epoch"], curve["val_mse"], label=f"validation ({curve.get('n_validation', '?')} samples)")
     if "best_epoch" in curve:
         ax.axvline(curve["best_epoch"], color="0.6", ls="--", lw=0.8, label="kept (best validation)")
-    ax.set_xlabel("L-BFGS iteration" if curve.get("optimizer", "lbfgs") == "lbfgs" else "epoch (Adam)")
+    ax.set_xlabel(f"L-BFGS step ({LBFGS_ITERATIONS_PER_STEP} iterations)" if curve.get("optimizer", "lbfgs") == "lbfgs" else "epoch (Adam)")
     ax.set_ylabel("mean squared wheel-speed error, (m/s)$^2$")
     ax.set_title("Training error (cf. paper Fig. 6)")
     ax.grid(True, which="both", alpha=0.3)

@@ -21,10 +21,10 @@ def add_arguments(p):
                    help="feature layout the datasets must have (default: whatever they have)")
     p.add_argument("--optimizer", choices=("lbfgs", "adam"), default="lbfgs",
                    help="full-batch L-BFGS (default) or mini-batch Adam")
-    p.add_argument("--epochs", type=int, default=3000,
-                   help="maximum L-BFGS iterations or Adam epochs (early stopping ends sooner)")
-    p.add_argument("--patience", type=int, default=150,
-                   help="iterations/epochs without a better validation error before stopping")
+    p.add_argument("--epochs", type=int, default=400,
+                   help="maximum L-BFGS steps (10 iterations each) or Adam epochs (early stopping ends sooner)")
+    p.add_argument("--patience", type=int, default=40,
+                   help="steps/epochs without a better validation error before stopping")
     p.add_argument("--batch-size", type=int, default=1024, help="Adam mini-batch size")
     p.add_argument("--lr", type=float, default=3e-3, help="initial Adam learning rate")
     p.add_argument("--weight-decay", type=float, default=0.0, help="L2 penalty")

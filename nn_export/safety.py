@@ -178,6 +178,9 @@ class SafetyFilter:
         self._then_names = ["then " + n for n in self._names]
         self._targets = np.array([m[1:] for m in MANOEUVRES], dtype=float)
         self._swerves = np.array([m[0].startswith("swerve") for m in MANOEUVRES])
+        self._fixed_targets = self._targets * self.robot.max_wheel_speed_mps
+        self._swerve_rows = self._swerves[:, None].astype(float)
+        self._reach = self.robot.max_step_change_mps(T) * self._steps[None, :, None]
         self.reset()
 
     def reset(self) -> None:
@@ -255,12 +258,11 @@ class SafetyFilter:
             if m.shape[1:] != (H, 2) or c.shape[1:] != (H, 2, 2):
                 raise ValueError(f"obstacle forecasts must cover {H} steps with (H, 2) means and (H, 2, 2) "
                                  f"covariances, got {m.shape[1:]} and {c.shape[1:]}")
-            q[:nm] = (m[..., 0] + 1j * m[..., 1]) @ self._known
+            q[:nm] = m.view(complex)[..., 0] @ self._known          # x + iy, without arithmetic
             a, b, d = c[..., 0, 0], c[..., 0, 1], c[..., 1, 1]
-            half = 0.5 * (a - d)
-            sig = np.sqrt(np.maximum(0.5 * (a + d) + np.sqrt(half * half + b * b), 0.0))   # (n, H)
+            lam = (a + d) * 0.5 + np.hypot((a - d) * 0.5, b)            # largest eigenvalue (n, H)
             radii = np.array([f.radius_m for f in forecasts], dtype=float)
-            touch[:nm] = self.sigmas * sig + (radii[:, None] + self.robot.radius_m)
+            touch[:nm] = self.sigmas * np.sqrt(np.maximum(lam, 0.0)) + (radii[:, None] + self.robot.radius_m)
         for i, st in enumerate(statics):
             q[nm + i] = complex(st.position_m[0], st.position_m[1])
             touch[nm + i] = st.radius_m + self.robot.radius_m
@@ -295,19 +297,26 @@ class SafetyFilter:
             inf = np.full(M, np.inf)
             return inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N)
         q, touch = obstacles.sub_samples()
-        rel = self.rollout(state, wheels)[:, None, :] - q[None]            # (M, n, N+1) robot - obstacle
+        rel = self.rollout(state, wheels)[:, None, :] - q                   # (M, n, N+1) robot - obstacle
         r0 = rel[..., :-1]                                                  # chord starts
         u = rel[..., 1:] - r0                                               # chord directions
-        # closest approach on each chord: the relative motion is linear between sub-samples
-        s = (r0.real * u.real + r0.imag * u.imag) / (u.real * u.real + u.imag * u.imag + 1e-18)
+        # closest approach on each chord: the relative motion is linear between sub-samples;
+        # Re(r0 conj(u)) is the dot product, |u|^2 = Re(u conj(u))
+        cu = np.conj(u)
+        s = (r0 * cu).real / ((u * cu).real + 1e-18)
         s = np.minimum(np.maximum(-s, 0.0), 1.0)
         gap = np.abs(r0 + s * u) - touch
         flat = gap.reshape(M, -1)
         k = flat.argmin(axis=1)
+        cmin = flat[np.arange(M), k]
         now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
-        below = gap.min(axis=1) < np.minimum(self.margin_m, now - _NOT_WORSE_M)[:, None]
-        kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
-        return flat[np.arange(M), k], now, k % N, k // N, kept
+        threshold = np.minimum(self.margin_m, now - _NOT_WORSE_M)
+        if M == 1 and cmin[0] >= threshold[0]:
+            kept = np.full(1, N)  # never below: no need to find where
+        else:
+            below = gap.min(axis=1) < threshold[:, None]
+            kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
+        return cmin, now, k % N, k // N, kept
 
     # --- candidates ----------------------------------------------------------------------
     def manoeuvres(self, v0, steps: int | None = None) -> tuple[list[str], np.ndarray]:
@@ -315,14 +324,14 @@ class SafetyFilter:
         speeds (``steps`` = H by default), each target approached at the acceleration limit
         and then held."""
         steps = self.horizon if steps is None else steps
-        vmax, dv = self.robot.max_wheel_speed_mps, self.robot.max_step_change_mps(self.sample_time_s)
-        v0 = np.asarray(v0, dtype=float)
-        tgt = self._targets * vmax
-        tgt[self._swerves] += max(0.5 * float(v0[0] + v0[1]), 0.25 * vmax)
+        vmax = self.robot.max_wheel_speed_mps
+        v0 = np.minimum(np.maximum(np.asarray(v0, dtype=float), -vmax), vmax)
+        # the swerves keep the current mean speed (at least a quarter of the limit)
+        tgt = self._fixed_targets + self._swerve_rows * max(0.5 * float(v0[0] + v0[1]), 0.25 * vmax)
         tgt = np.minimum(np.maximum(tgt, -vmax), vmax)                          # (M, 2)
-        reach = dv * self._steps[None, :steps, None]                             # (1, steps, 1)
-        w = v0 + np.minimum(np.maximum(tgt[:, None, :] - v0, -reach), reach)
-        return self._names, np.minimum(np.maximum(w, -vmax), vmax)
+        reach = self._reach[:, :steps]                                           # (1, steps, 1)
+        # between v0 and the target, both within the limits: no speed clip needed
+        return self._names, v0 + np.minimum(np.maximum(tgt[:, None, :] - v0, -reach), reach)
 
     def _escapes(self, cmd: np.ndarray) -> np.ndarray:
         """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there."""
@@ -335,7 +344,7 @@ class SafetyFilter:
     def _as_candidate(self, state, wheels) -> tuple[np.ndarray | None, np.ndarray | None, bool]:
         """(command (2,), own plan (H, 2) or None, whether it had to be limited); None
         command when it is not finite."""
-        w = np.asarray(wheels, dtype=float)
+        w = wheels if isinstance(wheels, np.ndarray) and wheels.dtype == float else np.asarray(wheels, dtype=float)
         if w.shape == (2,):
             plan = None
         elif w.shape == (self.horizon, 2):

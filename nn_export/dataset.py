@@ -104,8 +104,8 @@ class DatasetSpec:
     def __post_init__(self):
         if self.samples < 1:
             raise ValueError(f"samples must be at least 1, got {self.samples}")
-        if self.shard_size < 2 or self.shard_size % 2:
-            raise ValueError(f"shard size must be an even number >= 2, got {self.shard_size}")
+        if self.shard_size < 2 or self.shard_size % 2 or self.shard_size > _SHARD_STRIDE:
+            raise ValueError(f"shard size must be an even number in [2, {_SHARD_STRIDE}], got {self.shard_size}")
         if self.layout.horizon != self.config.horizon:
             raise ValueError(f"layout horizon {self.layout.horizon} != planner horizon {self.config.horizon}")
 

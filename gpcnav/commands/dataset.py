@@ -58,8 +58,8 @@ def run(args) -> int:
         raise UsageError("--samples is required")
     if args.samples < 1:
         raise UsageError(f"--samples must be at least 1, got {args.samples}")
-    if args.shard_size < 2 or args.shard_size % 2:
-        raise UsageError(f"--shard-size must be an even number of at least 2, got {args.shard_size}")
+    if args.shard_size < 2 or args.shard_size % 2 or args.shard_size > 1_000_000:
+        raise UsageError(f"--shard-size must be an even number from 2 to 1000000, got {args.shard_size}")
     if args.mirror_check_every < 0:
         raise UsageError(f"--mirror-check-every must be 0 or more, got {args.mirror_check_every}")
     if args.out.exists() and not args.out.is_dir():

@@ -354,29 +354,44 @@ def _bump(report, key, n=1):
         report[key] = report.get(key, 0) + n
 
 
+def _wrap(a: float) -> float:
+    """Scalar :func:`wrap_pi` (plain floats are several times faster here)."""
+    return math.pi - (math.pi - a) % _TWO_PI
+
+
 def _reference_block(layout: FeatureLayout, robot: RobotState, ref_poses: np.ndarray, T: float,
                      out: np.ndarray, report) -> None:
-    """First desired point, the H curvatures and the mean speed, into ``out``."""
+    """First desired point, the H curvatures and the mean speed, into ``out``.
+
+    Written with scalar floats: the deployed policy calls this several times per decision,
+    and numpy's per-call overhead on arrays of H elements dominated it."""
     H = layout.horizon
     if ref_poses.shape != (H + 1, 3):
         raise ValueError(f"expected desired poses of shape {(H + 1, 3)}, got {ref_poses.shape}")
+    P = ref_poses.tolist()
     c, s = math.cos(robot.heading_rad), math.sin(robot.heading_rad)
-    dx, dy = ref_poses[1, 0] - robot.x_m, ref_poses[1, 1] - robot.y_m
+    dx, dy = P[1][0] - robot.x_m, P[1][1] - robot.y_m
     out[0] = c * dx + s * dy
     out[1] = -s * dx + c * dy
-    out[2] = wrap_pi(ref_poses[1, 2] - robot.heading_rad)
+    out[2] = _wrap(P[1][2] - robot.heading_rad)
     # the exact arc through consecutive poses: chord = L sinc(dth/2) along the mid heading
-    d = np.diff(ref_poses, axis=0)
-    dth = wrap_pi(d[:, 2])
-    mid = ref_poses[:-1, 2] + 0.5 * dth
-    length = (d[:, 0] * np.cos(mid) + d[:, 1] * np.sin(mid)) / sinc(np, 0.5 * dth)
-    short = np.abs(length) <= _SHORT_ARC_M
-    with np.errstate(divide="ignore", invalid="ignore"):
-        kappa = np.where(short, np.where(np.abs(dth) > 1e-9, np.sign(dth) * np.inf, 0.0), dth / length)
-    lim = layout.curvature_limit_1pm
-    _bump(report, "curvature_clipped", int(np.count_nonzero(np.abs(kappa) > lim)))
-    out[3:3 + H] = np.clip(kappa, -lim, lim)
-    out[3 + H] = float(np.sum(length)) / (H * T)
+    dth = [_wrap(P[k + 1][2] - P[k][2]) for k in range(H)]
+    sincs = sinc(np, 0.5 * np.array(dth)).tolist()  # the robot model's own sinc
+    lim, clipped, total = layout.curvature_limit_1pm, 0, 0.0
+    for k in range(H):
+        mid = P[k][2] + 0.5 * dth[k]
+        length = ((P[k + 1][0] - P[k][0]) * math.cos(mid) + (P[k + 1][1] - P[k][1]) * math.sin(mid)) / sincs[k]
+        total += length
+        if abs(length) > _SHORT_ARC_M:
+            kappa = dth[k] / length
+        else:  # one point: no curvature, unless it turns on the spot (infinite)
+            kappa = math.copysign(math.inf, dth[k]) if abs(dth[k]) > 1e-9 else 0.0
+        if abs(kappa) > lim:
+            clipped += 1
+            kappa = math.copysign(lim, kappa)
+        out[3 + k] = kappa
+    _bump(report, "curvature_clipped", clipped)
+    out[3 + H] = total / (H * T)
 
 
 def _moving_slot(layout: FeatureLayout, robot: RobotState, tr: TrackEstimate | None, out: np.ndarray) -> None:

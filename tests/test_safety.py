@@ -408,15 +408,47 @@ def test_cli_safety_options_reach_run_json(tracker_path, tmp_path):
     assert on["outcome"] != "collided" and on["fallbacks"] == on["events"]["safety_interventions"] > 0
 
 
+def _shipped(preset_name="improved"):
+    from nn_export.policy import shipped_model_path
+    path = shipped_model_path(preset_name)
+    if not path.is_file():
+        pytest.skip(f"no shipped model for preset {preset_name}")
+    return path
+
+
+def test_shipped_network_with_faults_does_not_collide_behind_the_filter():
+    """The shipped network on the first 16 episodes of the faulted random suite (seed 2,
+    10 % dropouts, 2 % outliers) with the filter and its manoeuvres only: no collision;
+    every intervention a counted fallback."""
+    from dataclasses import replace
+
+    from casadi_gpc.simulator import simulate
+    from nn_export import OnnxPolicy
+    from scenarios import Faults, random_suite
+
+    pol = OnnxPolicy(_shipped(), preset="improved")
+    faults = Faults(dropout_prob=0.1, outlier_prob=0.02)
+    n_interventions = 0
+    for s in random_suite("random", 16, 2):
+        log = simulate(replace(s, faults=faults), pol, "nn")
+        assert log.outcome != "collided", s.name
+        assert log.fallbacks == pol.counters["safety_interventions"]
+        n_interventions += log.fallbacks
+    assert n_interventions > 0  # the filter had work to do
+
+
 @pytest.mark.benchmark
 def test_filter_costs_at_most_30_percent_of_the_decision(tracker_path):
     """Same run, same observations: the time inside the filter against the rest of the
-    decision (estimation, features, both network passes), medians."""
+    decision (estimation, features, both network passes), medians; with the shipped model
+    of the default preset when there is one."""
     from casadi_gpc.simulator import simulate
     from nn_export import OnnxPolicy
+    from nn_export.policy import shipped_model_path
     from scenarios import load_scenario
 
-    pol = OnnxPolicy(tracker_path, preset="improved")
+    path = shipped_model_path("improved")
+    pol = OnnxPolicy(path if path.is_file() else tracker_path, preset="improved")
     filt, rest = [], []
     for name in ("fig7_2_crossing.toml", "fig7_3_crossing_off_path.toml"):
         log = simulate(load_scenario(PAPER_DIR / name), pol, "nn")

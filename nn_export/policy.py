@@ -29,7 +29,7 @@ import hashlib
 import json
 import math
 import time
-from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -188,7 +188,7 @@ class OnnxPolicy:
         self._binding = self.session.io_binding()
         self._binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._x))
         self._binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
-        self._run = lambda: self.session.run_with_iobinding(self._binding)
+        self._run = partial(self.session.run_with_iobinding, self._binding)
         self._run()  # first call allocates; do it now, not in the first decision
         if not np.all(np.isfinite(self._y)):  # corrupt numbers in an otherwise valid file
             raise ValueError(f"{path}: the network gives non-finite wheel speeds (corrupt weights?)")
@@ -237,12 +237,13 @@ class OnnxPolicy:
         Returns predicted poses (H, 3) after each step and the wheel speeds (H, 2).
         """
         H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
-        free = situation.without_obstacles()
         r = situation.robot
         x, y, th, vr, vl = r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps
+        speed = situation.ref_speed_mps
         poses, wheels = np.empty((H, 3)), np.empty((H, 2))
         for j in range(H):
-            s = free if j == 0 else replace(free, robot=RobotState(x, y, th, vr, vl), ref_poses=ref_ahead[j:j + H + 1])
+            # built directly (not dataclasses.replace: a tenth of the decision time, measured)
+            s = Situation(RobotState(x, y, th, vr, vl), ref_ahead[j:j + H + 1], T, speed)
             vr, vl = self._net(s)
             x, y, th = (float(v) for v in robot_step(np, x, y, th, vr, vl, T, W))
             poses[j] = x, y, th

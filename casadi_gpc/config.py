@@ -60,7 +60,12 @@ class PlannerConfig:
     swerve_turn_rate_rad_s: float = 0.5
     """Turn rate of the swerve-left / swerve-right initial guesses."""
     solver: str = "ipopt"
-    """NLP solver used by the controller."""
+    """NLP solver backend of the controller (``casadi_gpc.solvers.SOLVER_NAMES``; ``ipopt`` is
+    ``ipopt-warm``). The presets use the one ``gpcnav bench`` measured fastest among those
+    that reach IPOPT's cost (docs/solvers.md)."""
+    time_budget_s: float | None = None
+    """Wall time one control step may spend solving; an answer later than this is not used
+    and the step falls back (counted). None: the sample time."""
 
     def with_overrides(self, **changes) -> "PlannerConfig":
         return replace(self, **{k: v for k, v in changes.items() if v is not None})

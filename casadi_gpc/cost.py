@@ -24,7 +24,7 @@ from .config import PlannerConfig
 from .robot import RobotParams, robot_step
 from .types import ObstacleForecast, StaticObstacle
 
-__all__ = ["ParameterLayout", "GPCProblem", "build_problem", "FAR_AWAY_M"]
+__all__ = ["ParameterLayout", "GPCProblem", "build_problem", "parameter_blocks", "effort_cost", "state_cost", "FAR_AWAY_M"]
 
 FAR_AWAY_M = 1.0e4  # where unused obstacle slots are parked
 
@@ -139,6 +139,52 @@ def _smooth_positive(d, eps):
     return 0.5 * (d + ca.sqrt(d * d + eps * eps))
 
 
+def parameter_blocks(layout: ParameterLayout, p) -> dict:
+    """The named blocks of the symbolic parameter vector ``p`` (``ref`` as an (H, 3) matrix)."""
+    P = {name: p[s] for name, s in layout.slices().items()}
+    P["ref"] = ca.reshape(P["ref"], 3, layout.horizon).T  # row-major (H, 3) as packed
+    return P
+
+
+def effort_cost(config: PlannerConfig, dvr, dvl):
+    """lambda1 (dVr^2 + dVl^2): the cost of one step's increments."""
+    return config.lambda1 * (dvr ** 2 + dvl ** 2)
+
+
+def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y, th, vr, vl):
+    """``(tracking, turning, obstacles, margin)`` of the state after step ``i`` (0-based).
+
+    Together with :func:`effort_cost` this is the whole stage cost; it is used by the
+    single-shooting NLP below and by the multiple-shooting form in ``solvers.py``."""
+    H, M, S = config.horizon, config.max_moving, config.max_static
+    ref = P["ref"]
+    obst = margin_pen = 0
+    turning = config.lambda2 * (vr - vl) ** 2
+    e_h = th - ref[i, 2]
+    tracking = config.tracking_weight * ((x - ref[i, 0]) ** 2 + (y - ref[i, 1]) ** 2)
+    tracking += config.heading_weight * ca.atan2(ca.sin(e_h), ca.cos(e_h)) ** 2
+    obstacles = []
+    for j in range(M):
+        k = (j * H + i) * 2
+        obstacles.append((P["mov_xy"][k], P["mov_xy"][k + 1], P["mov_r"][j], P["mov_on"][j],
+                          P["mov_p"][j * H + i], P["mov_sigma"][j * H + i], config.xi_moving))
+    for j in range(S):
+        obstacles.append((P["sta_xy"][2 * j], P["sta_xy"][2 * j + 1], P["sta_r"][j], P["sta_on"][j],
+                          1.0, 0.0, config.xi_static))
+    for ox, oy, r_o, on, p_unc, sigma, xi in obstacles:
+        centre = ca.sqrt((x - ox) ** 2 + (y - oy) ** 2 + 1e-12)
+        d = centre - robot.radius_m - r_o
+        d_eff = _smooth_positive(d, config.clearance_softening_m)
+        if config.influence_m is None:
+            obst += on * xi / (p_unc * d_eff ** 2)
+        else:
+            obst += on * xi / p_unc * ca.fmax(1.0 / d_eff - 1.0 / config.influence_m, 0.0) ** 2
+        if config.clearance_margin_m is not None:
+            m = config.clearance_margin_m + config.uncertainty_sigmas * sigma
+            margin_pen += on * config.clearance_penalty * ca.fmax(m - d, 0.0) ** 2
+    return tracking, turning, obst, margin_pen
+
+
 def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GPCProblem:
     """Build the NLP of ``config`` for ``robot`` (CasADi SX, single shooting)."""
     robot = robot or RobotParams()
@@ -146,10 +192,8 @@ def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GP
     layout = ParameterLayout(H, config.max_moving, config.max_static)
     u = ca.SX.sym("u", 2 * H)
     p = ca.SX.sym("p", layout.size)
-    P = {name: p[s] for name, s in layout.slices().items()}
+    P = parameter_blocks(layout, p)
     x0 = P["x0"]
-    ref = ca.reshape(P["ref"], 3, H).T  # row-major (H, 3) as packed
-    M, S = config.max_moving, config.max_static
 
     x, y, th, vr, vl = x0[0], x0[1], x0[2], x0[3], x0[4]
     tracking = effort = turning = obst = margin_pen = 0
@@ -158,33 +202,13 @@ def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GP
         dvr, dvl = u[2 * i], u[2 * i + 1]
         vr, vl = vr + dvr, vl + dvl
         g += [vr, vl]
-        effort += config.lambda1 * (dvr ** 2 + dvl ** 2)
-        turning += config.lambda2 * (vr - vl) ** 2
+        effort += effort_cost(config, dvr, dvl)
         x, y, th = robot_step(ca, x, y, th, vr, vl, T, robot.wheel_base_m)
         poses.append(ca.horzcat(x, y, th))
         wheels.append(ca.horzcat(vr, vl))
-        e_h = th - ref[i, 2]
-        tracking += config.tracking_weight * ((x - ref[i, 0]) ** 2 + (y - ref[i, 1]) ** 2)
-        tracking += config.heading_weight * ca.atan2(ca.sin(e_h), ca.cos(e_h)) ** 2
-        obstacles = []
-        for j in range(M):
-            k = (j * H + i) * 2
-            obstacles.append((P["mov_xy"][k], P["mov_xy"][k + 1], P["mov_r"][j], P["mov_on"][j],
-                              P["mov_p"][j * H + i], P["mov_sigma"][j * H + i], config.xi_moving))
-        for j in range(S):
-            obstacles.append((P["sta_xy"][2 * j], P["sta_xy"][2 * j + 1], P["sta_r"][j], P["sta_on"][j],
-                              1.0, 0.0, config.xi_static))
-        for ox, oy, r_o, on, p_unc, sigma, xi in obstacles:
-            centre = ca.sqrt((x - ox) ** 2 + (y - oy) ** 2 + 1e-12)
-            d = centre - robot.radius_m - r_o
-            d_eff = _smooth_positive(d, config.clearance_softening_m)
-            if config.influence_m is None:
-                obst += on * xi / (p_unc * d_eff ** 2)
-            else:
-                obst += on * xi / p_unc * ca.fmax(1.0 / d_eff - 1.0 / config.influence_m, 0.0) ** 2
-            if config.clearance_margin_m is not None:
-                m = config.clearance_margin_m + config.uncertainty_sigmas * sigma
-                margin_pen += on * config.clearance_penalty * ca.fmax(m - d, 0.0) ** 2
+        terms = state_cost(config, robot, P, i, x, y, th, vr, vl)
+        tracking, turning = tracking + terms[0], turning + terms[1]
+        obst, margin_pen = obst + terms[2], margin_pen + terms[3]
     J = tracking + effort + turning + obst + margin_pen
     g = ca.vertcat(*g)
     dv = robot.max_step_change_mps(T)

@@ -1,11 +1,11 @@
-"""The GPC controller: obstacle EKFs, the NLP built once, multi-start IPOPT, fallback."""
+"""The GPC controller: obstacle EKFs, the NLP and its solver built once, multi-start solves,
+a per-step time budget, and the fallback."""
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
-import casadi as ca
 import numpy as np
 
 from .config import PlannerConfig, preset
@@ -14,11 +14,11 @@ from .ekf import EKFSettings, ObstacleEKF
 from .guesses import initial_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
+from .solvers import Backend, make_backend
 from .types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
 
 __all__ = ["Plan", "GPCController"]
 
-_OK_STATUS = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 TIE_RELATIVE = 1e-7  # candidates closer than this in cost are a tie; the earlier one wins
 
 
@@ -45,24 +45,37 @@ class GPCController:
     robot: RobotParams = field(default_factory=RobotParams)
     ekf_settings: EKFSettings = field(default_factory=EKFSettings)
     ipopt_options: dict = field(default_factory=dict)
+    """Extra IPOPT options (the IPOPT backends only)."""
+    compile_solver: bool = True
+    """Use compiled NLP functions where the backend offers them (cached on disk)."""
 
     def __post_init__(self):
         self.problem: GPCProblem = build_problem(self.config, self.robot)
-        opts = {
-            "print_time": False,
-            "ipopt.print_level": 0,
-            "ipopt.sb": "yes",
-            "ipopt.tol": 1e-9,
-            "ipopt.max_iter": 200,
-            "ipopt.warm_start_init_point": "yes",
-            "ipopt.warm_start_bound_push": 1e-9,
-            "ipopt.warm_start_mult_bound_push": 1e-9,
-            "ipopt.mu_init": 1e-3,
-        }
-        opts.update(self.ipopt_options)
-        self.solver = ca.nlpsol("gpc", "ipopt", self.problem.nlp, opts)
         self.sample_time_s = self.config.sample_time_s
+        budget = self.config.time_budget_s
+        self.time_budget_s = float(self.config.sample_time_s if budget is None else budget)
+        """Wall time one ``decide`` may spend solving (s); later answers are not used."""
+        # built once: IPOPT also stops itself at the budget (C code cannot be interrupted
+        # from Python); the SQP and fatrop are capped by their iteration limits.
+        self.backend: Backend = make_backend(self.config.solver, self.problem, max_wall_time_s=self.time_budget_s,
+                                             compiled=self.compile_solver, ipopt_options=self.ipopt_options)
+        self.solver_name = self.backend.name
+        self._failure_prob, self._failure_rng = 0.0, None
+        self._deadline: float | None = None
         self.reset()
+
+    @property
+    def solver_info(self) -> dict:
+        """Which solver this controller uses, compiled or not, and its time budget."""
+        return {**self.backend.info(), "time_budget_s": self.time_budget_s}
+
+    def inject_failures(self, probability: float, rng: np.random.Generator | None = None) -> None:
+        """Make each step's solve fail with ``probability`` (drawn from ``rng``), which leads
+        to the fallback, counted in ``counters['injected_failures']`` and ``['fallbacks']``."""
+        if not 0.0 <= probability <= 1.0:
+            raise ValueError(f"failure probability must be in [0, 1], got {probability}")
+        self._failure_prob = float(probability)
+        self._failure_rng = rng if rng is not None else np.random.default_rng()
 
     # --- state -----------------------------------------------------------------------
     def reset(self) -> None:
@@ -71,7 +84,8 @@ class GPCController:
         self._warm: Plan | None = None
         self._last_wheels: np.ndarray | None = None
         self.counters = {"solves": 0, "failed_solves": 0, "fallbacks": 0, "multistart": 0,
-                         "missed_measurements": 0, "outliers": 0}
+                         "missed_measurements": 0, "outliers": 0, "over_budget": 0, "budget_skips": 0,
+                         "injected_failures": 0}
 
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
@@ -99,27 +113,19 @@ class GPCController:
 
     # --- solving -----------------------------------------------------------------------
     def solve(self, p: np.ndarray, u0: np.ndarray, guess: str = "", lam_x=None, lam_g=None) -> Plan:
-        """One IPOPT solve of the NLP at parameters ``p`` from ``u0``."""
-        pr = self.problem
-        args = dict(x0=u0, p=p, lbx=pr.lbx, ubx=pr.ubx, lbg=pr.lbg, ubg=pr.ubg)
-        if lam_x is not None:
-            args.update(lam_x0=lam_x, lam_g0=lam_g)
-        t0 = time.perf_counter()
-        try:
-            sol = self.solver(**args)
-            stats = self.solver.stats()
-            u = np.asarray(sol["x"]).reshape(-1)
-            cost = float(sol["f"])
-            status = stats.get("return_status", "unknown")
-            ok = status in _OK_STATUS and math.isfinite(cost) and np.all(np.isfinite(u))
-            plan = Plan(u, cost, bool(ok), status, int(stats.get("iter_count", -1)), guess,
-                        np.asarray(sol["lam_x"]).reshape(-1), np.asarray(sol["lam_g"]).reshape(-1))
-        except RuntimeError as exc:  # casadi raises on evaluation errors
-            plan = Plan(np.asarray(u0, float), float("nan"), False, f"error: {exc}", -1, guess)
+        """One solve of the NLP at parameters ``p`` from ``u0`` by the controller's backend.
+
+        Inside ``decide``, an answer that arrives after the step's time budget is marked
+        failed (counted in ``over_budget``): the loop does not use late answers."""
+        r = self.backend.solve(p, u0, lam_x, lam_g)
+        plan = Plan(r.u, r.cost, r.success, r.status, r.iterations, guess, r.lam_x, r.lam_g, r.solve_time_s)
+        if self._deadline is not None and time.perf_counter() > self._deadline:
+            self.counters["over_budget"] += 1
+            plan = replace(plan, success=False, status=f"over the time budget of {self.time_budget_s:g} s")
         self.counters["solves"] += 1
         if not plan.success:
             self.counters["failed_solves"] += 1
-        return Plan(**{**plan.__dict__, "solve_time_s": time.perf_counter() - t0})
+        return plan
 
     def obstacles_near(self, x0: np.ndarray, forecasts, statics) -> bool:
         cfg, robot = self.config, self.robot
@@ -134,12 +140,20 @@ class GPCController:
         candidates: list[Plan] = []
         ref_poses = self.problem.layout.unpack(p)["ref"]
         guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses) if (multistart or warm is None) else {}
-        for name, u0 in guesses.items():
-            candidates.append(self.solve(p, u0, name))
+        # The warm start is solved first (the likeliest answer, when the budget is short);
+        # the candidates keep the guesses-then-warm order that breaks ties.
+        warm_plan = None
         if warm is not None:
             H = self.config.horizon
             u_shift = np.concatenate([warm.u[2:], np.zeros(2)])
-            candidates.append(self.solve(p, u_shift, "warm", *self._shift_multipliers(warm, H)))
+            warm_plan = self.solve(p, u_shift, "warm", *self._shift_multipliers(warm, H))
+        for name, u0 in guesses.items():
+            if self._deadline is not None and time.perf_counter() > self._deadline:
+                self.counters["budget_skips"] += 1  # not started: the step's budget is spent
+                continue
+            candidates.append(self.solve(p, u0, name))
+        if warm_plan is not None:
+            candidates.append(warm_plan)
         best = None
         for c in candidates:
             if not c.success:
@@ -156,6 +170,13 @@ class GPCController:
 
     # --- the step ----------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:
+        self._deadline = time.perf_counter() + self.time_budget_s
+        try:
+            return self._decide(obs)
+        finally:
+            self._deadline = None
+
+    def _decide(self, obs: Observation) -> ControlDecision:
         cfg, robot = self.config, self.robot
         forecasts = self.estimate(obs)
         ref = self.desired_poses(obs)
@@ -170,15 +191,20 @@ class GPCController:
         near = self.obstacles_near(x0, forecasts, statics)
         if near:
             self.counters["multistart"] += 1
+        if self._failure_prob > 0.0 and self._failure_rng.random() < self._failure_prob:
+            self.counters["injected_failures"] += 1
+            return self._fallback(obs, "injected solver failure")
         best, candidates = self.plan(p, x0, obs.reference.speed_mps, near, self._warm)
         if best is None:
-            return self._fallback(obs, "all solves failed: " + ", ".join(sorted({c.status for c in candidates})))
+            statuses = sorted({c.status for c in candidates}) or ["no solve started within the time budget"]
+            return self._fallback(obs, "all solves failed: " + ", ".join(statuses))
         self._warm = best
         poses, wheels = (np.asarray(a) for a in self.problem.rollout_fn(best.u, p))
         self._last_wheels = wheels
         return ControlDecision(
             float(wheels[0, 0]), float(wheels[0, 1]), False, best.guess, wheels, poses, best.cost,
-            {"iterations": best.iterations, "candidates": len(candidates), "forecasts": forecasts},
+            {"iterations": best.iterations, "candidates": len(candidates), "forecasts": forecasts,
+             "solver": self.solver_name, "solve_time_s": sum(c.solve_time_s for c in candidates)},
         )
 
     def _fallback(self, obs: Observation, reason: str) -> ControlDecision:

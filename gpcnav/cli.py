@@ -14,6 +14,7 @@ COMMANDS = {
     "dataset": "Label situations with the GPC (resumable).",
     "train": "Train the network on a dataset.",
     "export": "Export a trained network to ONNX.",
+    "bench": "The solver benchmark.",
 }
 
 

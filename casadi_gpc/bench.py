@@ -1,0 +1,402 @@
+"""The solver benchmark: record the control problems of a closed-loop GPC run, then time
+every solver (and, through :func:`policy_rows`, any policy) on the same problems.
+
+The run is recorded with the reference solver (``ipopt-warm``). Each control step gives one
+**problem**: its NLP parameters and the start the planner solves from first, the previous
+plan shifted one step (with its multipliers), or at a step without a previous plan the
+``straight`` guess. Those are the ``problems`` of BENCH.json. The planner also solves, near
+obstacles, from its fixed guesses (``casadi_gpc.guesses``); those solves are recorded as
+well and reported apart, under ``multistart``, because from a far start two correct solvers
+may end in different local minima.
+
+Every solver solves every problem in one process, interleaved problem by problem (the order
+of the solvers rotates), so a burst of load on the machine hits them all alike. Costs are
+recomputed with the problem's own cost function, so they compare exactly; the cost of a
+failed solve is not used.
+"""
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .config import PlannerConfig
+from .cost import GPCProblem
+from .gpc import GPCController
+from .guesses import TIE_ORDER
+from .metrics import time_stats
+from .robot import RobotParams
+from .simulator import RunLog, simulate
+from .solvers import SOLVER_NAMES, Backend, SolveResult, constraint_violation_mps, make_backend
+from .types import Observation, Policy
+
+__all__ = ["REFERENCE", "SAME_COST_RELATIVE", "AGREE_FRACTION", "RecordedProblem", "Recording",
+           "record_problems", "run_solvers", "solver_rows", "policy_rows", "choose_solver", "speedups",
+           "run_bench", "bench_figure", "format_table"]
+
+REFERENCE = "ipopt-warm"
+"""The planner's solver before this benchmark: the answers every other solver must reach."""
+SAME_COST_RELATIVE = 1e-6
+"""A cost within this relative distance of the reference's (or lower) is the same answer."""
+AGREE_FRACTION = 0.99
+"""A solver may be chosen when it is that good on at least this share of the problems."""
+
+
+@dataclass(frozen=True)
+class RecordedProblem:
+    """One NLP the planner solved: the parameters and the start it solved from."""
+
+    step: int
+    t_s: float
+    p: np.ndarray
+    u0: np.ndarray
+    lam_x: np.ndarray | None
+    lam_g: np.ndarray | None
+    start: str
+    """``warm`` or the name of the guess."""
+    primary: bool = False
+    """The step's own problem (see the module docstring)."""
+
+
+@dataclass
+class Recording:
+    """A closed-loop run and every problem its planner solved."""
+
+    config: PlannerConfig
+    robot: RobotParams
+    problems: list
+    observations: list
+    log: RunLog
+
+    @property
+    def primary(self) -> list[RecordedProblem]:
+        return [q for q in self.problems if q.primary]
+
+    @property
+    def multistart(self) -> list[RecordedProblem]:
+        return [q for q in self.problems if not q.primary]
+
+
+class _RecordingController(GPCController):
+    """The GPC, writing down each observation and each NLP it solves."""
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.recorded: list[RecordedProblem] = []
+        self.observations: list[Observation] = []
+
+    def decide(self, obs: Observation):
+        self.observations.append(obs)
+        return super().decide(obs)
+
+    def solve(self, p, u0, guess="", lam_x=None, lam_g=None):
+        copy = (lambda a: None if a is None else np.array(a, dtype=float))
+        self.recorded.append(RecordedProblem(len(self.observations) - 1, self.observations[-1].t_s, copy(p), copy(u0),
+                                             copy(lam_x), copy(lam_g), guess or "unnamed"))
+        return super().solve(p, u0, guess, lam_x, lam_g)
+
+
+def record_problems(scenario, config: PlannerConfig) -> Recording:
+    """Run ``scenario`` closed loop with the GPC on the reference solver and keep every NLP."""
+    ctl = _RecordingController(config.with_overrides(solver=REFERENCE), scenario.robot, compile_solver=False)
+    log = simulate(scenario, ctl, "gpc")
+    by_step: dict[int, list[int]] = {}
+    for i, q in enumerate(ctl.recorded):
+        by_step.setdefault(q.step, []).append(i)
+    primary = set()
+    for idx in by_step.values():
+        starts = {ctl.recorded[i].start: i for i in idx}
+        pick = starts.get("warm", starts.get("straight"))
+        if pick is None:  # neither: the first in tie order
+            pick = next(starts[s] for s in (*TIE_ORDER, *starts) if s in starts)
+        primary.add(pick)
+    problems = [RecordedProblem(**{**q.__dict__, "primary": i in primary}) for i, q in enumerate(ctl.recorded)]
+    return Recording(config, scenario.robot, problems, ctl.observations, log)
+
+
+def run_solvers(problems: Sequence[RecordedProblem], backends: dict[str, Backend],
+                progress: Callable | None = None) -> dict[str, list[SolveResult]]:
+    """Every backend on every problem, interleaved; the solvers' order rotates per problem."""
+    names = list(backends)
+    out: dict[str, list[SolveResult]] = {n: [] for n in names}
+    it = progress(problems) if progress else problems
+    for k, q in enumerate(it):
+        for j in range(len(names)):
+            name = names[(j + k) % len(names)]
+            out[name].append(backends[name].solve(q.p, q.u0, q.lam_x, q.lam_g))
+    return out
+
+
+def _costs(problem: GPCProblem, problems, results: dict[str, list[SolveResult]]) -> dict[str, np.ndarray]:
+    """Each solver's cost on each problem by the problem's own cost function (NaN if failed)."""
+    out = {}
+    for name, res in results.items():
+        out[name] = np.array([float(problem.cost_fn(r.u, q.p)) if r.success else np.nan
+                              for r, q in zip(res, problems)])
+    return out
+
+
+def _summary(problem: GPCProblem, problems, results, costs, name: str, reference: str) -> dict:
+    res = results[name]
+    ok = np.array([r.success for r in res], dtype=bool)
+    with warnings.catch_warnings():  # a problem every solver failed has no best: NaN
+        warnings.simplefilter("ignore", RuntimeWarning)
+        best = np.nanmin(np.vstack(list(costs.values())), axis=0)
+    c = costs[name]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = c / np.maximum(best, 1e-300)
+    ratio = ratio[np.isfinite(ratio)]
+    row = {
+        "problems": len(res),
+        "time_s": time_stats(r.solve_time_s for r in res),
+        "iterations": {"median": float(np.median([r.iterations for r in res])) if res else 0.0},
+        "success_rate": float(ok.mean()) if len(ok) else 0.0,
+        "cost_ratio_to_best": {"median": float(np.median(ratio)) if ratio.size else float("nan"),
+                               "max": float(np.max(ratio)) if ratio.size else float("nan")},
+        "constraint_violation_mps": {"max": max((constraint_violation_mps(problem, r.u, q.p)
+                                                 for r, q in zip(res, problems) if r.success), default=0.0)},
+    }
+    if reference in costs:
+        ref = costs[reference]
+        both = np.isfinite(ref) & np.isfinite(c)
+        tol = SAME_COST_RELATIVE * np.abs(ref)
+        as_good = both & (c <= ref + tol)
+        row["vs_reference"] = {
+            "reference": reference,
+            "compared": int(both.sum()),
+            # the share of all problems (failures count against) with a cost at least as good
+            "as_good_rate": float(as_good.sum() / max(len(res), 1)),
+            "worse": int((both & (c > ref + tol)).sum()),
+            "better": int((both & (c < ref - tol)).sum()),
+            "max_relative_excess": float(np.max(((c - ref) / np.abs(ref))[both], initial=0.0)),
+        }
+    evals = [r.evaluations for r in res if r.evaluations]
+    if evals:
+        row["cost_evaluations"] = {"median": float(np.median(evals)), "max": int(max(evals))}
+    fails = sorted({r.status for r in res if not r.success})
+    if fails:
+        row["failure_statuses"] = fails[:5]
+    return row
+
+
+def _finite_or_none(doc):
+    """JSON has no NaN: replace non-finite numbers by None."""
+    if isinstance(doc, dict):
+        return {k: _finite_or_none(v) for k, v in doc.items()}
+    if isinstance(doc, list):
+        return [_finite_or_none(v) for v in doc]
+    if isinstance(doc, float) and not math.isfinite(doc):
+        return None
+    return doc
+
+
+def _step_agreement(steps: np.ndarray, cost: np.ndarray, ref: np.ndarray) -> dict:
+    """What the planner keeps at each step is its cheapest candidate: compare those."""
+    as_good = worse = better = 0
+    for s in np.unique(steps):
+        mine, theirs = cost[steps == s], ref[steps == s]
+        a = np.min(mine[np.isfinite(mine)], initial=np.inf)
+        b = np.min(theirs[np.isfinite(theirs)], initial=np.inf)
+        tol = SAME_COST_RELATIVE * abs(b) if math.isfinite(b) else 0.0
+        as_good += int(a <= b + tol)
+        worse += int(a > b + tol)
+        better += int(a < b - tol)
+    n = len(np.unique(steps))
+    return {"steps": n, "as_good_rate": as_good / max(n, 1), "worse": worse, "better": better}
+
+
+def solver_rows(problem: GPCProblem, recording: Recording, results: dict[str, list[SolveResult]],
+                backends: dict[str, Backend], reference: str = REFERENCE) -> list[dict]:
+    """One BENCH row per solver: the step problems, and the multistart solves under ``multistart``."""
+    prim = [i for i, q in enumerate(recording.problems) if q.primary]
+    multi = [i for i, q in enumerate(recording.problems) if not q.primary]
+    rows = []
+    parts = {}
+    for label, idx in (("primary", prim), ("multistart", multi)):
+        qs = [recording.problems[i] for i in idx]
+        sub = {n: [r[i] for i in idx] for n, r in results.items()}
+        costs = _costs(problem, qs, sub)
+        parts[label] = (qs, sub, costs)
+    all_costs = _costs(problem, recording.problems, results)
+    steps = np.array([q.step for q in recording.problems])
+    for name in results:
+        qs, sub, costs = parts["primary"]
+        row = {"name": name, "kind": "solver", **_summary(problem, qs, sub, costs, name, reference)}
+        qs_m, sub_m, costs_m = parts["multistart"]
+        if qs_m:
+            row["multistart"] = _summary(problem, qs_m, sub_m, costs_m, name, reference)
+        if reference in all_costs:
+            row["planner_steps"] = _step_agreement(steps, all_costs[name], all_costs[reference])
+        row.update({"compiled": backends[name].compiled, "notes": list(backends[name].notes),
+                    "time_samples_s": [r.solve_time_s for r in sub[name]]})
+        rows.append(_finite_or_none(row))
+    return rows
+
+
+def policy_rows(recording: Recording, policies: Sequence[tuple[str, Callable[[], Policy]]]) -> list[dict]:
+    """The extension point for policies (the GPC's full decision, the networks, ...).
+
+    ``policies``: ``(name, make_policy)`` pairs; ``make_policy()`` returns an object with
+    ``reset()`` and ``decide(observation) -> ControlDecision``. Each is reset and given the
+    recorded observations in order (open loop: its commands are not applied), and its
+    ``decide`` is timed. Reported beside the time: fallbacks, and how far its first
+    command is from the recorded GPC's (m/s)."""
+    recorded = np.array([[d.v_right_mps, d.v_left_mps] for d in recording.log.decisions])
+    rows = []
+    for name, make_policy in policies:
+        policy = make_policy()
+        policy.reset()
+        times, cmds, fallbacks = [], [], 0
+        for obs in recording.observations:
+            t0 = time.perf_counter()
+            dec = policy.decide(obs)
+            times.append(time.perf_counter() - t0)
+            cmds.append((dec.v_right_mps, dec.v_left_mps))
+            fallbacks += int(dec.fallback)
+        diff = np.max(np.abs(np.asarray(cmds, float) - recorded), axis=1) if len(cmds) else np.zeros(0)
+        row = {"name": name, "kind": "policy", "problems": len(times), "time_s": time_stats(times),
+               "fallbacks": fallbacks,
+               "command_diff_to_recorded_mps": {"median": float(np.median(diff)) if diff.size else 0.0,
+                                                "max": float(np.max(diff)) if diff.size else 0.0},
+               "time_samples_s": times}
+        info = getattr(policy, "solver_info", None)
+        if info:
+            row["solver"] = info
+        rows.append(_finite_or_none(row))
+    return rows
+
+
+def choose_solver(rows: list[dict], reference: str = REFERENCE) -> tuple[str, str]:
+    """The fastest solver (median time on the step problems) that succeeded on every problem
+    and reached the reference's cost on at least :data:`AGREE_FRACTION` of them."""
+    def agrees(r):
+        return r["name"] == reference or (
+            (r.get("vs_reference") or {}).get("as_good_rate", 0.0) >= AGREE_FRACTION
+            and (r.get("planner_steps") or {}).get("as_good_rate", 0.0) >= AGREE_FRACTION)
+    ok = [r for r in rows if r["kind"] == "solver" and r["success_rate"] == 1.0 and agrees(r)]
+    if not ok:
+        return reference, "no solver met the rule; the reference is kept"
+    best = min(ok, key=lambda r: r["time_s"]["median"])
+    rule = (f"fastest median among solvers with 100% success and a cost within {SAME_COST_RELATIVE:g} "
+            f"(relative) of {reference}'s or better on >= {AGREE_FRACTION:.0%} of the problems, and the "
+            f"planner's cheapest candidate as good on >= {AGREE_FRACTION:.0%} of the steps")
+    return best["name"], rule
+
+
+def speedups(rows: list[dict], chosen: str, reference: str = REFERENCE) -> dict:
+    """Median-time ratios: the reference over every row, and every solver over the chosen one."""
+    med = {r["name"]: r["time_s"]["median"] for r in rows}
+    out = {}
+    if reference in med:
+        out.update({f"{reference}/{n}": med[reference] / m for n, m in med.items() if n != reference and m > 0})
+    if chosen in med and med[chosen] > 0:
+        out.update({f"{n}/{chosen}": m / med[chosen] for n, m in med.items() if n != chosen})
+    return out
+
+
+def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_NAMES,
+              policies: Sequence[tuple[str, Callable[[], Policy]]] = (), gpc_rows: bool = True,
+              progress: Callable | None = None, compiled: bool = True, say: Callable[[str], None] | None = None) -> dict:
+    """Record ``scenario`` under ``config``, run ``solvers`` (the reference is always added)
+    on its problems and ``policies`` on its observations; returns the BENCH document.
+
+    ``gpc_rows`` adds two policy rows, the full GPC decision (estimation included) with the
+    reference solver and with the chosen one, replayed on the recorded observations."""
+    say = say or (lambda msg: None)
+    names = list(dict.fromkeys([REFERENCE, *solvers]))
+    say(f"recording the control problems of {scenario.name} (preset {config.name}, H={config.horizon}, "
+        f"T={config.sample_time_s} s)")
+    recording = record_problems(scenario, config)
+    problem = None
+    backends = {}
+    for name in names:
+        say(f"building {name}")
+        t0 = time.perf_counter()
+        if problem is None:
+            from .cost import build_problem
+            problem = build_problem(config, scenario.robot)
+        backends[name] = make_backend(name, problem, compiled=compiled)
+        say(f"  {name}: {'; '.join(backends[name].notes)} ({time.perf_counter() - t0:.1f} s)")
+    results = run_solvers(recording.problems, backends, progress)
+    rows = solver_rows(problem, recording, results, backends)
+    chosen, rule = choose_solver(rows)
+    extra = list(policies)
+    if gpc_rows:
+        def gpc(solver):
+            return lambda: GPCController(config.with_overrides(solver=solver), scenario.robot, compile_solver=compiled)
+        extra = [(f"gpc[{REFERENCE}]", gpc(REFERENCE)), (f"gpc[{chosen}]", gpc(chosen))] + extra
+    rows += policy_rows(recording, extra)
+    by_name = {r["name"]: r for r in rows}
+    ch = by_name[chosen]
+    doc = {
+        "problems": len(recording.primary),
+        "multistart_problems": len(recording.multistart),
+        "scenario": scenario.name,
+        "preset": config.name,
+        "horizon": config.horizon,
+        "sample_time_s": config.sample_time_s,
+        "reference": REFERENCE,
+        "recorded_run": {"outcome": recording.log.outcome, "steps": len(recording.log.compute_time_s)},
+        "chosen": {"name": chosen, "rule": rule, "median_time_s": ch["time_s"]["median"],
+                   "speedup_vs_reference": by_name[REFERENCE]["time_s"]["median"] / ch["time_s"]["median"],
+                   "success_rate": ch["success_rate"],
+                   "as_good_as_reference_rate": (ch.get("vs_reference") or {}).get("as_good_rate", 1.0)},
+        "results": rows,
+        "speedup": speedups(rows, chosen),
+        "timing": "time_s: wall time of one solve called from Python (conversions included), one call per "
+                  "problem, solvers interleaved problem by problem",
+    }
+    return _finite_or_none(doc)
+
+
+def format_table(doc: dict) -> str:
+    """The BENCH rows as a text table."""
+    head = (f"{'name':<26} {'kind':<6} {'median ms':>9} {'p95 ms':>8} {'max ms':>8} {'iter':>5} {'success':>7} "
+            f"{'cost/best med':>13} {'max':>9} {'as good as ' + doc['reference']:>22} {'steps as good':>13}")
+    lines = [head, "-" * len(head)]
+    for r in doc["results"]:
+        t = r["time_s"]
+        if r["kind"] == "solver":
+            c = r["cost_ratio_to_best"]
+            vs = r.get("vs_reference") or {}
+            st = r.get("planner_steps") or {}
+            cells = (f"{r['iterations']['median']:>5.0f} {r['success_rate']:>7.1%} "
+                     f"{_num(c['median']):>13} {_num(c['max']):>9} "
+                     f"{vs.get('as_good_rate', float('nan')):>22.1%} {st.get('as_good_rate', float('nan')):>13.1%}")
+        else:
+            cells = f"{'':>5} {'':>7} {'':>13} {'':>9} {'':>22} {'':>13}"
+        lines.append(f"{r['name']:<26} {r['kind']:<6} {t['median'] * 1e3:>9.3f} {t['p95'] * 1e3:>8.3f} "
+                     f"{t['max'] * 1e3:>8.2f} {cells}")
+    return "\n".join(lines)
+
+
+def _num(v) -> str:
+    return "n/a" if v is None else f"{v:.6f}" if v < 10 else f"{v:.3g}"
+
+
+def bench_figure(doc: dict):
+    """Time per solve (log scale), one box per solver or policy, with the chosen one marked."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = [r for r in doc["results"] if r.get("time_samples_s")]
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.0 + 0.9 * len(rows)), 4.2))
+    data = [np.asarray(r["time_samples_s"]) * 1e3 for r in rows]
+    box = ax.boxplot(data, whis=(5, 95), showfliers=True, patch_artist=True, flierprops={"markersize": 2})
+    chosen = doc["chosen"]["name"]
+    for patch, r in zip(box["boxes"], rows):
+        patch.set_facecolor("tab:green" if r["name"] == chosen else "tab:blue" if r["kind"] == "solver"
+                            else "tab:orange")
+        patch.set_alpha(0.5)
+    ax.set_yscale("log")
+    ax.set_xticks(range(1, len(rows) + 1), [r["name"] for r in rows], rotation=30, ha="right", fontsize=7)
+    ax.set_ylabel("time per solve / decision (ms, log scale)")
+    ax.set_title(f"{doc['scenario']}, preset {doc['preset']} (H={doc['horizon']}): {doc['problems']} problems; "
+                 f"chosen {chosen} (green); whiskers 5-95 %", fontsize=8)
+    ax.grid(True, which="both", axis="y", lw=0.3, alpha=0.5)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,100 @@
+"""The solver benchmark: record the control problems of a closed-loop GPC run on a scenario
+(the paper's Fig. 7.2 by default), solve them all with every solver in one process, and
+write BENCH.json, a chart of the time per solve and a table."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ..errors import UsageError
+from .common import add_preset_arguments, planner_config, progress
+
+DEFAULT_SCENARIO = "fig7_2_crossing"
+
+
+def add_arguments(p):
+    from casadi_gpc.solvers import SOLVER_NAMES
+    p.add_argument("scenario", type=Path, nargs="?", default=None,
+                   help=f"scenario file (TOML); default the paper's {DEFAULT_SCENARIO}")
+    p.add_argument("--solvers", default=",".join(SOLVER_NAMES), metavar="LIST",
+                   help=f"comma-separated solvers (default all: {','.join(SOLVER_NAMES)}); "
+                        "ipopt-warm, the reference, is always run")
+    p.add_argument("--out", type=Path, default=None, help="write BENCH.json here")
+    p.add_argument("--plot", type=Path, default=None, help="write the time-per-solve chart (PNG) here")
+    p.add_argument("--no-gpc-rows", action="store_true",
+                   help="leave out the full GPC decision rows (estimation + multi-start solves)")
+    p.add_argument("--model", type=Path, default=None,
+                   help="ONNX network for the network rows (default: the one shipped for --preset)")
+    p.add_argument("--no-nn-rows", action="store_true", help="leave out the network rows")
+    add_preset_arguments(p)
+
+
+def extra_policies(args, config, robot) -> list:
+    """Policies to time beside the solvers: ``(name, make_policy)`` pairs, see
+    :func:`casadi_gpc.bench.policy_rows`. The network policies (numpy, torch, onnxruntime)
+    are timed on the features the ``onnxpolicy`` row recorded (:func:`network_rows`)."""
+    if getattr(args, "no_nn_rows", False):
+        return []
+    try:
+        from nn_export.bench_rows import policy_entries
+        entries, args._nn_recorder = policy_entries(config, robot, args.model)
+    except (ImportError, FileNotFoundError, ValueError) as exc:
+        raise UsageError(f"network rows: {exc} (use --no-nn-rows to leave them out)") from None
+    return entries
+
+
+def network_rows(args, doc) -> None:
+    """Add the bare network calls (numpy, torch, onnxruntime) and the network speedups."""
+    recorder = getattr(args, "_nn_recorder", None)
+    if recorder is None or not recorder.features:
+        return
+    from nn_export.bench_rows import forward_rows, network_speedups
+    rows = forward_rows(recorder.policy.model_info["path"], recorder.features)
+    doc["results"] += rows
+    doc["speedup"].update(network_speedups(doc["results"], doc["chosen"]["name"], doc["reference"]))
+    doc["network"] = recorder.policy.model_info
+
+
+def parse_solvers(text: str) -> list[str]:
+    from casadi_gpc.solvers import canonical_name
+    names = [s.strip() for s in text.split(",") if s.strip()]
+    if not names:
+        raise UsageError("--solvers: give at least one solver")
+    try:
+        return list(dict.fromkeys(canonical_name(n) for n in names))
+    except ValueError as exc:
+        raise UsageError(f"--solvers: {exc}") from None
+
+
+def run(args) -> int:
+    from casadi_gpc.bench import bench_figure, format_table, run_bench
+    from scenarios import PAPER_DIR, load_scenario
+
+    from ..io import save_figure, write_json
+    solvers = parse_solvers(args.solvers)
+    config = planner_config(args)
+    scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")
+
+    def say(msg):
+        print(msg, file=sys.stderr, flush=True)
+
+    doc = run_bench(scenario, config, solvers, policies=extra_policies(args, config, scenario.robot),
+                    gpc_rows=not args.no_gpc_rows,
+                    progress=lambda it: progress(it, desc="problems", unit="problem"), say=say)
+    network_rows(args, doc)
+    if args.out:
+        write_json(args.out, doc)
+    if args.plot:
+        import matplotlib.pyplot as plt
+        fig = bench_figure(doc)
+        save_figure(fig, args.plot, dpi=130)
+        plt.close(fig)
+    ch = doc["chosen"]
+    print(f"{doc['scenario']} [preset {doc['preset']}, H={doc['horizon']}, T={doc['sample_time_s']} s]: "
+          f"{doc['problems']} step problems (+{doc['multistart_problems']} multistart solves, "
+          f"reported under 'multistart' in BENCH.json)")
+    print(format_table(doc))
+    print(f"chosen: {ch['name']}  median {ch['median_time_s'] * 1e3:.3f} ms  "
+          f"{ch['speedup_vs_reference']:.1f}x faster than {doc['reference']}  success {ch['success_rate']:.1%}  "
+          f"as good as {doc['reference']} on {ch['as_good_as_reference_rate']:.1%} of the problems")
+    return 0

@@ -1,0 +1,196 @@
+"""The solver benchmark (casadi_gpc.bench and ``gpcnav bench``): what is recorded, how the
+rows are computed, the choice of the solver, the policy extension point, the command line."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from casadi_gpc.bench import (AGREE_FRACTION, REFERENCE, SAME_COST_RELATIVE, choose_solver, policy_rows,
+                              record_problems, run_bench, speedups)
+from casadi_gpc.config import PRESETS
+from casadi_gpc.types import ControlDecision
+from scenarios import paper_scenarios
+
+PAPER = PRESETS["paper"]
+
+SHORT = """
+name = "bench_short"
+duration_s = 12.0
+[robot]
+position = [0.0, 0.0]
+heading_deg = 0.0
+[reference]
+position = [0.0, 0.0]
+heading_deg = 0.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 8.0
+[[moving_obstacles]]
+position = [4.0, -3.0]
+heading_deg = 90.0
+speed_mps = 0.3
+radius_m = 0.3
+"""
+
+
+@pytest.fixture(scope="module")
+def short_scenario():
+    return replace(paper_scenarios()[1], duration_s=15.0)
+
+
+@pytest.fixture(scope="module")
+def bench_doc(short_scenario):
+    return run_bench(short_scenario, PAPER, ["ipopt-warm", "sqpmethod-daqp", "fatrop"])
+
+
+def test_recording_has_one_step_problem_per_control_step(short_scenario):
+    rec = record_problems(short_scenario, PAPER)
+    steps = len(rec.log.compute_time_s)
+    assert steps == 10 and len(rec.observations) == steps
+    assert [q.step for q in rec.primary] == list(range(steps))
+    # the first step has no previous plan: its problem starts from the straight guess
+    assert rec.primary[0].start == "straight" and rec.primary[0].lam_x is None
+    assert all(q.start == "warm" and q.lam_x is not None for q in rec.primary[1:])
+    # every solve the planner made is there: the controller counted them too
+    assert len(rec.problems) == rec.log.events["solves"]
+    assert all(q.start != "warm" for q in rec.multistart)
+    # the recorded warm start is the previous plan shifted by one step
+    d = rec.log.decisions[0]
+    np.testing.assert_allclose(rec.primary[1].u0[:-2].reshape(-1, 2),
+                               np.diff(np.vstack([[0.0, 0.0], d.planned_wheels_mps]), axis=0)[1:], atol=1e-12)
+
+
+def test_bench_document_follows_the_contract(bench_doc):
+    doc = json.loads(json.dumps(bench_doc, allow_nan=False))
+    assert isinstance(doc["problems"], int) and doc["problems"] == 10
+    assert isinstance(doc["results"], list) and isinstance(doc["speedup"], dict)
+    names = [r["name"] for r in doc["results"]]
+    assert names[:3] == ["ipopt-warm", "sqpmethod-daqp", "fatrop"]
+    for r in doc["results"]:
+        assert r["kind"] in ("solver", "policy")
+        t = r["time_s"]
+        assert 0 < t["median"] <= t["p95"] <= t["max"]
+        assert len(r["time_samples_s"]) == r["problems"]
+        if r["kind"] == "solver":
+            assert r["problems"] == doc["problems"]
+            assert 0.0 <= r["success_rate"] <= 1.0
+            assert r["cost_ratio_to_best"]["median"] >= 1.0 - 1e-12
+            assert r["cost_ratio_to_best"]["max"] >= r["cost_ratio_to_best"]["median"]
+            assert r["iterations"]["median"] >= 0
+            assert r["multistart"]["problems"] == doc["multistart_problems"]
+    # the reference agrees with itself exactly
+    ref = doc["results"][0]
+    assert ref["vs_reference"]["as_good_rate"] == 1.0 and ref["vs_reference"]["worse"] == 0
+    assert ref["planner_steps"]["as_good_rate"] == 1.0
+
+
+def test_speedups_are_the_ratios_of_the_medians(bench_doc):
+    med = {r["name"]: r["time_s"]["median"] for r in bench_doc["results"]}
+    chosen = bench_doc["chosen"]["name"]
+    for key, value in bench_doc["speedup"].items():
+        a, b = key.split("/")
+        assert value == pytest.approx(med[a] / med[b], rel=1e-12)
+    assert f"{REFERENCE}/sqpmethod-daqp" in bench_doc["speedup"]
+    if chosen != REFERENCE:
+        assert bench_doc["chosen"]["speedup_vs_reference"] == pytest.approx(bench_doc["speedup"][f"{REFERENCE}/{chosen}"])
+
+
+def test_gpc_rows_time_the_full_decision_on_the_recorded_observations(bench_doc):
+    rows = {r["name"]: r for r in bench_doc["results"] if r["kind"] == "policy"}
+    chosen = bench_doc["chosen"]["name"]
+    assert set(rows) == {f"gpc[{REFERENCE}]", f"gpc[{chosen}]"}
+    ref = rows[f"gpc[{REFERENCE}]"]
+    assert ref["problems"] == bench_doc["problems"]
+    # replaying the run's own observations, the reference GPC gives the recorded commands
+    assert ref["command_diff_to_recorded_mps"]["max"] == pytest.approx(0.0, abs=1e-9)
+    assert ref["fallbacks"] == 0
+
+
+def _row(name, median, success=1.0, as_good=1.0, steps=1.0):
+    return {"name": name, "kind": "solver", "time_s": {"median": median}, "success_rate": success,
+            "vs_reference": {"as_good_rate": as_good}, "planner_steps": {"as_good_rate": steps}}
+
+
+def test_choose_solver_takes_the_fastest_that_agrees_and_never_fails():
+    rows = [_row(REFERENCE, 1.0), _row("a", 0.1, success=0.99), _row("b", 0.2, as_good=AGREE_FRACTION - 0.01),
+            _row("c", 0.3, steps=0.5), _row("d", 0.4), _row("e", 0.5)]
+    assert choose_solver(rows)[0] == "d"
+    assert choose_solver([_row(REFERENCE, 1.0), _row("a", 0.1, success=0.5)])[0] == REFERENCE
+    rows.append({"name": "nn", "kind": "policy", "time_s": {"median": 1e-6}})
+    assert choose_solver(rows)[0] == "d"  # a policy is not a solver
+
+
+def test_speedups_function():
+    rows = [{"name": REFERENCE, "time_s": {"median": 2.0}}, {"name": "x", "time_s": {"median": 0.5}},
+            {"name": "y", "time_s": {"median": 1.0}}]
+    sp = speedups(rows, "x")
+    assert sp == {f"{REFERENCE}/x": 4.0, f"{REFERENCE}/y": 2.0, "y/x": 2.0}
+
+
+class _Constant:
+    """A policy that always answers the same wheel speeds."""
+
+    sample_time_s = PAPER.sample_time_s
+
+    def __init__(self, v):
+        self.v, self.resets = v, 0
+
+    def reset(self):
+        self.resets += 1
+
+    def decide(self, obs):
+        return ControlDecision(self.v, self.v)
+
+
+def test_policy_rows_extension_point_times_any_policy(short_scenario):
+    rec = record_problems(short_scenario, PAPER)
+    made = []
+
+    def make():
+        made.append(_Constant(0.0))
+        return made[-1]
+
+    (row,) = policy_rows(rec, [("still", make)])
+    assert made[0].resets == 1
+    assert row["kind"] == "policy" and row["problems"] == len(rec.observations)
+    recorded = np.array([[d.v_right_mps, d.v_left_mps] for d in rec.log.decisions])
+    assert row["command_diff_to_recorded_mps"]["max"] == pytest.approx(np.max(np.abs(recorded)))
+    assert row["fallbacks"] == 0
+
+
+def _gpcnav(*args):
+    return subprocess.run([sys.executable, "-m", "gpcnav", "bench", *args], capture_output=True, text=True)
+
+
+def test_cli_refuses_an_unknown_solver_with_one_line():
+    proc = _gpcnav("--solvers", "ipopt-warm,snopt")
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "snopt" in lines[0]
+
+
+def test_cli_refuses_a_bad_scenario_file(write_scenario):
+    path = write_scenario(SHORT.replace("duration_s = 12.0", "duration_s = -1.0"))
+    proc = _gpcnav(str(path), "--solvers", "ipopt-warm")
+    assert proc.returncode == 2 and "duration_s" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_cli_writes_bench_json_png_and_a_table(write_scenario, tmp_path):
+    path = write_scenario(SHORT)
+    out, png = tmp_path / "BENCH.json", tmp_path / "bench.png"
+    proc = _gpcnav(str(path), "--preset", "paper", "--solvers", "sqpmethod-daqp", "--out", str(out), "--plot", str(png),
+                   "--no-gpc-rows", "--no-nn-rows")
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads(out.read_text())
+    assert [r["name"] for r in doc["results"]] == ["ipopt-warm", "sqpmethod-daqp"]  # the reference is added
+    assert doc["problems"] == 8 and doc["scenario"] == "bench_short"
+    assert png.stat().st_size > 1000 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "sqpmethod-daqp" in proc.stdout and "chosen:" in proc.stdout
+    assert all(math.isfinite(r["time_s"]["median"]) for r in doc["results"])
+    assert SAME_COST_RELATIVE == 1e-6

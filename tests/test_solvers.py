@@ -1,0 +1,306 @@
+"""The solver backends (casadi_gpc.solvers) and the controller's time budget and injected
+failures.
+
+Each backend is checked against IPOPT, the planner's reference solver, on control problems
+recorded from a closed-loop run: same success, same cost within 1e-6 relative. Failures
+must be reported as failures, and the controller must turn a late or failed solve into its
+counted fallback without raising.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from casadi_gpc import solvers
+from casadi_gpc.bench import record_problems
+from casadi_gpc.config import PRESETS
+from casadi_gpc.cost import build_problem
+from casadi_gpc.gpc import GPCController
+from casadi_gpc.simulator import simulate
+from casadi_gpc.solvers import (COMPILE_EVENTS, FASTEST_SOLVER, SOLVER_NAMES, canonical_name,
+                                constraint_violation_mps, make_backend, project_increments)
+from scenarios import Faults, paper_scenarios
+
+PAPER = PRESETS["paper"]
+SAME = 1e-6
+
+
+@pytest.fixture(scope="module")
+def recorded():
+    """The control problems of the GPC (reference IPOPT) on the paper's Fig. 7.2, preset paper."""
+    sc = paper_scenarios()[1]
+    rec = record_problems(sc, PAPER)
+    problem = build_problem(PAPER, sc.robot)
+    ref = make_backend("ipopt-warm", problem)
+    ref_results = [ref.solve(q.p, q.u0, q.lam_x, q.lam_g) for q in rec.problems]
+    return rec, problem, ref_results
+
+
+def _cost(problem, u, p):
+    return float(problem.cost_fn(u, p))
+
+
+@pytest.mark.parametrize("name", ["ipopt-cold", "ipopt-warm-compiled", "sqpmethod-qrqp", "sqpmethod-daqp", "fatrop"])
+def test_backend_reaches_ipopts_cost_on_the_recorded_step_problems(recorded, name):
+    rec, problem, ref_results = recorded
+    backend = make_backend(name, problem)
+    primary = [(q, r) for q, r in zip(rec.problems, ref_results) if q.primary]
+    assert len(primary) == len(rec.log.compute_time_s) >= 20
+    worse = 0
+    for q, ref in primary:
+        assert ref.success
+        res = backend.solve(q.p, q.u0, q.lam_x, q.lam_g)
+        assert res.success, (q.step, res.status)
+        assert np.all(np.isfinite(res.u)) and res.u.shape == (problem.n_u,)
+        assert constraint_violation_mps(problem, res.u, q.p) <= 1e-8
+        # the backend's own cost is the problem's cost at its answer
+        assert res.cost == pytest.approx(_cost(problem, res.u, q.p), rel=1e-9, abs=1e-12)
+        c, c_ref = _cost(problem, res.u, q.p), _cost(problem, ref.u, q.p)
+        worse += c > c_ref * (1 + SAME)
+    if name == "ipopt-cold":  # a cold barrier start may end in another local minimum: rarely
+        assert worse <= 0.1 * len(primary)
+    else:
+        assert worse == 0
+
+
+def test_fatrop_multiple_shooting_form_has_the_same_cost_as_single_shooting(recorded):
+    """The MS problem sums the same stage terms: at the IPOPT answer both costs agree."""
+    rec, problem, ref_results = recorded
+    fat = make_backend("fatrop", problem)
+    for q, ref in list(zip(rec.problems, ref_results))[::7]:
+        # started exactly at IPOPT's optimum, fatrop stays there and reports the same cost
+        res = fat.solve(q.p, ref.u)
+        assert res.success
+        assert res.cost == pytest.approx(ref.cost, rel=1e-7)
+        np.testing.assert_allclose(res.u, ref.u, atol=1e-5)
+
+
+def test_powell_answers_are_feasible_and_no_better_than_ipopt(recorded):
+    rec, problem, ref_results = recorded
+    powell = make_backend("powell", problem)
+    for q, ref in [(q, r) for q, r in zip(rec.problems, ref_results) if q.primary][:6]:
+        res = powell.solve(q.p, q.u0)
+        assert constraint_violation_mps(problem, res.u, q.p) <= 1e-12
+        assert res.evaluations > 0
+        if res.success:
+            # IPOPT's point is a local optimum of the same cost from the same start
+            assert _cost(problem, res.u, q.p) >= ref.cost * (1 - 1e-6)
+            assert res.cost == pytest.approx(_cost(problem, res.u, q.p), rel=1e-12)
+
+
+def test_project_increments_keeps_both_limits_and_changes_nothing_feasible():
+    v0 = np.array([0.7, -0.7])
+    u = np.array([0.3, -0.3, 0.3, 0.1, -2.0, 2.0])
+    out = project_increments(u, v0, dv_max=0.4, v_max=0.8)
+    np.testing.assert_allclose(out, [0.1, -0.1, 0.0, 0.1, -0.4, 0.4])
+    v = v0 + np.cumsum(out.reshape(-1, 2), axis=0)
+    assert np.all(np.abs(v) <= 0.8 + 1e-15)
+    ok = np.array([0.05, 0.0, -0.1, 0.05])
+    np.testing.assert_array_equal(project_increments(ok, np.zeros(2), 0.4, 0.8), ok)
+
+
+@pytest.mark.parametrize("name", SOLVER_NAMES)
+def test_a_failed_solve_is_reported_as_failed_never_accepted(recorded, name):
+    """A reference so far away that the cost overflows: every backend must say failed."""
+    rec, problem, _ = recorded
+    q = rec.primary[3]
+    p = q.p.copy()
+    p[problem.layout.slices()["ref"]] = 1e200
+    res = make_backend(name, problem).solve(p, q.u0, q.lam_x, q.lam_g)
+    assert res.success is False
+    assert isinstance(res.status, str) and res.status
+
+
+def test_non_finite_inputs_are_refused_before_the_solver_runs(recorded):
+    rec, problem, _ = recorded
+    q = rec.primary[3]
+    p = q.p.copy()
+    p[0] = np.nan
+    for name in SOLVER_NAMES:
+        res = make_backend(name, problem).solve(p, q.u0)
+        assert res.success is False and res.status.startswith("refused")
+        u0 = q.u0.copy()
+        u0[1] = np.inf
+        assert make_backend(name, problem).solve(q.p, u0).success is False
+
+
+def test_names_and_aliases():
+    assert canonical_name("ipopt") == "ipopt-warm"
+    assert FASTEST_SOLVER in SOLVER_NAMES
+    with pytest.raises(ValueError, match="unknown solver"):
+        canonical_name("snopt")
+    for name in PRESETS:
+        assert canonical_name(PRESETS[name].solver) in SOLVER_NAMES
+
+
+# --- compiling ----------------------------------------------------------------------------
+SMALL = replace(PAPER, horizon=2, max_moving=1, max_static=0)  # a small NLP: compiles in ~1 s
+
+
+def test_compiled_functions_are_cached_on_disk_and_give_the_same_answer(tmp_path, monkeypatch):
+    if solvers.c_compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
+    problem = build_problem(SMALL)
+    before = dict(COMPILE_EVENTS)
+    first = make_backend("sqpmethod-daqp", problem)
+    assert first.compiled and COMPILE_EVENTS["compiled"] == before["compiled"] + 1
+    libs = list(tmp_path.glob("gpc_sqpmethod_*.so"))
+    assert len(libs) == 1
+    mtime = libs[0].stat().st_mtime_ns
+    second = make_backend("sqpmethod-daqp", problem)  # a later run: from the cache
+    assert second.compiled and COMPILE_EVENTS["cache_hits"] == before["cache_hits"] + 1
+    assert COMPILE_EVENTS["compiled"] == before["compiled"] + 1
+    assert libs[0].stat().st_mtime_ns == mtime
+    plain = make_backend("sqpmethod-daqp", problem, compiled=False)
+    x0 = np.array([0.0, 0.0, 0.0, 0.2, 0.2])
+    ref = np.array([[0.4, 0.0, 0.0], [0.8, 0.1, 0.0]])
+    p = problem.layout.pack(x0, ref)
+    a, b = second.solve(p, np.zeros(4)), plain.solve(p, np.zeros(4))
+    assert a.success and b.success
+    np.testing.assert_allclose(a.u, b.u, atol=1e-10)
+    assert a.cost == pytest.approx(b.cost, rel=1e-12)
+
+
+def test_without_a_compiler_the_backend_says_so_and_counts_the_fallback(tmp_path, monkeypatch):
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("CC", "no-such-compiler-gpcnav")
+    problem = build_problem(SMALL)
+    before = COMPILE_EVENTS["fallbacks"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        backend = make_backend("ipopt-warm-compiled", problem)
+    assert not backend.compiled
+    assert COMPILE_EVENTS["fallbacks"] == before + 1
+    assert any("no C compiler" in n for n in backend.notes)
+    assert any("no C compiler" in str(w.message) for w in caught)
+    p = problem.layout.pack(np.zeros(5), np.array([[0.4, 0.0, 0.0], [0.8, 0.0, 0.0]]))
+    assert backend.solve(p, np.zeros(4)).success
+    assert not list(tmp_path.glob("*.so"))
+
+
+# --- the controller: budget, injected failures, same answers ---------------------------------
+def _short(sc, duration_s=12.0):
+    return replace(sc, duration_s=duration_s)
+
+
+def test_a_step_whose_budget_is_spent_before_solving_falls_back_counted():
+    sc = _short(paper_scenarios()[0])
+    for solver in ("ipopt-warm", FASTEST_SOLVER):
+        ctl = GPCController(replace(PAPER, solver=solver, time_budget_s=1e-9), sc.robot)
+        log = simulate(sc, ctl, "gpc")
+        steps = len(log.compute_time_s)
+        assert steps == 8
+        assert log.fallbacks == steps == ctl.counters["fallbacks"]
+        assert ctl.counters["budget_skips"] >= steps and ctl.counters["solves"] == 0
+        assert all(d.fallback and "time budget" in d.reason for d in log.decisions)
+
+
+class _SlowBackend:
+    """Delegates to a real backend after a pause: every answer arrives late."""
+
+    def __init__(self, backend, pause_s):
+        self.backend, self.pause_s = backend, pause_s
+        self.calls = 0
+
+    def solve(self, *args):
+        import time
+        self.calls += 1
+        time.sleep(self.pause_s)
+        return self.backend.solve(*args)
+
+
+def test_an_answer_later_than_the_budget_is_not_used_and_the_fallback_is_counted():
+    sc = _short(paper_scenarios()[0], 6.0)
+    ctl = GPCController(replace(PAPER, time_budget_s=0.05), sc.robot)
+    ctl.backend = slow = _SlowBackend(ctl.backend, 0.1)
+    log = simulate(sc, ctl, "gpc")
+    steps = len(log.compute_time_s)
+    assert steps == 4
+    # one solve per step starts in time, ends late, and is refused; the rest are not started
+    assert slow.calls == ctl.counters["solves"] == ctl.counters["over_budget"] == steps
+    assert ctl.counters["budget_skips"] > 0
+    assert log.fallbacks == ctl.counters["fallbacks"] == steps
+    assert all("over the time budget" in d.reason for d in log.decisions)
+
+
+def test_the_time_budget_defaults_to_the_sample_time():
+    ctl = GPCController(PAPER)
+    assert ctl.time_budget_s == PAPER.sample_time_s
+    assert ctl.solver_info["time_budget_s"] == PAPER.sample_time_s
+    assert GPCController(replace(PAPER, time_budget_s=0.2)).time_budget_s == 0.2
+
+
+def test_injected_failures_follow_the_rng_and_are_counted_fallbacks():
+    sc = _short(paper_scenarios()[1], 30.0)
+    sc = replace(sc, faults=Faults(solver_failure_prob=0.3))
+    ctl = GPCController(PAPER, sc.robot)
+    log = simulate(sc, ctl, "gpc")  # the simulator calls inject_failures with its own rng
+    steps = len(log.compute_time_s)
+    draws = np.random.default_rng([sc.sensing.seed, 7]).random(steps)
+    expected = int(np.sum(draws < 0.3))
+    assert 0 < expected < steps
+    assert ctl.counters["injected_failures"] == log.events["injected_failures"] == expected
+    assert log.fallbacks == expected
+    assert [d.fallback for d in log.decisions] == list(draws < 0.3)
+    assert all("injected solver failure" in d.reason for d in log.decisions if d.fallback)
+
+
+def test_inject_failures_with_probability_one_falls_back_every_step():
+    sc = _short(paper_scenarios()[0])
+    ctl = GPCController(PAPER, sc.robot)
+    ctl.reset()
+    ctl.inject_failures(1.0, np.random.default_rng(0))
+    from casadi_gpc.types import Observation
+    for k in range(3):
+        d = ctl.decide(Observation(k * 1.5, sc.robot_start, sc.reference))
+        assert d.fallback and math.isfinite(d.v_right_mps) and math.isfinite(d.v_left_mps)
+    assert ctl.counters["injected_failures"] == ctl.counters["fallbacks"] == 3
+    assert ctl.counters["solves"] == 0
+    with pytest.raises(ValueError):
+        ctl.inject_failures(1.5)
+
+
+def test_the_fast_solver_drives_the_paper_scenario_like_ipopt():
+    sc = paper_scenarios()[1]
+    logs = {}
+    for solver in ("ipopt-warm", FASTEST_SOLVER):
+        ctl = GPCController(replace(PAPER, solver=solver), sc.robot)
+        assert ctl.solver_name == solver
+        logs[solver] = simulate(sc, ctl, "gpc")
+    a, b = logs["ipopt-warm"], logs[FASTEST_SOLVER]
+    assert a.outcome == b.outcome == "reached_goal"
+    assert a.fallbacks == b.fallbacks == 0
+    np.testing.assert_allclose(np.asarray(b.states), np.asarray(a.states), atol=1e-5)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_the_fast_solver_gives_the_same_outcomes_on_all_paper_scenarios(preset):
+    cfg = PRESETS[preset]
+    for sc in paper_scenarios():
+        runs = [simulate(sc, GPCController(replace(cfg, solver=s), sc.robot), "gpc")
+                for s in ("ipopt-warm", cfg.solver)]
+        assert runs[0].outcome == runs[1].outcome
+        assert runs[1].min_clearance_m == pytest.approx(runs[0].min_clearance_m, abs=1e-3)
+
+
+@pytest.mark.benchmark
+def test_chosen_solver_is_at_least_twice_as_fast_as_warm_ipopt_at_the_same_cost(recorded):
+    """Ratios in one run: both solvers interleaved on the same recorded step problems."""
+    rec, problem, _ = recorded
+    fast, ref = make_backend(FASTEST_SOLVER, problem), make_backend("ipopt-warm", problem)
+    t_fast, t_ref = [], []
+    for _ in range(3):
+        for q in rec.primary:
+            a = ref.solve(q.p, q.u0, q.lam_x, q.lam_g)
+            b = fast.solve(q.p, q.u0, q.lam_x, q.lam_g)
+            assert a.success and b.success
+            assert _cost(problem, b.u, q.p) <= _cost(problem, a.u, q.p) * (1 + SAME)
+            t_ref.append(a.solve_time_s)
+            t_fast.append(b.solve_time_s)
+    assert np.median(t_ref) >= 2.0 * np.median(t_fast), (np.median(t_ref), np.median(t_fast))

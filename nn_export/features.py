@@ -38,8 +38,8 @@ last ``ref_speed_mps``          m/s     mean desired speed: arc length from pose
                                         divided by H T
 ===  =========================  ======  ================================================
 
-``multi`` (``6 + 8 K_moving + 4 K_static + H`` inputs; 48 for K = 3, H = 6; 54 for H = 12): the two wheel
-speeds; then for each of the K nearest moving obstacles ``movj_present`` (1 or 0), ``x``,
+``multi`` (``6 + 8 K_moving + 4 K_static + H`` inputs; 48 for K = 3, H = 6; 54 for H = 12):
+the two wheel speeds; then for each of the K nearest moving obstacles ``movj_present`` (1 or 0), ``x``,
 ``y``, ``speed``, ``heading``, ``turn`` (as above), ``radius_m`` and ``pos_std_m`` (the RMS
 standard deviation of its predicted position at step H, sqrt(trace(cov_H)/2), which sets the
 planner's uncertainty weight); then for each of the K nearest static obstacles

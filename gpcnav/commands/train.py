@@ -19,6 +19,8 @@ def add_arguments(p):
     p.add_argument("--activation", choices=("tanh", "relu", "softsign"), default="tanh", help="hidden non-linearity")
     p.add_argument("--layout", choices=("paper", "multi"), default=None,
                    help="feature layout the datasets must have (default: whatever they have)")
+    p.add_argument("--output-basis", choices=("speed_turn", "wheels"), default="speed_turn",
+                   help="learn (mean speed, half difference) (default) or the two wheel speeds directly")
     p.add_argument("--optimizer", choices=("lbfgs", "adam"), default="lbfgs",
                    help="full-batch L-BFGS (default) or mini-batch Adam")
     p.add_argument("--epochs", type=int, default=400,
@@ -92,7 +94,8 @@ def run(args) -> int:
     Y = np.concatenate([s.Y for s in sets])
     # situation ids are unique within a dataset; offset them so that datasets do not collide
     G = np.concatenate([s.groups.astype(np.int64) * len(sets) + i for i, s in enumerate(sets)])
-    model = WheelSpeedMLP(hidden=args.hidden, activation=args.activation, optimizer=args.optimizer, max_epochs=args.epochs,
+    model = WheelSpeedMLP(hidden=args.hidden, activation=args.activation, output_basis=args.output_basis,
+                          optimizer=args.optimizer, max_epochs=args.epochs,
                           batch_size=args.batch_size, learning_rate=args.lr, weight_decay=args.weight_decay,
                           validation_fraction=args.validation_fraction, patience=args.patience,
                           random_state=args.seed)

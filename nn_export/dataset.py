@@ -23,6 +23,8 @@ key                    shape         meaning
 ``status``             (n,)          the solver status of the winning candidate
 ``guess``              (n,)          which initial guess won
 ``iterations``         (n,)          solver iterations of the winner
+``solver``             (n,)          the solver that answered (the fallback solver where
+                                     the labelling solver found no converged answer)
 ``candidate_costs``    (n, G)        cost from each initial guess (manifest ``guess_names``), NaN if failed
 ``mirror``             (n,)          True for the mirror image of the previous sample
 ``situation_id``       (n,)          unique per situation; a sample and its mirror share it
@@ -72,7 +74,7 @@ DATASET_FORMAT = "gpcnav-dataset/1"
 MANIFEST = "manifest.json"
 LOCK = ".lock"
 ARRAY_KEYS = ("features", "labels", "plan_wheels_mps", "cost", "status", "guess", "iterations", "candidate_costs",
-              "mirror", "situation_id", "sample_id", "mirror_check_mps")
+              "solver", "mirror", "situation_id", "sample_id", "mirror_check_mps")
 _PART_STRIDE = 10 ** 12   # situation ids: part * stride + shard * shard stride + index
 _SHARD_STRIDE = 10 ** 6
 MIRROR_TOLERANCE_MPS = 1e-6
@@ -160,7 +162,7 @@ class _ShardBuilder:
         self.n, self.k = n, 0
         self.a = {
             "features": np.empty((n, F)), "labels": np.empty((n, 2)), "plan_wheels_mps": np.empty((n, H, 2)),
-            "cost": np.empty(n), "status": [], "guess": [], "iterations": np.empty(n, dtype=np.int32),
+            "cost": np.empty(n), "status": [], "guess": [], "solver": [], "iterations": np.empty(n, dtype=np.int32),
             "candidate_costs": np.empty((n, len(GUESS_NAMES))), "mirror": np.zeros(n, dtype=bool),
             "situation_id": np.empty(n, dtype=np.int64), "sample_id": np.empty(n, dtype=np.int64),
             "mirror_check_mps": np.full(n, np.nan),
@@ -177,6 +179,7 @@ class _ShardBuilder:
         a["plan_wheels_mps"][k] = plan
         a["cost"][k] = label.cost
         a["status"].append(label.status)
+        a["solver"].append(label.solver)
         a["guess"].append(mirror_guess(label.guess) if mirror else label.guess)
         a["iterations"][k] = label.iterations
         a["candidate_costs"][k] = label.candidate_costs[MIRROR_GUESS_ORDER] if mirror else label.candidate_costs
@@ -190,11 +193,13 @@ class _ShardBuilder:
         out = dict(self.a)
         out["status"] = np.array(out["status"], dtype=str)
         out["guess"] = np.array(out["guess"], dtype=str)
+        out["solver"] = np.array(out["solver"], dtype=str)
         return out
 
 
 def _new_stats() -> dict:
-    return {"situations": 0, "not_converged": 0, "failure_statuses": {}, "solves": 0, "solve_time_s": 0.0,
+    return {"situations": 0, "not_converged": 0, "answered_by_fallback_solver": 0, "failure_statuses": {}, "solves": 0,
+            "solve_time_s": 0.0,
             "mirror_checked": 0, "mirror_check_failed": 0, "mirror_max_diff_mps": 0.0,
             "mirror_over_tolerance": 0, "mirror_check_replaced": 0, "features": {}, "elapsed_s": 0.0}
 
@@ -208,6 +213,8 @@ def _label_situations(builder: _ShardBuilder, stats: dict, situations, layout: F
             break
         label = labeller.label(sit)
         stats["situations"] += 1
+        if label.converged and label.solver != labeller.solver:
+            stats["answered_by_fallback_solver"] += 1
         stats["solves"] += label.solves
         stats["solve_time_s"] += label.solve_time_s
         if not label.converged:

@@ -38,7 +38,9 @@ try:  # the planner's initial guesses, in its tie-break order
 except ImportError:  # pragma: no cover - older planner
     GUESS_NAMES = ("swerve_right", "swerve_left", "straight")
 LABEL_TOLERANCE = 1e-12
-"""Solver tolerance of the labels (the planner's closed loop uses 1e-9)."""
+"""IPOPT's tolerance for labels (the planner's closed loop uses 1e-9)."""
+FALLBACK_SOLVER = "ipopt-warm"
+"""Solves the situations where no initial guess converged with the labelling solver."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +62,8 @@ class Label:
     """Cost from each guess in :data:`GUESS_NAMES` order, NaN where it did not converge."""
     solve_time_s: float
     solves: int = 0
+    solver: str = ""
+    """The solver that produced the answer (the fallback solver's name if it had to step in)."""
 
     @property
     def n_converged(self) -> int:
@@ -111,25 +115,40 @@ def fastest_solver() -> str:
 
 
 class Labeller:
-    """Labels situations with the GPC of ``config`` (the solver is built once).
+    """Labels situations with the GPC of ``config`` (the solvers are built once).
 
     ``solver``: the planner's solver name; ``None`` takes :func:`fastest_solver`.
+    ``fallback_solver``: when no initial guess converges with ``solver``, the situation is
+    solved again with this one (built on first need; ``None``: never). The hardest
+    situations (an obstacle already inside the clearance margin) are where the SQP fails
+    most, and dropping them would leave the network without examples exactly there.
     """
 
-    def __init__(self, config: PlannerConfig, robot: RobotParams | None = None, solver: str | None = None):
-        from casadi_gpc.gpc import GPCController
+    def __init__(self, config: PlannerConfig, robot: RobotParams | None = None, solver: str | None = None,
+                 fallback_solver: str | None = FALLBACK_SOLVER):
         self.solver = solver or fastest_solver()
-        if self.solver not in available_solvers():
-            raise ValueError(f"unknown solver {self.solver!r} (the planner offers {', '.join(available_solvers())})")
+        for name in (self.solver, fallback_solver):
+            if name is not None and name not in available_solvers():
+                raise ValueError(f"unknown solver {name!r} (the planner offers {', '.join(available_solvers())})")
         self.config = config if config.solver == self.solver else config.with_overrides(solver=self.solver)
         self.robot = robot or RobotParams()
+        self.controller = self._controller(self.solver)
+        same = fallback_solver is None or fallback_solver == self.solver or (
+            fallback_solver.startswith("ipopt") and self.solver.startswith("ipopt"))
+        self.fallback_solver = None if same else fallback_solver
+        self._fallback = None
+        self.counters = {"situations": 0, "not_converged": 0, "solves": 0, "fallback_used": 0,
+                         "fallback_converged": 0}
+
+    def _controller(self, solver: str):
+        from casadi_gpc.gpc import GPCController
         # labels are solved tighter than the closed loop needs: when several initial guesses
         # reach the same optimum, the tie-break's pick must not show through the solver's
         # tolerance (at IPOPT's 1e-9 the first control differs by up to ~5e-6 m/s between
-        # starts; at 1e-12 by ~1e-7)
-        kw = {"ipopt_options": {"ipopt.tol": LABEL_TOLERANCE}} if self.solver.startswith("ipopt") else {}
-        self.controller = GPCController(self.config, self.robot, **kw)
-        self.counters = {"situations": 0, "not_converged": 0, "solves": 0}
+        # starts; at 1e-12 by ~1e-7). The SQP's own tolerance already gives ~1e-9.
+        kw = {"ipopt_options": {"ipopt.tol": LABEL_TOLERANCE}} if solver.startswith("ipopt") else {}
+        cfg = self.config if self.config.solver == solver else self.config.with_overrides(solver=solver)
+        return GPCController(cfg, self.robot, **kw)
 
     def parameters(self, situation: Situation) -> np.ndarray:
         """The NLP parameter vector the planner would use, slots filled as ``decide`` fills them."""
@@ -148,12 +167,30 @@ class Labeller:
                                                    cfg.uncertainty_scale_m)
 
     def label(self, situation: Situation) -> Label:
-        """Solve from every initial guess and keep the planner's choice."""
-        ctl = self.controller
-        x0 = situation.robot.as_array()
+        """Solve from every initial guess and keep the planner's choice (with the fallback
+        solver if no guess converged)."""
         p = self.parameters(situation)
-        best, candidates = ctl.plan(p, x0, situation.ref_speed_mps, True, None)
         self.counters["situations"] += 1
+        label = self._label(self.controller, self.solver, situation, p)
+        if not label.converged and self.fallback_solver is not None:
+            if self._fallback is None:
+                self._fallback = self._controller(self.fallback_solver)
+            self.counters["fallback_used"] += 1
+            again = self._label(self._fallback, self.fallback_solver, situation, p)
+            again = replace(again, solves=again.solves + label.solves,
+                            solve_time_s=again.solve_time_s + label.solve_time_s)
+            if again.converged:
+                self.counters["fallback_converged"] += 1
+                label = again
+            else:  # report the primary solver's failure, with all the work it took
+                label = replace(label, solves=again.solves, solve_time_s=again.solve_time_s)
+        if not label.converged:
+            self.counters["not_converged"] += 1
+        return label
+
+    def _label(self, ctl, solver: str, situation: Situation, p: np.ndarray) -> Label:
+        x0 = situation.robot.as_array()
+        best, candidates = ctl.plan(p, x0, situation.ref_speed_mps, True, None)
         self.counters["solves"] += len(candidates)
         costs = np.full(len(GUESS_NAMES), np.nan)
         for c in candidates:
@@ -162,15 +199,14 @@ class Labeller:
         t = float(sum(c.solve_time_s for c in candidates))
         H = self.config.horizon
         if best is None:
-            self.counters["not_converged"] += 1
             status = candidates[0].status if candidates else "no candidates"
             return Label(False, np.full(2, np.nan), np.full((H, 2), np.nan), float("nan"), status, "", -1, costs, t,
-                         len(candidates))
+                         len(candidates), solver)
         # the planned wheel speeds: the previous ones plus the cumulated increments (the
         # decision variables of casadi_gpc.cost)
         wheels = x0[3:5] + np.cumsum(np.asarray(best.u).reshape(H, 2), axis=0)
         return Label(True, wheels[0].copy(), wheels, float(best.cost), best.status, best.guess, best.iterations,
-                     costs, t, len(candidates))
+                     costs, t, len(candidates), solver)
 
     def mirror_check(self, situation: Situation, label: Label) -> float:
         """Largest difference (m/s) between the mirrored label and the GPC's answer on the

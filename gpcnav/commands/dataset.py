@@ -90,7 +90,8 @@ def run(args) -> int:
           f"(this run: {last['samples_done']} samples in {last['elapsed_s']:.1f} s, {rate}, "
           f"{last['workers']} {last['backend']} workers); layout {layout.name} v{layout.version} "
           f"({layout.size} features), preset {config.name}, solver {spec.solver}; "
-          f"{st['not_converged']} of {st['situations']} situations not converged; mirror check: "
+          f"{st['not_converged']} of {st['situations']} situations not converged "
+          f"({st['answered_by_fallback_solver']} answered by the fallback solver); mirror check: "
           f"{st['mirror_checked']} checked, max diff {st['mirror_max_diff_mps']:.1e} m/s, "
           f"{st['mirror_over_tolerance']} over {st['mirror_tolerance_mps']:.0e}")
     return 0

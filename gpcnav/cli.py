@@ -15,6 +15,7 @@ COMMANDS = {
     "train": "Train the network on a dataset.",
     "export": "Export a trained network to ONNX.",
     "bench": "The solver benchmark.",
+    "reproduce": "The paper end to end.",
 }
 
 

@@ -1,0 +1,191 @@
+"""The paper end to end: label a dataset with the GPC, train the paper's network (17-35-2),
+export it to ONNX, run the three Fig. 7 scenarios with the GPC and the network, run the
+random suite with both, run the solver benchmark, and write figures, tables, report.md and
+results.json into --out. The figures use the `paper` preset; the tables add the `improved`
+preset's rows (GPC, and the network shipped for it) on the same scenarios and suite.
+
+Each stage records a key of its inputs in DIR/stages.json; a stage whose outputs exist with
+the same key is not redone, so a stopped run picks up where it was."""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import shutil
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import UsageError
+from ..io import write_json, write_text
+
+
+@dataclass(frozen=True)
+class Sizes:
+    """How much work each stage does."""
+
+    samples: int
+    dagger_rounds: int
+    dagger_episodes: int
+    epochs: int
+    suite_count: int
+
+
+QUICK = Sizes(samples=6000, dagger_rounds=1, dagger_episodes=16, epochs=400, suite_count=16)
+FULL = Sizes(samples=60000, dagger_rounds=2, dagger_episodes=100, epochs=2000, suite_count=100)
+PAPER_SCENARIOS = ("fig7_1_head_on", "fig7_2_crossing", "fig7_3_crossing_off_path")
+
+
+def add_arguments(p):
+    p.add_argument("--out", type=Path, required=True, help="output folder (created; a stopped run resumes)")
+    p.add_argument("--quick", action="store_true", help="a smaller dataset, suite and benchmark (< 5 min)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the dataset, the training and the suite")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
+
+
+def _cli(argv: list[str]) -> None:
+    from ..cli import main
+    code = main([str(a) for a in argv])
+    if code:
+        raise UsageError(f"stage command failed (exit {code}): gpcnav {' '.join(map(str, argv))}")
+
+
+class _Stages:
+    """Runs stages in order, skipping those whose outputs exist with the same input key."""
+
+    def __init__(self, out: Path):
+        self.out = out
+        self.path = out / "stages.json"
+        self.done = json.loads(self.path.read_text()) if self.path.is_file() else {}
+        self.timing: dict[str, float] = {}
+
+    def run(self, name: str, inputs: dict, outputs: list[Path], fn) -> None:
+        key = hashlib.sha256(json.dumps(inputs, sort_keys=True, default=str).encode()).hexdigest()[:16]
+        inputs_for_later = key
+        if self.done.get(name, {}).get("key") == key and all(p.exists() for p in outputs):
+            print(f"[reproduce] {name}: up to date, skipped", file=sys.stderr, flush=True)
+            self.timing[name] = self.done[name].get("seconds", 0.0)
+            return
+        print(f"[reproduce] {name} ...", file=sys.stderr, flush=True)
+        t0 = time.perf_counter()
+        fn()
+        seconds = time.perf_counter() - t0
+        self.timing[name] = seconds
+        self.done[name] = {"key": inputs_for_later, "seconds": seconds}
+        write_json(self.path, self.done)
+        print(f"[reproduce] {name}: done in {seconds:.1f} s", file=sys.stderr, flush=True)
+
+    def key(self, name: str) -> str:
+        return self.done.get(name, {}).get("key", "")
+
+
+def _file_digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path.is_file() else "missing"
+
+
+def run(args) -> int:
+    if args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    sizes = QUICK if args.quick else FULL
+    out: Path = args.out
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    from scenarios import PAPER_DIR
+    st = _Stages(out)
+    t_start = time.perf_counter()
+    seed, workers = args.seed, args.workers
+    data, model_dir, onnx = out / "dataset", out / "model", out / "model.onnx"
+    runs, evals = out / "runs", out / "eval"
+
+    # 1. labels (resumable by itself), 2. DAgger rounds, 3. training, 4. export
+    st.run("dataset", {"samples": sizes.samples, "seed": seed}, [data / "manifest.json"], lambda: _cli(
+        ["dataset", "--out", data, "--samples", sizes.samples, "--preset", "paper", "--seed", seed,
+         "--workers", workers]))
+    train_inputs = {"dataset": st.key("dataset"), "epochs": sizes.epochs, "seed": seed}
+
+    def train_round(r):
+        def fn():
+            _cli(["train", data, "--out", model_dir, "--preset", "paper", "--seed", seed, "--epochs", sizes.epochs])
+            _cli(["export", model_dir, "--out", onnx])
+        return fn
+
+    st.run("train0", train_inputs, [onnx], train_round(0))
+    for r in range(1, sizes.dagger_rounds + 1):
+        def dagger(r=r):
+            man = json.loads((data / "manifest.json").read_text())
+            if f"dagger{r}" not in man.get("parts", {}):
+                _cli(["dataset", "--out", data, "--dagger", onnx, "--round", r, "--episodes", sizes.dagger_episodes,
+                      "--preset", "paper", "--seed", seed, "--workers", workers])
+            train_round(r)()
+        st.run(f"dagger{r}", {"prev": st.key(f"train0" if r == 1 else f"dagger{r - 1}"), "episodes": sizes.dagger_episodes},
+               [onnx], dagger)
+    model_key = _file_digest(onnx)
+
+    # 5. the Fig. 7 scenarios, both controllers, both presets
+    run_files = {}
+    for preset_name in ("paper", "improved"):
+        for name in PAPER_SCENARIOS:
+            for ctrl in ("gpc", "nn"):
+                run_files[(preset_name, name, ctrl)] = runs / f"{name}_{preset_name}_{ctrl}.json"
+
+    def scenario_runs():
+        for (preset_name, name, ctrl), path in run_files.items():
+            argv = ["simulate", PAPER_DIR / f"{name}.toml", "--controller", ctrl, "--preset", preset_name, "--out", path]
+            if ctrl == "nn" and preset_name == "paper":
+                argv += ["--model", onnx]
+            _cli(argv)
+    st.run("scenarios", {"model": model_key}, list(run_files.values()), scenario_runs)
+
+    # 6. the random suite, both controllers, both presets
+    eval_files = {(p, c): evals / f"random_{p}_{c}.json" for p in ("paper", "improved") for c in ("gpc", "nn")}
+
+    def suite_runs():
+        for (preset_name, ctrl), path in eval_files.items():
+            argv = ["evaluate", "--suite", "random", "--count", sizes.suite_count, "--seed", seed, "--controller", ctrl,
+                    "--preset", preset_name, "--workers", workers, "--out", path]
+            if ctrl == "nn" and preset_name == "paper":
+                argv += ["--model", onnx]
+            _cli(argv)
+    st.run("suite", {"model": model_key, "count": sizes.suite_count, "seed": seed}, list(eval_files.values()),
+           suite_runs)
+
+    # 7. the benchmark (GPC solvers and the network paths on the same recorded problems)
+    bench = out / "bench.json"
+    st.run("bench", {"model": model_key}, [bench], lambda: _cli(
+        ["bench", PAPER_DIR / "fig7_2_crossing.toml", "--preset", "paper", "--model", onnx, "--out", bench,
+         "--plot", out / "bench_solvers.png"]))
+
+    # 8. figures, report, results
+    from .reproduce_report import write_report
+    write_report(out, sizes, args, run_files, eval_files, bench, st.timing, time.perf_counter() - t_start)
+    print(f"[reproduce] wrote {out / 'report.md'} in {time.perf_counter() - t_start:.0f} s", file=sys.stderr)
+    return 0
+
+
+def environment() -> dict:
+    import casadi
+    import numpy
+    import onnxruntime
+    env = {"python": platform.python_version(), "numpy": numpy.__version__, "casadi": casadi.__version__,
+           "onnxruntime": onnxruntime.__version__, "platform": platform.platform(), "cpus": os.cpu_count()}
+    try:
+        import torch
+        env["torch"] = torch.__version__
+    except ImportError:
+        env["torch"] = None
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                env["cpu"] = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return env
+
+
+def copy_if_exists(src: Path, dst: Path) -> None:
+    if src.is_file():
+        shutil.copyfile(src, dst)

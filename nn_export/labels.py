@@ -4,15 +4,22 @@ Each situation is solved the way the planner solves a fresh problem: from the pl
 initial guesses (:data:`GUESS_NAMES`: swerve right, swerve left, straight, and the detours
 where the planner has them) with the planner's own tie-break
 (:meth:`casadi_gpc.gpc.GPCController.plan`), on the NLP parameters the planner would pack.
-Only converged solutions become samples; the others are counted.
+The labelling solver is the planner's fastest (``casadi_gpc.solvers.FASTEST_SOLVER``); where
+none of its starts converges, IPOPT at a tight tolerance solves the situation again
+(:data:`FALLBACK_SOLVER`; 0 % of ``paper`` situations, ~5-9 % of ``improved`` ones, nearly
+all with an obstacle already inside the clearance margin). Only converged solutions become
+samples; the others are counted.
 
 Mirror samples: a situation reflected about the reference's tangent has the mirrored
 features (:func:`~nn_export.features.mirror_features`) and, because the GPC problem is
 mirror-equivariant, the label with the wheels swapped. :meth:`Labeller.mirror_check`
 solves the mirrored situation for real and returns the largest difference, which the
-dataset writer records for a share of the situations as a check of the labels. (An exact
-tie between a left and a right swerve is the one place where the answer is not
-equivariant: the tie-break picks the right swerve both times.)
+dataset writer records for a share of the situations as a check of the labels. Measured:
+under ``paper`` every checked answer agrees to 1e-8 m/s; under ``improved`` about 1-2 %
+of sampled situations have the two sides' multi-starts reach different optima (never a
+tie), and the writer then keeps the cheaper answer for both. (An exact tie between a left
+and a right swerve is the one place where the answer cannot be equivariant: the tie-break
+picks the right swerve both times.)
 
 This module needs CasADi (it runs the planner); the features it uses are numpy only.
 """

@@ -46,6 +46,8 @@ except ImportError:  # pragma: no cover - older planner
     GUESS_NAMES = ("swerve_right", "swerve_left", "straight")
 LABEL_TOLERANCE = 1e-12
 """IPOPT's tolerance for labels (the planner's closed loop uses 1e-9)."""
+SAME_OPTIMUM_MPS = 1e-4
+"""Starts whose increments differ by less than this (and whose costs tie) found one optimum."""
 FALLBACK_SOLVER = "ipopt-warm"
 """Solves the situations where no initial guess converged with the labelling solver."""
 
@@ -119,6 +121,26 @@ def fastest_solver() -> str:
     except ImportError:
         return PlannerConfig.solver
     return str(getattr(solvers, "FASTEST_SOLVER", PlannerConfig.solver))
+
+
+def _merge_duplicates(best, candidates) -> np.ndarray:
+    """The winner's increments, averaged with every other start that reached the same
+    optimum (same cost to the planner's tie tolerance and the same increments to
+    :data:`SAME_OPTIMUM_MPS`).
+
+    Starts that reach one optimum agree only to the solver's tolerance (~1e-5 m/s for the
+    SQP), and the tie-break's pick among them is not mirror-symmetric: the mirrored
+    situation's right-swerve start is the original's left-swerve start. The average over
+    all of them is (their set is the mirror image of the other side's), which makes the
+    labels mirror-symmetric to ~1e-10 instead of ~1e-5. Different optima (a left and a
+    right pass) are never averaged: those stay with the planner's tie-break.
+    """
+    from casadi_gpc.gpc import TIE_RELATIVE
+    u0 = np.asarray(best.u, dtype=float)
+    same = [np.asarray(c.u, dtype=float) for c in candidates
+            if c.success and abs(c.cost - best.cost) <= TIE_RELATIVE * abs(best.cost) + 1e-12
+            and np.max(np.abs(np.asarray(c.u) - u0)) <= SAME_OPTIMUM_MPS]
+    return np.mean(same, axis=0) if len(same) > 1 else u0
 
 
 class Labeller:
@@ -209,9 +231,10 @@ class Labeller:
             status = candidates[0].status if candidates else "no candidates"
             return Label(False, np.full(2, np.nan), np.full((H, 2), np.nan), float("nan"), status, "", -1, costs, t,
                          len(candidates), solver)
+        u = _merge_duplicates(best, candidates)
         # the planned wheel speeds: the previous ones plus the cumulated increments (the
         # decision variables of casadi_gpc.cost)
-        wheels = x0[3:5] + np.cumsum(np.asarray(best.u).reshape(H, 2), axis=0)
+        wheels = x0[3:5] + np.cumsum(u.reshape(H, 2), axis=0)
         return Label(True, wheels[0].copy(), wheels, float(best.cost), best.status, best.guess, best.iterations,
                      costs, t, len(candidates), solver)
 

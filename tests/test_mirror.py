@@ -51,13 +51,13 @@ def test_gpc_answer_is_mirror_symmetric_paper_preset(labellers):
 
 @pytest.mark.parametrize("layout_name, count", [("paper", 30), ("multi", 20)])
 def test_gpc_answer_is_mirror_symmetric_improved_preset(labellers, layout_name, count):
-    """Under ``improved`` the answers are mirror-symmetric to 1e-6 m/s except where the two
-    sides' multi-starts reach different optima (about 1-3 % of sampled situations, all
-    with a clearance-margin violation to start from, measured with IPOPT and the SQP):
-    those are never ties, so the dataset writer's rule (keep the cheaper one for both
-    sides) decides them."""
+    """Under ``improved`` nearly every answer is mirror-symmetric to 1e-6 m/s. The exceptions
+    measured (about 1-3 % of sampled situations, nearly all with the obstacle already inside
+    the clearance margin) are of two kinds only: the two sides' multi-starts reach different
+    optima (never a tie: the dataset writer keeps the cheaper one for both), or one optimum
+    reached to the SQP's own tolerance (costs equal to 1e-7, answers within 1e-4 m/s)."""
     lab = _labeller(labellers, "improved")
-    symmetric = asymmetric = 0
+    symmetric = other = 0
     for a, b in _mirror_pairs(lab, layout_name, count):
         if not (a.converged and b.converged):
             continue
@@ -65,10 +65,12 @@ def test_gpc_answer_is_mirror_symmetric_improved_preset(labellers, layout_name, 
         if diff <= TOL_MPS:
             assert b.cost == pytest.approx(a.cost, rel=1e-7, abs=1e-9)
             symmetric += 1
-        else:  # a missed optimum on one side, not a tie and not solver precision
-            assert abs(a.cost - b.cost) > 1e-6 * abs(a.cost), (diff, a.cost, b.cost)
-            asymmetric += 1
-    assert symmetric >= count - 3 and asymmetric <= max(1, count // 10)
+            continue
+        other += 1
+        different_optima = abs(a.cost - b.cost) > 1e-7 * abs(a.cost)
+        solver_precision = not different_optima and diff <= 1e-4
+        assert different_optima or solver_precision, (diff, a.cost, b.cost)
+    assert symmetric >= count - 3 and other <= max(1, count // 10)
 
 
 def test_mirror_map_swaps_wheels_and_negates_lateral_quantities():

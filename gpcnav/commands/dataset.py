@@ -3,7 +3,10 @@ manifest.json); resumable after any interruption: run it again with the same arg
 
 With --dagger MODEL the command instead appends one round of on-policy data to an existing
 dataset: it runs the network MODEL on --episodes random episodes and labels every situation
-it visits with the GPC (DAgger)."""
+it visits with the GPC (DAgger). By default the network drives bare (--dagger-safety off), so
+the states it fails in are the ones labelled; --dagger-safety gpc|brake runs it behind the
+safety filter instead. With --dagger gpc the GPC itself drives (part ``gpc<R>``): the states
+of the closed-loop distribution the network has to imitate, labelled the same way."""
 from __future__ import annotations
 
 import os
@@ -33,8 +36,12 @@ def add_arguments(p):
                    help="solve the mirrored situation for every K-th situation as a check of the labels (0: never)")
     p.add_argument("--solver", default=None,
                    help="the planner's NLP solver for labelling (default: the fastest the planner offers)")
-    p.add_argument("--dagger", type=Path, default=None, metavar="MODEL.onnx",
-                   help="append one round of on-policy data from this network to the dataset at --out")
+    p.add_argument("--dagger", type=Path, default=None, metavar="MODEL.onnx|gpc",
+                   help="append one round of on-policy data from this network (or, with the word gpc, from "
+                        "the GPC itself) to the dataset at --out")
+    p.add_argument("--dagger-safety", choices=("off", "gpc", "brake"), default="off",
+                   help="--dagger MODEL: run the network bare (off, default: its own failure states get "
+                        "labelled) or behind the safety filter with the GPC (gpc) or braking (brake) fallback")
     p.add_argument("--episodes", type=int, default=100, help="episodes of the random suite for --dagger")
     p.add_argument("--round", type=int, default=1, help="DAgger round number (names the part: dagger<R>)")
 
@@ -74,6 +81,12 @@ def run(args) -> int:
                        solver=args.solver or fastest_solver(), shard_size=args.shard_size,
                        mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every)
     _check_solver(spec)
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+        if not os.access(args.out, os.W_OK):
+            raise PermissionError(13, "not writable")
+    except OSError as exc:
+        raise UsageError(f"--out {args.out}: cannot write there ({exc.strerror or exc})") from None
 
     def log(msg):
         print(f"gpcnav dataset: {msg}", file=sys.stderr)
@@ -128,12 +141,17 @@ def _dagger(args) -> int:
     config = planner_config(args)
     if man.get("preset") != config.name:
         raise UsageError(f"{args.out} was labelled under preset {man.get('preset')!r}, not {config.name!r}")
-    if f"dagger{args.round}" in man.get("parts", {}):
-        raise UsageError(f"{args.out} already has DAgger round {args.round}")
+    by_gpc = str(args.dagger) == "gpc"
+    part = f"{'gpc' if by_gpc else 'dagger'}{args.round}"
+    if part in man.get("parts", {}):
+        raise UsageError(f"{args.out} already has a part {part} (round {args.round})")
     layout = layout_from_dict(man["feature_layout"])
     robot = RobotParams()
-    factory = functools.partial(make_controller, "nn", config, robot, args.dagger)
-    factory()  # refuse a bad model before any work (one line)
+    if by_gpc:
+        factory = functools.partial(make_controller, "gpc", config, robot)
+    else:
+        factory = functools.partial(make_controller, "nn", config, robot, args.dagger, args.dagger_safety)
+        factory()  # refuse a bad model before any work (one line)
     solver = args.solver or fastest_solver()
     from nn_export.dataset import DatasetSpec
     try:
@@ -141,22 +159,24 @@ def _dagger(args) -> int:
     except (ValueError, RuntimeError) as exc:
         raise UsageError(f"--solver {solver}: {str(exc).splitlines()[0]}") from None
     suite = "random-multi" if layout.name == "multi" else "random"
-    suite_seed = args.seed + 1000 * args.round
+    # episodes never repeat the evaluation suite (seed 1) nor each other (GPC parts: +500)
+    suite_seed = args.seed + 1000 * args.round + (500 if by_gpc else 0)
     scenarios = random_suite(suite, args.episodes, suite_seed)
     arrays, stats = collect_on_policy_parallel(
         factory, scenarios, config, layout, solver, robot, args.workers, args.backend, args.address,
-        mirror=not args.no_mirror, id_base=args.round * _PART_STRIDE, mirror_check_every=args.mirror_check_every,
-        progress=lambda **kw: progress(desc=f"dagger round {args.round}", **kw))
+        mirror=not args.no_mirror, id_base=(args.round + (500 if by_gpc else 0)) * _PART_STRIDE,
+        mirror_check_every=args.mirror_check_every,
+        progress=lambda **kw: progress(desc=f"{part}", **kw))
     info = {"round": args.round, "model": str(args.dagger), "suite": suite, "episodes": args.episodes,
-            "suite_seed": suite_seed, "solver": solver}
+            "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety}
     try:
-        doc = append_part(args.out, f"dagger{args.round}", arrays, stats, info)
+        doc = append_part(args.out, part, arrays, stats, info)
     except DatasetMismatch as exc:
         raise UsageError(str(exc)) from None
     outcomes = {}
     for e in stats["episodes"]:
         outcomes[e["outcome"]] = outcomes.get(e["outcome"], 0) + 1
-    print(f"{args.out}: dagger round {args.round} added {len(arrays['labels'])} samples "
+    print(f"{args.out}: {part} added {len(arrays['labels'])} samples "
           f"({stats['situations']} situations, {stats['not_converged']} not converged) from {args.episodes} "
           f"episodes of {suite} ({', '.join(f'{k} {v}' for k, v in sorted(outcomes.items()))}); "
           f"dataset now {doc['samples']} samples")

@@ -286,6 +286,7 @@ def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
     part = man["parts"]["dagger1"]
     assert part["samples"] > 0 and man["samples"] == 60 + part["samples"]
     assert part["info"]["model"].endswith("m.onnx") and part["episodes"] == 2
+    assert part["info"]["safety_filter"] == "off"  # the bare network drives by default
     ds = load_dataset(out)
     assert len(ds.X) == man["samples"] and len(np.unique(ds.groups)) == len(ds.X) // 2
     # the same round again is refused (one line, exit 2)
@@ -293,3 +294,10 @@ def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
                            str(tmp_path / "m.onnx"), "--episodes", "2", "--preset", "paper"],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    # the GPC itself drives a round: its own closed-loop states, in part gpc1
+    gpcnav("dataset", "--out", out, "--dagger", "gpc", "--episodes", "1", "--preset", "paper", "--workers", "1")
+    man2 = read_manifest(out)
+    gpc_part = man2["parts"]["gpc1"]
+    assert gpc_part["samples"] > 0 and gpc_part["info"]["safety_filter"] is None
+    assert man2["samples"] == man["samples"] + gpc_part["samples"]
+    assert gpc_part["info"]["suite_seed"] != part["info"]["suite_seed"]

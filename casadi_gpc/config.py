@@ -75,7 +75,8 @@ class PlannerConfig:
 
 
 PRESETS: dict[str, PlannerConfig] = {
-    "paper": PlannerConfig(name="paper", sample_time_s=1.5),
+    # solver: measured by `gpcnav bench --preset paper|improved` (docs/solvers.md)
+    "paper": PlannerConfig(name="paper", sample_time_s=1.5, solver="sqpmethod-daqp+fatrop"),
     "improved": PlannerConfig(
         name="improved",
         sample_time_s=0.5,
@@ -84,6 +85,7 @@ PRESETS: dict[str, PlannerConfig] = {
         influence_m=1.5,
         clearance_margin_m=0.15,
         max_lead_m=0.5,
+        solver="sqpmethod-daqp+fatrop",
     ),
 }
 DEFAULT_PRESET = "improved"

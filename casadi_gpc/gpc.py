@@ -14,7 +14,7 @@ from .ekf import EKFSettings, ObstacleEKF
 from .guesses import initial_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
-from .solvers import Backend, make_backend
+from .solvers import Backend, canonical_name, make_backend
 from .types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
 
 __all__ = ["Plan", "GPCController"]
@@ -48,6 +48,9 @@ class GPCController:
     """Extra IPOPT options (the IPOPT backends only)."""
     compile_solver: bool = True
     """Use compiled NLP functions where the backend offers them (cached on disk)."""
+    backup_solver: str | None = "ipopt-warm"
+    """Re-solves, from the same start, a solve the main solver failed on (while the step's
+    budget lasts; counted in ``counters['backup_solves']``). None: no second try."""
 
     def __post_init__(self):
         self.problem: GPCProblem = build_problem(self.config, self.robot)
@@ -60,6 +63,11 @@ class GPCController:
         self.backend: Backend = make_backend(self.config.solver, self.problem, max_wall_time_s=self.time_budget_s,
                                              compiled=self.compile_solver, ipopt_options=self.ipopt_options)
         self.solver_name = self.backend.name
+        self.backup: Backend | None = None
+        if self.backup_solver is not None and canonical_name(self.backup_solver) != self.solver_name:
+            self.backup = make_backend(self.backup_solver, self.problem, max_wall_time_s=self.time_budget_s,
+                                       compiled=self.compile_solver, ipopt_options=self.ipopt_options)
+        self._ref_slice = self.problem.layout.slices()["ref"]
         self._failure_prob, self._failure_rng = 0.0, None
         self._deadline: float | None = None
         self.reset()
@@ -67,7 +75,8 @@ class GPCController:
     @property
     def solver_info(self) -> dict:
         """Which solver this controller uses, compiled or not, and its time budget."""
-        return {**self.backend.info(), "time_budget_s": self.time_budget_s}
+        return {**self.backend.info(), "time_budget_s": self.time_budget_s,
+                "backup": None if self.backup is None else self.backup.name}
 
     def inject_failures(self, probability: float, rng: np.random.Generator | None = None) -> None:
         """Make each step's solve fail with ``probability`` (drawn from ``rng``), which leads
@@ -85,7 +94,7 @@ class GPCController:
         self._last_wheels: np.ndarray | None = None
         self.counters = {"solves": 0, "failed_solves": 0, "fallbacks": 0, "multistart": 0,
                          "missed_measurements": 0, "outliers": 0, "over_budget": 0, "budget_skips": 0,
-                         "injected_failures": 0}
+                         "injected_failures": 0, "backup_solves": 0, "backup_successes": 0}
 
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
@@ -113,13 +122,21 @@ class GPCController:
 
     # --- solving -----------------------------------------------------------------------
     def solve(self, p: np.ndarray, u0: np.ndarray, guess: str = "", lam_x=None, lam_g=None) -> Plan:
-        """One solve of the NLP at parameters ``p`` from ``u0`` by the controller's backend.
+        """One solve of the NLP at parameters ``p`` from ``u0`` by the controller's backend
+        (and, if that fails, by the backup solver).
 
         Inside ``decide``, an answer that arrives after the step's time budget is marked
         failed (counted in ``over_budget``): the loop does not use late answers."""
         r = self.backend.solve(p, u0, lam_x, lam_g)
+        if not r.success and self.backup is not None and not self._out_of_time():
+            first = r
+            self.counters["backup_solves"] += 1
+            r = self.backup.solve(p, u0, lam_x, lam_g)
+            self.counters["backup_successes"] += int(r.success)
+            r = replace(r, status=f"{self.backup.name} after {self.solver_name}: {first.status} -> {r.status}",
+                        solve_time_s=first.solve_time_s + r.solve_time_s)
         plan = Plan(r.u, r.cost, r.success, r.status, r.iterations, guess, r.lam_x, r.lam_g, r.solve_time_s)
-        if self._deadline is not None and time.perf_counter() > self._deadline:
+        if self._out_of_time():
             self.counters["over_budget"] += 1
             plan = replace(plan, success=False, status=f"over the time budget of {self.time_budget_s:g} s")
         self.counters["solves"] += 1
@@ -138,17 +155,19 @@ class GPCController:
         """Solve from the warm start and, if ``multistart``, from the fixed guesses; keep the
         cheapest successful plan. Exact ties keep the earliest guess (swerve right first)."""
         candidates: list[Plan] = []
-        ref_poses = self.problem.layout.unpack(p)["ref"]
+        ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)
         guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses) if (multistart or warm is None) else {}
         # The warm start is solved first (the likeliest answer, when the budget is short);
         # the candidates keep the guesses-then-warm order that breaks ties.
         warm_plan = None
-        if warm is not None:
+        if warm is not None and self._out_of_time():
+            self.counters["budget_skips"] += 1
+        elif warm is not None:
             H = self.config.horizon
             u_shift = np.concatenate([warm.u[2:], np.zeros(2)])
             warm_plan = self.solve(p, u_shift, "warm", *self._shift_multipliers(warm, H))
         for name, u0 in guesses.items():
-            if self._deadline is not None and time.perf_counter() > self._deadline:
+            if self._out_of_time():
                 self.counters["budget_skips"] += 1  # not started: the step's budget is spent
                 continue
             candidates.append(self.solve(p, u0, name))
@@ -161,6 +180,9 @@ class GPCController:
             if best is None or c.cost < best.cost - TIE_RELATIVE * abs(best.cost):
                 best = c
         return best, candidates
+
+    def _out_of_time(self) -> bool:
+        return self._deadline is not None and time.perf_counter() > self._deadline
 
     @staticmethod
     def _shift_multipliers(warm: Plan, H: int):

@@ -59,11 +59,11 @@ __all__ = [
 ]
 
 SOLVER_NAMES = ("ipopt-cold", "ipopt-warm", "ipopt-warm-compiled", "sqpmethod-qrqp", "sqpmethod-daqp", "fatrop",
-                "powell")
+                "sqpmethod-daqp+fatrop", "powell")
 ALIASES = {"ipopt": "ipopt-warm"}
-FASTEST_SOLVER = "sqpmethod-daqp"
-"""The backend ``gpcnav bench`` measured fastest among those that reach IPOPT's cost
-(docs/solvers.md); the presets' default ``PlannerConfig.solver``."""
+FASTEST_SOLVER = "sqpmethod-daqp+fatrop"
+"""The backend ``gpcnav bench`` chose on both presets (docs/solvers.md): the presets'
+``PlannerConfig.solver`` and the label generator's default."""
 
 CFLAGS = ("-O1", "-fPIC", "-shared")
 """-O1: the generated code of the H = 12 problem takes ~100 s to compile at -O2 and ~8 s at
@@ -96,6 +96,7 @@ _SQP = {
     "print_header": False, "print_iteration": False, "print_status": False, "print_time": False,
     "error_on_fail": False,
 }
+_FATROP = {"print_level": 0, "tol": 1e-9, "mu_init": 1e-2, "max_iter": 200}  # mu_init 1e-3 left one H=12 warm start at max_iter
 _QPSOL_OPTIONS = {
     "qrqp": {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False},
     "daqp": {"error_on_fail": False},
@@ -352,24 +353,26 @@ _HESS_NAME = "gpc_hess_cvx"
 _HESS_CALL = "  return casadi_f0(arg, res, iw, w, mem);"
 
 
-def lagrangian_hessian(problem: GPCProblem) -> ca.Function:
+def lagrangian_hessian(nlp: dict) -> ca.Function:
     """The exact, dense Hessian of the Lagrangian, with sqpmethod's ``hess_lag`` signature."""
-    nlp = problem.nlp
     lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", nlp["g"].numel())
     lag = lam_f * nlp["f"] + ca.dot(lam_g, nlp["g"])
     hess = ca.densify(ca.hessian(lag, nlp["x"])[0])
     return ca.Function(_HESS_NAME, [nlp["x"], nlp["p"], lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"], ["hess"])
 
 
-def convexified_hessian_source(hess: ca.Function) -> str:
-    """C source of ``hess`` followed by :data:`CONVEXIFY_C`, applied to its output."""
+def convexified_hessian_source(hess: ca.Function, *others: ca.Function) -> str:
+    """C source of ``hess`` followed by :data:`CONVEXIFY_C`, applied to its output (and of
+    ``others``, unchanged)."""
     cg = ca.CodeGenerator(f"{_HESS_NAME}.c", {"with_header": False})
     cg.add(hess)
+    for fn in others:
+        cg.add(fn)
     code = cg.dump()
     head = f"CASADI_SYMBOL_EXPORT int {_HESS_NAME}(const casadi_real** arg, casadi_real** res, casadi_int* iw, "
     at = code.find(head)
     call = code.find(_HESS_CALL, at)
-    if at < 0 or call < 0:  # the generated code changed shape: do not guess
+    if at < 0 or call < 0 or code.count(_HESS_CALL) != 1:  # the generated code changed shape: do not guess
         raise RuntimeError("unexpected layout of the generated Hessian code")
     n = hess.size1_out(0)
     return (code[:at] + f"#define GPC_N {n}\n" + CONVEXIFY_C + code[at:call]
@@ -419,6 +422,14 @@ class ConvexifiedHessian(ca.Callback):
         raise RuntimeError("Hessian not convexifiable")
 
 
+_GRAD_NAME = "gpc_grad_inf"
+SCALE_MAX_GRADIENT = 100.0
+"""The SQP minimises ``s J`` with ``s = min(1, 100 / |grad J(u0)|_inf)``: IPOPT's
+gradient-based scaling (its ``nlp_scaling_max_gradient``). Its stopping tolerances are
+absolute; without this, a start far inside an obstacle's penalty (J ~ 1e6, gradients
+~1e8) reaches IPOPT's cost to 1e-8 relative but never its 1e-6 stationarity, and fails."""
+
+
 class SqpBackend(_CasadiBackend):
     # The constraints are linear in u, so the multipliers do not enter the Lagrangian's
     # Hessian; measured: passing them changes no iteration count and costs a conversion.
@@ -428,13 +439,18 @@ class SqpBackend(_CasadiBackend):
         super().__init__(name, problem)
         tag = name.replace("-", "_")
         opts = dict(_SQP, qpsol=qpsol, qpsol_options=_QPSOL_OPTIONS[qpsol])
-        hess = lagrangian_hessian(problem)
+        nlp = problem.nlp
+        scale = ca.SX.sym("scale")  # the objective's scale, appended to the parameters
+        p_ext = ca.vertcat(nlp["p"], scale)
+        scaled = {"x": nlp["x"], "p": p_ext, "f": scale * nlp["f"], "g": nlp["g"]}
+        hess = lagrangian_hessian(scaled)
+        grad_inf = ca.Function(_GRAD_NAME, [nlp["x"], p_ext], [ca.norm_inf(ca.gradient(nlp["f"], nlp["x"]))])
         solver, note = None, "uncompiled CasADi functions"
         if compiled:
-            plain = ca.nlpsol(tag, "sqpmethod", problem.nlp, opts)  # its fg and jac_fg are compiled
+            plain = ca.nlpsol(tag, "sqpmethod", scaled, opts)  # its fg and jac_fg are compiled
             try:
-                extra = {f"{_HESS_NAME}.c": convexified_hessian_source(hess)}
-                lib, note = compiled_library(plain, "sqpmethod", problem.nlp, extra)
+                extra = {f"{_HESS_NAME}.c": convexified_hessian_source(hess, grad_inf)}
+                lib, note = compiled_library(plain, "sqpmethod", scaled, extra)
             except RuntimeError as exc:
                 lib, note = None, f"no compiled Hessian: {exc}"
             if lib is None:
@@ -442,12 +458,32 @@ class SqpBackend(_CasadiBackend):
                 warnings.warn(f"solver {name}: {note}", RuntimeWarning, stacklevel=3)
             else:
                 solver = ca.nlpsol(tag, "sqpmethod", lib, dict(opts, hess_lag=ca.external(_HESS_NAME, lib)))
+                grad_inf = ca.external(_GRAD_NAME, lib)
                 self.compiled = True
         if solver is None:
             self._hessian = ConvexifiedHessian(hess)  # a Callback must outlive the solver
-            solver = ca.nlpsol(tag, "sqpmethod", problem.nlp, dict(opts, hess_lag=self._hessian))
-        self.notes.append(note + "; Hessian: exact + delta I (IPOPT-style inertia correction)")
+            solver = ca.nlpsol(tag, "sqpmethod", scaled, dict(opts, hess_lag=self._hessian))
+        self._grad_inf = grad_inf
+        self.notes.append(note + "; Hessian: exact + delta I (IPOPT-style inertia correction); "
+                                 "objective scaled as IPOPT's gradient-based scaling")
         self._setup(solver)
+
+    def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
+        t0 = time.perf_counter()
+        du0, dp = ca.DM(u0), ca.DM(np.append(p, 1.0))
+        try:
+            g = float(self._grad_inf.call([du0, dp])[0])
+            scale = min(1.0, SCALE_MAX_GRADIENT / g) if g > 0 and math.isfinite(g) else 1.0
+            if scale != 1.0:
+                dp[-1] = scale
+            out = self.solver.call([du0, dp, *self._bounds, self._none, self._none])
+            ok, status, iters = self._status()
+        except RuntimeError as exc:  # evaluation errors, or no status after a failed QP
+            return self._failed(u0, f"error: {str(exc).strip().splitlines()[-1]}", t0)
+        u, cost = _nz(out[0]), float(out[1]) / scale
+        lx, lg = _nz(out[3]) / scale, _nz(out[4]) / scale  # multipliers of the unscaled problem
+        ok = ok and math.isfinite(cost) and _finite(u, lx, lg)
+        return SolveResult(u, cost, ok, status, iters, lx, lg, time.perf_counter() - t0)
 
     def _status(self):
         # return_status can be stale after a failed QP (casadi 3.8); success is not.
@@ -497,7 +533,7 @@ class FatropBackend(Backend):
         G = ca.vertcat(*g)
         nlp = {"x": ca.vertcat(*w), "p": p, "f": J, "g": G}
         opts = {"structure_detection": "auto", "equality": [True] * G.numel(), "print_time": False,
-                "fatrop": {"print_level": 0, "tol": 1e-9, "mu_init": 1e-3, "max_iter": 200}}
+                "fatrop": dict(_FATROP)}
         if not compiled:
             opts["expand"] = True
         solver, self.compiled, note = _build(name, "fatrop", nlp, opts, compiled)
@@ -531,6 +567,24 @@ class FatropBackend(Backend):
         ok = bool(stats.get("success", False)) and math.isfinite(cost) and _finite(w, lam_w)
         return SolveResult(u, cost, ok, str(stats.get("return_status", "unknown")),
                            int(stats.get("iter_count", -1)), lx, lg, time.perf_counter() - t0)
+
+
+class HybridBackend(Backend):
+    """A warm start (a previous plan: ``lam_x`` given) by ``warm``, a cold start (a guess) by
+    ``cold``. Measured (docs/solvers.md): the SQP reaches IPOPT's answer from every warm
+    start and is the fastest there, but from a far guess it lands in a worse local minimum
+    more often than IPOPT; fatrop, an interior-point method like IPOPT, follows IPOPT's
+    basins from the guesses."""
+
+    def __init__(self, name: str, warm: Backend, cold: Backend):
+        super().__init__(name, warm.problem)
+        self.warm, self.cold = warm, cold
+        self.compiled = warm.compiled and cold.compiled
+        self.notes = [f"warm starts: {warm.name} ({'; '.join(warm.notes)})",
+                      f"cold starts: {cold.name} ({'; '.join(cold.notes)})"]
+
+    def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
+        return (self.warm if lam_x is not None else self.cold)._solve(p, u0, lam_x, lam_g)
 
 
 def project_increments(u: np.ndarray, v0: np.ndarray, dv_max: float, v_max: float) -> np.ndarray:
@@ -606,6 +660,9 @@ def make_backend(name: str, problem: GPCProblem, max_wall_time_s: float | None =
     if name.startswith("ipopt-"):
         return IpoptBackend(name, problem, warm=name != "ipopt-cold", compiled=compiled and name.endswith("-compiled"),
                             max_wall_time_s=max_wall_time_s, extra_options=ipopt_options)
+    if name == "sqpmethod-daqp+fatrop":
+        return HybridBackend(name, SqpBackend("sqpmethod-daqp", problem, "daqp", compiled),
+                             FatropBackend("fatrop", problem, compiled))
     if name.startswith("sqpmethod-"):
         return SqpBackend(name, problem, name.split("-", 1)[1], compiled)
     if name == "fatrop":

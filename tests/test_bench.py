@@ -46,32 +46,33 @@ def short_scenario():
 
 @pytest.fixture(scope="module")
 def bench_doc(short_scenario):
-    return run_bench(short_scenario, PAPER, ["ipopt-warm", "sqpmethod-daqp", "fatrop"])
+    return run_bench(short_scenario, PAPER, ["ipopt-warm", "sqpmethod-daqp", "fatrop", "powell"])
 
 
 def test_recording_has_one_step_problem_per_control_step(short_scenario):
     rec = record_problems(short_scenario, PAPER)
     steps = len(rec.log.compute_time_s)
     assert steps == 10 and len(rec.observations) == steps
-    assert [q.step for q in rec.primary] == list(range(steps))
-    # the first step has no previous plan: its problem starts from the straight guess
-    assert rec.primary[0].start == "straight" and rec.primary[0].lam_x is None
-    assert all(q.start == "warm" and q.lam_x is not None for q in rec.primary[1:])
+    # one warm-started problem per step with a previous plan: all but the first
+    assert [q.step for q in rec.primary] == list(range(1, steps))
+    assert all(q.start == "warm" and q.lam_x is not None for q in rec.primary)
+    assert {q.start for q in rec.multistart if q.step == 0} == {"swerve_right", "swerve_left", "straight",
+                                                               "detour_right", "detour_left"}
     # every solve the planner made is there: the controller counted them too
     assert len(rec.problems) == rec.log.events["solves"]
     assert all(q.start != "warm" for q in rec.multistart)
     # the recorded warm start is the previous plan shifted by one step
     d = rec.log.decisions[0]
-    np.testing.assert_allclose(rec.primary[1].u0[:-2].reshape(-1, 2),
+    np.testing.assert_allclose(rec.primary[0].u0[:-2].reshape(-1, 2),
                                np.diff(np.vstack([[0.0, 0.0], d.planned_wheels_mps]), axis=0)[1:], atol=1e-12)
 
 
 def test_bench_document_follows_the_contract(bench_doc):
     doc = json.loads(json.dumps(bench_doc, allow_nan=False))
-    assert isinstance(doc["problems"], int) and doc["problems"] == 10
+    assert isinstance(doc["problems"], int) and doc["problems"] == 9
     assert isinstance(doc["results"], list) and isinstance(doc["speedup"], dict)
     names = [r["name"] for r in doc["results"]]
-    assert names[:3] == ["ipopt-warm", "sqpmethod-daqp", "fatrop"]
+    assert names[:4] == ["ipopt-warm", "sqpmethod-daqp", "fatrop", "powell"]
     for r in doc["results"]:
         assert r["kind"] in ("solver", "policy")
         t = r["time_s"]
@@ -83,7 +84,15 @@ def test_bench_document_follows_the_contract(bench_doc):
             assert r["cost_ratio_to_best"]["median"] >= 1.0 - 1e-12
             assert r["cost_ratio_to_best"]["max"] >= r["cost_ratio_to_best"]["median"]
             assert r["iterations"]["median"] >= 0
-            assert r["multistart"]["problems"] == doc["multistart_problems"]
+            assert r["constraint_violation_mps"]["max"] <= 1e-8
+            if r["name"] == "powell":  # slow: the step problems only, and it says so
+                assert "multistart" not in r and "total_time_s" not in r
+                assert "run on the step problems only" in r["notes"]
+                assert r["cost_evaluations"]["median"] > 0
+            else:
+                assert r["multistart"]["problems"] == doc["multistart_problems"]
+                # all recorded solves: the step problems' times plus the multistart ones
+                assert r["total_time_s"] > sum(r["time_samples_s"]) + r["multistart"]["time_s"]["max"] * 0.999
     # the reference agrees with itself exactly
     ref = doc["results"][0]
     assert ref["vs_reference"]["as_good_rate"] == 1.0 and ref["vs_reference"]["worse"] == 0
@@ -106,20 +115,22 @@ def test_gpc_rows_time_the_full_decision_on_the_recorded_observations(bench_doc)
     chosen = bench_doc["chosen"]["name"]
     assert set(rows) == {f"gpc[{REFERENCE}]", f"gpc[{chosen}]"}
     ref = rows[f"gpc[{REFERENCE}]"]
-    assert ref["problems"] == bench_doc["problems"]
+    assert ref["problems"] == bench_doc["problems"] + 1  # every step, the first one too
     # replaying the run's own observations, the reference GPC gives the recorded commands
     assert ref["command_diff_to_recorded_mps"]["max"] == pytest.approx(0.0, abs=1e-9)
     assert ref["fallbacks"] == 0
 
 
-def _row(name, median, success=1.0, as_good=1.0, steps=1.0):
-    return {"name": name, "kind": "solver", "time_s": {"median": median}, "success_rate": success,
-            "vs_reference": {"as_good_rate": as_good}, "planner_steps": {"as_good_rate": steps}}
+def _row(name, total, success=1.0, as_good=1.0, steps=1.0, cold_success=1.0, worse=0, better=0):
+    return {"name": name, "kind": "solver", "time_s": {"median": 0.0}, "total_time_s": total, "success_rate": success,
+            "vs_reference": {"as_good_rate": as_good}, "planner_steps": {"as_good_rate": steps},
+            "multistart": {"success_rate": cold_success, "vs_reference": {"worse": worse, "better": better}}}
 
 
 def test_choose_solver_takes_the_fastest_that_agrees_and_never_fails():
     rows = [_row(REFERENCE, 1.0), _row("a", 0.1, success=0.99), _row("b", 0.2, as_good=AGREE_FRACTION - 0.01),
-            _row("c", 0.3, steps=0.5), _row("d", 0.4), _row("e", 0.5)]
+            _row("c", 0.3, steps=0.5), _row("c2", 0.31, cold_success=0.99), _row("c3", 0.32, worse=3, better=2),
+            _row("d", 0.4, worse=2, better=2), _row("e", 0.5)]
     assert choose_solver(rows)[0] == "d"
     assert choose_solver([_row(REFERENCE, 1.0), _row("a", 0.1, success=0.5)])[0] == REFERENCE
     rows.append({"name": "nn", "kind": "policy", "time_s": {"median": 1e-6}})
@@ -189,7 +200,7 @@ def test_cli_writes_bench_json_png_and_a_table(write_scenario, tmp_path):
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(out.read_text())
     assert [r["name"] for r in doc["results"]] == ["ipopt-warm", "sqpmethod-daqp"]  # the reference is added
-    assert doc["problems"] == 8 and doc["scenario"] == "bench_short"
+    assert doc["problems"] == 7 and doc["scenario"] == "bench_short"  # 8 steps, the first without a plan
     assert png.stat().st_size > 1000 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "sqpmethod-daqp" in proc.stdout and "chosen:" in proc.stdout
     assert all(math.isfinite(r["time_s"]["median"]) for r in doc["results"])

@@ -23,7 +23,14 @@ def planner_config(args):
         raise UsageError(f"--sample-time must be positive, got {args.sample_time}")
     if args.horizon is not None and args.horizon < 1:
         raise UsageError(f"--horizon must be at least 1, got {args.horizon}")
-    return cfg.with_overrides(sample_time_s=args.sample_time, horizon=args.horizon)
+    solver = getattr(args, "solver", None)
+    if solver is not None:
+        from casadi_gpc.solvers import canonical_name
+        try:
+            solver = canonical_name(solver)
+        except ValueError as exc:
+            raise UsageError(f"--solver: {exc}") from None
+    return cfg.with_overrides(sample_time_s=args.sample_time, horizon=args.horizon, solver=solver)
 
 
 def add_controller_arguments(p: argparse.ArgumentParser) -> None:
@@ -35,6 +42,8 @@ def add_controller_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--safety-fallback", choices=("gpc", "brake"), default="gpc",
                    help="--controller nn: what the safety filter hands over to: the GPC on standby (default) "
                         "or the best braking/turning manoeuvre")
+    p.add_argument("--solver", default=None, metavar="NAME",
+                   help="--controller gpc: the NLP solver (default: the preset's; see docs/solvers.md)")
     add_preset_arguments(p)
 
 

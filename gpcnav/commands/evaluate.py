@@ -106,6 +106,7 @@ def run(args) -> int:
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": args.suite,
         "seed": args.seed if args.suite else None, "events": events,
         "faults": None if faults is None else faults.__dict__, "safety_filter": safety,
+        "solver": config.solver if args.controller == "gpc" else None,
     })
     if args.out:
         write_json(args.out, doc)

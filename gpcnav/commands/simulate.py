@@ -28,6 +28,9 @@ def run_one(scenario, controller_kind, config, model=None, safety="gpc"):
     if model_info:
         extra["model"] = model_info
         extra["safety_filter"] = safety  # gpc, brake or off (docs/faults.md)
+    solver_info = getattr(controller, "solver_info", None)
+    if solver_info:
+        extra["solver"] = solver_info  # the GPC's NLP solver (docs/solvers.md)
     return run_document(log, extra)
 
 

@@ -13,6 +13,7 @@ Measurements are positions with white noise. Numpy only (the deployed policy use
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +33,8 @@ def obstacle_model_step(s: np.ndarray, sample_time_s: float) -> np.ndarray:
 
 
 def _jacobian(s: np.ndarray, T: float) -> np.ndarray:
+    """The model's Jacobian at state ``s`` (the filter uses its closed form,
+    :func:`_propagate_cov`; this matrix form is kept for tests and readers)."""
     _, _, v, th, dth = s
     th1 = th + dth
     c, si = np.cos(th1), np.sin(th1)
@@ -40,6 +43,37 @@ def _jacobian(s: np.ndarray, T: float) -> np.ndarray:
     F[1, 2], F[1, 3], F[1, 4] = T * si, v * T * c, v * T * c
     F[3, 4] = 1.0
     return F
+
+
+def _propagate_cov(P: list, v: float, c: float, si: float, T: float, q: tuple) -> list:
+    """``F P F^T + Q`` on plain floats (symmetric 5x5 as nested lists), with F the model's
+    Jacobian at speed ``v`` and new heading cos/sin ``c``, ``si``.
+
+    Written out because numpy's per-call overhead on 5x5 matrices, not the arithmetic, was
+    half of the deployed policy's decision time. F is the identity but for
+    ``F[0, 2:] = (a, b, b)``, ``F[1, 2:] = (e, g, g)``, ``F[3, 4] = 1``, so with
+    ``w_j = P f_j`` (``f_j`` the rows of F) the result is ``P'_ij = f_i . w_j`` and only the
+    first two columns of P change shape; the rest are sums of its entries."""
+    a, b, e, g = T * c, -v * T * si, T * si, v * T * c
+    (p00, p01, p02, p03, p04), (_, p11, p12, p13, p14), (_, _, p22, p23, p24), (_, _, _, p33, p34), \
+        (_, _, _, _, p44) = P
+    # s_k = P[k, 3] + P[k, 4]: the column of the heading, which absorbs the turn increment
+    s0, s1, s2, s3, s4 = p03 + p04, p13 + p14, p23 + p24, p33 + p34, p34 + p44
+    # w0 = P f_0 (entries 0, 2, 3, 4) and w1 = P f_1
+    w00, w02, w03, w04 = p00 + a * p02 + b * s0, p02 + a * p22 + b * s2, p03 + a * p23 + b * s3, p04 + a * p24 + b * s4
+    w10, w11, w12, w13, w14 = (p01 + e * p02 + g * s0, p11 + e * p12 + g * s1, p12 + e * p22 + g * s2,
+                               p13 + e * p23 + g * s3, p14 + e * p24 + g * s4)
+    w0h, w1h = w03 + w04, w13 + w14
+    q0, q1, q2, q3, q4 = q
+    n00 = w00 + a * w02 + b * w0h + q0
+    n01 = w10 + a * w12 + b * w1h
+    n11 = w11 + e * w12 + g * w1h + q1
+    n33 = s3 + s4 + q3
+    return [[n00, n01, w02, w0h, w04],
+            [n01, n11, w12, w1h, w14],
+            [w02, w12, p22 + q2, s2, p24],
+            [w0h, w1h, s2, n33, s4],
+            [w04, w14, p24, s4, p44 + q4]]
 
 
 @dataclass(frozen=True)
@@ -82,14 +116,25 @@ class ObstacleEKF:
     _steps_since_first: int = 1  # samples between the first and the second measurement
 
     def _R(self) -> np.ndarray:
-        return np.eye(2) * max(self.settings.measurement_std_m, 1e-3) ** 2
+        return np.eye(2) * self._r()
+
+    def _r(self) -> float:
+        """Variance of each measured coordinate."""
+        return max(self.settings.measurement_std_m, 1e-3) ** 2
+
+    def _q(self) -> tuple[float, float, float, float, float]:
+        """The diagonal of Q (cached: the settings and T are fixed for a filter's life)."""
+        key = (self.settings, self.sample_time_s)
+        cached = getattr(self, "_q_cache", None)
+        if cached is None or cached[0] != key:
+            st, T = self.settings, self.sample_time_s
+            cached = (key, (st.position_noise_m ** 2, st.position_noise_m ** 2, (st.speed_noise_mps2 * T) ** 2,
+                            st.heading_noise_rad ** 2, st.turn_noise_rad ** 2))
+            self._q_cache = cached
+        return cached[1]
 
     def _Q(self) -> np.ndarray:
-        st, T = self.settings, self.sample_time_s
-        return np.diag([
-            st.position_noise_m ** 2, st.position_noise_m ** 2,
-            (st.speed_noise_mps2 * T) ** 2, st.heading_noise_rad ** 2, st.turn_noise_rad ** 2,
-        ])
+        return np.diag(self._q())
 
     @property
     def initialised(self) -> bool:
@@ -124,16 +169,22 @@ class ObstacleEKF:
         Returns what happened: ``"start"``, ``"update"``, ``"missed"`` or ``"outlier"``.
         Raises ``ValueError`` when ``z`` is not a position (two numbers).
         """
-        z = None if z is None else np.asarray(z, dtype=float)
-        if z is not None and z.shape != (2,):
-            raise ValueError(f"an obstacle measurement is a position (x, y), got shape {z.shape}")
-        if z is not None and not np.all(np.isfinite(z)):
-            z = None
+        if type(z) is tuple and len(z) == 2 and type(z[0]) is float and type(z[1]) is float:
+            zx, zy = z  # the sensor's own form: no array needed
+            if not (math.isfinite(zx) and math.isfinite(zy)):
+                z = None
+        elif z is not None:
+            z = np.asarray(z, dtype=float)
+            if z.shape != (2,):
+                raise ValueError(f"an obstacle measurement is a position (x, y), got shape {z.shape}")
+            zx, zy = float(z[0]), float(z[1])
+            if not (math.isfinite(zx) and math.isfinite(zy)):
+                z = None
         if self.state_ is None:
             if z is None:
                 self.missed_ += 1
                 return "missed"
-            self._start(z)
+            self._start(np.array((zx, zy)))
             return "start"
         if self.measurements_seen_ == 1:
             if z is None:
@@ -142,54 +193,81 @@ class ObstacleEKF:
                 # a stationary guess whose uncertainty grows with the unknown speed
                 self.cov_[:2, :2] += np.eye(2) * (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
                 return "missed"
+            z = np.array((zx, zy))
             self._second(z)
             self._last_z = z
             return "update"
-        # propagation
-        F = _jacobian(self.state_, self.sample_time_s)
-        self.state_ = obstacle_model_step(self.state_, self.sample_time_s)
-        self.cov_ = F @ self.cov_ @ F.T + self._Q()
+        # propagation (plain floats: see _propagate_cov)
+        T = self.sample_time_s
+        x, y, v, th, dth = self.state_.tolist()
+        th1 = th + dth
+        c, si = math.cos(th1), math.sin(th1)
+        x, y, th = x + v * T * c, y + v * T * si, th1  # obstacle_model_step, written for one state
+        P = _propagate_cov(self.cov_.tolist(), v, c, si, T, self._q())
         if z is None:
+            self.state_ = np.array((x, y, v, th, dth))
+            self.cov_ = np.array(P)
             self.missed_ += 1
             return "missed"
-        # correction, with an innovation gate against outliers
-        innov = z - self.state_[:2]
-        S = self.cov_[:2, :2] + self._R()
-        m2 = float(innov @ np.linalg.solve(S, innov))
+        # correction, with an innovation gate against outliers; S = P[:2, :2] + R is 2x2
+        r = self._r()
+        i0, i1 = zx - x, zy - y
+        s00, s01, s11 = P[0][0] + r, P[0][1], P[1][1] + r
+        det = s00 * s11 - s01 * s01
+        m2 = (s11 * i0 * i0 - 2.0 * s01 * i0 * i1 + s00 * i1 * i1) / det  # innov^T S^-1 innov
         if m2 > self.settings.gate_chi2:
+            self.state_ = np.array((x, y, v, th, dth))
+            self.cov_ = np.array(P)
             self.outliers_ += 1
             self._rejections_in_row += 1
             if self._rejections_in_row >= self.settings.max_rejections:
-                self._start(z)  # the obstacle really is somewhere else: start over
+                self._start(np.array((zx, zy)))  # the obstacle really is somewhere else: start over
                 return "start"
             return "outlier"
         self._rejections_in_row = 0
-        K = self.cov_[:, :2] @ np.linalg.inv(S)
-        self.state_ = self.state_ + K @ innov
-        self.state_[3] = (self.state_[3] + np.pi) % (2 * np.pi) - np.pi
-        IKH = np.eye(5) - K[:, :2] @ np.eye(2, 5)
-        self.cov_ = IKH @ self.cov_ @ IKH.T + K @ self._R() @ K.T  # Joseph form
-        self._last_z = z
+        # gain K = P[:, :2] S^-1, rows (k0, k1)
+        a00, a01, a11 = s11 / det, -s01 / det, s00 / det
+        K = [(p[0] * a00 + p[1] * a01, p[0] * a01 + p[1] * a11) for p in P]
+        st = [m + k0 * i0 + k1 * i1 for m, (k0, k1) in zip((x, y, v, th, dth), K)]
+        st[3] = (st[3] + math.pi) % (2 * math.pi) - math.pi
+        # Joseph form (I - K H) P (I - K H)^T + K R K^T, H = [I 0]: A = P - K P[:2, :], then
+        # A - A[:, :2] K^T + r K K^T; the upper triangle, mirrored, keeps it exactly symmetric
+        P0, P1 = P[0], P[1]
+        A = [[pij - k0 * p0j - k1 * p1j for pij, p0j, p1j in zip(pi, P0, P1)] for pi, (k0, k1) in zip(P, K)]
+        N = [[0.0] * 5 for _ in range(5)]
+        for i in range(5):
+            Ai, (ki0, ki1) = A[i], K[i]
+            ai0, ai1 = Ai[0], Ai[1]
+            for j in range(i, 5):
+                kj0, kj1 = K[j]
+                N[i][j] = N[j][i] = Ai[j] - ai0 * kj0 - ai1 * kj1 + r * (ki0 * kj0 + ki1 * kj1)
+        self.state_ = np.array(st)
+        self.cov_ = np.array(N)
+        self._last_z = np.array((zx, zy))
         return "update"
 
     def predict(self, horizon: int) -> tuple[np.ndarray, np.ndarray]:
         """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H."""
         if self.state_ is None:
             raise RuntimeError("predict() before any measurement")
-        means = np.empty((horizon, 2))
-        covs = np.empty((horizon, 2, 2))
-        s, P = self.state_.copy(), self.cov_.copy()
         if self.measurements_seen_ == 1:
+            means = np.empty((horizon, 2))
+            covs = np.empty((horizon, 2, 2))
+            s, P = self.state_, self.cov_
             grow = (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
             for j in range(horizon):
                 means[j] = s[:2]
                 covs[j] = P[:2, :2] + np.eye(2) * grow * (j + 1) ** 2
             return means, covs
-        Q = self._Q()
-        for j in range(horizon):
-            F = _jacobian(s, self.sample_time_s)
-            s = obstacle_model_step(s, self.sample_time_s)
-            P = F @ P @ F.T + Q
-            means[j] = s[:2]
-            covs[j] = P[:2, :2]
-        return means, covs
+        T, q = self.sample_time_s, self._q()
+        x, y, v, th, dth = self.state_.tolist()
+        P = self.cov_.tolist()
+        means, covs = [], []
+        for _ in range(horizon):
+            th += dth
+            c, si = math.cos(th), math.sin(th)
+            P = _propagate_cov(P, v, c, si, T, q)
+            x, y = x + v * T * c, y + v * T * si
+            means.append((x, y))
+            covs.append(((P[0][0], P[0][1]), (P[1][0], P[1][1])))
+        return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)

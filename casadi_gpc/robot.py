@@ -11,6 +11,7 @@ Taylor polynomial near zero, so the model is exact, finite and smooth everywhere
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,10 +70,13 @@ class RobotState:
 
 
 def sinc(xp, u):
-    """sin(u)/u, exact and smooth through u = 0, for ``xp`` = numpy or casadi."""
+    """sin(u)/u, exact and smooth through u = 0, for ``xp`` = numpy, casadi or math (plain
+    floats: the deployed policy's roll-out, where numpy's per-call cost dominates)."""
     small = xp.fabs(u) < _SINC_SWITCH
     u2 = u * u
     taylor = 1.0 - u2 / 6.0 + u2 * u2 / 120.0
+    if xp is math:
+        return taylor if small else math.sin(u) / u
     if xp is np:
         safe_u = np.where(small, 1.0, u)
         return np.where(small, taylor, np.sin(safe_u) / safe_u)

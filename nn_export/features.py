@@ -96,7 +96,7 @@ from casadi_gpc.types import Observation, ObstacleForecast, StaticObstacle
 __all__ = [
     "FEATURE_VERSION", "LAYOUTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM", "FeatureLayout", "layout_for",
     "layout_from_dict", "TrackEstimate", "Situation", "reference_poses", "track_estimate", "order_by_distance",
-    "compute_features", "compute_features_batch", "mirror_features", "SituationTracker", "wrap_pi",
+    "compute_features", "compute_features_batch", "RolloutFeatures", "mirror_features", "SituationTracker", "wrap_pi",
 ]
 
 FEATURE_VERSION = 1
@@ -359,38 +359,53 @@ def _wrap(a: float) -> float:
     return math.pi - (math.pi - a) % _TWO_PI
 
 
-def _reference_block(layout: FeatureLayout, robot: RobotState, ref_poses: np.ndarray, T: float,
-                     out: np.ndarray, report) -> None:
-    """First desired point, the H curvatures and the mean speed, into ``out``.
-
-    Written with scalar floats: the deployed policy calls this several times per decision,
-    and numpy's per-call overhead on arrays of H elements dominated it."""
-    H = layout.horizon
-    if ref_poses.shape != (H + 1, 3):
-        raise ValueError(f"expected desired poses of shape {(H + 1, 3)}, got {ref_poses.shape}")
-    P = ref_poses.tolist()
-    c, s = math.cos(robot.heading_rad), math.sin(robot.heading_rad)
-    dx, dy = P[1][0] - robot.x_m, P[1][1] - robot.y_m
-    out[0] = c * dx + s * dy
-    out[1] = -s * dx + c * dy
-    out[2] = _wrap(P[1][2] - robot.heading_rad)
+def _segment_terms(layout: FeatureLayout, P: list) -> tuple[list, list, list]:
+    """For each pair of consecutive desired poses in ``P`` (rows ``[x, y, heading]``): the
+    curvature feature of the arc that joins them (clipped), its length, and whether it was
+    clipped. A window of H + 1 poses has H of them; overlapping windows share them."""
+    n = len(P) - 1
     # the exact arc through consecutive poses: chord = L sinc(dth/2) along the mid heading
-    dth = [_wrap(P[k + 1][2] - P[k][2]) for k in range(H)]
+    dth = [_wrap(P[k + 1][2] - P[k][2]) for k in range(n)]
     sincs = sinc(np, 0.5 * np.array(dth)).tolist()  # the robot model's own sinc
-    lim, clipped, total = layout.curvature_limit_1pm, 0, 0.0
-    for k in range(H):
+    lim = layout.curvature_limit_1pm
+    kappas, lengths, clipped = [], [], []
+    for k in range(n):
         mid = P[k][2] + 0.5 * dth[k]
         length = ((P[k + 1][0] - P[k][0]) * math.cos(mid) + (P[k + 1][1] - P[k][1]) * math.sin(mid)) / sincs[k]
-        total += length
         if abs(length) > _SHORT_ARC_M:
             kappa = dth[k] / length
         else:  # one point: no curvature, unless it turns on the spot (infinite)
             kappa = math.copysign(math.inf, dth[k]) if abs(dth[k]) > 1e-9 else 0.0
-        if abs(kappa) > lim:
-            clipped += 1
+        clip = abs(kappa) > lim
+        if clip:
             kappa = math.copysign(lim, kappa)
-        out[3 + k] = kappa
-    _bump(report, "curvature_clipped", clipped)
+        kappas.append(kappa)
+        lengths.append(length)
+        clipped.append(clip)
+    return kappas, lengths, clipped
+
+
+def _reference_block(layout: FeatureLayout, x: float, y: float, heading: float, P: list, segments: tuple,
+                     start: int, T: float, out: np.ndarray, report) -> None:
+    """First desired point, the H curvatures and the mean speed, into ``out``, for the robot
+    at ``(x, y, heading)`` and the desired poses ``P[start:start + H + 1]`` (``segments``:
+    :func:`_segment_terms` of ``P``).
+
+    Written with scalar floats: the deployed policy calls this several times per decision,
+    and numpy's per-call overhead on arrays of H elements dominated it."""
+    H = layout.horizon
+    c, s = math.cos(heading), math.sin(heading)
+    p1 = P[start + 1]
+    dx, dy = p1[0] - x, p1[1] - y
+    out[0] = c * dx + s * dy
+    out[1] = -s * dx + c * dy
+    out[2] = _wrap(p1[2] - heading)
+    kappas, lengths, clipped = segments
+    total = 0.0
+    for k in range(start, start + H):
+        total += lengths[k]
+    out[3:3 + H] = kappas[start:start + H]
+    _bump(report, "curvature_clipped", sum(clipped[start:start + H]))
     out[3 + H] = total / (H * T)
 
 
@@ -451,9 +466,57 @@ def compute_features(layout: FeatureLayout, situation: Situation, out: np.ndarra
     for j in range(layout.k_static):
         _static_slot(layout, r, st_in[j] if j < len(st_in) else None, f[k:k + 4])
         k += 4
-    _reference_block(layout, r, np.asarray(situation.ref_poses, dtype=float), situation.sample_time_s,
+    ref_poses = np.asarray(situation.ref_poses, dtype=float)
+    if ref_poses.shape != (layout.horizon + 1, 3):
+        raise ValueError(f"expected desired poses of shape {(layout.horizon + 1, 3)}, got {ref_poses.shape}")
+    P = ref_poses.tolist()
+    _reference_block(layout, r.x_m, r.y_m, r.heading_rad, P, _segment_terms(layout, P), 0, situation.sample_time_s,
                      f[k:], report)
     return f
+
+
+class RolloutFeatures:
+    """The features of the obstacle-free situations along a roll-out (the deployed policy's
+    first pass): the robot at some state, the desired poses ``ref_poses[j:j + H + 1]``
+    (window ``j``) and no obstacle.
+
+    :meth:`fill` equals ``compute_features(layout, Situation(RobotState(x, y, heading,
+    v_right, v_left), ref_poses[j:j + H + 1], T, speed), out, report)`` (tested): the same
+    pieces, with the arc terms that overlapping windows share computed once and the
+    absent-obstacle slots written once.
+    """
+
+    def __init__(self, layout: FeatureLayout, ref_poses: np.ndarray, sample_time_s: float):
+        ref_poses = np.asarray(ref_poses, dtype=float)
+        if ref_poses.ndim != 2 or ref_poses.shape[1] != 3 or len(ref_poses) < layout.horizon + 1:
+            raise ValueError(f"expected desired poses of shape (n >= {layout.horizon + 1}, 3), got {ref_poses.shape}")
+        self.layout, self.sample_time_s = layout, float(sample_time_s)
+        self.windows = len(ref_poses) - layout.horizon
+        self._P = ref_poses.tolist()
+        self._segments = _segment_terms(layout, self._P)
+        # the empty obstacle slots, as compute_features writes them for a situation without obstacles
+        self.template = np.zeros(layout.size)
+        k, w = 2, layout.moving_width
+        for _ in range(layout.k_moving):
+            _moving_slot(layout, None, None, self.template[k:k + w])
+            k += w
+        for _ in range(layout.k_static):
+            _static_slot(layout, None, None, self.template[k:k + 4])
+            k += 4
+        self._ref_at = k
+
+    def fill(self, j: int, x: float, y: float, heading: float, v_right: float, v_left: float, out: np.ndarray,
+             report: dict | None = None) -> np.ndarray:
+        """Window ``j``'s features for the robot at ``(x, y, heading)`` with wheel speeds
+        ``(v_right, v_left)`` into ``out`` (any float dtype, shape ``(layout.size,)``)."""
+        if not 0 <= j < self.windows:
+            raise IndexError(f"window {j} of {self.windows}")
+        out[:] = self.template
+        out[0] = v_right
+        out[1] = v_left
+        _reference_block(self.layout, x, y, heading, self._P, self._segments, j, self.sample_time_s,
+                         out[self._ref_at:], report)
+        return out
 
 
 def compute_features_batch(layout: FeatureLayout, situations, report: dict | None = None) -> np.ndarray:
@@ -488,12 +551,18 @@ class SituationTracker:
     what the planner would see.
     """
 
-    def __init__(self, config: PlannerConfig, ekf_settings: EKFSettings | None = None):
+    def __init__(self, config: PlannerConfig, ekf_settings: EKFSettings | None = None,
+                 reference_steps: int | None = None):
         self.config = config
         self.ekf_settings = ekf_settings or EKFSettings()
+        # desired poses computed per update (steps 0..reference_steps, at least H): the
+        # two-pass policy needs 2H - 1, and one call is cheaper than two
+        self.reference_steps = max(int(reference_steps or config.horizon), config.horizon)
+        self.reference_ahead_: np.ndarray | None = None
         self.reset()
 
     def reset(self) -> None:
+        self.reference_ahead_ = None
         self.tracks: dict[int, ObstacleEKF] = {}
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self.counters = {"missed_measurements": 0, "outliers": 0}
@@ -505,13 +574,15 @@ class SituationTracker:
         self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
 
     def update(self, obs: Observation) -> Situation:
-        """Fuse one sample and return the situation at it (call once per sample)."""
+        """Fuse one sample and return the situation at it (call once per sample).
+        ``reference_ahead_`` then holds the desired poses at steps 0..``reference_steps``
+        (the situation's are its first H + 1)."""
         H, T = self.config.horizon, self.config.sample_time_s
         seen = self._fuse(obs)
         tracks = tuple(track_estimate(ekf, m.obstacle_id, m.radius_m, H) for m, ekf in seen)
         self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
-        ref = reference_poses(obs.reference, self.clock.s_m, T, H)
-        return Situation(obs.robot, ref, T, obs.reference.speed_mps, tracks, tuple(obs.static))
+        ref = self.reference_ahead_ = reference_poses(obs.reference, self.clock.s_m, T, self.reference_steps)
+        return Situation(obs.robot, ref[:H + 1], T, obs.reference.speed_mps, tracks, tuple(obs.static))
 
     def _fuse(self, obs: Observation) -> list:
         """Step every measured obstacle's EKF (as ``GPCController.estimate``); returns the

@@ -37,10 +37,11 @@ import onnxruntime as ort
 
 from casadi_gpc.config import DEFAULT_PRESET, PlannerConfig, preset as preset_config
 from casadi_gpc.ekf import EKFSettings
-from casadi_gpc.robot import RobotParams, RobotState, robot_step
+from casadi_gpc.robot import RobotParams, robot_step
 from casadi_gpc.types import ControlDecision, Observation
 
-from .features import FeatureLayout, Situation, SituationTracker, compute_features, layout_from_dict, reference_poses
+from .features import (FeatureLayout, RolloutFeatures, Situation, SituationTracker, compute_features,
+                       layout_from_dict)
 from .safety import SafetyFilter
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadata", "POLICY_FORMAT",
@@ -180,11 +181,14 @@ class OnnxPolicy:
                                        else safety_distance_m)
         if not math.isfinite(self.safety_distance_m):
             raise ValueError(f"safety_distance_m must be finite, got {safety_distance_m}")
-        self.tracker = SituationTracker(self.config, ekf_settings)
+        # two passes need the desired poses at steps 0..2H-1 (the window of roll-out step j is j..j+H)
+        self.tracker = SituationTracker(self.config, ekf_settings,
+                                        reference_steps=2 * self.horizon - 1 if self.two_pass else None)
         # one preallocated float32 input row bound once; ``_net`` writes into it in place
         self._x = np.zeros((1, self.layout.size), dtype=np.float32)
         self._y = np.zeros((1, 2), dtype=np.float32)
         self._f64 = np.zeros(self.layout.size)
+        self._x1, self._y1 = self._x[0], self._y[0]  # views of the bound rows
         self._binding = self.session.io_binding()
         self._binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._x))
         self._binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
@@ -221,9 +225,10 @@ class OnnxPolicy:
     def _net(self, situation: Situation) -> tuple[float, float]:
         """One network call on ``situation``'s features (preallocated buffers)."""
         compute_features(self.layout, situation, self._f64, self.counters["feature_report"])
-        self._x[0] = self._f64
+        self._x1[:] = self._f64
         self._run()
-        return float(self._y[0, 0]), float(self._y[0, 1])
+        vr, vl = self._y1.tolist()
+        return vr, vl
 
     def network(self, features: np.ndarray) -> np.ndarray:
         """The raw network on a batch of feature rows (n, n_features) -> (n, 2), m/s."""
@@ -239,16 +244,20 @@ class OnnxPolicy:
         H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
         r = situation.robot
         x, y, th, vr, vl = r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps
-        speed = situation.ref_speed_mps
-        poses, wheels = np.empty((H, 3)), np.empty((H, 2))
+        # the features of each step's obstacle-free situation (RobotState(x, y, th, vr, vl),
+        # ref_ahead[j:j + H + 1]), written straight into the bound input row; plain floats
+        # throughout (numpy's per-call cost was most of the decision time, measured)
+        feats = RolloutFeatures(self.layout, ref_ahead[:2 * H], T)
+        xb, yb, run, report = self._x1, self._y1, self._run, self.counters["feature_report"]
+        poses, wheels = [], []
         for j in range(H):
-            # built directly (not dataclasses.replace: a tenth of the decision time, measured)
-            s = Situation(RobotState(x, y, th, vr, vl), ref_ahead[j:j + H + 1], T, speed)
-            vr, vl = self._net(s)
-            x, y, th = (float(v) for v in robot_step(np, x, y, th, vr, vl, T, W))
-            poses[j] = x, y, th
-            wheels[j] = vr, vl
-        return poses, wheels
+            feats.fill(j, x, y, th, vr, vl, xb, report)
+            run()
+            vr, vl = yb.tolist()
+            x, y, th = robot_step(math, x, y, th, vr, vl, T, W)
+            poses.append((x, y, th))
+            wheels.append((vr, vl))
+        return np.array(poses), np.array(wheels)
 
     def closest_clearance(self, situation: Situation, poses: np.ndarray) -> float:
         """Smallest clearance of the predicted robot poses (H, 3) to the obstacles' predicted
@@ -300,16 +309,18 @@ class OnnxPolicy:
         if not self.two_pass:
             vr, vl = self._net(situation)
             return ControlDecision(vr, vl, False, "one pass")
-        H = self.horizon
-        ref_ahead = reference_poses(obs.reference, self.tracker.clock.s_m, self.sample_time_s, 2 * H - 1)
-        poses, wheels = self.predict_free_path(situation, ref_ahead)
+        poses, wheels = self.predict_free_path(situation, self.tracker.reference_ahead_)
         clearance = self.closest_clearance(situation, poses)
         if clearance >= self.safety_distance_m:
             return ControlDecision(float(wheels[0, 0]), float(wheels[0, 1]), False, "pass 1: path clear",
                                    wheels, poses, info={"predicted_clearance_m": clearance})
         self.counters["second_pass"] += 1
         r = obs.robot
-        desired = np.vstack([[r.x_m, r.y_m, r.heading_rad], poses])
-        vr, vl = self._net(situation.with_reference(desired))
+        desired = np.empty((self.horizon + 1, 3))
+        desired[0] = r.x_m, r.y_m, r.heading_rad
+        desired[1:] = poses
+        # situation.with_reference(desired), built directly (dataclasses.replace is slow)
+        vr, vl = self._net(Situation(situation.robot, desired, situation.sample_time_s, situation.ref_speed_mps,
+                                     situation.tracks, situation.statics))
         return ControlDecision(vr, vl, False, "pass 2: avoiding", wheels, poses,
                                info={"predicted_clearance_m": clearance})

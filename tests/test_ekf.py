@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.ekf import EKFSettings, ObstacleEKF, obstacle_model_step
+from casadi_gpc.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step
 from casadi_gpc.robot import RobotState
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.types import ObstacleMeasurement, Observation
@@ -192,3 +192,48 @@ def test_controller_counts_missed_measurements_and_outliers():
         assert len(forecasts) == 1 and forecasts[0].means_m.shape == (cfg.horizon, 2)
     assert ctrl.counters["missed_measurements"] == 1
     assert ctrl.counters["outliers"] == 1
+
+
+def _matrix_step(ekf: ObstacleEKF, s: np.ndarray, P: np.ndarray, z) -> tuple[np.ndarray, np.ndarray]:
+    """One propagation and (if ``z``) Joseph-form correction in plain matrix form: the
+    independent reference for the filter's written-out closed form."""
+    T = ekf.sample_time_s
+    F = _jacobian(s, T)
+    s, P = obstacle_model_step(s, T), F @ P @ F.T + ekf._Q()
+    if z is None:
+        return s, P
+    Hm, R = np.eye(2, 5), ekf._R()
+    S = Hm @ P @ Hm.T + R
+    K = P @ Hm.T @ np.linalg.inv(S)
+    s = s + K @ (np.asarray(z) - Hm @ s)
+    s[3] = (s[3] + np.pi) % (2 * np.pi) - np.pi
+    IKH = np.eye(5) - K @ Hm
+    return s, IKH @ P @ IKH.T + K @ R @ K.T
+
+
+@pytest.mark.parametrize("T", SAMPLE_TIMES)
+def test_closed_form_matches_the_matrix_form(T):
+    """The filter's written-out step and prediction equal F P F^T + Q and the Joseph update
+    in matrix form, from random states and covariances (one step: rounding only)."""
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        ekf = ObstacleEKF(T)
+        ekf.step((0.0, 0.0))
+        ekf.step((0.2, 0.1))  # initialised; state and covariance replaced below
+        s = np.array([*rng.normal(0, 5, 2), rng.uniform(0, 1.5), rng.uniform(-4, 4), rng.normal(0, 0.2)])
+        L = rng.normal(0, 0.3, (5, 5))
+        P = L @ L.T + 1e-4 * np.eye(5)
+        ekf.state_, ekf.cov_ = s.copy(), P.copy()
+        means, covs = ekf.predict(6)
+        ws, wP = s, P
+        for j in range(6):
+            ws, wP = _matrix_step(ekf, ws, wP, None)
+            np.testing.assert_allclose(means[j], ws[:2], rtol=0, atol=1e-13 * (1 + np.abs(ws[:2]).max()))
+            np.testing.assert_allclose(covs[j], wP[:2, :2], rtol=0, atol=1e-13 * np.abs(wP).max())
+        ahead = obstacle_model_step(s, T)
+        z = (float(ahead[0] + rng.normal(0, 0.05)), float(ahead[1] + rng.normal(0, 0.05)))
+        want_s, want_P = _matrix_step(ekf, s, P, z)
+        assert ekf.step(z) == "update"
+        np.testing.assert_allclose(ekf.state_, want_s, rtol=0, atol=1e-13 * (1 + np.abs(want_s).max()))
+        np.testing.assert_allclose(ekf.cov_, want_P, rtol=0, atol=1e-13 * np.abs(want_P).max())
+        assert np.array_equal(ekf.cov_, ekf.cov_.T)

@@ -266,3 +266,37 @@ def test_onnx_policy_computes_the_same_features_when_a_model_is_shipped():
             policy.decide(obs)
         expected = compute_features(lay, situation_from_tail(tail, cfg))
         np.testing.assert_array_equal(policy._f64, expected)
+
+
+@pytest.mark.parametrize("layout_name", ["paper", "multi"])
+def test_rollout_features_equal_compute_features_exactly(layout_name):
+    """The deployed policy's pass-1 features (shared arc terms of overlapping windows, the
+    absent-obstacle slots written once) are compute_features of the obstacle-free situation,
+    bit for bit, curvature clipping counted the same."""
+    from nn_export.features import RolloutFeatures
+    rng = np.random.default_rng(8)
+    T, H = 1.5, 6
+    lay = layout_for(layout_name, H)
+    path = ReferencePath((0.0, 0.0), 0.3, (Segment.line(2.0), Segment.arc(1.5, 1.2), Segment.arc(0.1, -3.0),
+                                            Segment.line(3.0)), 0.1)
+    seen_clipping = False
+    for s0 in (0.0, 1.3, 3.5, 3.8, path.length_m - 0.5, path.length_m):
+        ref = reference_poses(path, s0, T, 2 * H - 1)
+        rf = RolloutFeatures(lay, ref, T)
+        assert rf.windows == H
+        clipped = 0
+        for j in range(H):
+            x, y, th = rng.normal(0, 2, 2).tolist() + [float(rng.uniform(-4, 4))]
+            vr, vl = rng.uniform(-0.8, 0.8, 2).tolist()
+            rep_a, rep_b = {}, {}
+            a = compute_features(lay, Situation(RobotState(x, y, th, vr, vl), ref[j:j + H + 1], T, 0.4), report=rep_a)
+            b = rf.fill(j, x, y, th, vr, vl, np.empty(lay.size), rep_b)
+            assert np.array_equal(a, b), (s0, j)
+            assert rep_a == rep_b
+            clipped += rep_a.get("curvature_clipped", 0)
+            b32 = rf.fill(j, x, y, th, vr, vl, np.empty(lay.size, np.float32))
+            assert np.array_equal(a.astype(np.float32), b32)
+        seen_clipping = seen_clipping or clipped > 0
+    assert seen_clipping  # the tight arc's curvature is over the limit
+    with pytest.raises(IndexError):
+        rf.fill(H, 0.0, 0.0, 0.0, 0.0, 0.0, np.empty(lay.size))

@@ -29,8 +29,10 @@ build() {
     gpcnav evaluate --suite random --count 200 --seed 1 --controller nn --model "$m.onnx" --preset "$preset" \
       --no-safety-filter --workers "$WORKERS" --out "$OUT/eval/$preset-r$r-random.json"
     if [ "$r" -lt "$rounds" ]; then
+      # the shipped models' rounds ran the network behind the safety filter (GPC on standby),
+      # the behaviour of --dagger before --dagger-safety existed (its default is now off)
       gpcnav dataset --out "$data" --dagger "$m.onnx" --episodes "$episodes" --round $((r + 1)) \
-        --preset "$preset" --seed 0 --workers 1
+        --preset "$preset" --seed 0 --workers 1 --dagger-safety gpc
     fi
   done
   cp "$OUT/models/$preset-r$rounds.onnx" "nn_export/models/$preset.onnx"

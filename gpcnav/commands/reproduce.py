@@ -34,7 +34,7 @@ class Sizes:
 
 
 QUICK = Sizes(samples=6000, dagger_rounds=1, dagger_episodes=16, epochs=400, suite_count=16)
-FULL = Sizes(samples=60000, dagger_rounds=2, dagger_episodes=100, epochs=2000, suite_count=100)
+FULL = Sizes(samples=20000, dagger_rounds=2, dagger_episodes=100, epochs=2000, suite_count=100)
 PAPER_SCENARIOS = ("fig7_1_head_on", "fig7_2_crossing", "fig7_3_crossing_off_path")
 
 

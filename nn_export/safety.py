@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from casadi_gpc.robot import RobotParams, robot_step
+from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
 
 __all__ = ["MANOEUVRES", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "StandbyPlanner"]
@@ -92,6 +92,8 @@ class SafetyCheck:
     kept_s: float = math.inf
     """How long from now the clearance stays at or above the margin (or, inside the margin,
     at or above the clearance now); the horizon when it always does."""
+    exact: bool = True
+    """False when a quick screen settled it: ``min_clearance_m`` is then a lower bound."""
 
 
 @dataclass(frozen=True)
@@ -176,6 +178,8 @@ class SafetyFilter:
         self._full_reach = self.robot.max_wheel_speed_mps * T * np.arange(H)
         self._names = [m[0] for m in MANOEUVRES]
         self._then_names = ["then " + n for n in self._names]
+        rev = MANOEUVRES[self._names.index("reverse")]
+        self._reverse_target = (rev[1] * self.robot.max_wheel_speed_mps, rev[2] * self.robot.max_wheel_speed_mps)
         self._targets = np.array([m[1:] for m in MANOEUVRES], dtype=float)
         self._swerves = np.array([m[0].startswith("swerve") for m in MANOEUVRES])
         self._fixed_targets = self._targets * self.robot.max_wheel_speed_mps
@@ -422,6 +426,127 @@ class SafetyFilter:
         i = names.index(check.continuation)
         return names[i], W[i], check
 
+    # --- the quick screen (plain floats) -------------------------------------------------
+    # Most checks are passes; numpy's per-call overhead would make them cost more than the
+    # network's own decision. So a candidate is first screened with plain floats by two lower
+    # bounds of the clearance that the roll-out would find; only when neither keeps the
+    # margin does the exact check above run. Both bounds are conservative: they can only
+    # send a case to the exact check, never pass one it would fail by more than its own
+    # chord error.
+    def _quick(self, robot: RobotState, wheels, forecasts, statics):
+        """(check, command, plan rows or None, limited) when the screen passes, else None."""
+        H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
+        w = wheels if isinstance(wheels, np.ndarray) else np.asarray(wheels, dtype=float)
+        if w.shape == (2,):
+            rows, own = [w.tolist()], False
+        elif w.shape == (H, 2):
+            rows, own = w.tolist(), True
+        else:
+            return None  # the exact path says what is wrong
+        dv, vmax = self.robot.max_step_change_mps(T), self.robot.max_wheel_speed_mps
+        vr, vl = robot.v_right_mps, robot.v_left_mps
+        seq, limited = [], False
+        for r_, l_ in rows:
+            if not (math.isfinite(r_) and math.isfinite(l_)):
+                return None
+            nr = min(max(min(max(r_, vr - dv), vr + dv), -vmax), vmax)
+            nl = min(max(min(max(l_, vl - dv), vl + dv), -vmax), vmax)
+            limited = limited or abs(nr - r_) > 1e-9 or abs(nl - l_) > 1e-9
+            seq.append((nr, nl))
+            vr, vl = nr, nl
+        cmd = seq[0]
+        obs = self._quick_obstacles(forecasts, statics)
+        if obs is None:
+            return None
+        if not obs:
+            return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", H * T), cmd, (seq if own else None), limited
+        p0 = complex(robot.x_m, robot.y_m)
+        # 1. reach: over interval k the robot is within its path length S_k of where it is
+        if own:
+            reach, acc = [], 0.0
+            for a, b in seq:
+                acc += abs(a + b) * (0.5 * T)
+                reach.append(acc)
+        else:
+            first = abs(cmd[0] + cmd[1]) * (0.5 * T)
+            reach = [first + vmax * T * k for k in range(H)]
+        low, where = math.inf, (0, 0)
+        for j, (q, touch) in enumerate(obs):
+            for k in range(H):
+                g = abs(p0 - q[k + 1]) - abs(q[k + 1] - q[k]) - touch[k] - reach[k]
+                if g < low:
+                    low, where = g, (j, k)
+        if low >= self.margin_m:
+            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]), "bound",
+                                H * T, False)
+            return check, cmd, (seq if own else None), limited
+        # 2. chords: the plan (or the command, then the usual way out, reversing) at the
+        # sample instants; between two of them the relative motion is a straight chord within
+        # |V| |A| T^2 / 8 of the arc (its largest departure, at any turn)
+        if own:
+            path, label = seq, "plan"
+        else:
+            path, label = self._then_reverse(cmd), "then reverse"
+        x, y, h = robot.x_m, robot.y_m, robot.heading_rad
+        pts, sag = [p0], []
+        for a, b in path:
+            x, y, h = robot_step(math, x, y, h, a, b, T, W)
+            pts.append(complex(x, y))
+            sag.append(abs(a + b) * abs(a - b) * (T * T / (16.0 * W)))
+        low, where = math.inf, (0, 0)
+        for j, (q, touch) in enumerate(obs):
+            for k in range(H):
+                r0 = pts[k] - q[k]
+                d = (pts[k + 1] - q[k + 1]) - r0
+                dd = d.real * d.real + d.imag * d.imag
+                t = 0.0 if dd <= 1e-18 else min(max(-(r0.real * d.real + r0.imag * d.imag) / dd, 0.0), 1.0)
+                g = abs(r0 + t * d) - touch[k] - sag[k]
+                if g < low:
+                    low, where = g, (j, k)
+        if low >= self.margin_m:
+            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]), label,
+                                H * T, False)
+            return check, cmd, (seq if own else None), limited
+        return None
+
+    def _then_reverse(self, cmd) -> list[tuple[float, float]]:
+        """``cmd`` for one interval, then towards the ``reverse`` manoeuvre's target."""
+        dv = self.robot.max_step_change_mps(self.sample_time_s)
+        tr, tl = self._reverse_target
+        vr, vl = cmd
+        out = [cmd]
+        for _ in range(self.horizon - 1):
+            vr = vr + min(max(tr - vr, -dv), dv)
+            vl = vl + min(max(tl - vl, -dv), dv)
+            out.append((vr, vl))
+        return out
+
+    def _quick_obstacles(self, forecasts, statics):
+        """Per obstacle: positions now and at steps 1..H (complex) and touching distances
+        over each interval, in plain floats; None when a forecast has the wrong length (the
+        exact path says so)."""
+        H, R, k = self.horizon, self.robot.radius_m, self.sigmas
+        out = []
+        for f in forecasts:
+            m, c = f.means_m.tolist(), f.covs_m2.tolist()
+            if len(m) != H or len(c) != H:
+                return None
+            q = [complex(*p) for p in m]
+            q.insert(0, 2.0 * q[0] - q[1] if H > 1 else q[0])
+            base = f.radius_m + R
+            touch = []
+            for (a, b), (_, d) in c:
+                lam = 0.5 * (a + d) + math.hypot(0.5 * (a - d), b)
+                touch.append(base + k * math.sqrt(max(lam, 0.0)))
+            out.append((q, touch))
+        for st in statics:
+            out.append(([complex(st.position_m[0], st.position_m[1])] * (H + 1), [st.radius_m + R] * H))
+        return out
+
+    @staticmethod
+    def _quick_label(forecasts, j: int) -> str:
+        return f"moving {forecasts[j].obstacle_id}" if j < len(forecasts) else f"static {j - len(forecasts)}"
+
     # --- the filter ----------------------------------------------------------------------
     def filter(self, observation: Observation, wheels, forecasts=(), statics=None) -> SafetyVerdict:
         """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
@@ -433,8 +558,17 @@ class SafetyFilter:
         """
         statics = observation.static if statics is None else statics
         r = observation.robot
-        state = np.array([r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps], dtype=float)
         self.counters["checks"] += 1
+        quick = self._quick(r, wheels, forecasts, statics)
+        if quick is not None:
+            check, cmd, plan, limited = quick
+            if limited:
+                self.counters["candidate_limited"] += 1
+            if self.fallback is not None and hasattr(self.fallback, "observe"):
+                self.fallback.observe(observation)
+            return SafetyVerdict(cmd[0], cmd[1], False, "", "candidate", check,
+                                 None if plan is None else np.array(plan))
+        state = np.array([r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps], dtype=float)
         obstacles = self.obstacle_tracks(forecasts, statics)
         cmd, plan, limited = self._as_candidate(state, wheels)
         if cmd is None:

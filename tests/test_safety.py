@@ -142,6 +142,37 @@ def test_bound_is_never_above_the_roll_out():
             assert f.bound(state, plan[0], None, obs)[0] <= worst
 
 
+def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
+    """The plain-float screen that settles most checks: whenever it passes a candidate, its
+    clearance is a lower bound of an independent brute force of the sequence it judged (the
+    plan, or the command then the reverse manoeuvre), and at least the margin; when it
+    cannot tell, it defers (None) to the exact check."""
+    rng = np.random.default_rng(21)
+    passed = deferred = 0
+    for T, H in ((0.5, 12), (1.5, 6)):
+        f = SafetyFilter(ROBOT, T, H)
+        for _ in range(40):
+            state = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi), *rng.uniform(-0.6, 0.6, 2)])
+            own = rng.random() < 0.5
+            plan = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)) * rng.uniform(0.2, 1.0))
+            cand = plan if own else plan[0]
+            fcs = [forecast(rng.uniform(-5, 5, 2), rng.uniform(-0.5, 0.5, 2), T, H,
+                            cov=np.diag(rng.uniform(1e-4, 0.05, 2)), oid=i) for i in range(rng.integers(1, 3))]
+            st = (StaticObstacle(tuple(rng.uniform(-5, 5, 2)), 0.3),)
+            q = f._quick(RobotState(*state), cand, fcs, st)
+            if q is None:
+                deferred += 1
+                continue
+            check, cmd, seq, _ = q
+            assert check.safe and not check.exact and check.min_clearance_m >= f.margin_m
+            judged = plan if own else np.array(f._then_reverse(tuple(plan[0])))
+            truth = brute_clearance(state, judged, fcs, st, T, f.sigmas, n=200)
+            assert check.min_clearance_m <= truth + 1e-9, (check, truth)
+            assert (cmd[0], cmd[1]) == tuple(plan[0])
+            passed += 1
+    assert passed > 10 and deferred > 10  # both branches exercised
+
+
 # --- the verdicts --------------------------------------------------------------------------
 def test_safe_plan_is_accepted_unchanged():
     T, H = 0.5, 12

@@ -469,17 +469,20 @@ def test_shipped_network_with_faults_does_not_collide_behind_the_filter():
 
 
 @pytest.mark.benchmark
-def test_filter_costs_at_most_30_percent_of_the_decision(tracker_path):
+@pytest.mark.parametrize("preset_name", ["improved", "paper"])
+def test_filter_costs_at_most_30_percent_of_the_decision(tmp_path, preset_name):
     """Same run, same observations: the time inside the filter against the rest of the
     decision (estimation, features, both network passes), medians; with the shipped model
-    of the default preset when there is one."""
+    of the preset when there is one."""
     from casadi_gpc.simulator import simulate
     from nn_export import OnnxPolicy
     from nn_export.policy import shipped_model_path
     from scenarios import load_scenario
 
-    path = shipped_model_path("improved")
-    pol = OnnxPolicy(path if path.is_file() else tracker_path, preset="improved")
+    path = shipped_model_path(preset_name)
+    if not path.is_file():
+        path = tracker_model(tmp_path / "tracker.onnx", preset_name)
+    pol = OnnxPolicy(path, preset=preset_name)
     filt, rest = [], []
     for name in ("fig7_2_crossing.toml", "fig7_3_crossing_off_path.toml"):
         log = simulate(load_scenario(PAPER_DIR / name), pol, "nn")

@@ -189,6 +189,7 @@ class SafetyFilter:
 
     def reset(self) -> None:
         self.counters = {"checks": 0, "interventions": 0, "fallback_used": 0, "fallback_failed": 0,
+                         "fallback_overruled": 0,
                          "manoeuvres": 0, "no_safer_option": 0, "candidate_limited": 0,
                          "non_finite_candidate": 0}
         if self.fallback is not None and hasattr(self.fallback, "reset"):
@@ -596,11 +597,27 @@ class SafetyFilter:
             dec: ControlDecision = self.fallback.decide(observation)
             fcmd = np.array([dec.v_right_mps, dec.v_left_mps], dtype=float)
             if not dec.fallback and np.all(np.isfinite(fcmd)):
-                self.counters["fallback_used"] += 1
-                lim = self.limit(state[3:5], fcmd[None])[0]
                 plan = dec.planned_wheels_mps
-                return SafetyVerdict(float(lim[0]), float(lim[1]), True, why + "; fallback planner", "fallback",
-                                     check, None if plan is None else np.asarray(plan, float))
+                pcmd, pplan, _ = self._as_candidate(state, fcmd if plan is None else np.asarray(plan, float))
+                pcheck = self._assess(state, pcmd, pplan, obstacles) if pcmd is not None else None
+                if pcheck is not None and pcheck.safe:
+                    self.counters["fallback_used"] += 1
+                    return SafetyVerdict(float(pcmd[0]), float(pcmd[1]), True, why + "; fallback planner",
+                                         "fallback", check, pplan)
+                # the planner's answer fails the same check (it was handed a late situation, or
+                # its soft margin gave way): take it only if no manoeuvre does better
+                name, mw, mc = self.best_manoeuvre(state, obstacles)
+                if pcheck is not None and not self._better(mc, pcheck):
+                    self.counters["fallback_used"] += 1
+                    return SafetyVerdict(float(pcmd[0]), float(pcmd[1]), True,
+                                         why + "; fallback planner (no manoeuvre does better)", "fallback", check,
+                                         pplan)
+                self.counters["fallback_overruled"] += 1
+                self.counters["manoeuvres"] += 1
+                return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
+                                     why + f"; fallback planner's answer fails the check, manoeuvre {name} "
+                                     f"(clearance {mc.min_clearance_m:.2f} m, margin kept {mc.kept_s:.1f} s)",
+                                     f"manoeuvre:{name}", check, mw)
             self.counters["fallback_failed"] += 1
             why += f"; fallback planner failed ({dec.reason})"
         name, mw, mc = self.best_manoeuvre(state, obstacles)

@@ -241,9 +241,12 @@ def test_fallback_planner_first_then_manoeuvres_and_everything_counted():
     state = np.array([0.0, 0.0, 0.0, 0.8, 0.8])
     wall = (StaticObstacle((1.55, 0.0), 1.0),)
 
+    best_name, best_plan, _ = SafetyFilter(ROBOT, T, H).best_manoeuvre(
+        state, SafetyFilter(ROBOT, T, H).obstacle_tracks((), wall))
+
     class Planner:
-        def __init__(self, fail):
-            self.fail, self.seen, self.asked = fail, [], []
+        def __init__(self, fail, plan=None):
+            self.fail, self.plan, self.seen, self.asked = fail, plan, [], []
 
         def reset(self):
             self.seen, self.asked = [], []
@@ -255,18 +258,25 @@ def test_fallback_planner_first_then_manoeuvres_and_everything_counted():
             self.asked.append(obs.t_s)
             if self.fail:
                 return ControlDecision(0.0, 0.0, True, "brake; all solves failed")
-            return ControlDecision(0.5, 0.7, False, "ok", np.tile([0.5, 0.7], (H, 1)))
+            return ControlDecision(*self.plan[0], False, "ok", self.plan)
 
-    p = Planner(fail=False)
+    p = Planner(fail=False, plan=np.array(best_plan))
     f = SafetyFilter(ROBOT, T, H, fallback=p)
     # safe: the planner only sees the observation
     v = f.filter(observation(np.zeros(5), (), t=0.0), np.zeros((H, 2)), ())
     assert not v.intervened and p.seen == [0.0] and p.asked == []
-    # unsafe: handed over
+    # unsafe: handed over; the planner's answer is as good as any manoeuvre, so it is used
     v = f.filter(observation(state, wall, t=0.5), np.array([0.8, 0.8]), ())
-    assert v.intervened and v.source == "fallback" and (v.v_right_mps, v.v_left_mps) == (0.5, 0.7)
+    assert v.intervened and v.source == "fallback"
+    assert (v.v_right_mps, v.v_left_mps) == tuple(best_plan[0])
     assert p.asked == [0.5] and "fallback planner" in v.reason
     assert f.counters["fallback_used"] == 1 and f.counters["interventions"] == 1
+    # a planner whose answer drives into the wall is overruled by a manoeuvre, and counted
+    bad = Planner(fail=False, plan=np.tile([0.5, 0.7], (H, 1)))
+    b = SafetyFilter(ROBOT, T, H, fallback=bad)
+    v = b.filter(observation(state, wall, t=0.5), np.array([0.8, 0.8]), ())
+    assert v.intervened and v.source == f"manoeuvre:{best_name}" and "fails the check" in v.reason
+    assert b.counters["fallback_overruled"] == 1 and b.counters["fallback_used"] == 0
     # a failing planner: its answer is not trusted, the manoeuvres take over
     q = Planner(fail=True)
     g = SafetyFilter(ROBOT, T, H, fallback=q)

@@ -153,7 +153,7 @@ def _alive(pid: int) -> bool:
 
 def test_sigkill_partway_then_restart_gives_exactly_the_samples(tmp_path):
     out = tmp_path / "ds"
-    argv = [sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--samples", "600", "--shard-size", "30",
+    argv = [sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--samples", "1200", "--shard-size", "30",
             "--workers", "2", "--preset", "paper", "--seed", "7", "--mirror-check-every", "0"]
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 120
@@ -165,7 +165,7 @@ def test_sigkill_partway_then_restart_gives_exactly_the_samples(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     finished = {p.name: p.stat().st_mtime_ns for p in out.glob("shard-*.npz")}
-    assert 3 <= len(finished) < 20
+    assert 3 <= len(finished) < 40
     # the workers die with their parent, so nothing keeps computing or writing
     deadline = time.monotonic() + 10
     while any(_alive(w) for w in workers) and time.monotonic() < deadline:
@@ -177,15 +177,15 @@ def test_sigkill_partway_then_restart_gives_exactly_the_samples(tmp_path):
     done = subprocess.run(argv, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     man = read_manifest(out)
-    assert man["samples"] == 600 and man["complete"] and len(man["shards"]) == 20
+    assert man["samples"] == 1200 and man["complete"] and len(man["shards"]) == 40
     run = man["parts"]["offpolicy"]["last_run"]
-    assert run["resumed_shards"] == len(finished) and run["shards_done"] == 20 - len(finished)
+    assert run["resumed_shards"] == len(finished) and run["shards_done"] == 40 - len(finished)
     for name, mtime in finished.items():  # no finished shard was redone
         assert (out / name).stat().st_mtime_ns == mtime
     a = _all_arrays(out)  # every shard readable
-    assert len(a["labels"]) == 600
-    assert len(np.unique(a["sample_id"])) == 600
-    assert len(np.unique(a["features"], axis=0)) == 600
+    assert len(a["labels"]) == 1200
+    assert len(np.unique(a["sample_id"])) == 1200
+    assert len(np.unique(a["features"], axis=0)) == 1200
     assert not list(out.glob(".*.tmp"))
 
 

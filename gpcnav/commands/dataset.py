@@ -35,7 +35,8 @@ def add_arguments(p):
     p.add_argument("--mirror-check-every", type=int, default=25, metavar="K",
                    help="solve the mirrored situation for every K-th situation as a check of the labels (0: never)")
     p.add_argument("--solver", default=None,
-                   help="the planner's NLP solver for labelling (default: the fastest the planner offers)")
+                   help="the planner's NLP solver for labelling (default: the one measured fastest for "
+                        "labels under the preset, nn_export.labels.LABEL_SOLVERS)")
     p.add_argument("--dagger", type=Path, default=None, metavar="MODEL.onnx|gpc",
                    help="append one round of on-policy data from this network (or, with the word gpc, from "
                         "the GPC itself) to the dataset at --out")
@@ -54,7 +55,7 @@ def _layout_and_config(args):
 
 def run(args) -> int:
     from nn_export.dataset import DatasetMismatch, DatasetSpec, generate
-    from nn_export.labels import fastest_solver
+    from nn_export.labels import label_solver
     if args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     if args.address and args.backend != "ray":
@@ -78,7 +79,7 @@ def run(args) -> int:
             raise UsageError("--backend ray needs Ray: pip install 'gpcnav[distributed]'") from None
     config, layout = _layout_and_config(args)
     spec = DatasetSpec(samples=args.samples, config=config, layout=layout, seed=args.seed,
-                       solver=args.solver or fastest_solver(), shard_size=args.shard_size,
+                       solver=args.solver or label_solver(config), shard_size=args.shard_size,
                        mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every)
     _check_solver(spec)
     try:
@@ -128,7 +129,7 @@ def _dagger(args) -> int:
         _PART_STRIDE, DatasetMismatch, append_part, collect_on_policy_parallel, prepare_labeller, read_manifest,
     )
     from nn_export.features import layout_from_dict
-    from nn_export.labels import fastest_solver
+    from nn_export.labels import label_solver
     from scenarios import random_suite
     from .common import make_controller
     if not (args.out / "manifest.json").is_file():
@@ -152,7 +153,7 @@ def _dagger(args) -> int:
     else:
         factory = functools.partial(make_controller, "nn", config, robot, args.dagger, args.dagger_safety)
         factory()  # refuse a bad model before any work (one line)
-    solver = args.solver or fastest_solver()
+    solver = args.solver or label_solver(config)
     from nn_export.dataset import DatasetSpec
     try:
         prepare_labeller(DatasetSpec(1, config, layout, solver=solver))

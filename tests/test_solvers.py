@@ -331,8 +331,12 @@ def test_the_fast_solver_gives_the_same_outcomes_on_all_paper_scenarios(preset):
     for sc in paper_scenarios():
         runs = [simulate(sc, GPCController(replace(cfg, solver=s), sc.robot), "gpc")
                 for s in ("ipopt-warm", cfg.solver)]
-        assert runs[0].outcome == runs[1].outcome
-        assert runs[1].min_clearance_m == pytest.approx(runs[0].min_clearance_m, abs=1e-3)
+        assert runs[0].outcome == runs[1].outcome == "reached_goal"
+        assert runs[1].fallbacks == runs[0].fallbacks == 0
+        if preset == "paper":  # measured: the very same runs (under improved, from a guess the
+            # hybrid's fatrop finds a cheaper plan than IPOPT at one step of 7.2 and 7.3: same
+            # outcome, another path; docs/solvers.md)
+            np.testing.assert_allclose(np.asarray(runs[1].states), np.asarray(runs[0].states), atol=1e-5)
 
 
 @pytest.mark.benchmark

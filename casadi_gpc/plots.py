@@ -63,10 +63,10 @@ def run_figure(doc: dict, robot_radius_m: float = 0.35):
 def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> None:
     """A GIF of the run, one frame per sample."""
     import os
-    import tempfile
-    from pathlib import Path
 
     from matplotlib.animation import FuncAnimation, PillowWriter
+
+    from .io import atomic_path
 
     tr = doc["trajectory"]
     x, y, h, t = (np.asarray(tr[k]) for k in ("x", "y", "heading_rad", "t"))
@@ -101,10 +101,7 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
         return [path_line, robot, *discs, label]
 
     anim = FuncAnimation(fig, frame, frames=len(t), blit=False)
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".gif", dir=path.parent)
-    os.close(fd)
-    tmp = Path(tmp)
+    tmp = atomic_path(path, ".gif")
     try:
         anim.save(tmp, writer=PillowWriter(fps=fps))
         os.replace(tmp, path)

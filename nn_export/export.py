@@ -126,7 +126,7 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
     if not parity <= PARITY_TOL:
         raise RuntimeError(f"ONNX/torch parity {parity:.3g} m/s exceeds {PARITY_TOL:g}")
 
-    from gpcnav.io import atomic_path
+    from casadi_gpc.io import atomic_path
     out_path = Path(out_path)
     tmp = atomic_path(out_path, ".onnx")
     try:

@@ -323,7 +323,7 @@ class WheelSpeedMLP:
         """Write the fitted model to ``model_dir`` (created); ``provenance`` (dataset, preset,
         robot, layout...) is stored in ``model.json`` and travels on into the ONNX file."""
         self._check_fitted()
-        from gpcnav.io import atomic_path, write_json
+        from casadi_gpc.io import atomic_path, write_json
         model_dir = Path(model_dir)
         model_dir.mkdir(parents=True, exist_ok=True)
         tmp = atomic_path(model_dir / "weights.npz", ".npz")
@@ -401,7 +401,7 @@ def save_curve_figure(curve: dict, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from gpcnav.io import save_figure
+    from casadi_gpc.io import save_figure
     fig, ax = plt.subplots(figsize=(6.0, 3.8))
     ax.semilogy(curve["epoch"], curve["train_mse"], label=f"training ({curve.get('n_train', '?')} samples)")
     ax.semilogy(curve["epoch"], curve["val_mse"], label=f"validation ({curve.get('n_validation', '?')} samples)")

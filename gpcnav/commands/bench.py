@@ -70,7 +70,7 @@ def run(args) -> int:
     from casadi_gpc.bench import bench_figure, format_table, run_bench
     from scenarios import PAPER_DIR, load_scenario
 
-    from ..io import save_figure, write_json
+    from casadi_gpc.io import save_figure, write_json
     solvers = parse_solvers(args.solvers)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")

@@ -83,7 +83,7 @@ def run(args) -> int:
 
     from casadi_gpc.metrics import eval_document
     from scenarios import load_scenario, random_suite
-    from ..io import write_json
+    from casadi_gpc.io import write_json
     if bool(args.scenarios) == bool(args.suite):
         raise UsageError("give scenario files or --suite, not both and not neither")
     if args.count < 1:

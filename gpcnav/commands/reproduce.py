@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import UsageError
-from ..io import write_json, write_text
+from casadi_gpc.io import write_json, write_text
 
 
 @dataclass(frozen=True)

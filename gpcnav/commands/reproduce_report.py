@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import save_figure, write_json, write_text
+from casadi_gpc.io import save_figure, write_json, write_text
 
 PAPER_SCENARIOS = ("fig7_1_head_on", "fig7_2_crossing", "fig7_3_crossing_off_path")
 TITLES = {"fig7_1_head_on": "7.1 head-on", "fig7_2_crossing": "7.2 crossing",

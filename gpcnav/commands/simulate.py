@@ -36,7 +36,7 @@ def run_one(scenario, controller_kind, config, model=None, safety="gpc"):
 
 def run(args) -> int:
     from scenarios import load_scenario
-    from ..io import save_figure, write_json
+    from casadi_gpc.io import save_figure, write_json
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)

@@ -1,4 +1,4 @@
-"""Writing outputs whole or not at all."""
+"""Writing outputs whole or not at all (a temporary file in the same folder, then a rename)."""
 from __future__ import annotations
 
 import json

@@ -35,7 +35,8 @@ def fig7(run_files: dict, path: Path) -> None:
     for i, name in enumerate(PAPER_SCENARIOS):
         for j, ctrl in enumerate(("gpc", "nn")):
             doc = _load(run_files[("paper", name, ctrl)])
-            label = "GPC (IPOPT)" if ctrl == "gpc" else "neural network (onnxruntime)"
+            solver = (doc.get("solver") or {}).get("name", "")
+            label = f"GPC ({solver})" if ctrl == "gpc" else "neural network (onnxruntime)"
             plot_run(axes[i, j], doc, doc.get("robot_radius_m", 0.35),
                      title=f"Fig. {TITLES[name]} - {label}: {doc['outcome'].replace('_', ' ')}, "
                            f"clearance {doc['min_clearance_m']:.2f} m")

@@ -160,7 +160,8 @@ def run(args) -> int:
 
     # 8. figures, report, results
     from .reproduce_report import write_report
-    write_report(out, sizes, args, run_files, eval_files, bench, st.timing, time.perf_counter() - t_start)
+    # total work: the stages' own times (a resumed run reuses finished stages and their times)
+    write_report(out, sizes, args, run_files, eval_files, bench, st.timing, sum(st.timing.values()))
     print(f"[reproduce] wrote {out / 'report.md'} in {time.perf_counter() - t_start:.0f} s", file=sys.stderr)
     return 0
 

@@ -253,11 +253,12 @@ def test_two_workers_label_at_least_1_5_times_faster_than_one(tmp_path):
     """Throughput ratio measured in one run (paper preset). The issue's figure is 1.7x on an
     idle machine (measured with `gpcnav dataset`, docs); this test keeps a margin for a CI
     machine whose second core is not entirely free."""
-    rates = {}
-    for w in (1, 2):
-        t0 = time.perf_counter()
-        man = generate(tmp_path / f"w{w}", _spec(samples=2000, shard=100, seed=11), workers=w)
-        rates[w] = man["samples"] / (time.perf_counter() - t0)
+    rates = {1: 0.0, 2: 0.0}
+    for trial in range(2):  # interleaved; the best of two per worker count, as benchmarks do
+        for w in (1, 2):
+            t0 = time.perf_counter()
+            man = generate(tmp_path / f"w{w}-{trial}", _spec(samples=2000, shard=100, seed=11), workers=w)
+            rates[w] = max(rates[w], man["samples"] / (time.perf_counter() - t0))
     print(json.dumps(rates))
     assert rates[2] >= 1.5 * rates[1]
 

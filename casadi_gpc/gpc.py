@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -14,7 +14,7 @@ from .ekf import EKFSettings, ObstacleEKF
 from .guesses import initial_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
-from .solvers import Backend, canonical_name, make_backend
+from .solvers import Backend, SolveResult, canonical_name, make_backend
 from .types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
 
 __all__ = ["Plan", "GPCController"]
@@ -23,18 +23,10 @@ TIE_RELATIVE = 1e-7  # candidates closer than this in cost are a tie; the earlie
 
 
 @dataclass(frozen=True)
-class Plan:
-    """One solved (or failed) control sequence."""
+class Plan(SolveResult):
+    """One solved (or failed) control sequence: a solver's result and the guess it started from."""
 
-    u: np.ndarray
-    cost: float
-    success: bool
-    status: str
-    iterations: int
-    guess: str
-    lam_x: np.ndarray | None = None
-    lam_g: np.ndarray | None = None
-    solve_time_s: float = 0.0
+    guess: str = ""
 
 
 @dataclass
@@ -135,7 +127,7 @@ class GPCController:
             self.counters["backup_successes"] += int(r.success)
             r = replace(r, status=f"{self.backup.name} after {self.solver_name}: {first.status} -> {r.status}",
                         solve_time_s=first.solve_time_s + r.solve_time_s)
-        plan = Plan(r.u, r.cost, r.success, r.status, r.iterations, guess, r.lam_x, r.lam_g, r.solve_time_s)
+        plan = Plan(**{f.name: getattr(r, f.name) for f in fields(SolveResult)}, guess=guess)
         if self._out_of_time():
             self.counters["over_budget"] += 1
             plan = replace(plan, success=False, status=f"over the time budget of {self.time_budget_s:g} s")
@@ -237,7 +229,7 @@ class GPCController:
             wheels = self._last_wheels[1:]
             self._last_wheels = wheels
             self._warm = Plan(np.concatenate([self._warm.u[2:], np.zeros(2)]), float("nan"), True, "shifted",
-                              0, "shifted")
+                              0, guess="shifted")
             vr, vl = (float(np.clip(w, v - dv, v + dv)) for w, v in
                       zip(wheels[0], (obs.robot.v_right_mps, obs.robot.v_left_mps)))
             return ControlDecision(vr, vl, True, "shifted previous plan; " + reason)

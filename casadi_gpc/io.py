@@ -1,6 +1,9 @@
-"""Writing outputs whole or not at all (a temporary file in the same folder, then a rename)."""
+"""Writing outputs whole or not at all: a temporary file in the same folder, flushed to
+disk, then renamed over the target. A crash (kill -9 included) leaves the old file or the
+new one, never half of one."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import tempfile
@@ -8,8 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
+__all__ = ["atomic_file", "json_default", "write_json", "write_text", "write_bytes", "save_figure"]
 
-def _default(o):
+
+def json_default(o):
     if isinstance(o, np.generic):
         return o.item()
     if isinstance(o, np.ndarray):
@@ -17,40 +22,44 @@ def _default(o):
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
-def atomic_path(path, suffix=""):
-    """A temporary file in the same folder as ``path``, renamed over it on success."""
+@contextlib.contextmanager
+def atomic_file(path, suffix: str = ""):
+    """Yield a temporary path beside ``path``; on a clean exit it is synced to disk and
+    renamed over ``path`` (with ordinary permissions), otherwise removed."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
     os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; the result should be an ordinary file
-    return Path(tmp)
-
-
-def write_json(path, doc) -> None:
-    tmp = atomic_path(path)
+    tmp = Path(tmp)
     try:
-        tmp.write_text(json.dumps(doc, indent=1, default=_default, allow_nan=False) + "\n")
+        yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; the result is an ordinary file
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def write_bytes(path, data: bytes) -> None:
+    with atomic_file(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def write_text(path, text: str) -> None:
-    tmp = atomic_path(path)
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    with atomic_file(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def write_json(path, doc) -> str:
+    """Write ``doc`` as JSON; returns the text written."""
+    text = json.dumps(doc, indent=1, default=json_default, allow_nan=False) + "\n"
+    write_text(path, text)
+    return text
 
 
 def save_figure(fig, path, **kw) -> None:
-    tmp = atomic_path(path)
-    try:
+    with atomic_file(path) as tmp:
         fig.savefig(tmp, **kw)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)

@@ -62,11 +62,9 @@ def run_figure(doc: dict, robot_radius_m: float = 0.35):
 
 def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> None:
     """A GIF of the run, one frame per sample."""
-    import os
-
     from matplotlib.animation import FuncAnimation, PillowWriter
 
-    from .io import atomic_path
+    from .io import atomic_file
 
     tr = doc["trajectory"]
     x, y, h, t = (np.asarray(tr[k]) for k in ("x", "y", "heading_rad", "t"))
@@ -101,10 +99,8 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
         return [path_line, robot, *discs, label]
 
     anim = FuncAnimation(fig, frame, frames=len(t), blit=False)
-    tmp = atomic_path(path, ".gif")
     try:
-        anim.save(tmp, writer=PillowWriter(fps=fps))
-        os.replace(tmp, path)
+        with atomic_file(path, ".gif") as tmp:
+            anim.save(tmp, writer=PillowWriter(fps=fps))
     finally:
-        tmp.unlink(missing_ok=True)
         plt.close(fig)

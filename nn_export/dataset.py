@@ -48,9 +48,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
-import os
 import signal
-import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -58,6 +56,7 @@ from pathlib import Path
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig
+from casadi_gpc.io import atomic_file, json_default
 from casadi_gpc.robot import RobotParams
 
 from .features import FeatureLayout, compute_features, layout_from_dict, mirror_features
@@ -273,31 +272,14 @@ def label_shard(spec: DatasetSpec, index: int) -> tuple[int, dict, dict]:
 # --------------------------------------------------------------------------------------
 # files
 # --------------------------------------------------------------------------------------
-def _file_mode() -> int:
-    """Permissions of an ordinary new file (mkstemp makes them private)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
 def shard_name(index: int, part: str = "") -> str:
     return f"shard-{index:05d}.npz" if not part else f"{part}-{index:05d}.npz"
 
 
 def write_shard(path: Path, arrays: dict, spec_id: str, stats: dict) -> None:
     """Write ``arrays`` whole or not at all (temporary file, fsync, rename)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, spec_id=np.array(spec_id), stats_json=np.array(json.dumps(stats)), **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, _file_mode())
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+    with atomic_file(path, ".tmp") as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, spec_id=np.array(spec_id), stats_json=np.array(json.dumps(stats)), **arrays)
 
 
 def read_shard(path, keys=None) -> dict:
@@ -326,25 +308,10 @@ def read_manifest(directory) -> dict:
 
 def _write_json(path: Path, doc: dict) -> dict:
     """Write ``doc`` atomically; returns it as it reads back (tuples become lists)."""
-    text = json.dumps(doc, indent=1, allow_nan=False, default=_json_default) + "\n"
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, _file_mode())
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+    text = json.dumps(doc, indent=1, allow_nan=False, default=json_default) + "\n"
+    with atomic_file(path, ".tmp") as tmp:  # .tmp: what a restart sweeps away
+        tmp.write_text(text, encoding="utf-8")
     return json.loads(text)
-
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 @contextlib.contextmanager

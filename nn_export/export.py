@@ -126,14 +126,9 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
     if not parity <= PARITY_TOL:
         raise RuntimeError(f"ONNX/torch parity {parity:.3g} m/s exceeds {PARITY_TOL:g}")
 
-    from casadi_gpc.io import atomic_path
+    from casadi_gpc.io import write_bytes
     out_path = Path(out_path)
-    tmp = atomic_path(out_path, ".onnx")
-    try:
-        tmp.write_bytes(data)
-        tmp.replace(out_path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    write_bytes(out_path, data)
     return ExportReport(path=str(out_path), bytes=len(data), parity_max_abs_mps=parity, parity_samples=len(parity_X),
                         metadata=meta)
 

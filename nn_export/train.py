@@ -323,15 +323,10 @@ class WheelSpeedMLP:
         """Write the fitted model to ``model_dir`` (created); ``provenance`` (dataset, preset,
         robot, layout...) is stored in ``model.json`` and travels on into the ONNX file."""
         self._check_fitted()
-        from casadi_gpc.io import atomic_path, write_json
+        from casadi_gpc.io import atomic_file, write_json
         model_dir = Path(model_dir)
-        model_dir.mkdir(parents=True, exist_ok=True)
-        tmp = atomic_path(model_dir / "weights.npz", ".npz")
-        try:
+        with atomic_file(model_dir / "weights.npz") as tmp:
             np.savez(tmp, **self.numpy_params())
-            tmp.replace(model_dir / "weights.npz")
-        finally:
-            tmp.unlink(missing_ok=True)
         write_json(model_dir / "training_curve.json", self.curve_)
         save_curve_figure(self.curve_, model_dir / "training_curve.png")
         write_json(model_dir / "model.json", {

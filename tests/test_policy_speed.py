@@ -1,0 +1,229 @@
+"""The deployed policy's decision path, rewritten for speed, against recorded answers.
+
+``tests/data/policy_decisions_*.npz`` were written by :func:`record` with the code as it
+was *before* the decision path was rewritten for speed (commit ca04201). Each file holds
+the observation stream of a closed-loop episode (stored in full: time, robot state,
+measurements, reference path and static obstacles, so the replay does not depend on the
+simulator) and, for every variant of the policy (one or two passes, with and without the
+safety filter), every decision, its plan and its network input, plus the situation the
+tracker built (EKF estimates, desired poses) and the features of both layouts. The test
+replays the stream open loop and asserts agreement to 1e-9 (features to 1e-12).
+
+The timing test compares the full decision with the bare onnxruntime call measured in
+the same run (a ratio, never an absolute time).
+
+Regenerate (only when the meaning of a decision is meant to change):
+``python tests/test_policy_speed.py``.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from casadi_gpc.reference import ReferencePath, Segment
+from casadi_gpc.robot import RobotState
+from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
+from nn_export.features import SituationTracker, compute_features, layout_for
+from nn_export.policy import OnnxPolicy
+
+DATA = Path(__file__).parent / "data"
+CASES = {
+    # name: (preset, scenario, curvy reference + faults)
+    "paper_crossing": ("paper", "fig7_2_crossing", False),
+    "improved_crossing": ("improved", "fig7_2_crossing", False),
+    "paper_curvy": ("paper", "corridor_mixed", True),
+    "improved_curvy": ("improved", "corridor_mixed", True),
+}
+VARIANTS = {  # name: (two_pass, safety_filter)
+    "two_pass": (True, False),
+    "one_pass": (False, False),
+    "two_pass_safety": (True, True),
+    "one_pass_safety": (False, True),
+}
+REASONS = ("one pass", "pass 1: path clear", "pass 2: avoiding")
+
+
+def _path(case: str) -> Path:
+    return DATA / f"policy_decisions_{case}.npz"
+
+
+# --- the episodes --------------------------------------------------------------------
+def _scenario(case: str):
+    from scenarios import load_scenario
+    from scenarios.model import Faults
+    preset_name, name, curvy = CASES[case]
+    root = Path(__file__).resolve().parents[1] / "scenarios"
+    sc = load_scenario(next(root.glob(f"*/{name}.toml")))
+    if curvy:
+        # lines and arcs both ways, and a path end inside the episode; dropouts and outliers
+        ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(5.0), Segment.arc(4.0, math.radians(60.0)),
+                                               Segment.arc(3.0, math.radians(-75.0)), Segment.line(6.0)), 0.35)
+        sc = replace(sc, reference=ref, faults=Faults(dropout_prob=0.1, outlier_prob=0.05))
+    return preset_name, sc
+
+
+def _observations_to_arrays(observations) -> dict:
+    obs0 = observations[0]
+    ref = obs0.reference
+    n_mov = len(obs0.moving)
+    Z = np.full((len(observations), n_mov, 2), np.nan)
+    for k, o in enumerate(observations):
+        assert o.reference is ref and o.static == obs0.static
+        for j, m in enumerate(o.moving):
+            assert m.obstacle_id == obs0.moving[j].obstacle_id
+            if m.position_m is not None:
+                Z[k, j] = m.position_m
+    return {
+        "t_s": np.array([o.t_s for o in observations]),
+        "robot": np.array([[o.robot.x_m, o.robot.y_m, o.robot.heading_rad, o.robot.v_right_mps, o.robot.v_left_mps]
+                           for o in observations]),
+        "moving_ids": np.array([m.obstacle_id for m in obs0.moving], dtype=int),
+        "moving_radii_m": np.array([m.radius_m for m in obs0.moving]),
+        "moving_xy_m": Z,
+        "statics": np.array([[s.position_m[0], s.position_m[1], s.radius_m] for s in obs0.static]).reshape(-1, 3),
+        "ref_start": np.array([ref.start_xy_m[0], ref.start_xy_m[1], ref.start_heading_rad, ref.speed_mps]),
+        "ref_segments": np.array([[s.length_m, s.curvature_1pm] for s in ref.segments]),
+    }
+
+
+def observations_from(d) -> list[Observation]:
+    """The stored observation stream, rebuilt."""
+    x0, y0, h0, v = (float(a) for a in d["ref_start"])
+    ref = ReferencePath((x0, y0), h0, tuple(Segment(float(a), float(b)) for a, b in d["ref_segments"]), v)
+    statics = tuple(StaticObstacle((float(a), float(b)), float(r)) for a, b, r in d["statics"])
+    ids, radii = d["moving_ids"], d["moving_radii_m"]
+    out = []
+    for k, t in enumerate(d["t_s"]):
+        moving = tuple(ObstacleMeasurement(int(i), None if np.isnan(z[0]) else (float(z[0]), float(z[1])), float(r))
+                       for i, r, z in zip(ids, radii, d["moving_xy_m"][k]))
+        out.append(Observation(float(t), RobotState(*(float(a) for a in d["robot"][k])), ref, moving, statics))
+    return out
+
+
+def replay(preset_name: str, observations, two_pass: bool, safety: bool) -> dict:
+    """Every decision of a fresh policy on ``observations`` (open loop), as arrays."""
+    pol = OnnxPolicy(preset=preset_name, two_pass=two_pass, safety_filter=safety)
+    H = pol.horizon
+    n = len(observations)
+    out = {"wheels": np.empty((n, 2)), "fallback": np.zeros(n, bool), "reason": np.zeros(n, int),
+           "planned_wheels": np.full((n, H, 2), np.nan), "planned_poses": np.full((n, H, 3), np.nan),
+           "predicted_clearance_m": np.full(n, np.nan), "safety_clearance_m": np.full(n, np.nan),
+           "net_input": np.empty((n, pol.layout.size), np.float32)}
+    for k, obs in enumerate(observations):
+        dec = pol.decide(obs)
+        out["wheels"][k] = dec.v_right_mps, dec.v_left_mps
+        out["fallback"][k] = dec.fallback
+        out["reason"][k] = REASONS.index(dec.reason) if dec.reason in REASONS else -1
+        if dec.planned_wheels_mps is not None:
+            out["planned_wheels"][k] = dec.planned_wheels_mps
+        if dec.planned_poses is not None:
+            out["planned_poses"][k] = dec.planned_poses
+        out["predicted_clearance_m"][k] = dec.info.get("predicted_clearance_m", np.nan)
+        out["safety_clearance_m"][k] = dec.info.get("safety_clearance_m", np.nan)
+        out["net_input"][k] = pol._x[0]
+    out["counters"] = np.array([pol.counters.get(k, 0) for k in ("decisions", "second_pass", "fallbacks")])
+    return out
+
+
+def situations(preset_name: str, observations) -> dict:
+    """What the tracker builds at each step: desired poses, EKF estimates and features."""
+    from casadi_gpc.config import preset
+    cfg = preset(preset_name)
+    H = cfg.horizon
+    tr = SituationTracker(cfg, reference_steps=2 * H - 1)
+    lay_p, lay_m = layout_for("paper", H), layout_for("multi", H)
+    n, n_mov = len(observations), len(observations[0].moving)
+    out = {"ref_ahead": np.empty((n, 2 * H, 3)), "track_state": np.full((n, n_mov, 5), np.nan),
+           "track_cov": np.full((n, n_mov, 5, 5), np.nan), "track_means": np.full((n, n_mov, H, 2), np.nan),
+           "track_covs": np.full((n, n_mov, H, 2, 2), np.nan), "features_paper": np.empty((n, lay_p.size)),
+           "features_multi": np.empty((n, lay_m.size)), "clock_s_m": np.empty(n)}
+    for k, obs in enumerate(observations):
+        s = tr.update(obs)
+        out["ref_ahead"][k] = tr.reference_ahead_
+        out["clock_s_m"][k] = tr.clock.s_m
+        for t in s.tracks:
+            out["track_state"][k, t.obstacle_id] = t.state
+            out["track_cov"][k, t.obstacle_id] = t.cov
+            out["track_means"][k, t.obstacle_id] = t.means_m
+            out["track_covs"][k, t.obstacle_id] = t.covs_m2
+        compute_features(lay_p, s, out["features_paper"][k])
+        compute_features(lay_m, s, out["features_multi"][k])
+    return out
+
+
+def record(case: str) -> None:
+    """Write ``tests/data/policy_decisions_{case}.npz`` with the code as it is."""
+    from casadi_gpc.simulator import simulate
+    preset_name, sc = _scenario(case)
+    pol = OnnxPolicy(preset=preset_name)  # the deployed policy drives the episode
+    observations = []
+
+    class Recorder:
+        sample_time_s = pol.sample_time_s
+
+        def reset(self):
+            pol.reset()
+
+        def decide(self, obs):
+            observations.append(obs)
+            return pol.decide(obs)
+
+    simulate(sc, Recorder())
+    data = _observations_to_arrays(observations)
+    data.update({f"situation_{k}": v for k, v in situations(preset_name, observations).items()})
+    for name, (two_pass, safety) in VARIANTS.items():
+        data.update({f"{name}_{k}": v for k, v in replay(preset_name, observations, two_pass, safety).items()})
+    DATA.mkdir(exist_ok=True)
+    np.savez_compressed(_path(case), **data)
+
+
+# --- the tests -----------------------------------------------------------------------
+@pytest.fixture(scope="module", params=sorted(CASES))
+def recorded(request):
+    with np.load(_path(request.param)) as f:
+        d = dict(f)
+    return request.param, d, observations_from(d)
+
+
+def test_fixture_exercises_every_branch(recorded):
+    """The recorded episodes are worth comparing against: second passes, missing
+    measurements, safety interventions somewhere, arcs in the reference."""
+    case, d, obs = recorded
+    assert len(obs) >= 20
+    assert d["two_pass_counters"][1] > 0  # second passes
+    assert np.all(np.isfinite(d["two_pass_wheels"]))
+    if CASES[case][2]:
+        assert np.isnan(d["moving_xy_m"]).any() and np.any(d["ref_segments"][:, 1] != 0.0)
+
+
+def test_situations_equal_the_recorded_ones(recorded):
+    case, d, obs = recorded
+    now = situations(CASES[case][0], obs)
+    for k, v in now.items():
+        np.testing.assert_allclose(v, d[f"situation_{k}"], rtol=0, atol=1e-12, equal_nan=True, err_msg=k)
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_decisions_equal_the_recorded_ones(recorded, variant):
+    case, d, obs = recorded
+    two_pass, safety = VARIANTS[variant]
+    now = replay(CASES[case][0], obs, two_pass, safety)
+    for k, v in now.items():
+        ref = d[f"{variant}_{k}"]
+        if v.dtype.kind in "biu":
+            np.testing.assert_array_equal(v, ref, err_msg=k)
+        else:
+            np.testing.assert_allclose(v, ref, rtol=0, atol=1e-9 if k != "net_input" else 1e-6, equal_nan=True,
+                                       err_msg=k)
+
+
+if __name__ == "__main__":
+    for c in sys.argv[1:] or CASES:
+        record(c)
+        print("wrote", _path(c))

@@ -8,10 +8,37 @@ import numpy as np
 
 from .simulator import RunLog
 
-__all__ = ["EpisodeMetrics", "episode_metrics", "run_document", "eval_document", "time_stats",
-           "longest_stop_s"]
+__all__ = ["EpisodeMetrics", "episode_metrics", "path_deviation_m", "same_instant_deviation_m", "run_document",
+           "eval_document", "time_stats", "longest_stop_s"]
 
 STOP_SPEED_MPS = 0.05
+
+
+def _point_to_polyline_m(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance from each point (n, 2) to the polyline ``poly`` (m, 2)."""
+    if len(poly) == 1:
+        return np.hypot(*(points - poly[0]).T)
+    a, ab = poly[:-1], np.diff(poly, axis=0)
+    t = ((points[:, None, :] - a[None]) * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-18)
+    q = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
+    return np.min(np.linalg.norm(points[:, None, :] - q, axis=-1), axis=1)
+
+
+def path_deviation_m(xy_a, xy_b) -> float:
+    """How far apart two robot paths are, as curves: the largest distance from a sample of
+    either path to the other path's polyline (the symmetric Hausdorff distance between the
+    sampled points and the polylines). Timing does not enter: a robot that drives the same
+    curve later or earlier has deviation 0."""
+    a, b = np.asarray(xy_a, float)[:, :2], np.asarray(xy_b, float)[:, :2]
+    return float(max(_point_to_polyline_m(a, b).max(), _point_to_polyline_m(b, a).max()))
+
+
+def same_instant_deviation_m(xy_a, xy_b) -> float:
+    """The largest distance between two runs' robot positions at the same sample instants
+    (over the samples both runs have)."""
+    a, b = np.asarray(xy_a, float)[:, :2], np.asarray(xy_b, float)[:, :2]
+    n = min(len(a), len(b))
+    return float(np.max(np.hypot(*(a[:n] - b[:n]).T)))
 
 
 def time_stats(values) -> dict:

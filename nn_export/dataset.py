@@ -48,9 +48,10 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import signal
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -584,46 +585,80 @@ def load_dataset(directory, parts: tuple[str, ...] | None = None) -> LoadedDatas
 # --------------------------------------------------------------------------------------
 class _Recorder:
     """Wraps a policy: passes decisions through and records the situation at every sample,
-    built by the same :class:`SituationTracker` the deployed policy uses."""
+    built by the same :class:`SituationTracker` the deployed policy uses.
 
-    def __init__(self, policy, config: PlannerConfig):
+    With ``noise_mps`` > 0 the wheel speeds the policy asks for are perturbed by independent
+    N(0, noise_mps) before they are applied (DART, Laskey et al. 2017): the expert drives,
+    but the recorded states spread around its path the way a learner's errors spread them.
+    The labels are not affected: every recorded situation is labelled afresh by the GPC.
+    The number of perturbed decisions is counted (``counters["driving_noise_applied"]``)."""
+
+    def __init__(self, policy, config: PlannerConfig, noise_mps: float = 0.0, seed: int = 0):
         from .features import SituationTracker
         self.policy = policy
         self.tracker = SituationTracker(config)
         self.sample_time_s = policy.sample_time_s
         self.situations = []
+        self.noise_mps = float(noise_mps)
+        self._rng = np.random.default_rng(seed)
+        self._perturbed = 0
 
     @property
     def counters(self):
-        return getattr(self.policy, "counters", {})
+        c = dict(getattr(self.policy, "counters", {}))
+        if self.noise_mps > 0:
+            c["driving_noise_applied"] = self._perturbed
+        return c
 
     def reset(self) -> None:
         self.policy.reset()
         self.tracker.reset()
         self.situations = []
+        self._perturbed = 0
 
     def decide(self, obs):
         self.situations.append(self.tracker.update(obs))
-        return self.policy.decide(obs)
+        dec = self.policy.decide(obs)
+        if self.noise_mps > 0:
+            e = self._rng.normal(0.0, self.noise_mps, 2)
+            dec = replace(dec, v_right_mps=float(dec.v_right_mps + e[0]), v_left_mps=float(dec.v_left_mps + e[1]))
+            self._perturbed += 1
+        return dec
+
+
+def perturb_start(scenario, rng: np.random.Generator, lateral_m: float, heading_rad: float):
+    """``scenario`` with the robot's start moved sideways by U(-lateral_m, lateral_m) from the
+    path and turned by U(-heading_rad, heading_rad) (recovering starts, as in Fig. 7.3)."""
+    if lateral_m <= 0 and heading_rad <= 0:
+        return scenario
+    from casadi_gpc.robot import RobotState
+    s0 = scenario.robot_start
+    off = rng.uniform(-lateral_m, lateral_m)
+    dh = rng.uniform(-heading_rad, heading_rad)
+    start = RobotState(s0.x_m - off * math.sin(s0.heading_rad), s0.y_m + off * math.cos(s0.heading_rad),
+                       s0.heading_rad + dh)
+    return replace(scenario, robot_start=start)
 
 
 def collect_on_policy(policy, scenarios, config: PlannerConfig, layout: FeatureLayout,
                       labeller: Labeller | None = None, mirror: bool = True, id_base: int = 0,
-                      mirror_check_every: int = 0) -> tuple[dict, dict]:
+                      mirror_check_every: int = 0, noise_mps: float = 0.0, noise_seed: int = 0) -> tuple[dict, dict]:
     """DAgger: run ``policy`` (anything with ``decide(observation)``) on every scenario,
     label every situation it visits with the GPC, and return ``(arrays, stats)`` in the
-    shard format (``stats["episodes"]`` lists each episode's outcome)."""
+    shard format (``stats["episodes"]`` lists each episode's outcome). ``noise_mps``
+    perturbs the applied wheel speeds (see :class:`_Recorder`)."""
     from casadi_gpc.simulator import simulate
     if abs(policy.sample_time_s - config.sample_time_s) > 1e-12:
         raise ValueError(f"policy sample time {policy.sample_time_s} s != planner's {config.sample_time_s} s")
     labeller = labeller or Labeller(config)
-    recorder = _Recorder(policy, config)
+    recorder = _Recorder(policy, config, noise_mps, noise_seed)
     situations, episodes = [], []
     for sc in scenarios:
         log = simulate(sc, recorder, "on-policy")
         situations += recorder.situations
         episodes.append({"scenario": sc.name, "outcome": log.outcome, "steps": len(log.decisions),
-                         "min_clearance_m": float(log.min_clearance_m)})
+                         "min_clearance_m": float(log.min_clearance_m),
+                         "noise_applied": int(log.events.get("driving_noise_applied", 0))})
     n = len(situations) * (2 if mirror else 1)
     builder = _ShardBuilder(n, layout.size, config.horizon)
     stats = _new_stats()
@@ -634,20 +669,23 @@ def collect_on_policy(policy, scenarios, config: PlannerConfig, layout: FeatureL
 
 
 def _on_policy_chunk(policy_factory, scenarios, config: PlannerConfig, layout: FeatureLayout, solver: str,
-                     robot: RobotParams, mirror: bool, mirror_check_every: int, id_base: int, chunk: int):
+                     robot: RobotParams, mirror: bool, mirror_check_every: int, id_base: int, chunk: int,
+                     noise_mps: float = 0.0):
     """Worker task: one chunk of DAgger episodes (policy and labeller built once per process)."""
     key = ("policy", repr(policy_factory))
     if key not in _LABELLERS:
         _LABELLERS[key] = policy_factory()
     arrays, stats = collect_on_policy(_LABELLERS[key], scenarios, config, layout, _labeller(config, robot, solver),
-                                      mirror, id_base + chunk * _SHARD_STRIDE, mirror_check_every)
+                                      mirror, id_base + chunk * _SHARD_STRIDE, mirror_check_every,
+                                      noise_mps, noise_seed=id_base + chunk)
     return chunk, arrays, stats
 
 
 def collect_on_policy_parallel(policy_factory, scenarios, config: PlannerConfig, layout: FeatureLayout,
                                solver: str, robot: RobotParams | None = None, workers: int = 1,
                                backend: str = "local", address: str | None = None, mirror: bool = True,
-                               id_base: int = 0, mirror_check_every: int = 0, progress=None) -> tuple[dict, dict]:
+                               id_base: int = 0, mirror_check_every: int = 0, progress=None,
+                               noise_mps: float = 0.0) -> tuple[dict, dict]:
     """:func:`collect_on_policy` over worker processes (or Ray). ``policy_factory`` is a
     picklable callable returning the policy (e.g. ``functools.partial(OnnxPolicy, path)``).
     Returns the arrays of all chunks, in episode order, and the merged stats."""
@@ -657,7 +695,7 @@ def collect_on_policy_parallel(policy_factory, scenarios, config: PlannerConfig,
     chunks = [scenarios[i:i + size] for i in range(0, len(scenarios), size)]
     if len(chunks) > _SHARD_STRIDE // 1000:
         raise ValueError(f"too many chunks ({len(chunks)}); use fewer episodes per round")
-    tasks = [(policy_factory, c, config, layout, solver, robot, mirror, mirror_check_every, id_base, i)
+    tasks = [(policy_factory, c, config, layout, solver, robot, mirror, mirror_check_every, id_base, i, noise_mps)
              for i, c in enumerate(chunks)]
     results = {}
     pending = run_tasks(_on_policy_chunk, tasks, workers, backend, address)

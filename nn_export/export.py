@@ -11,7 +11,7 @@ the preset, the robot or the feature layout it is asked to run with. Keys: ``for
 ``feature_layout``, ``feature_layout_version``, ``feature_layout_spec``, ``feature_names``, ``label_names``,
 ``n_features``, ``preset``, ``horizon``, ``sample_time_s``, ``planner_config``, ``robot``,
 ``output_clip_mps``, ``dataset``, ``validation_rmse_mps``, ``validation_max_abs_error_mps``,
-``hidden``, ``activation``, ``trained_with``.
+``hidden``, ``layers``, ``activation``, ``trained_with``.
 """
 from __future__ import annotations
 
@@ -103,6 +103,7 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
         "validation_rmse_mps": repr(float(np.sqrt(model.validation_mse_))),
         "validation_max_abs_error_mps": repr(float(model.validation_max_abs_error_)),
         "hidden": str(model.hidden),
+        "layers": str(getattr(model, "layers", 1)),
         "activation": model.activation,
         "trained_with": json.dumps({"params": model.get_params(), "best_epoch": model.best_epoch_,
                                     "stop_reason": model.stop_reason_, **prov.get("training", {})}),

@@ -41,17 +41,22 @@ class _Net(torch.nn.Module):
     units. ``mix`` maps the learned output basis u to the wheel speeds (identity, or
     [[1, 1], [1, -1]] for u = (mean speed, half difference))."""
 
-    def __init__(self, n_in: int, hidden: int, n_out: int, activation: str):
+    def __init__(self, n_in: int, hidden: int, n_out: int, activation: str, layers: int = 1):
         super().__init__()
         self.hidden = torch.nn.Linear(n_in, hidden)
         self.act = _ACTIVATIONS[activation]()
+        # further hidden layers of the same width (layers > 1; the paper's net has one)
+        self.deeper = torch.nn.ModuleList(torch.nn.Linear(hidden, hidden) for _ in range(int(layers) - 1))
         self.out = torch.nn.Linear(hidden, n_out)
         for name in ("x_mean", "x_scale", "y_mean", "y_scale"):
             self.register_buffer(name, torch.zeros(n_out if name[0] == "y" else n_in))
         self.register_buffer("y_mix", torch.eye(n_out))
 
     def normalised(self, xn):
-        return self.out(self.act(self.hidden(xn)))
+        h = self.act(self.hidden(xn))
+        for lin in self.deeper:
+            h = self.act(lin(h))
+        return self.out(h)
 
     def forward(self, x):
         return (self.normalised((x - self.x_mean) / self.x_scale) * self.y_scale + self.y_mean) @ self.y_mix.T
@@ -63,7 +68,9 @@ class WheelSpeedMLP:
     Parameters
     ----------
     hidden : int
-        Hidden units (paper: 35).
+        Hidden units per hidden layer (paper: 35).
+    layers : int
+        Hidden layers (paper: 1), each of ``hidden`` units and the same non-linearity.
     activation : {"tanh", "relu", "softsign"}
         Hidden non-linearity (paper: a sigmoid-type unit; tanh is its zero-centred form).
     output_basis : {"speed_turn", "wheels"}
@@ -96,10 +103,11 @@ class WheelSpeedMLP:
     """
 
     def __init__(self, hidden: int = 35, activation: str = "tanh", output_basis: str = "speed_turn",
-                 optimizer: str = "lbfgs", max_epochs: int = 400,
+                 optimizer: str = "lbfgs", max_epochs: int = 400, layers: int = 1,
                  batch_size: int = 1024, learning_rate: float = 3e-3, weight_decay: float = 0.0,
                  validation_fraction: float = 0.15, patience: int = 40, random_state: int = 0):
         self.hidden = hidden
+        self.layers = layers
         self.activation = activation
         self.optimizer = optimizer
         self.output_basis = output_basis
@@ -113,12 +121,14 @@ class WheelSpeedMLP:
 
     # --- hyper-parameters ------------------------------------------------------------
     def get_params(self) -> dict:
-        return {k: getattr(self, k) for k in ("hidden", "activation", "output_basis", "optimizer", "max_epochs", "batch_size", "learning_rate",
+        return {k: getattr(self, k) for k in ("hidden", "layers", "activation", "output_basis", "optimizer", "max_epochs", "batch_size", "learning_rate",
                                               "weight_decay", "validation_fraction", "patience", "random_state")}
 
     def _check_params(self) -> None:
         if not (isinstance(self.hidden, int) and self.hidden >= 1):
             raise ValueError(f"hidden must be a positive integer, got {self.hidden!r}")
+        if not (isinstance(self.layers, int) and 1 <= self.layers <= 4):
+            raise ValueError(f"layers must be an integer from 1 to 4, got {self.layers!r}")
         if self.activation not in _ACTIVATIONS:
             raise ValueError(f"activation must be one of {', '.join(_ACTIVATIONS)}, got {self.activation!r}")
         if self.output_basis not in ("speed_turn", "wheels"):
@@ -179,7 +189,7 @@ class WheelSpeedMLP:
         mix = np.array([[1.0, 1.0], [1.0, -1.0]]) if self.output_basis == "speed_turn" else np.eye(Y.shape[1])
         U = Y @ np.linalg.inv(mix).T  # the learned basis: wheels = U @ mix^T
         y_mean, y_scale = U[train_idx].mean(0), _scale(U[train_idx])
-        net = _Net(X.shape[1], self.hidden, Y.shape[1], self.activation).double()
+        net = _Net(X.shape[1], self.hidden, Y.shape[1], self.activation, self.layers).double()
         with torch.no_grad():
             net.y_mix.copy_(torch.from_numpy(mix))
             net.x_mean.copy_(torch.from_numpy(x_mean))
@@ -308,12 +318,15 @@ class WheelSpeedMLP:
             return self.net_(torch.from_numpy(X)).numpy()
 
     def numpy_params(self) -> dict:
-        """The learned arrays, float64: x_mean, x_scale, W1 (hidden, in), b1, W2 (out, hidden), b2, y_mean,
+        """The learned arrays, float64: x_mean, x_scale, W1 (hidden, in), b1, W1_2, b1_2, ... (further
+        hidden layers, if ``layers`` > 1), W2 (out, hidden), b2, y_mean,
         y_scale (of the learned basis) and y_mix (basis -> wheels)."""
         self._check_fitted()
         n = self.net_
         return {"x_mean": n.x_mean.numpy().copy(), "x_scale": n.x_scale.numpy().copy(),
                 "W1": n.hidden.weight.detach().numpy().copy(), "b1": n.hidden.bias.detach().numpy().copy(),
+                **{f"W1_{i + 2}": lin.weight.detach().numpy().copy() for i, lin in enumerate(n.deeper)},
+                **{f"b1_{i + 2}": lin.bias.detach().numpy().copy() for i, lin in enumerate(n.deeper)},
                 "W2": n.out.weight.detach().numpy().copy(), "b2": n.out.bias.detach().numpy().copy(),
                 "y_mean": n.y_mean.numpy().copy(), "y_scale": n.y_scale.numpy().copy(),
                 "y_mix": n.y_mix.numpy().copy()}
@@ -356,10 +369,13 @@ class WheelSpeedMLP:
         self = cls(**meta["params"])
         with np.load(model_dir / "weights.npz") as w:
             arrays = {k: w[k] for k in w.files}
-        net = _Net(meta["n_features"], self.hidden, meta["n_outputs"], self.activation).double()
+        net = _Net(meta["n_features"], self.hidden, meta["n_outputs"], self.activation, self.layers).double()
         with torch.no_grad():
             net.hidden.weight.copy_(torch.from_numpy(arrays["W1"]))
             net.hidden.bias.copy_(torch.from_numpy(arrays["b1"]))
+            for i, lin in enumerate(net.deeper):
+                lin.weight.copy_(torch.from_numpy(arrays[f"W1_{i + 2}"]))
+                lin.bias.copy_(torch.from_numpy(arrays[f"b1_{i + 2}"]))
             net.out.weight.copy_(torch.from_numpy(arrays["W2"]))
             net.out.bias.copy_(torch.from_numpy(arrays["b2"]))
             for k in ("x_mean", "x_scale", "y_mean", "y_scale"):

@@ -124,6 +124,9 @@ def test_other_arguments_are_refused(reference_dataset):
     (["--samples", "10", "--workers", "0"], "--workers"),
     (["--samples", "10", "--address", "1.2.3.4:6379"], "--address"),
     (["--samples", "10", "--solver", "no-such-solver"], "--solver"),
+    (["--dagger", "gpc", "--dagger-noise", "-0.1"], "--dagger-noise"),
+    (["--dagger", "gpc", "--start-offset", "9"], "--start-offset"),
+    (["--samples", "10", "--dagger-noise", "0.05"], "--dagger-noise"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, argv, words):
     proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(tmp_path / "d"), *argv],
@@ -245,6 +248,52 @@ def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, t
     # resuming the off-policy part keeps the on-policy part
     man = generate(out, _spec(), workers=1)
     assert man["samples"] == 60 + n and "dagger1" in man["parts"]
+
+
+def test_driving_noise_perturbs_the_applied_speeds_only():
+    """DART: the recorder adds N(0, sigma) to each wheel speed the driver asks for, counts it,
+    and leaves the driver's own answer (and so the labels, made afresh) alone."""
+    from nn_export.dataset import _Recorder
+    rec = _Recorder(_SlowStraight(), PAPER, noise_mps=0.05, seed=3)
+    from scenarios import random_suite
+    from casadi_gpc.types import Observation
+    sc = random_suite("random", 1, 0)[0]
+    obs = Observation(0.0, sc.robot_start, sc.reference, (), ())
+    got = np.array([[d.v_right_mps, d.v_left_mps] for d in (rec.decide(obs) for _ in range(4000))])
+    e = got - 0.3
+    assert abs(e.mean()) < 0.004 and e.std() == pytest.approx(0.05, rel=0.05)
+    assert abs(np.corrcoef(e[:, 0], e[:, 1])[0, 1]) < 0.05  # the two wheels independently
+    assert rec.counters["driving_noise_applied"] == 4000
+    quiet = _Recorder(_SlowStraight(), PAPER)
+    assert quiet.decide(obs).v_right_mps == 0.3 and "driving_noise_applied" not in quiet.counters
+
+
+def test_noisy_episodes_visit_other_states_and_report_the_noise():
+    from dataclasses import replace
+    from scenarios import random_suite
+    scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 1, 0)]
+    lay, lab = layout_for("paper", 6), Labeller(PAPER)
+    clean, st0 = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, mirror=False)
+    noisy, st1 = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, mirror=False, noise_mps=0.05,
+                                   noise_seed=1)
+    assert st0["episodes"][0]["noise_applied"] == 0 and st1["episodes"][0]["noise_applied"] == 6
+    np.testing.assert_array_equal(clean["features"][0], noisy["features"][0])  # before any noise acts
+    assert np.max(np.abs(clean["features"][1:, :2] - noisy["features"][1:, :2])) > 0.01  # applied speeds differ
+
+
+def test_perturb_start_moves_the_robot_sideways_within_the_bounds():
+    from nn_export.dataset import perturb_start
+    from scenarios import random_suite
+    sc = random_suite("random", 1, 0)[0]
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        s2 = perturb_start(sc, rng, 1.2, 0.6)
+        r0, r1 = sc.robot_start, s2.robot_start
+        dx, dy = r1.x_m - r0.x_m, r1.y_m - r0.y_m
+        along = dx * np.cos(r0.heading_rad) + dy * np.sin(r0.heading_rad)
+        assert abs(along) < 1e-12 and np.hypot(dx, dy) <= 1.2
+        assert abs(r1.heading_rad - r0.heading_rad) <= 0.6
+    assert perturb_start(sc, rng, 0.0, 0.0) is sc
 
 
 @pytest.mark.slow

@@ -167,3 +167,24 @@ def test_export_refuses_a_model_without_provenance(fitted, tmp_path):
     m.save(tmp_path / "m", {"preset": "paper"})
     with pytest.raises(ValueError, match="provenance lacks"):
         export_onnx(tmp_path / "m", tmp_path / "m.onnx")
+
+
+def test_deeper_network_roundtrip_and_export_parity(tmp_path):
+    """layers=2: saved, loaded and exported with the same parity as the paper's one layer."""
+    X, Y = _data()
+    m = WheelSpeedMLP(hidden=12, layers=2, max_epochs=20, random_state=1).fit(X, Y)
+    p = m.numpy_params()
+    assert p["W1"].shape == (12, 17) and p["W1_2"].shape == (12, 12) and p["W2"].shape == (2, 12)
+    m.save(tmp_path / "m", PROV)
+    m2 = WheelSpeedMLP.load(tmp_path / "m")
+    assert m2.layers == 2
+    np.testing.assert_array_equal(m2.predict(X), m.predict(X))
+    val = X[m.validation_indices_]
+    export_onnx(tmp_path / "m", tmp_path / "m.onnx", val)
+    sess = ort.InferenceSession(str(tmp_path / "m.onnx"), providers=["CPUExecutionProvider"])
+    got = sess.run(None, {INPUT_NAME: val.astype(np.float32)})[0]
+    assert np.max(np.abs(got - np.clip(m.predict(val), -0.8, 0.8))) <= 1e-5
+    meta = {q.key: q.value for q in onnx.load(tmp_path / "m.onnx").metadata_props}
+    assert meta["layers"] == "2" and meta["hidden"] == "12"
+    with pytest.raises(ValueError, match="layers"):
+        WheelSpeedMLP(layers=0).fit(X, Y)

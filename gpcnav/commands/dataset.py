@@ -45,6 +45,13 @@ def add_arguments(p):
                         "labelled) or behind the safety filter with the GPC (gpc) or braking (brake) fallback")
     p.add_argument("--episodes", type=int, default=100, help="episodes of the random suite for --dagger")
     p.add_argument("--round", type=int, default=1, help="DAgger round number (names the part: dagger<R>)")
+    p.add_argument("--dagger-noise", type=float, default=0.0, metavar="SIGMA",
+                   help="--dagger: add N(0, SIGMA) m/s to each wheel speed the driver applies (DART: the "
+                        "GPC drives, the states spread as a learner's errors would spread them; labels "
+                        "are unaffected); default 0")
+    p.add_argument("--start-offset", type=float, default=0.0, metavar="M",
+                   help="--dagger: start each episode's robot U(-M, M) m beside the path, turned by "
+                        "U(-M/2, M/2) rad (recovering starts, as in Fig. 7.3); default 0")
 
 
 def _layout_and_config(args):
@@ -60,6 +67,12 @@ def run(args) -> int:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     if args.address and args.backend != "ray":
         raise UsageError("--address needs --backend ray")
+    if not (0.0 <= args.dagger_noise <= 0.8):
+        raise UsageError(f"--dagger-noise must be in [0, 0.8] m/s, got {args.dagger_noise}")
+    if not (0.0 <= args.start_offset <= 3.0):
+        raise UsageError(f"--start-offset must be in [0, 3] m, got {args.start_offset}")
+    if args.dagger is None and (args.dagger_noise or args.start_offset):
+        raise UsageError("--dagger-noise and --start-offset apply to on-policy rounds: they need --dagger")
     if args.dagger is not None:
         return _dagger(args)
     if args.samples is None:
@@ -163,13 +176,21 @@ def _dagger(args) -> int:
     # episodes never repeat the evaluation suite (seed 1) nor each other (GPC parts: +500)
     suite_seed = args.seed + 1000 * args.round + (500 if by_gpc else 0)
     scenarios = random_suite(suite, args.episodes, suite_seed)
+    if args.start_offset > 0:
+        import numpy as np
+
+        from nn_export.dataset import perturb_start
+        rng = np.random.default_rng([suite_seed, 77])
+        scenarios = [perturb_start(sc, rng, args.start_offset, args.start_offset / 2) for sc in scenarios]
     arrays, stats = collect_on_policy_parallel(
         factory, scenarios, config, layout, solver, robot, args.workers, args.backend, args.address,
         mirror=not args.no_mirror, id_base=(args.round + (500 if by_gpc else 0)) * _PART_STRIDE,
         mirror_check_every=args.mirror_check_every,
-        progress=lambda **kw: progress(desc=f"{part}", **kw))
+        progress=lambda **kw: progress(desc=f"{part}", **kw), noise_mps=args.dagger_noise)
     info = {"round": args.round, "model": str(args.dagger), "suite": suite, "episodes": args.episodes,
-            "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety}
+            "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety,
+            "driving_noise_mps": args.dagger_noise, "start_offset_m": args.start_offset,
+            "noise_applied": int(sum(e.get("noise_applied", 0) for e in stats["episodes"]))}
     try:
         doc = append_part(args.out, part, arrays, stats, info)
     except DatasetMismatch as exc:

@@ -15,7 +15,8 @@ from .common import add_preset_arguments, planner_config, progress
 def add_arguments(p):
     p.add_argument("datasets", type=Path, nargs="+", metavar="DATASET_DIR", help="dataset folder(s) to train on")
     p.add_argument("--out", type=Path, required=True, help="model folder to write")
-    p.add_argument("--hidden", type=int, default=35, help="hidden units (paper: 35)")
+    p.add_argument("--hidden", type=int, default=35, help="hidden units per layer (paper: 35)")
+    p.add_argument("--layers", type=int, default=1, help="hidden layers, 1 to 4 (paper: 1)")
     p.add_argument("--activation", choices=("tanh", "relu", "softsign"), default="tanh", help="hidden non-linearity")
     p.add_argument("--layout", choices=("paper", "multi"), default=None,
                    help="feature layout the datasets must have (default: whatever they have)")
@@ -61,6 +62,8 @@ def run(args) -> int:
         raise UsageError(f"training needs the train extra (pip install -e '.[train]'): {exc}") from None
     from nn_export.dataset import load_dataset
     cfg = planner_config(args)
+    if not 1 <= args.layers <= 4:
+        raise UsageError(f"--layers must be from 1 to 4, got {args.layers}")
     for name, v, lo in (("--hidden", args.hidden, 1), ("--epochs", args.epochs, 1), ("--patience", args.patience, 1),
                         ("--batch-size", args.batch_size, 1)):
         if v < lo:
@@ -94,7 +97,7 @@ def run(args) -> int:
     Y = np.concatenate([s.Y for s in sets])
     # situation ids are unique within a dataset; offset them so that datasets do not collide
     G = np.concatenate([s.groups.astype(np.int64) * len(sets) + i for i, s in enumerate(sets)])
-    model = WheelSpeedMLP(hidden=args.hidden, activation=args.activation, output_basis=args.output_basis,
+    model = WheelSpeedMLP(hidden=args.hidden, layers=args.layers, activation=args.activation, output_basis=args.output_basis,
                           optimizer=args.optimizer, max_epochs=args.epochs,
                           batch_size=args.batch_size, learning_rate=args.lr, weight_decay=args.weight_decay,
                           validation_fraction=args.validation_fraction, patience=args.patience,
@@ -123,7 +126,7 @@ def run(args) -> int:
     }
     model.save(args.out, provenance)
     np.save(args.out / "validation_features.npy", X[model.validation_indices_])
-    print(f"trained {lay.name} layout ({X.shape[1]}-{args.hidden}-2) on {len(model.train_indices_)} samples, "
+    print(f"trained {lay.name} layout ({X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-2) on {len(model.train_indices_)} samples, "
           f"validated on {len(model.validation_indices_)}: validation RMSE {np.sqrt(model.validation_mse_):.4f} m/s "
           f"(max {model.validation_max_abs_error_:.3f}), best epoch {model.best_epoch_} ({model.stop_reason_}), "
           f"wrote {args.out}", file=sys.stdout)

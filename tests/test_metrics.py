@@ -1,0 +1,35 @@
+"""Path comparison metrics (casadi_gpc.metrics): known answers on hand-made paths."""
+import numpy as np
+import pytest
+
+from casadi_gpc.metrics import path_deviation_m, same_instant_deviation_m
+
+
+def test_path_deviation_known_answers():
+    a = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    # b runs parallel 0.1 m away, then ends 0.3 m off a's end
+    b = np.array([[0.0, 0.1], [0.5, 0.1], [2.0, 0.3]])
+    assert path_deviation_m(a, b) == pytest.approx(0.3, abs=1e-12)
+    assert path_deviation_m(b, a) == pytest.approx(0.3, abs=1e-12)
+    # same instants: (1, 0) against (0.5, 0.1)
+    assert same_instant_deviation_m(a, b) == pytest.approx(np.hypot(0.5, 0.1), abs=1e-12)
+
+
+def test_path_deviation_ignores_timing_but_not_shape():
+    s = np.linspace(0.0, 10.0, 41)
+    curve = np.column_stack([s, np.sin(s)])
+    slow = np.column_stack([s[::2], np.sin(s[::2])])  # the same curve, sampled half as often
+    # only the chord error of the coarser polyline: h^2/8 max|y''| = 0.5^2/8 = 0.031 m
+    assert path_deviation_m(curve, slow) == pytest.approx(0.5 ** 2 / 8, abs=2e-3)
+    assert same_instant_deviation_m(curve, slow) > 1.0  # the slower robot lags behind
+    # a swerve to the other side is caught: mirror the curve
+    other = np.column_stack([s, -np.sin(s)])
+    assert path_deviation_m(curve, other) > 1.5  # the peaks are 2 m apart vertically
+
+
+def test_path_deviation_is_symmetric_for_a_short_path():
+    """A run that stops early is far from the end of the other path (both directions count)."""
+    a = np.column_stack([np.linspace(0, 10, 11), np.zeros(11)])
+    b = a[:4]
+    assert path_deviation_m(a, b) == pytest.approx(7.0)
+    assert path_deviation_m(b, a) == pytest.approx(7.0)

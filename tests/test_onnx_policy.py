@@ -233,7 +233,7 @@ def test_shipped_model_matches_its_preset(name):
     cfg = preset(name)
     assert p.model_info["preset"] == name and p.sample_time_s == cfg.sample_time_s and p.horizon == cfg.horizon
     assert p.model_info["feature_layout"] == "paper" and p.model_info["n_features"] == 11 + cfg.horizon
-    assert path.stat().st_size < 20_000
+    assert path.stat().st_size < 32_000  # 17-64-64-2 (or 23-64-64-2) in float32 plus metadata: ~26 KB
     other = "improved" if name == "paper" else "paper"
     with pytest.raises(ValueError, match="refusing"):
         OnnxPolicy(path, preset=other)

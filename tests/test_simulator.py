@@ -169,12 +169,39 @@ def test_runs_are_reproducible_from_the_seed():
 
 
 def test_random_suites_are_reproducible():
-    for kind in ("random", "random-multi"):
+    for kind in ("random", "random-multi", "encounters"):
         a, b = random_suite(kind, 4, 3), random_suite(kind, 4, 3)
         assert a == b
         assert random_scenario(kind, 2, 3) == random_suite(kind, 7, 3)[2]  # independent of the count
         assert random_suite(kind, 4, 4) != a
         assert len({s.sensing.seed for s in a}) == 4
+
+
+def test_encounters_are_the_fig7_family():
+    """Straight path, one obstacle that meets the reference point within 0.4 m in the middle of
+    the run, head-on or crossing; the robot on the path or up to 1.2 m beside it."""
+    import math
+    kinds = {"head-on": 0, "crossing": 0}
+    offsets = []
+    for sc in random_suite("encounters", 300, 5):
+        ref = sc.reference
+        assert len(ref.segments) == 1 and 12.0 <= ref.length_m <= 20.0 and 0.3 <= ref.speed_mps <= 0.5
+        assert sc.robot_start.x_m == 0.0 and abs(sc.robot_start.y_m) <= 1.2 and not sc.static
+        (ob,) = sc.moving
+        assert 0.2 <= ob.speed_mps <= 0.4 and 0.2 <= ob.radius_m <= 0.4
+        rel = math.degrees(ob.heading_rad) % 360.0
+        if 170.0 <= rel <= 190.0:
+            kinds["head-on"] += 1
+        else:
+            assert 60.0 <= rel <= 120.0 or 240.0 <= rel <= 300.0, rel
+            kinds["crossing"] += 1
+        # the obstacle meets the moving reference point within 0.4 m in the middle of the run
+        ts = np.linspace(0.3 * ref.duration_s, 0.7 * ref.duration_s, 2001)
+        q, r = np.asarray(ob.state_at(ts)), np.asarray(ref.pose_at_time(ts))
+        assert np.min(np.hypot(q[0] - r[:, 0], q[1] - r[:, 1])) <= 0.4 + 1e-3
+        offsets.append(sc.robot_start.y_m)
+    assert 70 <= kinds["head-on"] <= 130  # a third of 300
+    assert 0.5 <= np.mean(np.asarray(offsets) == 0.0) <= 0.7  # 60 % start on the path
 
 
 def test_run_document_fields():

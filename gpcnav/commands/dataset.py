@@ -49,6 +49,9 @@ def add_arguments(p):
                    help="--dagger: add N(0, SIGMA) m/s to each wheel speed the driver applies (DART: the "
                         "GPC drives, the states spread as a learner's errors would spread them; labels "
                         "are unaffected); default 0")
+    p.add_argument("--dagger-suite", choices=("random", "random-multi", "encounters"), default=None,
+                   help="--dagger: the episodes' suite (default: random, or random-multi for the multi layout; "
+                        "encounters: the family of the paper's Fig. 7)")
     p.add_argument("--start-offset", type=float, default=0.0, metavar="M",
                    help="--dagger: start each episode's robot U(-M, M) m beside the path, turned by "
                         "U(-M/2, M/2) rad (recovering starts, as in Fig. 7.3); default 0")
@@ -71,8 +74,9 @@ def run(args) -> int:
         raise UsageError(f"--dagger-noise must be in [0, 0.8] m/s, got {args.dagger_noise}")
     if not (0.0 <= args.start_offset <= 3.0):
         raise UsageError(f"--start-offset must be in [0, 3] m, got {args.start_offset}")
-    if args.dagger is None and (args.dagger_noise or args.start_offset):
-        raise UsageError("--dagger-noise and --start-offset apply to on-policy rounds: they need --dagger")
+    if args.dagger is None and (args.dagger_noise or args.start_offset or args.dagger_suite):
+        raise UsageError("--dagger-noise, --dagger-suite and --start-offset apply to on-policy rounds: "
+                         "they need --dagger")
     if args.dagger is not None:
         return _dagger(args)
     if args.samples is None:
@@ -172,7 +176,7 @@ def _dagger(args) -> int:
         prepare_labeller(DatasetSpec(1, config, layout, solver=solver))
     except (ValueError, RuntimeError) as exc:
         raise UsageError(f"--solver {solver}: {str(exc).splitlines()[0]}") from None
-    suite = "random-multi" if layout.name == "multi" else "random"
+    suite = args.dagger_suite or ("random-multi" if layout.name == "multi" else "random")
     # episodes never repeat the evaluation suite (seed 1) nor each other (GPC parts: +500)
     suite_seed = args.seed + 1000 * args.round + (500 if by_gpc else 0)
     scenarios = random_suite(suite, args.episodes, suite_seed)

@@ -15,7 +15,8 @@ _WORKER = {}
 
 def add_arguments(p):
     p.add_argument("scenarios", type=Path, nargs="*", help="scenario files")
-    p.add_argument("--suite", choices=("random", "random-multi"), default=None, help="a random suite instead of files")
+    p.add_argument("--suite", choices=("random", "random-multi", "encounters"), default=None,
+                   help="a random suite instead of files (encounters: the family of the paper's Fig. 7)")
     p.add_argument("--count", type=int, default=100, help="episodes of the suite")
     p.add_argument("--seed", type=int, default=0, help="seed of the suite")
     add_controller_arguments(p)

@@ -11,7 +11,7 @@ the preset, the robot or the feature layout it is asked to run with. Keys: ``for
 ``feature_layout``, ``feature_layout_version``, ``feature_layout_spec``, ``feature_names``, ``label_names``,
 ``n_features``, ``preset``, ``horizon``, ``sample_time_s``, ``planner_config``, ``robot``,
 ``output_clip_mps``, ``dataset``, ``validation_rmse_mps``, ``validation_max_abs_error_mps``,
-``hidden``, ``layers``, ``activation``, ``trained_with``.
+``hidden``, ``layers``, ``decision_passes``, ``activation``, ``trained_with``.
 """
 from __future__ import annotations
 
@@ -52,8 +52,14 @@ class ExportReport(dict):
     """What :func:`export_onnx` wrote and measured (a dict: path, bytes, parity_max_abs, ...)."""
 
 
-def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarray | None = None) -> ExportReport:
+def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarray | None = None,
+                decision_passes: int = 2) -> ExportReport:
     """Write ``model`` (fitted, or a folder saved by ``WheelSpeedMLP.save``) to ``out_path``.
+
+    ``decision_passes`` (metadata ``decision_passes``) is how :class:`~nn_export.OnnxPolicy`
+    runs the network by default: 2, the paper's two passes, or 1, one pass with the real
+    reference (a network trained on the GPC's own closed-loop states imitates it better that
+    way: docs/nn.md). A caller can still choose either.
 
     The file is checked with ``onnx.checker`` and, on ``parity_X`` (default: a seeded set of
     points spread over the training normalisation), run with onnxruntime and compared with
@@ -72,6 +78,8 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
                if k not in prov]
     if missing:
         raise ValueError(f"the model's provenance lacks {', '.join(missing)} (train it with `gpcnav train`)")
+    if decision_passes not in (1, 2):
+        raise ValueError(f"decision_passes must be 1 or 2, got {decision_passes!r}")
     clip = float(prov["robot"]["max_wheel_speed_mps"])
 
     deployed = _Deployed(_float32_copy(model.net_), clip).eval()
@@ -104,6 +112,7 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
         "validation_max_abs_error_mps": repr(float(model.validation_max_abs_error_)),
         "hidden": str(model.hidden),
         "layers": str(getattr(model, "layers", 1)),
+        "decision_passes": str(int(decision_passes)),
         "activation": model.activation,
         "trained_with": json.dumps({"params": model.get_params(), "best_epoch": model.best_epoch_,
                                     "stop_reason": model.stop_reason_, **prov.get("training", {})}),

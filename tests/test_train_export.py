@@ -188,3 +188,15 @@ def test_deeper_network_roundtrip_and_export_parity(tmp_path):
     assert meta["layers"] == "2" and meta["hidden"] == "12"
     with pytest.raises(ValueError, match="layers"):
         WheelSpeedMLP(layers=0).fit(X, Y)
+
+
+def test_decision_passes_travel_in_the_metadata(fitted, tmp_path):
+    m, X, _ = fitted
+    m.save(tmp_path / "m", PROV)
+    for passes in (1, 2):
+        export_onnx(tmp_path / "m", tmp_path / f"m{passes}.onnx", X[:64], decision_passes=passes)
+        meta = {q.key: q.value for q in onnx.load(tmp_path / f"m{passes}.onnx").metadata_props}
+        assert meta["decision_passes"] == str(passes)
+    with pytest.raises(ValueError, match="decision_passes"):
+        export_onnx(tmp_path / "m", tmp_path / "m3.onnx", X[:64], decision_passes=3)
+    assert not (tmp_path / "m3.onnx").exists()

@@ -12,6 +12,9 @@ from ..errors import UsageError
 def add_arguments(p):
     p.add_argument("model_dir", type=Path, help="folder written by `gpcnav train`")
     p.add_argument("--out", type=Path, required=True, help="write the ONNX model here")
+    p.add_argument("--passes", type=int, choices=(1, 2), default=2,
+                   help="how the policy runs this network by default: 2, the paper's two passes (default), or 1, "
+                        "one pass with the real reference (docs/nn.md)")
 
 
 def run(args) -> int:
@@ -28,13 +31,13 @@ def run(args) -> int:
         raise UsageError(f"{args.model_dir}: cannot load the trained model: {exc}") from None
     parity_X = _validation_features(args.model_dir, model)
     try:
-        report = export_onnx(model, args.out, parity_X)
+        report = export_onnx(model, args.out, parity_X, decision_passes=args.passes)
     except ValueError as exc:
         raise UsageError(f"{args.model_dir}: {exc}") from None
     meta = report["metadata"]
     print(f"wrote {report['path']} ({report['bytes']} bytes): layout {meta['feature_layout']} "
           f"v{meta['feature_layout_version']}, {meta['n_features']} inputs, preset {meta['preset']}, "
-          f"validation RMSE {float(meta['validation_rmse_mps']):.4f} m/s, ONNX/torch parity "
+          f"{meta['decision_passes']} pass(es), validation RMSE {float(meta['validation_rmse_mps']):.4f} m/s, ONNX/torch parity "
           f"{report['parity_max_abs_mps']:.2e} m/s on {report['parity_samples']} validation samples", file=sys.stdout)
     return 0
 

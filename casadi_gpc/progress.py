@@ -42,12 +42,13 @@ class ReferenceClock:
 
     def update(self, path: ReferencePath, t_s: float, robot_xy) -> float:
         """The reference arc length for the sample at ``t_s`` (call once per sample)."""
+        # path.arclength_at_time on a plain float (np.clip costs more than the rest of the update)
+        nominal = min(max(path.speed_mps * float(t_s), 0.0), path.length_m)
         if self.max_lead_m is None:
-            self.s_m = float(path.arclength_at_time(t_s))
+            self.s_m = nominal
             return self.s_m
         previous = self._proj_m
         self._proj_m = path.project(robot_xy, self._proj_m, window_m=1.0)
-        nominal = float(path.arclength_at_time(t_s))
         if t_s <= 0.0:
             self.s_m = 0.0
             return self.s_m

@@ -5,6 +5,8 @@ Numpy only, so the deployed policy can use it.
 """
 from __future__ import annotations
 
+import math
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,10 +54,16 @@ class ReferencePath:
         object.__setattr__(self, "_starts", np.array(starts))
         object.__setattr__(self, "_cum", np.array(cum))
         object.__setattr__(self, "_curv", np.array([s.curvature_1pm for s in self.segments]))
+        # the same table in plain floats for poses_along: (start arc length, x0, y0, h0,
+        # curvature, cos h0, sin h0) per segment, and the arc lengths where they start
+        object.__setattr__(self, "_cum_list", tuple(cum[:-1]))
+        object.__setattr__(self, "_table", tuple((c, x0, y0, h0, seg.curvature_1pm, math.cos(h0), math.sin(h0))
+                                                 for c, (x0, y0, h0), seg in zip(cum, starts, self.segments)))
+        object.__setattr__(self, "_length", cum[-1])
 
     @property
     def length_m(self) -> float:
-        return float(self._cum[-1])
+        return self._length
 
     @property
     def duration_s(self) -> float:
@@ -67,15 +75,43 @@ class ReferencePath:
         return self.pose_at_arclength(self.length_m)
 
     def _segment_index(self, s):
-        return np.clip(np.searchsorted(self._cum, s, side="right") - 1, 0, len(self.segments) - 1)
+        # np.minimum(np.maximum(.)) is np.clip at a fraction of the call cost
+        return np.minimum(np.maximum(np.searchsorted(self._cum, s, side="right") - 1, 0), len(self.segments) - 1)
+
+    def _arc_at(self, s):
+        """``(x, y, heading)`` arrays at arc lengths ``s`` already clipped to the path."""
+        i = self._segment_index(s)
+        x0, y0, h0 = self._starts[i].T if np.ndim(s) else self._starts[i]
+        return arc_step(np, x0, y0, h0, 1.0, self._curv[i], s - self._cum[i])
 
     def pose_at_arclength(self, s) -> np.ndarray:
         """Pose ``[x, y, heading]`` (shape ``(..., 3)``) at arc length ``s``, clipped to the path."""
-        s = np.clip(np.asarray(s, dtype=float), 0.0, self.length_m)
-        i = self._segment_index(s)
-        x0, y0, h0 = self._starts[i].T if np.ndim(s) else self._starts[i]
-        x, y, h = arc_step(np, x0, y0, h0, 1.0, self._curv[i], s - self._cum[i])
-        return np.stack([x, y, h], axis=-1)
+        s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), self._length)
+        return np.stack(self._arc_at(s), axis=-1)
+
+    def poses_along(self, s0_m: float, step_m: float, n: int) -> list[tuple[float, float, float]]:
+        """Poses ``(x, y, heading)`` at the arc lengths ``s0_m + k step_m``, k = 0..n-1,
+        clipped to the path: the values of :meth:`pose_at_arclength` (the same model, on
+        plain floats), for the few poses of a horizon, where numpy's per-call cost would be
+        most of the time."""
+        L, cum, table = self._length, self._cum_list, self._table
+        out = []
+        for k in range(n):
+            s = s0_m + step_m * k
+            if s < 0.0:  # min(max(s, 0), L), without the two calls
+                s = 0.0
+            elif s > L:
+                s = L
+            # the segment that starts at or before s (the first starts at 0 <= s)
+            c, x0, y0, h0, curv, cos0, sin0 = table[bisect_right(cum, s) - 1]
+            ds = s - c
+            if curv == 0.0:
+                # arc_step with turn rate 0: half-angle 0, sinc 1, so the chord is ds along h0
+                # (bit for bit the same numbers)
+                out.append((x0 + ds * cos0, y0 + ds * sin0, h0))
+            else:
+                out.append(arc_step(math, x0, y0, h0, 1.0, curv, ds))
+        return out
 
     def curvature_at_arclength(self, s) -> np.ndarray:
         s = np.clip(np.asarray(s, dtype=float), 0.0, self.length_m)
@@ -90,9 +126,9 @@ class ReferencePath:
     def project(self, xy, s_guess: float, window_m: float = 2.0, samples: int = 81) -> float:
         """Arc length of the path point nearest ``xy``, searched near ``s_guess``."""
         s = np.linspace(s_guess - window_m, s_guess + window_m, samples)
-        s = np.clip(s, 0.0, self.length_m)
-        p = self.pose_at_arclength(s)
-        d2 = (p[:, 0] - xy[0]) ** 2 + (p[:, 1] - xy[1]) ** 2
+        s = np.minimum(np.maximum(s, 0.0), self._length)
+        x, y, _ = self._arc_at(s)
+        d2 = (x - xy[0]) ** 2 + (y - xy[1]) ** 2
         return float(s[int(np.argmin(d2))])
 
     def polyline(self, step_m: float = 0.05) -> np.ndarray:

@@ -82,7 +82,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, reduce
+from itertools import chain
+from operator import add
 
 import numpy as np
 
@@ -96,7 +98,8 @@ from casadi_gpc.types import Observation, ObstacleForecast, StaticObstacle
 __all__ = [
     "FEATURE_VERSION", "LAYOUTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM", "FeatureLayout", "layout_for",
     "layout_from_dict", "TrackEstimate", "Situation", "reference_poses", "track_estimate", "order_by_distance",
-    "compute_features", "compute_features_batch", "RolloutFeatures", "mirror_features", "SituationTracker", "wrap_pi",
+    "compute_features", "feature_values", "feature_values_from", "compute_features_batch", "RolloutFeatures", "mirror_features",
+    "SituationTracker", "wrap_pi",
 ]
 
 FEATURE_VERSION = 1
@@ -157,6 +160,11 @@ class FeatureLayout:
     @property
     def moving_width(self) -> int:
         return 8 if self.flags else 5
+
+    @cached_property
+    def _absent_obstacles(self) -> tuple[float, ...]:
+        """The obstacle slots of a situation without obstacles (all of them empty)."""
+        return (*_moving_values(self, None, None) * self.k_moving, *_static_values(self, None, None) * self.k_static)
 
     @cached_property
     def _mirror(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -321,10 +329,9 @@ class Situation:
 def reference_poses(path: ReferencePath, s0_m: float, sample_time_s: float, horizon: int) -> np.ndarray:
     """Desired poses at steps 0..H from a reference point at arc length ``s0_m``: the same
     arc lengths as :meth:`ReferenceClock.horizon_arclengths` (steps 1..H) plus step 0."""
-    step = path.speed_mps * sample_time_s
-    # np.minimum(np.maximum(.)) is np.clip at half the call cost
-    s = np.minimum(np.maximum(s0_m + step * np.arange(0, horizon + 1), 0.0), path.length_m)
-    return path.pose_at_arclength(s)
+    n = horizon + 1
+    return np.fromiter(chain.from_iterable(path.poses_along(s0_m, path.speed_mps * sample_time_s, n)), float,
+                       3 * n).reshape(n, 3)
 
 
 def track_estimate(ekf: ObstacleEKF, obstacle_id: int, radius_m: float, horizon: int) -> TrackEstimate:
@@ -337,14 +344,19 @@ def track_estimate(ekf: ObstacleEKF, obstacle_id: int, radius_m: float, horizon:
 def order_by_distance(robot_xy, tracks=(), statics=()) -> tuple[list, list]:
     """Tracks and static obstacles, nearest first (current and predicted positions)."""
     rx, ry = float(robot_xy[0]), float(robot_xy[1])
+    hypot = math.hypot
 
     def key_track(t: TrackEstimate):
-        d_now = math.hypot(t.state[0] - rx, t.state[1] - ry)
-        d_pred = float(np.min(np.hypot(t.means_m[:, 0] - rx, t.means_m[:, 1] - ry))) if len(t.means_m) else d_now
-        return min(d_now, d_pred)
+        x, y = t.state[:2].tolist()
+        d = hypot(x - rx, y - ry)
+        for mx, my in t.means_m.tolist():
+            d = min(d, hypot(mx - rx, my - ry))
+        return d
 
-    return (sorted(tracks, key=key_track),
-            sorted(statics, key=lambda s: math.hypot(s.position_m[0] - rx, s.position_m[1] - ry)))
+    # one of each needs no distances (the common case)
+    return (sorted(tracks, key=key_track) if len(tracks) > 1 else list(tracks),
+            sorted(statics, key=lambda s: hypot(s.position_m[0] - rx, s.position_m[1] - ry)) if len(statics) > 1
+            else list(statics))
 
 
 # --------------------------------------------------------------------------------------
@@ -360,83 +372,129 @@ def _wrap(a: float) -> float:
     return math.pi - (math.pi - a) % _TWO_PI
 
 
-def _segment_terms(layout: FeatureLayout, P: list) -> tuple[list, list, list]:
-    """For each pair of consecutive desired poses in ``P`` (rows ``[x, y, heading]``): the
-    curvature feature of the arc that joins them (clipped), its length, and whether it was
-    clipped. A window of H + 1 poses has H of them; overlapping windows share them."""
-    n = len(P) - 1
-    # the exact arc through consecutive poses: chord = L sinc(dth/2) along the mid heading
-    dth = [_wrap(P[k + 1][2] - P[k][2]) for k in range(n)]
-    sincs = [sinc(math, 0.5 * d) for d in dth]  # the robot model's own sinc, on plain floats
-    lim = layout.curvature_limit_1pm
-    kappas, lengths, clipped = [], [], []
-    for k in range(n):
-        mid = P[k][2] + 0.5 * dth[k]
-        length = ((P[k + 1][0] - P[k][0]) * math.cos(mid) + (P[k + 1][1] - P[k][1]) * math.sin(mid)) / sincs[k]
-        if abs(length) > _SHORT_ARC_M:
-            kappa = dth[k] / length
+# Everything below is written with plain floats and lists: the deployed policy computes
+# the features of H + 1 situations per decision, and numpy's per-call overhead on vectors
+# of a few elements was most of its time (measured). The values are assembled in a list
+# and written into the network's input in one go.
+def _window_tails(layout: FeatureLayout, P: list, T: float) -> list[tuple[list, int]]:
+    """For each window of H + 1 consecutive desired poses in ``P`` (rows ``[x, y, heading]``,
+    windows starting at 0, 1, ...): the last H + 1 reference features, the curvatures of
+    the H arcs that join consecutive poses (clipped) and the mean desired speed (their
+    total length over H T), and how many curvatures were clipped. Overlapping windows
+    share the arcs."""
+    H, lim = layout.horizon, layout.curvature_limit_1pm
+    kappas, lengths, clipped = [], [], [0]  # clipped: running count, from 0
+    cos, sin, pi, short = math.cos, math.sin, math.pi, _SHORT_ARC_M
+    x0, y0, h0 = P[0]
+    for x1, y1, h1 in P[1:]:
+        # the exact arc through consecutive poses: chord = L sinc(dth/2) along the mid heading
+        if h1 == h0:  # a straight piece: dth = 0 and sinc(0) = 1 exactly, so the same numbers
+            dth = 0.0
+            mid = h0 + 0.0
+            length = (x1 - x0) * cos(mid) + (y1 - y0) * sin(mid)
+        else:
+            dth = pi - (pi - (h1 - h0)) % _TWO_PI  # _wrap(h1 - h0), inline
+            half = 0.5 * dth
+            mid = h0 + half
+            # the robot model's own sinc, on plain floats
+            length = ((x1 - x0) * cos(mid) + (y1 - y0) * sin(mid)) / sinc(math, half)
+        if length > short or length < -short:  # abs(length) > short
+            kappa = dth / length
         else:  # one point: no curvature, unless it turns on the spot (infinite)
-            kappa = math.copysign(math.inf, dth[k]) if abs(dth[k]) > 1e-9 else 0.0
-        clip = abs(kappa) > lim
-        if clip:
+            kappa = math.copysign(math.inf, dth) if abs(dth) > 1e-9 else 0.0
+        if kappa > lim or kappa < -lim:  # abs(kappa) > lim
             kappa = math.copysign(lim, kappa)
+            clipped.append(clipped[-1] + 1)
+        else:
+            clipped.append(clipped[-1])
         kappas.append(kappa)
         lengths.append(length)
-        clipped.append(clip)
-    return kappas, lengths, clipped
+        x0, y0, h0 = x1, y1, h1
+    HT = H * T
+    out = []
+    for j in range(len(P) - H):
+        tail = kappas[j:j + H]
+        # the lengths added in order from 0.0 (sum() may compensate, depending on the version)
+        tail.append(reduce(add, lengths[j:j + H], 0.0) / HT)
+        out.append((tail, clipped[j + H] - clipped[j]))
+    return out
 
 
-def _reference_block(layout: FeatureLayout, x: float, y: float, heading: float, P: list, segments: tuple,
-                     start: int, T: float, out: np.ndarray, report) -> None:
-    """First desired point, the H curvatures and the mean speed, into ``out``, for the robot
-    at ``(x, y, heading)`` and the desired poses ``P[start:start + H + 1]`` (``segments``:
-    :func:`_segment_terms` of ``P``).
-
-    Written with scalar floats: the deployed policy calls this several times per decision,
-    and numpy's per-call overhead on arrays of H elements dominated it."""
-    H = layout.horizon
+def _reference_values(x: float, y: float, heading: float, p1, window: tuple[list, int], report) -> list:
+    """The reference features for the robot at ``(x, y, heading)``: the first desired point
+    ``p1`` in its frame, then the window's tail (:func:`_window_tails`)."""
     c, s = math.cos(heading), math.sin(heading)
-    p1 = P[start + 1]
     dx, dy = p1[0] - x, p1[1] - y
-    out[0] = c * dx + s * dy
-    out[1] = -s * dx + c * dy
-    out[2] = _wrap(p1[2] - heading)
-    kappas, lengths, clipped = segments
-    total = 0.0
-    for k in range(start, start + H):
-        total += lengths[k]
-    out[3:3 + H] = kappas[start:start + H]
-    _bump(report, "curvature_clipped", sum(clipped[start:start + H]))
-    out[3 + H] = total / (H * T)
+    tail, n_clipped = window
+    if n_clipped and report is not None:
+        report["curvature_clipped"] = report.get("curvature_clipped", 0) + n_clipped
+    return [c * dx + s * dy, -s * dx + c * dy, _wrap(p1[2] - heading), *tail]
 
 
-def _moving_slot(layout: FeatureLayout, robot: RobotState, tr: TrackEstimate | None, out: np.ndarray) -> None:
+def _moving_values(layout: FeatureLayout, robot: RobotState | None, tr: TrackEstimate | None) -> list:
     if tr is None:
         vals = [-layout.range_m, 0.0, 0.0, math.pi, 0.0]
-        if layout.flags:
-            vals = [0.0] + vals + [0.0, 0.0]
-        out[:] = vals
-        return
-    c, s = math.cos(robot.heading_rad), math.sin(robot.heading_rad)
-    x, y, v, th, dth = (float(a) for a in tr.state)
+        return [0.0] + vals + [0.0, 0.0] if layout.flags else vals
+    heading = robot.heading_rad
+    c, s = math.cos(heading), math.sin(heading)
+    x, y, v, th, dth = tr.state.tolist()
     dx, dy = x - robot.x_m, y - robot.y_m
     if tr.initialised:
-        vals = [c * dx + s * dy, -s * dx + c * dy, v, (th + dth - robot.heading_rad) % _TWO_PI, dth]
+        vals = [c * dx + s * dy, -s * dx + c * dy, v, (th + dth - heading) % _TWO_PI, dth]
     else:  # one position seen: standing still as far as anyone knows, heading unknown
         vals = [c * dx + s * dy, -s * dx + c * dy, 0.0, math.pi, 0.0]
     if layout.flags:
         cov_h = tr.covs_m2[-1] if len(tr.covs_m2) else tr.cov[:2, :2]
         vals = [1.0] + vals + [tr.radius_m, math.sqrt(max(0.5 * float(np.trace(cov_h)), 0.0))]
-    out[:] = vals
+    return vals
 
 
-def _static_slot(layout: FeatureLayout, robot: RobotState, st: StaticObstacle | None, out: np.ndarray) -> None:
+def _static_values(layout: FeatureLayout, robot: RobotState | None, st: StaticObstacle | None) -> list:
     if st is None:
-        out[:] = [0.0, -layout.range_m, 0.0, 0.0]
-        return
+        return [0.0, -layout.range_m, 0.0, 0.0]
     c, s = math.cos(robot.heading_rad), math.sin(robot.heading_rad)
     dx, dy = st.position_m[0] - robot.x_m, st.position_m[1] - robot.y_m
-    out[:] = [1.0, c * dx + s * dy, -s * dx + c * dy, st.radius_m]
+    return [1.0, c * dx + s * dy, -s * dx + c * dy, st.radius_m]
+
+
+def feature_values(layout: FeatureLayout, situation: Situation, report: dict | None = None) -> list[float]:
+    """:func:`compute_features` as a list of plain floats (what the deployed policy writes
+    into the network's input row in one go)."""
+    if situation.horizon != layout.horizon:
+        raise ValueError(f"situation has horizon {situation.horizon}, layout {layout.name!r} wants {layout.horizon}")
+    ref_poses = np.asarray(situation.ref_poses, dtype=float)
+    if ref_poses.shape != (layout.horizon + 1, 3):
+        raise ValueError(f"expected desired poses of shape {(layout.horizon + 1, 3)}, got {ref_poses.shape}")
+    return feature_values_from(layout, situation.robot, ref_poses.tolist(), situation.sample_time_s, situation.tracks,
+                               situation.statics, report)
+
+
+def feature_values_from(layout: FeatureLayout, robot: RobotState, ref_rows: list, sample_time_s: float,
+                        tracks=(), statics=(), report: dict | None = None) -> list[float]:
+    """:func:`feature_values` of the situation made of these pieces, the H + 1 desired
+    poses given as rows ``(x, y, heading)`` (unchecked: the caller's; the deployed policy's
+    second pass builds no :class:`Situation` for them)."""
+    r = robot
+    rx, ry = r.x_m, r.y_m
+    f = [r.v_right_mps, r.v_left_mps]
+    if tracks or statics:
+        tracks, statics = order_by_distance((rx, ry), tracks, statics)
+        rng, hypot = layout.range_m, math.hypot
+        in_range = [t for t in tracks if hypot(float(t.state[0]) - rx, float(t.state[1]) - ry) <= rng]
+        st_in = [s for s in statics if hypot(s.position_m[0] - rx, s.position_m[1] - ry) <= rng]
+        if report is not None:
+            _bump(report, "out_of_range", (len(tracks) - len(in_range)) + (len(statics) - len(st_in)))
+            _bump(report, "dropped_moving", max(len(in_range) - layout.k_moving, 0))
+            _bump(report, "dropped_static", max(len(st_in) - layout.k_static, 0))
+        for j in range(layout.k_moving):
+            f += _moving_values(layout, r, in_range[j] if j < len(in_range) else None)
+        for j in range(layout.k_static):
+            f += _static_values(layout, r, st_in[j] if j < len(st_in) else None)
+    else:
+        f += layout._absent_obstacles
+    f += _reference_values(rx, ry, r.heading_rad, ref_rows[1], _window_tails(layout, ref_rows, sample_time_s)[0],
+                           report)
+    return f
 
 
 def compute_features(layout: FeatureLayout, situation: Situation, out: np.ndarray | None = None,
@@ -447,32 +505,8 @@ def compute_features(layout: FeatureLayout, situation: Situation, out: np.ndarra
     ``report``: a dict whose counters (``out_of_range``, ``dropped_moving``,
     ``dropped_static``, ``curvature_clipped``) are incremented, so nothing is lost silently.
     """
-    if situation.horizon != layout.horizon:
-        raise ValueError(f"situation has horizon {situation.horizon}, layout {layout.name!r} wants {layout.horizon}")
     f = np.empty(layout.size) if out is None else out
-    r = situation.robot
-    f[0], f[1] = r.v_right_mps, r.v_left_mps
-    rxy = (r.x_m, r.y_m)
-    tracks, statics = order_by_distance(rxy, situation.tracks, situation.statics)
-    in_range = [t for t in tracks if math.hypot(t.state[0] - rxy[0], t.state[1] - rxy[1]) <= layout.range_m]
-    st_in = [s for s in statics if math.hypot(s.position_m[0] - rxy[0], s.position_m[1] - rxy[1]) <= layout.range_m]
-    _bump(report, "out_of_range", (len(tracks) - len(in_range)) + (len(statics) - len(st_in)))
-    _bump(report, "dropped_moving", max(len(in_range) - layout.k_moving, 0))
-    _bump(report, "dropped_static", max(len(st_in) - layout.k_static, 0))
-    k = 2
-    w = layout.moving_width
-    for j in range(layout.k_moving):
-        _moving_slot(layout, r, in_range[j] if j < len(in_range) else None, f[k:k + w])
-        k += w
-    for j in range(layout.k_static):
-        _static_slot(layout, r, st_in[j] if j < len(st_in) else None, f[k:k + 4])
-        k += 4
-    ref_poses = np.asarray(situation.ref_poses, dtype=float)
-    if ref_poses.shape != (layout.horizon + 1, 3):
-        raise ValueError(f"expected desired poses of shape {(layout.horizon + 1, 3)}, got {ref_poses.shape}")
-    P = ref_poses.tolist()
-    _reference_block(layout, r.x_m, r.y_m, r.heading_rad, P, _segment_terms(layout, P), 0, situation.sample_time_s,
-                     f[k:], report)
+    f[:] = feature_values(layout, situation, report)
     return f
 
 
@@ -494,29 +528,23 @@ class RolloutFeatures:
         self.layout, self.sample_time_s = layout, float(sample_time_s)
         self.windows = len(ref_poses) - layout.horizon
         self._P = ref_poses.tolist()
-        self._segments = _segment_terms(layout, self._P)
+        self._windows = _window_tails(layout, self._P, self.sample_time_s)
         # the empty obstacle slots, as compute_features writes them for a situation without obstacles
-        self.template = np.zeros(layout.size)
-        k, w = 2, layout.moving_width
-        for _ in range(layout.k_moving):
-            _moving_slot(layout, None, None, self.template[k:k + w])
-            k += w
-        for _ in range(layout.k_static):
-            _static_slot(layout, None, None, self.template[k:k + 4])
-            k += 4
-        self._ref_at = k
+        self._absent = layout._absent_obstacles
+
+    def values(self, j: int, x: float, y: float, heading: float, v_right: float, v_left: float,
+               report: dict | None = None) -> list[float]:
+        """Window ``j``'s features for the robot at ``(x, y, heading)`` with wheel speeds
+        ``(v_right, v_left)``, as a list of plain floats."""
+        if not 0 <= j < self.windows:
+            raise IndexError(f"window {j} of {self.windows}")
+        return [v_right, v_left, *self._absent,
+                *_reference_values(x, y, heading, self._P[j + 1], self._windows[j], report)]
 
     def fill(self, j: int, x: float, y: float, heading: float, v_right: float, v_left: float, out: np.ndarray,
              report: dict | None = None) -> np.ndarray:
-        """Window ``j``'s features for the robot at ``(x, y, heading)`` with wheel speeds
-        ``(v_right, v_left)`` into ``out`` (any float dtype, shape ``(layout.size,)``)."""
-        if not 0 <= j < self.windows:
-            raise IndexError(f"window {j} of {self.windows}")
-        out[:] = self.template
-        out[0] = v_right
-        out[1] = v_left
-        _reference_block(self.layout, x, y, heading, self._P, self._segments, j, self.sample_time_s,
-                         out[self._ref_at:], report)
+        """:meth:`values` into ``out`` (any float dtype, shape ``(layout.size,)``)."""
+        out[:] = self.values(j, x, y, heading, v_right, v_left, report)
         return out
 
 

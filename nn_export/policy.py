@@ -28,8 +28,11 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import struct
 import time
 from functools import partial
+from itertools import repeat
+from operator import sub
 from pathlib import Path
 
 import numpy as np
@@ -37,10 +40,10 @@ import onnxruntime as ort
 
 from casadi_gpc.config import DEFAULT_PRESET, PlannerConfig, preset as preset_config
 from casadi_gpc.ekf import EKFSettings
-from casadi_gpc.robot import RobotParams, robot_step
+from casadi_gpc.robot import RobotParams, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation
 
-from .features import (FeatureLayout, RolloutFeatures, Situation, SituationTracker, compute_features,
+from .features import (FeatureLayout, RolloutFeatures, Situation, SituationTracker, feature_values, feature_values_from,
                        layout_from_dict)
 from .safety import SafetyFilter
 
@@ -84,6 +87,21 @@ def _load_session(path: Path) -> tuple[ort.InferenceSession, bytes]:
         return ort.InferenceSession(data, opts, providers=["CPUExecutionProvider"]), data
     except Exception as exc:  # onnxruntime raises its own classes for truncated or corrupt files
         raise ValueError(f"{path}: not a readable ONNX model ({_one_line(exc)})") from None
+
+
+def _bound_run(session: ort.InferenceSession, binding) -> "partial":
+    """A call without arguments that runs ``session`` on the bound buffers.
+
+    The policy calls the network H + 1 times per decision, so the per-call overhead
+    counts: onnxruntime's Python ``run_with_iobinding`` wraps the C++ method with a
+    graph-capture check (about 0.4 us), and the C++ method given no RunOptions makes one
+    per call (about 0.8 us; 1.31, measured). So the C++ method of the session is called
+    directly, with one RunOptions made here, when this onnxruntime has it (it has since
+    1.x: ``InferenceSession._sess``, ``IOBinding._iobinding``); else the public method."""
+    sess, ib = getattr(session, "_sess", None), getattr(binding, "_iobinding", None)
+    if callable(getattr(sess, "run_with_iobinding", None)) and ib is not None:
+        return partial(sess.run_with_iobinding, ib, ort.RunOptions())
+    return partial(session.run_with_iobinding, binding)
 
 
 def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str | None,
@@ -184,15 +202,17 @@ class OnnxPolicy:
         # two passes need the desired poses at steps 0..2H-1 (the window of roll-out step j is j..j+H)
         self.tracker = SituationTracker(self.config, ekf_settings,
                                         reference_steps=2 * self.horizon - 1 if self.two_pass else None)
-        # one preallocated float32 input row bound once; ``_net`` writes into it in place
+        # one preallocated float32 input row bound once; ``_write`` packs a list of feature
+        # values into it in one call (float64 -> float32 rounding as numpy's)
         self._x = np.zeros((1, self.layout.size), dtype=np.float32)
         self._y = np.zeros((1, 2), dtype=np.float32)
-        self._f64 = np.zeros(self.layout.size)
         self._x1, self._y1 = self._x[0], self._y[0]  # views of the bound rows
+        self._last_values: list[float] = [0.0] * self.layout.size  # see _f64
+        self._write = partial(struct.Struct(f"={self.layout.size}f").pack_into, memoryview(self._x).cast("B"), 0)
         self._binding = self.session.io_binding()
         self._binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._x))
         self._binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
-        self._run = partial(self.session.run_with_iobinding, self._binding)
+        self._run = _bound_run(self.session, self._binding)
         self._run()  # first call allocates; do it now, not in the first decision
         if not np.all(np.isfinite(self._y)):  # corrupt numbers in an otherwise valid file
             raise ValueError(f"{path}: the network gives non-finite wheel speeds (corrupt weights?)")
@@ -211,6 +231,7 @@ class OnnxPolicy:
         else:
             self.safety = None
         self.model_info["safety_filter"] = self.safety is not None
+        self._safety_names: dict[str, str] = {}
         self.load_time_s = time.perf_counter() - t0
         self.reset()
 
@@ -222,13 +243,22 @@ class OnnxPolicy:
             self.safety.reset()
 
     # --- the network -----------------------------------------------------------------
-    def _net(self, situation: Situation) -> tuple[float, float]:
-        """One network call on ``situation``'s features (preallocated buffers)."""
-        compute_features(self.layout, situation, self._f64, self.counters["feature_report"])
-        self._x1[:] = self._f64
+    @property
+    def _f64(self) -> np.ndarray:
+        """The last network input made from a whole situation (one pass, pass 2), in float64."""
+        return np.array(self._last_values)
+
+    def _net_values(self, values: list[float]) -> tuple[float, float]:
+        """One network call on these feature values (preallocated buffers)."""
+        self._last_values = values
+        self._write(*values)
         self._run()
         vr, vl = self._y1.tolist()
         return vr, vl
+
+    def _net(self, situation: Situation) -> tuple[float, float]:
+        """One network call on ``situation``'s features."""
+        return self._net_values(feature_values(self.layout, situation, self.counters["feature_report"]))
 
     def network(self, features: np.ndarray) -> np.ndarray:
         """The raw network on a batch of feature rows (n, n_features) -> (n, 2), m/s."""
@@ -241,35 +271,48 @@ class OnnxPolicy:
         ``ref_ahead``: desired poses at steps 0..2H-1 (the window of step j is j..j+H).
         Returns predicted poses (H, 3) after each step and the wheel speeds (H, 2).
         """
+        poses, wheels = self._free_path(situation.robot, ref_ahead)
+        H = self.horizon
+        return np.array(poses).reshape(H, 3), np.array(wheels).reshape(H, 2)
+
+    def _free_path(self, r, ref_ahead: np.ndarray) -> tuple[list, list]:
+        """:meth:`predict_free_path` from robot state ``r``, as flat lists of plain floats:
+        the poses ``[x1, y1, th1, x2, ...]`` and the wheel speeds ``[vr1, vl1, vr2, ...]``."""
         H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
-        r = situation.robot
         x, y, th, vr, vl = r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps
         # the features of each step's obstacle-free situation (RobotState(x, y, th, vr, vl),
-        # ref_ahead[j:j + H + 1]), written straight into the bound input row; plain floats
+        # ref_ahead[j:j + H + 1]) packed straight into the bound input row; plain floats
         # throughout (numpy's per-call cost was most of the decision time, measured)
-        feats = RolloutFeatures(self.layout, ref_ahead[:2 * H], T)
-        xb, yb, run, report = self._x1, self._y1, self._run, self.counters["feature_report"]
+        values = RolloutFeatures(self.layout, ref_ahead[:2 * H], T).values
+        write, y1, run, report = self._write, self._y1, self._run, self.counters["feature_report"]
         poses, wheels = [], []
         for j in range(H):
-            feats.fill(j, x, y, th, vr, vl, xb, report)
+            write(*values(j, x, y, th, vr, vl, report))
             run()
-            vr, vl = yb.tolist()
-            x, y, th = robot_step(math, x, y, th, vr, vl, T, W)
-            poses.append((x, y, th))
-            wheels.append((vr, vl))
-        return np.array(poses), np.array(wheels)
+            vr, vl = y1.tolist()
+            x, y, th = robot_step_float(x, y, th, vr, vl, T, W)
+            poses += (x, y, th)
+            wheels += (vr, vl)
+        return poses, wheels
 
     def closest_clearance(self, situation: Situation, poses: np.ndarray) -> float:
         """Smallest clearance of the predicted robot poses (H, 3) to the obstacles' predicted
         positions at the same steps (moving) and to the static obstacles, m."""
+        return self._clearance(situation, np.asarray(poses, dtype=float).ravel().tolist())
+
+    def _clearance(self, situation: Situation, poses: list) -> float:
+        """:meth:`closest_clearance` of the flat pose list ``[x1, y1, th1, x2, ...]``."""
         best = math.inf
-        rr = self.robot.radius_m
+        rr, hypot = self.robot.radius_m, math.hypot
+        xs, ys = poses[0::3], poses[1::3]
         for tr in situation.tracks:
-            d = np.hypot(poses[:, 0] - tr.means_m[:, 0], poses[:, 1] - tr.means_m[:, 1])
-            best = min(best, float(d.min()) - rr - tr.radius_m)
+            m = tr.means_m.ravel().tolist()
+            d = min(map(hypot, map(sub, xs, m[0::2]), map(sub, ys, m[1::2])))
+            best = min(best, d - rr - tr.radius_m)
         for st in situation.statics:
-            d = np.hypot(poses[:, 0] - st.position_m[0], poses[:, 1] - st.position_m[1])
-            best = min(best, float(d.min()) - rr - st.radius_m)
+            sx, sy = st.position_m
+            d = min(map(hypot, map(sub, xs, repeat(sx)), map(sub, ys, repeat(sy))))
+            best = min(best, d - rr - st.radius_m)
         return best
 
     # --- the step --------------------------------------------------------------------
@@ -286,9 +329,15 @@ class OnnxPolicy:
         plan = dec.planned_wheels_mps
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
         cand = plan if own else np.array([dec.v_right_mps, dec.v_left_mps])
-        v = self.safety.filter(obs, cand, situation.forecasts(), situation.statics)
+        # the track estimates carry the forecasts' fields (no ObstacleForecast copies), and the
+        # pass-1 plan comes with the poses the roll-out already computed
+        v = self.safety.filter(obs, cand, situation.tracks, situation.statics, dec.planned_poses if own else None)
+        mine, names = self.counters, self._safety_names
         for k, n in self.safety.counters.items():
-            self.counters["safety_" + k] = n
+            name = names.get(k)
+            if name is None:  # the names made once (this runs every sample)
+                name = names[k] = "safety_" + k
+            mine[name] = n
         info = dec.info  # the decision is new each step: annotate it in place
         info["safety_time_s"] = time.perf_counter() - t0
         info["safety_clearance_m"] = v.check.min_clearance_m
@@ -309,18 +358,19 @@ class OnnxPolicy:
         if not self.two_pass:
             vr, vl = self._net(situation)
             return ControlDecision(vr, vl, False, "one pass")
-        poses, wheels = self.predict_free_path(situation, self.tracker.reference_ahead_)
-        clearance = self.closest_clearance(situation, poses)
+        H = self.horizon
+        pose_list, wheel_list = self._free_path(situation.robot, self.tracker.reference_ahead_)
+        clearance = self._clearance(situation, pose_list)
+        poses, wheels = np.array(pose_list).reshape(H, 3), np.array(wheel_list).reshape(H, 2)
         if clearance >= self.safety_distance_m:
-            return ControlDecision(float(wheels[0, 0]), float(wheels[0, 1]), False, "pass 1: path clear",
+            return ControlDecision(wheel_list[0], wheel_list[1], False, "pass 1: path clear",
                                    wheels, poses, info={"predicted_clearance_m": clearance})
         self.counters["second_pass"] += 1
         r = obs.robot
-        desired = np.empty((self.horizon + 1, 3))
-        desired[0] = r.x_m, r.y_m, r.heading_rad
-        desired[1:] = poses
-        # situation.with_reference(desired), built directly (dataclasses.replace is slow)
-        vr, vl = self._net(Situation(situation.robot, desired, situation.sample_time_s, situation.ref_speed_mps,
-                                     situation.tracks, situation.statics))
+        # the features of situation.with_reference(desired), from its pieces
+        desired = [(r.x_m, r.y_m, r.heading_rad), *zip(pose_list[0::3], pose_list[1::3], pose_list[2::3])]
+        vr, vl = self._net_values(feature_values_from(self.layout, situation.robot, desired, situation.sample_time_s,
+                                                      situation.tracks, situation.statics,
+                                                      self.counters["feature_report"]))
         return ControlDecision(vr, vl, False, "pass 2: avoiding", wheels, poses,
                                info={"predicted_clearance_m": clearance})

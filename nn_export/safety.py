@@ -43,11 +43,12 @@ Every check and every intervention is counted in :attr:`SafetyFilter.counters`.
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass
 
 import numpy as np
 
-from casadi_gpc.robot import RobotParams, RobotState, robot_step
+from casadi_gpc.robot import RobotParams, RobotState, robot_step, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
 
 __all__ = ["MANOEUVRES", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "StandbyPlanner"]
@@ -185,6 +186,7 @@ class SafetyFilter:
         self._fixed_targets = self._targets * self.robot.max_wheel_speed_mps
         self._swerve_rows = self._swerves[:, None].astype(float)
         self._reach = self.robot.max_step_change_mps(T) * self._steps[None, :, None]
+        self._dv = self.robot.max_step_change_mps(T)
         self.reset()
 
     def reset(self) -> None:
@@ -433,9 +435,12 @@ class SafetyFilter:
     # bounds of the clearance that the roll-out would find; only when neither keeps the
     # margin does the exact check above run. Both bounds are conservative: they can only
     # send a case to the exact check, never pass one it would fail by more than its own
-    # chord error.
-    def _quick(self, robot: RobotState, wheels, forecasts, statics):
-        """(check, command, plan rows or None, limited) when the screen passes, else None."""
+    # chord error. (Clamps are written as conditional expressions: ``b if b > a else a`` is
+    # max(a, b) and ``b if b < a else a`` is min(a, b), ties included, without the calls,
+    # which were a third of the screen's time.)
+    def _quick(self, robot: RobotState, wheels, forecasts, statics, poses=None):
+        """(check, command, plan (H, 2) or None, limited) when the screen passes, else None.
+        ``poses``: see :meth:`filter`."""
         H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
         w = wheels if isinstance(wheels, np.ndarray) else np.asarray(wheels, dtype=float)
         if w.shape == (2,):
@@ -444,15 +449,24 @@ class SafetyFilter:
             rows, own = w.tolist(), True
         else:
             return None  # the exact path says what is wrong
-        dv, vmax = self.robot.max_step_change_mps(T), self.robot.max_wheel_speed_mps
+        dv, vmax = self._dv, self.robot.max_wheel_speed_mps
         vr, vl = robot.v_right_mps, robot.v_left_mps
-        seq, limited = [], False
+        seq, limited, changed = [], False, False
+        isfinite, nvmax = math.isfinite, -vmax
         for r_, l_ in rows:
-            if not (math.isfinite(r_) and math.isfinite(l_)):
+            if not (isfinite(r_) and isfinite(l_)):
                 return None
-            nr = min(max(min(max(r_, vr - dv), vr + dv), -vmax), vmax)
-            nl = min(max(min(max(l_, vl - dv), vl + dv), -vmax), vmax)
-            limited = limited or abs(nr - r_) > 1e-9 or abs(nl - l_) > 1e-9
+            # min(max(min(max(r_, vr - dv), vr + dv), -vmax), vmax) (lo <= hi: a tie keeps
+            # the value clamped, as min and max do), and the same for l_
+            lo, hi = vr - dv, vr + dv
+            a = r_ if lo <= r_ <= hi else lo if r_ < lo else hi
+            nr = a if nvmax <= a <= vmax else nvmax if a < nvmax else vmax
+            lo, hi = vl - dv, vl + dv
+            a = l_ if lo <= l_ <= hi else lo if l_ < lo else hi
+            nl = a if nvmax <= a <= vmax else nvmax if a < nvmax else vmax
+            if nr != r_ or nl != l_:
+                changed = True
+                limited = limited or abs(nr - r_) > 1e-9 or abs(nl - l_) > 1e-9
             seq.append((nr, nl))
             vr, vl = nr, nl
         cmd = seq[0]
@@ -460,27 +474,28 @@ class SafetyFilter:
         if obs is None:
             return None
         if not obs:
-            return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", H * T), cmd, (seq if own else None), limited
+            return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", H * T), cmd, self._plan(own, w, seq, changed), \
+                limited
         p0 = complex(robot.x_m, robot.y_m)
         # 1. reach: over interval k the robot is within its path length S_k of where it is
         if own:
-            reach, acc = [], 0.0
+            reach, acc, halfT = [], 0.0, 0.5 * T
             for a, b in seq:
-                acc += abs(a + b) * (0.5 * T)
+                acc += abs(a + b) * halfT
                 reach.append(acc)
         else:
             first = abs(cmd[0] + cmd[1]) * (0.5 * T)
             reach = [first + vmax * T * k for k in range(H)]
         low, where = math.inf, (0, 0)
         for j, (q, touch) in enumerate(obs):
-            for k in range(H):
-                g = abs(p0 - q[k + 1]) - abs(q[k + 1] - q[k]) - touch[k] - reach[k]
+            for k, (qk, qk1, tk, rk) in enumerate(zip(q, q[1:], touch, reach)):
+                g = abs(p0 - qk1) - abs(qk1 - qk) - tk - rk
                 if g < low:
                     low, where = g, (j, k)
         if low >= self.margin_m:
             check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]), "bound",
                                 H * T, False)
-            return check, cmd, (seq if own else None), limited
+            return check, cmd, self._plan(own, w, seq, changed), limited
         # 2. chords: the plan (or the command, then the usual way out, reversing) at the
         # sample instants; between two of them the relative motion is a straight chord within
         # |V| |A| T^2 / 8 of the arc (its largest departure, at any turn)
@@ -488,37 +503,61 @@ class SafetyFilter:
             path, label = seq, "plan"
         else:
             path, label = self._then_reverse(cmd), "then reverse"
-        x, y, h = robot.x_m, robot.y_m, robot.heading_rad
-        pts, sag = [p0], []
-        for a, b in path:
-            x, y, h = robot_step(math, x, y, h, a, b, T, W)
-            pts.append(complex(x, y))
-            sag.append(abs(a + b) * abs(a - b) * (T * T / (16.0 * W)))
+        sag_scale = T * T / (16.0 * W)
+        sag = [abs(a + b) * abs(a - b) * sag_scale for a, b in path]
+        if own and not changed and poses is not None:  # the caller's roll-out of this very plan
+            xyh = poses.ravel().tolist()
+            pts = [p0, *map(complex, xyh[0::3], xyh[1::3])]
+        else:
+            x, y, h = robot.x_m, robot.y_m, robot.heading_rad
+            pts = [p0]
+            for a, b in path:
+                x, y, h = robot_step_float(x, y, h, a, b, T, W)
+                pts.append(complex(x, y))
         low, where = math.inf, (0, 0)
         for j, (q, touch) in enumerate(obs):
-            for k in range(H):
-                r0 = pts[k] - q[k]
-                d = (pts[k + 1] - q[k + 1]) - r0
-                dd = d.real * d.real + d.imag * d.imag
-                t = 0.0 if dd <= 1e-18 else min(max(-(r0.real * d.real + r0.imag * d.imag) / dd, 0.0), 1.0)
-                g = abs(r0 + t * d) - touch[k] - sag[k]
+            rel = list(map(operator.sub, pts, q))  # robot - obstacle at the sample instants
+            for k, (r0, r1, tk, sk) in enumerate(zip(rel, rel[1:], touch, sag)):
+                d = r1 - r0
+                dr, di = d.real, d.imag
+                dd = dr * dr + di * di
+                if dd <= 1e-18:
+                    t = 0.0
+                else:  # min(max(., 0), 1)
+                    t = -(r0.real * dr + r0.imag * di) / dd
+                    t = 0.0 if 0.0 > t else t
+                    t = 1.0 if 1.0 < t else t
+                g = abs(r0 + t * d) - tk - sk
                 if g < low:
                     low, where = g, (j, k)
         if low >= self.margin_m:
             check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]), label,
                                 H * T, False)
-            return check, cmd, (seq if own else None), limited
+            return check, cmd, self._plan(own, w, seq, changed), limited
         return None
+
+    @staticmethod
+    def _plan(own: bool, w: np.ndarray, seq: list, changed: bool) -> np.ndarray | None:
+        """The plan judged, as an array: ``np.array(seq)``, or a copy of the candidate
+        ``w`` when the limits left it as it was (the same numbers, without the list)."""
+        if not own:
+            return None
+        return w.copy() if not changed and w.dtype == np.float64 else np.array(seq)
 
     def _then_reverse(self, cmd) -> list[tuple[float, float]]:
         """``cmd`` for one interval, then towards the ``reverse`` manoeuvre's target."""
-        dv = self.robot.max_step_change_mps(self.sample_time_s)
+        dv = self._dv
         tr, tl = self._reverse_target
         vr, vl = cmd
         out = [cmd]
+        ndv = -dv
         for _ in range(self.horizon - 1):
-            vr = vr + min(max(tr - vr, -dv), dv)
-            vl = vl + min(max(tl - vl, -dv), dv)
+            a = tr - vr  # vr + min(max(tr - vr, -dv), dv), and the same for vl
+            a = ndv if ndv > a else a
+            vr = vr + (dv if dv < a else a)
+            a = tl - vl
+            a = ndv if ndv > a else a
+            vl = vl + (dv if dv < a else a)
             out.append((vr, vl))
         return out
 
@@ -527,18 +566,20 @@ class SafetyFilter:
         over each interval, in plain floats; None when a forecast has the wrong length (the
         exact path says so)."""
         H, R, k = self.horizon, self.robot.radius_m, self.sigmas
+        hypot, sqrt = math.hypot, math.sqrt
         out = []
         for f in forecasts:
-            m, c = f.means_m.tolist(), f.covs_m2.tolist()
-            if len(m) != H or len(c) != H:
+            m, c = f.means_m, f.covs_m2
+            if m.shape != (H, 2) or c.shape != (H, 2, 2):
                 return None
-            q = [complex(*p) for p in m]
+            m, c = m.ravel().tolist(), c.ravel().tolist()
+            q = list(map(complex, m[0::2], m[1::2]))
             q.insert(0, 2.0 * q[0] - q[1] if H > 1 else q[0])
             base = f.radius_m + R
             touch = []
-            for (a, b), (_, d) in c:
-                lam = 0.5 * (a + d) + math.hypot(0.5 * (a - d), b)
-                touch.append(base + k * math.sqrt(max(lam, 0.0)))
+            for a, b, d in zip(c[0::4], c[1::4], c[3::4]):  # cov = [[a, b], [b, d]]
+                lam = 0.5 * (a + d) + hypot(0.5 * (a - d), b)
+                touch.append(base + k * sqrt(0.0 if 0.0 > lam else lam))  # sqrt(max(lam, 0))
             out.append((q, touch))
         for st in statics:
             out.append(([complex(st.position_m[0], st.position_m[1])] * (H + 1), [st.radius_m + R] * H))
@@ -549,26 +590,30 @@ class SafetyFilter:
         return f"moving {forecasts[j].obstacle_id}" if j < len(forecasts) else f"static {j - len(forecasts)}"
 
     # --- the filter ----------------------------------------------------------------------
-    def filter(self, observation: Observation, wheels, forecasts=(), statics=None) -> SafetyVerdict:
+    def filter(self, observation: Observation, wheels, forecasts=(), statics=None, poses=None) -> SafetyVerdict:
         """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
         replace it (see :meth:`check`).
 
-        ``forecasts`` are the obstacle forecasts the candidate was made with (steps 1..H);
-        ``statics`` default to the observation's. The fallback planner, if any, sees
-        ``observation`` either way.
+        ``forecasts`` are the obstacle forecasts the candidate was made with (steps 1..H):
+        objects with the fields of :class:`~casadi_gpc.types.ObstacleForecast`
+        (``obstacle_id``, ``radius_m``, ``means_m``, ``covs_m2``), such as the policy's
+        track estimates; ``statics`` default to the observation's. ``poses`` (optional,
+        ``(H, 3)``): the robot's poses after each step of the plan ``wheels`` from the
+        observed state, as :func:`~casadi_gpc.robot.robot_step_float` gives them (the
+        network's own roll-out), so that a plan the limits leave unchanged is not rolled
+        out a second time. The fallback planner, if any, sees ``observation`` either way.
         """
         statics = observation.static if statics is None else statics
         r = observation.robot
         self.counters["checks"] += 1
-        quick = self._quick(r, wheels, forecasts, statics)
+        quick = self._quick(r, wheels, forecasts, statics, poses)
         if quick is not None:
             check, cmd, plan, limited = quick
             if limited:
                 self.counters["candidate_limited"] += 1
             if self.fallback is not None and hasattr(self.fallback, "observe"):
                 self.fallback.observe(observation)
-            return SafetyVerdict(cmd[0], cmd[1], False, "", "candidate", check,
-                                 None if plan is None else np.array(plan))
+            return SafetyVerdict(cmd[0], cmd[1], False, "", "candidate", check, plan)
         state = np.array([r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps], dtype=float)
         obstacles = self.obstacle_tracks(forecasts, statics)
         cmd, plan, limited = self._as_candidate(state, wheels)

@@ -40,12 +40,15 @@ class FeatureRecorder:
 
 def policy_entries(config, robot, model=None) -> tuple[list, FeatureRecorder]:
     """``(name, make_policy)`` pairs for :func:`casadi_gpc.bench.policy_rows`: the full
-    decision (two passes, as deployed without and with the safety filter, and one pass)."""
+    decision as deployed (the model's own number of passes, metadata ``decision_passes``),
+    without and with the safety filter, and with one and with two passes."""
     recorder = FeatureRecorder(OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=False))
     entries = [
         ("onnxpolicy", lambda: recorder),
         ("onnxpolicy[one-pass]", lambda: OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=False,
                                                     two_pass=False)),
+        ("onnxpolicy[two-pass]", lambda: OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=False,
+                                                    two_pass=True)),
         ("onnxpolicy[+safety-brake]", lambda: OnnxPolicy(model, preset=config.name, robot=robot)),
     ]
     return entries, recorder

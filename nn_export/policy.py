@@ -168,8 +168,10 @@ class OnnxPolicy:
         preset, or the default preset when ``model`` is None as well).
     robot : RobotParams, optional
         The robot it drives; must equal the robot the model was trained for.
-    two_pass : bool
-        The paper's two-pass scheme (default) or one plain pass with the obstacles.
+    two_pass : bool or None
+        The paper's two-pass scheme (True) or one plain pass with the obstacles and the real
+        reference (False); None (default): what the model file says (metadata
+        ``decision_passes``, set by ``gpcnav export --passes``; 2 when absent).
     safety_distance_m : float, optional
         Clearance that triggers the second pass (default per preset,
         :data:`DEFAULT_SAFETY_DISTANCE_M`).
@@ -184,7 +186,7 @@ class OnnxPolicy:
     """
 
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
-                 two_pass: bool = True, safety_distance_m: float | None = None,
+                 two_pass: bool | None = None, safety_distance_m: float | None = None,
                  ekf_settings: EKFSettings | None = None, safety_filter=True, fallback=None):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
@@ -194,6 +196,11 @@ class OnnxPolicy:
         self.layout, self.config = _validate(path, self.session, meta, preset, self.robot)
         self.sample_time_s = self.config.sample_time_s
         self.horizon = self.config.horizon
+        if two_pass is None:
+            passes = meta.get("decision_passes", "2")
+            if passes not in ("1", "2"):
+                raise ValueError(f"{path}: metadata decision_passes is {passes!r}, expected '1' or '2'")
+            two_pass = passes == "2"
         self.two_pass = bool(two_pass)
         self.safety_distance_m = float(DEFAULT_SAFETY_DISTANCE_M[self.config.name] if safety_distance_m is None
                                        else safety_distance_m)
@@ -220,7 +227,8 @@ class OnnxPolicy:
             "path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
             "preset": meta["preset"], "feature_layout": self.layout.name, "feature_layout_version": self.layout.version,
             "n_features": self.layout.size, "horizon": self.horizon, "sample_time_s": self.sample_time_s,
-            "hidden": int(meta.get("hidden", 0)) or None, "dataset": json.loads(meta["dataset"]),
+            "hidden": int(meta.get("hidden", 0)) or None, "layers": int(meta.get("layers", 1)),
+            "dataset": json.loads(meta["dataset"]),
             "validation_rmse_mps": float(meta["validation_rmse_mps"]), "two_pass": self.two_pass,
             "safety_distance_m": self.safety_distance_m,
         }

@@ -27,7 +27,9 @@ the filter **intervenes**, in this order:
 
 1. the fallback planner, if one was given (an object with ``decide(observation)``, usually
    the GPC kept on standby by :class:`StandbyPlanner`), unless its own answer is a
-   fallback;
+   fallback; if its answer fails the same check, the best of it, the candidate and the
+   best manoeuvre below (by the order below; counted ``fallback_overruled`` when it is not
+   the planner's);
 2. else the best of a small fixed set of manoeuvres within the speed and acceleration
    limits (brake, swerve left/right, slow turns, reverse, dash ahead), each a constant
    wheel-speed target approached at the acceleration limit. Best means: the clearance stays
@@ -36,6 +38,12 @@ the filter **intervenes**, in this order:
    largest smallest clearance, then the earlier one in :data:`MANOEUVRES` (braking first).
    If none is better than the candidate itself, the candidate is kept and that is counted
    (``no_safer_option``).
+
+A moving obstacle seen only once (``initialised`` false on the policy's track estimate:
+speed and heading unknown) is checked over the next interval only; each such check is
+counted (``unestimated_tracks``). Its forecast beyond that is the EKF's standing-still guess
+with an uncertainty that grows without information, so every option "fails" it some seconds
+ahead; the next sample gives it a velocity and the full check.
 
 Every check and every intervention is counted in :attr:`SafetyFilter.counters`.
 ``docs/faults.md`` documents the settings and the measured cost.
@@ -193,7 +201,7 @@ class SafetyFilter:
         self.counters = {"checks": 0, "interventions": 0, "fallback_used": 0, "fallback_failed": 0,
                          "fallback_overruled": 0,
                          "manoeuvres": 0, "no_safer_option": 0, "candidate_limited": 0,
-                         "non_finite_candidate": 0}
+                         "non_finite_candidate": 0, "unestimated_tracks": 0}
         if self.fallback is not None and hasattr(self.fallback, "reset"):
             self.fallback.reset()
 
@@ -270,6 +278,13 @@ class SafetyFilter:
             lam = (a + d) * 0.5 + np.hypot((a - d) * 0.5, b)            # largest eigenvalue (n, H)
             radii = np.array([f.radius_m for f in forecasts], dtype=float)
             touch[:nm] = self.sigmas * np.sqrt(np.maximum(lam, 0.0)) + (radii[:, None] + self.robot.radius_m)
+            for i, f in enumerate(forecasts):
+                if not getattr(f, "initialised", True):
+                    # seen once: its motion is unknown and its forecast beyond the next interval
+                    # is a disc growing without information (the next sample brings a velocity),
+                    # so it is checked over the next interval only (counted)
+                    touch[i, 1:] = -np.inf
+                    self.counters["unestimated_tracks"] += 1
         for i, st in enumerate(statics):
             q[nm + i] = complex(st.position_m[0], st.position_m[1])
             touch[nm + i] = st.radius_m + self.robot.radius_m
@@ -650,14 +665,23 @@ class SafetyFilter:
                     return SafetyVerdict(float(pcmd[0]), float(pcmd[1]), True, why + "; fallback planner",
                                          "fallback", check, pplan)
                 # the planner's answer fails the same check (it was handed a late situation, or
-                # its soft margin gave way): take it only if no manoeuvre does better
+                # its soft margin gave way): take it only if neither a manoeuvre nor the
+                # candidate itself does better
                 name, mw, mc = self.best_manoeuvre(state, obstacles)
-                if pcheck is not None and not self._better(mc, pcheck):
+                if pcheck is not None and not self._better(mc, pcheck) and (
+                        cmd is None or not self._better(check, pcheck)):
                     self.counters["fallback_used"] += 1
                     return SafetyVerdict(float(pcmd[0]), float(pcmd[1]), True,
                                          why + "; fallback planner (no manoeuvre does better)", "fallback", check,
                                          pplan)
                 self.counters["fallback_overruled"] += 1
+                if cmd is not None and not self._better(mc, check):
+                    # e.g. a track seen once, whose unknown motion makes every option fail far
+                    # ahead: the candidate keeps the margin longest, so it stays
+                    self.counters["no_safer_option"] += 1
+                    return SafetyVerdict(float(cmd[0]), float(cmd[1]), True,
+                                         why + "; fallback planner's answer fails the check, no manoeuvre does "
+                                         "better: candidate kept", "candidate", check, None)
                 self.counters["manoeuvres"] += 1
                 return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
                                      why + f"; fallback planner's answer fails the check, manoeuvre {name} "

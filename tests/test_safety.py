@@ -221,6 +221,45 @@ def test_no_way_out_takes_the_best_manoeuvre():
         assert abs(got) <= ROBOT.max_wheel_speed_mps and abs(got - was) <= dv + 1e-12
 
 
+def test_a_track_seen_once_is_checked_over_the_next_interval_only():
+    """The EKF's forecast of a track with one measurement: standing still, uncertainty growing
+    by 1 m/s x t (EKFSettings.initial_speed_std_mps). Paper timing (T = 1.5 s, H = 6), robot at rest, obstacle 10 m ahead: the
+    2-sigma disc swallows every option some seconds ahead, so as an estimated track it makes
+    the filter intervene; seen once, it is checked over the next interval only (counted). A
+    track seen once right in front of the robot is still refused over that interval."""
+    from dataclasses import dataclass
+
+    @dataclass(frozen=True)
+    class Track:
+        obstacle_id: int
+        radius_m: float
+        means_m: np.ndarray
+        covs_m2: np.ndarray
+        initialised: bool
+
+    T, H = 1.5, 6
+    grow = (1.0 * T) ** 2 * np.arange(1, H + 1) ** 2
+    covs = (4e-4 + grow)[:, None, None] * np.eye(2)
+    state = np.zeros(5)
+    ahead = np.full((H, 2), 0.4)
+
+    def track(x, seen_once):
+        return Track(0, 0.3, np.tile([x, 0.0], (H, 1)), covs, not seen_once)
+
+    f = SafetyFilter(ROBOT, T, H)
+    v = f.filter(observation(state), ahead, [track(10.35 + 0.65, False)])
+    assert v.intervened  # the estimated track with this forecast: nothing keeps the margin
+    f = SafetyFilter(ROBOT, T, H)
+    v = f.filter(observation(state), ahead, [track(10.35 + 0.65, True)])
+    assert not v.intervened and (v.v_right_mps, v.v_left_mps) == (0.4, 0.4)
+    assert f.counters["unestimated_tracks"] >= 1
+    # over the next interval it still counts: 0.5 m ahead of the robot's front, driving on
+    # at 0.4 m/s would touch it within the interval
+    f = SafetyFilter(ROBOT, T, H)
+    v = f.filter(observation(state), ahead, [track(0.35 + 0.3 + 0.5, True)])
+    assert v.intervened
+
+
 def test_inside_the_margin_a_sequence_that_does_not_close_in_passes():
     """An obstacle first seen 0.03 m away (clearance), inside the 0.1 m margin: standing
     still or backing off passes (the clearance never gets smaller than now), following it

@@ -42,6 +42,9 @@ def add_controller_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--safety-fallback", choices=("gpc", "brake"), default="gpc",
                    help="--controller nn: what the safety filter hands over to: the GPC on standby (default) "
                         "or the best braking/turning manoeuvre")
+    p.add_argument("--passes", type=int, choices=(1, 2), default=None,
+                   help="--controller nn: one pass or the paper's two passes (default: what the model file "
+                        "says, docs/nn.md)")
     p.add_argument("--solver", default=None, metavar="NAME",
                    help="--controller gpc: the NLP solver (default: the preset's; see docs/solvers.md)")
     add_preset_arguments(p)
@@ -52,11 +55,12 @@ def safety_mode(args) -> str:
     return "off" if getattr(args, "no_safety_filter", False) else getattr(args, "safety_fallback", "gpc")
 
 
-def make_controller(kind: str, config, robot, model=None, safety: str = "gpc"):
+def make_controller(kind: str, config, robot, model=None, safety: str = "gpc", passes: int | None = None):
     """The controller object for ``kind`` (both answer ``decide(observation)``).
 
     ``safety`` (network only): ``"gpc"`` the safety filter with the GPC on standby as its
     fallback, ``"brake"`` the filter with its braking/turning manoeuvres only, ``"off"`` none.
+    ``passes`` (network only): 1 or 2, or None for what the model file says.
     """
     if kind == "gpc":
         from casadi_gpc.gpc import GPCController
@@ -79,7 +83,7 @@ def make_controller(kind: str, config, robot, model=None, safety: str = "gpc"):
             fallback = StandbyPlanner(GPCController(config, robot))
         try:
             return OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=safety != "off",
-                              fallback=fallback)
+                              fallback=fallback, two_pass=None if passes is None else passes == 2)
         except (FileNotFoundError, ValueError) as exc:
             raise UsageError(str(exc)) from None
     raise UsageError(f"unknown controller {kind!r}")

@@ -30,10 +30,10 @@ def _episode(job):
     """Worker: one episode; the controller is built once per worker and robot."""
     from casadi_gpc.metrics import episode_metrics
     from casadi_gpc.simulator import simulate
-    scenario, kind, config, model, safety = job
-    key = (kind, config, scenario.robot, str(model), safety)
+    scenario, kind, config, model, safety, passes = job
+    key = (kind, config, scenario.robot, str(model), safety, passes)
     if key not in _WORKER:
-        _WORKER[key] = make_controller(kind, config, scenario.robot, model, safety)
+        _WORKER[key] = make_controller(kind, config, scenario.robot, model, safety, passes)
     controller = _WORKER[key]
     log = simulate(scenario, controller, kind)
     return episode_metrics(log), log.compute_time_s, dict(log.events)
@@ -57,9 +57,9 @@ def parse_faults(spec: str | None):
     return Faults(**values)
 
 
-def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", safety="gpc"):
+def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", safety="gpc", passes=None):
     """Run every scenario; returns (metrics, all compute times, summed events)."""
-    jobs = [(s, kind, config, model, safety) for s in scenarios]
+    jobs = [(s, kind, config, model, safety, passes) for s in scenarios]
     metrics, times, events = [], [], {}
     if workers <= 1 or len(jobs) <= 1:
         results = map(_episode, jobs)
@@ -99,14 +99,17 @@ def run(args) -> int:
         scenarios = [load_scenario(p) for p in args.scenarios]
     if faults is not None:
         scenarios = [replace(s, faults=faults) for s in scenarios]
+    passes = None
     if args.controller == "nn":
-        make_controller("nn", config, scenarios[0].robot, args.model, "off")  # refuse a bad model before any work
+        # refuse a bad model before any work; the passes it runs with
+        passes = 2 if make_controller("nn", config, scenarios[0].robot, args.model, "off", args.passes).two_pass else 1
     safety = safety_mode(args) if args.controller == "nn" else None
-    metrics, times, events = evaluate(scenarios, args.controller, config, args.model, args.workers, safety=safety)
+    metrics, times, events = evaluate(scenarios, args.controller, config, args.model, args.workers, safety=safety,
+                                      passes=passes)
     doc = eval_document(args.controller, metrics, times, {
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": args.suite,
         "seed": args.seed if args.suite else None, "events": events,
-        "faults": None if faults is None else faults.__dict__, "safety_filter": safety,
+        "faults": None if faults is None else faults.__dict__, "safety_filter": safety, "decision_passes": passes,
         "solver": config.solver if args.controller == "gpc" else None,
     })
     if args.out:

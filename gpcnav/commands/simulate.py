@@ -16,11 +16,11 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=None, help="override the scenario's sensing seed")
 
 
-def run_one(scenario, controller_kind, config, model=None, safety="gpc"):
+def run_one(scenario, controller_kind, config, model=None, safety="gpc", passes=None):
     """Simulate ``scenario`` and return its RUN document."""
     from casadi_gpc.metrics import run_document
     from casadi_gpc.simulator import simulate
-    controller = make_controller(controller_kind, config, scenario.robot, model, safety)
+    controller = make_controller(controller_kind, config, scenario.robot, model, safety, passes)
     log = simulate(scenario, controller, controller_kind)
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
              "robot_radius_m": scenario.robot.radius_m}
@@ -41,7 +41,7 @@ def run(args) -> int:
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
     config = planner_config(args)
-    doc = run_one(scenario, args.controller, config, args.model, safety_mode(args))
+    doc = run_one(scenario, args.controller, config, args.model, safety_mode(args), args.passes)
     if args.out:
         write_json(args.out, doc)
     if args.plot:

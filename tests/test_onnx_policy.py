@@ -336,3 +336,39 @@ def test_full_decision_costs_a_bounded_number_of_bare_network_calls():
                 t_bare.append(time.perf_counter() - t0)
     ratio = float(np.median(t_decide) / np.median(t_bare))
     assert ratio <= 60.0, f"full decision {np.median(t_decide) * 1e6:.0f} us = {ratio:.1f} bare calls"
+
+
+def test_the_number_of_passes_comes_from_the_model_file_unless_asked(tmp_path):
+    """metadata decision_passes: '1' -> one pass, '2' or absent -> the paper's two passes; the
+    caller's two_pass wins; anything else is refused at load time with one line."""
+    from synthetic_models import tracker_model
+    one = tracker_model(tmp_path / "one.onnx", "paper", decision_passes="1")
+    two = tracker_model(tmp_path / "two.onnx", "paper", decision_passes="2")
+    plain = tracker_model(tmp_path / "plain.onnx", "paper")
+    assert OnnxPolicy(one, safety_filter=False).two_pass is False
+    assert OnnxPolicy(two, safety_filter=False).two_pass is True
+    assert OnnxPolicy(plain, safety_filter=False).two_pass is True
+    assert OnnxPolicy(one, safety_filter=False, two_pass=True).two_pass is True
+    bad = tracker_model(tmp_path / "bad.onnx", "paper", decision_passes="3")
+    with pytest.raises(ValueError, match="decision_passes") as err:
+        OnnxPolicy(bad, safety_filter=False)
+    assert len(str(err.value).splitlines()) == 1
+    # one pass really runs one network call per decision, two passes more when an obstacle is near
+    from casadi_gpc.types import ObstacleMeasurement
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(10.0),), 0.4)
+    calls = {}
+    for name, path in (("one", one), ("two", two)):
+        p = OnnxPolicy(path, safety_filter=False)
+        n = 0
+        orig = p._run
+
+        def counted():
+            nonlocal n
+            n += 1
+            orig()
+        p._run = counted
+        for k in range(3):
+            p.decide(Observation(1.5 * k, RobotState(0.6 * k, 0.0, 0.0), ref,
+                                 (ObstacleMeasurement(0, (3.0 - 0.3 * k, 0.0), 0.3),)))
+        calls[name] = n
+    assert calls["one"] == 3 and calls["two"] > 3 * 6

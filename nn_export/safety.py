@@ -27,9 +27,13 @@ the filter **intervenes**, in this order:
 
 1. the fallback planner, if one was given (an object with ``decide(observation)``, usually
    the GPC kept on standby by :class:`StandbyPlanner`), unless its own answer is a
-   fallback; if its answer fails the same check, the best of it, the candidate and the
-   best manoeuvre below (by the order below; counted ``fallback_overruled`` when it is not
-   the planner's);
+   fallback. Its answer is taken when it passes the same check or keeps the margin for at
+   least ``trust_planner_s`` (default 3 s, at least two intervals: it replans at every
+   sample, and a violation late in the horizon is mostly the forecast's grown
+   uncertainty); else the best of it, the candidate and the best manoeuvre below (by the
+   order below; counted ``fallback_overruled`` when it is not the planner's). (Overruling
+   it on any violation made the robot back away from a fast head-on obstacle for 25
+   samples in a row, each reverse keeping the margin a little longer than the GPC's swerve.)
 2. else the best of a small fixed set of manoeuvres within the speed and acceleration
    limits (brake, swerve left/right, slow turns, reverse, dash ahead), each a constant
    wheel-speed target approached at the acceleration limit. Best means: the clearance stays
@@ -142,10 +146,15 @@ class SafetyFilter:
     fallback : object with ``decide(observation) -> ControlDecision``, optional
         The planner to hand over to (the GPC). If it has ``observe(observation)``, the
         filter calls it on every sample it does not hand over, so it stays in step.
+    trust_planner_s : float, optional
+        The planner's answer is taken when it keeps the margin at least this long, even if
+        it fails the check later in the horizon (it replans at every sample, and late in the
+        horizon the forecast's uncertainty has grown). Default: the larger of 3 s and two
+        intervals, at most the horizon.
     """
 
     def __init__(self, robot: RobotParams, sample_time_s: float, horizon: int, margin_m: float = 0.05,
-                 sigmas: float = 2.0, substeps: int = 4, fallback=None):
+                 sigmas: float = 2.0, substeps: int = 4, fallback=None, trust_planner_s: float | None = None):
         if not (math.isfinite(sample_time_s) and sample_time_s > 0):
             raise ValueError(f"sample_time_s must be positive, got {sample_time_s}")
         if int(horizon) != horizon or horizon < 1:
@@ -165,6 +174,11 @@ class SafetyFilter:
         self.sigmas = float(sigmas)
         self.substeps = int(substeps)
         self.fallback = fallback
+        if trust_planner_s is None:
+            trust_planner_s = min(self.horizon * self.sample_time_s, max(3.0, 2 * self.sample_time_s))
+        if not (math.isfinite(trust_planner_s) and trust_planner_s >= 0):
+            raise ValueError(f"trust_planner_s must be finite and not negative, got {trust_planner_s}")
+        self.trust_planner_s = float(trust_planner_s)
         S, T = self.substeps, self.sample_time_s
         self._tau = T * np.arange(1, S + 1) / S          # sub-sample times inside an interval
         self._frac = np.arange(1, S + 1) / S              # the same as fractions of T
@@ -660,7 +674,7 @@ class SafetyFilter:
                 plan = dec.planned_wheels_mps
                 pcmd, pplan, _ = self._as_candidate(state, fcmd if plan is None else np.asarray(plan, float))
                 pcheck = self._assess(state, pcmd, pplan, obstacles) if pcmd is not None else None
-                if pcheck is not None and pcheck.safe:
+                if pcheck is not None and (pcheck.safe or pcheck.kept_s >= self.trust_planner_s - 1e-9):
                     self.counters["fallback_used"] += 1
                     return SafetyVerdict(float(pcmd[0]), float(pcmd[1]), True, why + "; fallback planner",
                                          "fallback", check, pplan)

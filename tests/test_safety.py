@@ -329,6 +329,39 @@ def test_fallback_planner_first_then_manoeuvres_and_everything_counted():
     assert g.counters["checks"] == 2
 
 
+def test_the_planner_is_trusted_when_it_fails_only_late_in_the_horizon():
+    """The GPC's answer is taken when it keeps the margin for trust_planner_s (default 3 s),
+    though a manoeuvre keeps it longer; when it fails sooner than that it is overruled. An
+    obstacle standing 5 m ahead whose uncertainty grows as 0.1 t^2: driving on at 0.4 m/s
+    keeps the margin 5.0 s (with its best way out), reversing 5.5 s."""
+    T, H = 0.5, 12
+    state = np.array([0.0, 0.0, 0.0, 0.4, 0.4])
+    plan = np.full((H, 2), 0.4)
+    sig = 0.1 * (T * np.arange(1, H + 1)) ** 2
+    fc = ObstacleForecast(0, 0.3, np.tile([5.0, 0.0], (H, 1)), (sig ** 2)[:, None, None] * np.eye(2) + 1e-6)
+
+    class Planner:
+        def decide(self, obs):
+            return ControlDecision(0.4, 0.4, False, "ok", plan)
+
+    def run(**kw):
+        f = SafetyFilter(ROBOT, T, H, fallback=Planner(), **kw)
+        return f, f.filter(observation(state), np.array([np.nan, 0.2]), [fc])  # a candidate that must go
+
+    probe = SafetyFilter(ROBOT, T, H)
+    pc = probe.check(state, plan, [fc])
+    name, _, mc = probe.best_manoeuvre(state, probe.obstacle_tracks([fc], ()))
+    assert not pc.safe and pc.kept_s == pytest.approx(5.0) and mc.kept_s == pytest.approx(5.5)
+    assert probe.trust_planner_s == 3.0 and SafetyFilter(ROBOT, 1.5, 6).trust_planner_s == 3.0
+    assert SafetyFilter(ROBOT, 0.5, 4).trust_planner_s == 2.0  # at most the horizon
+    f, v = run()
+    assert v.source == "fallback" and f.counters["fallback_used"] == 1 and f.counters["fallback_overruled"] == 0
+    f, v = run(trust_planner_s=5.5)                   # trusting it only for longer: overruled
+    assert v.source == f"manoeuvre:{name}" and f.counters["fallback_overruled"] == 1
+    with pytest.raises(ValueError, match="trust_planner_s"):
+        SafetyFilter(ROBOT, T, H, trust_planner_s=-1.0)
+
+
 def test_candidate_outside_the_limits_is_checked_as_followed_and_counted():
     T, H = 0.5, 6
     f = SafetyFilter(ROBOT, T, H)

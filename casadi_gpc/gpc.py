@@ -10,7 +10,7 @@ import numpy as np
 
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
-from .ekf import EKFSettings, ObstacleEKF
+from .ekf import EKFSettings, ObstacleEKF, planning_covariances
 from .guesses import initial_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
@@ -86,7 +86,8 @@ class GPCController:
         self._last_wheels: np.ndarray | None = None
         self.counters = {"solves": 0, "failed_solves": 0, "fallbacks": 0, "multistart": 0,
                          "missed_measurements": 0, "outliers": 0, "over_budget": 0, "budget_skips": 0,
-                         "injected_failures": 0, "backup_solves": 0, "backup_successes": 0}
+                         "injected_failures": 0, "backup_solves": 0, "backup_successes": 0,
+                         "unestimated_tracks": 0}
 
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
@@ -105,7 +106,10 @@ class GPCController:
             if track.state_ is None:
                 continue
             means, covs = track.predict(H)
-            forecasts.append(ObstacleForecast(m.obstacle_id, m.radius_m, means, covs))
+            if not track.initialised:
+                self.counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
+            forecasts.append(ObstacleForecast(m.obstacle_id, m.radius_m, means,
+                                              planning_covariances(covs, track.initialised)))
         return forecasts
 
     def desired_poses(self, obs: Observation) -> np.ndarray:

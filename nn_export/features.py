@@ -89,7 +89,7 @@ from operator import add
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig
-from casadi_gpc.ekf import EKFSettings, ObstacleEKF
+from casadi_gpc.ekf import EKFSettings, ObstacleEKF, planning_covariances
 from casadi_gpc.progress import ReferenceClock
 from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotState, sinc
@@ -246,7 +246,9 @@ class TrackEstimate:
     (the filter assumes it stands still, with a growing uncertainty)."""
 
     def forecast(self) -> ObstacleForecast:
-        return ObstacleForecast(self.obstacle_id, self.radius_m, self.means_m, self.covs_m2)
+        """What the planner plans with (:func:`casadi_gpc.ekf.planning_covariances`)."""
+        return ObstacleForecast(self.obstacle_id, self.radius_m, self.means_m,
+                                planning_covariances(self.covs_m2, self.initialised))
 
 
 @dataclass(frozen=True)

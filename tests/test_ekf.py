@@ -237,3 +237,18 @@ def test_closed_form_matches_the_matrix_form(T):
         np.testing.assert_allclose(ekf.state_, want_s, rtol=0, atol=1e-13 * (1 + np.abs(want_s).max()))
         np.testing.assert_allclose(ekf.cov_, want_P, rtol=0, atol=1e-13 * np.abs(want_P).max())
         assert np.array_equal(ekf.cov_, ekf.cov_.T)
+
+
+def test_a_track_seen_once_is_planned_with_its_next_step_uncertainty():
+    from casadi_gpc.ekf import planning_covariances
+    ekf = ObstacleEKF(0.5)
+    ekf.step(np.array([5.0, 1.0]))
+    assert not ekf.initialised
+    means, covs = ekf.predict(12)
+    assert covs[-1, 0, 0] > 100 * covs[0, 0, 0]  # the raw forecast's uncertainty grows
+    held = planning_covariances(covs, ekf.initialised)
+    np.testing.assert_array_equal(held, np.repeat(covs[:1], 12, axis=0))
+    ekf.step(np.array([5.1, 1.0]))
+    assert ekf.initialised
+    _, covs2 = ekf.predict(12)
+    np.testing.assert_array_equal(planning_covariances(covs2, ekf.initialised), covs2)

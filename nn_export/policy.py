@@ -246,9 +246,23 @@ class OnnxPolicy:
     # --- state -----------------------------------------------------------------------
     def reset(self) -> None:
         self.tracker.reset()
-        self.counters = {"decisions": 0, "second_pass": 0, "fallbacks": 0, "feature_report": {}}
+        self._counters = {"decisions": 0, "second_pass": 0, "fallbacks": 0, "feature_report": {}}
         if self.safety is not None:
             self.safety.reset()
+
+    @property
+    def counters(self) -> dict:
+        """Decisions, second passes, fallbacks, the feature report, the tracker's events and
+        the safety filter's counters (prefixed ``safety_``), current when read."""
+        c = self._counters
+        if self.safety is not None:
+            names = self._safety_names
+            for k, n in self.safety.counters.items():
+                name = names.get(k)
+                if name is None:  # the names made once
+                    name = names[k] = "safety_" + k
+                c[name] = n
+        return c
 
     # --- the network -----------------------------------------------------------------
     @property
@@ -266,7 +280,7 @@ class OnnxPolicy:
 
     def _net(self, situation: Situation) -> tuple[float, float]:
         """One network call on ``situation``'s features."""
-        return self._net_values(feature_values(self.layout, situation, self.counters["feature_report"]))
+        return self._net_values(feature_values(self.layout, situation, self._counters["feature_report"]))
 
     def network(self, features: np.ndarray) -> np.ndarray:
         """The raw network on a batch of feature rows (n, n_features) -> (n, 2), m/s."""
@@ -292,7 +306,7 @@ class OnnxPolicy:
         # ref_ahead[j:j + H + 1]) packed straight into the bound input row; plain floats
         # throughout (numpy's per-call cost was most of the decision time, measured)
         values = RolloutFeatures(self.layout, ref_ahead[:2 * H], T).values
-        write, y1, run, report = self._write, self._y1, self._run, self.counters["feature_report"]
+        write, y1, run, report = self._write, self._y1, self._run, self._counters["feature_report"]
         poses, wheels = [], []
         for j in range(H):
             write(*values(j, x, y, th, vr, vl, report))
@@ -326,7 +340,7 @@ class OnnxPolicy:
     # --- the step --------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:
         situation = self.tracker.update(obs)
-        self.counters.update(self.tracker.counters)  # missed measurements and gated outliers
+        self._counters.update(self.tracker.counters)  # missed measurements and gated outliers
         dec = self._decide(obs, situation)
         return dec if self.safety is None else self._checked(obs, situation, dec)
 
@@ -336,33 +350,27 @@ class OnnxPolicy:
         # the pass-1 plan is the candidate's own continuation only when its first step is applied
         plan = dec.planned_wheels_mps
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
-        cand = plan if own else np.array([dec.v_right_mps, dec.v_left_mps])
+        cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
         # the track estimates carry the forecasts' fields (no ObstacleForecast copies), and the
         # pass-1 plan comes with the poses the roll-out already computed
         v = self.safety.filter(obs, cand, situation.tracks, situation.statics, dec.planned_poses if own else None)
-        mine, names = self.counters, self._safety_names
-        for k, n in self.safety.counters.items():
-            name = names.get(k)
-            if name is None:  # the names made once (this runs every sample)
-                name = names[k] = "safety_" + k
-            mine[name] = n
         info = dec.info  # the decision is new each step: annotate it in place
         info["safety_time_s"] = time.perf_counter() - t0
         info["safety_clearance_m"] = v.check.min_clearance_m
         if not v.intervened:
             return dec
-        self.counters["fallbacks"] += 1
+        self._counters["fallbacks"] += 1
         for k in ("solves", "failed_solves", "fallbacks"):  # the standby planner's own failures
             n = getattr(self.safety.fallback, "counters", {}).get(k)
             if n is not None:
-                self.counters["safety_fallback_" + k] = n
+                self._counters["safety_fallback_" + k] = n
         return ControlDecision(v.v_right_mps, v.v_left_mps, True, v.reason, v.planned_wheels_mps, None,
                                info={**info, "network_wheels_mps": (dec.v_right_mps, dec.v_left_mps),
                                      "safety_source": v.source})
 
     def _decide(self, obs: Observation, situation: Situation) -> ControlDecision:
         """The network's own decision (one or two passes), before the safety filter."""
-        self.counters["decisions"] += 1
+        self._counters["decisions"] += 1
         if not self.two_pass:
             vr, vl = self._net(situation)
             return ControlDecision(vr, vl, False, "one pass")
@@ -373,12 +381,12 @@ class OnnxPolicy:
         if clearance >= self.safety_distance_m:
             return ControlDecision(wheel_list[0], wheel_list[1], False, "pass 1: path clear",
                                    wheels, poses, info={"predicted_clearance_m": clearance})
-        self.counters["second_pass"] += 1
+        self._counters["second_pass"] += 1
         r = obs.robot
         # the features of situation.with_reference(desired), from its pieces
         desired = [(r.x_m, r.y_m, r.heading_rad), *zip(pose_list[0::3], pose_list[1::3], pose_list[2::3])]
         vr, vl = self._net_values(feature_values_from(self.layout, situation.robot, desired, situation.sample_time_s,
                                                       situation.tracks, situation.statics,
-                                                      self.counters["feature_report"]))
+                                                      self._counters["feature_report"]))
         return ControlDecision(vr, vl, False, "pass 2: avoiding", wheels, poses,
                                info={"predicted_clearance_m": clearance})

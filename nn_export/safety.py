@@ -84,7 +84,7 @@ _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
 _NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)  # made for every check: slots, not frozen (a frozen init costs 5x)
 class SafetyCheck:
     """The verdict on one wheel-speed sequence."""
 
@@ -101,7 +101,8 @@ class SafetyCheck:
     continuation: str
     """What follows the command in the sequence judged: ``"plan"`` (the candidate's own),
     ``"then <manoeuvre>"`` (the best way out after one interval of the command), or
-    ``"bound"`` (far enough from everything that no roll-out was needed)."""
+    ``"bound"`` / ``"bound, then brake"`` (far enough from everything, the plan or the
+    command then braking, that no roll-out was needed)."""
     kept_s: float = math.inf
     """How long from now the clearance stays at or above the margin (or, inside the margin,
     at or above the clearance now); the horizon when it always does."""
@@ -109,7 +110,7 @@ class SafetyCheck:
     """False when a quick screen settled it: ``min_clearance_m`` is then a lower bound."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class SafetyVerdict:
     """What the filter lets through."""
 
@@ -298,7 +299,6 @@ class SafetyFilter:
                     # is a disc growing without information (the next sample brings a velocity),
                     # so it is checked over the next interval only (counted)
                     touch[i, 1:] = -np.inf
-                    self.counters["unestimated_tracks"] += 1
         for i, st in enumerate(statics):
             q[nm + i] = complex(st.position_m[0], st.position_m[1])
             touch[nm + i] = st.radius_m + self.robot.radius_m
@@ -471,8 +471,13 @@ class SafetyFilter:
         """(check, command, plan (H, 2) or None, limited) when the screen passes, else None.
         ``poses``: see :meth:`filter`."""
         H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
-        w = wheels if isinstance(wheels, np.ndarray) else np.asarray(wheels, dtype=float)
-        if w.shape == (2,):
+        if type(wheels) is tuple and len(wheels) == 2:  # a command as two floats (the policy's)
+            w, rows, own = None, [wheels], False
+        else:
+            w = wheels if isinstance(wheels, np.ndarray) else np.asarray(wheels, dtype=float)
+        if w is None:
+            pass
+        elif w.shape == (2,):
             rows, own = [w.tolist()], False
         elif w.shape == (H, 2):
             rows, own = w.tolist(), True
@@ -507,23 +512,36 @@ class SafetyFilter:
                 limited
         p0 = complex(robot.x_m, robot.y_m)
         # 1. reach: over interval k the robot is within its path length S_k of where it is
+        # (wheel speeds are held over each interval, so S_k sums |v_r + v_l| T / 2). A plan
+        # is judged as itself; a command alone as the command followed by braking, the
+        # shortest way out (if that keeps the margin, a way out exists)
+        halfT = 0.5 * T
         if own:
-            reach, acc, halfT = [], 0.0, 0.5 * T
+            reach, acc = [], 0.0
             for a, b in seq:
                 acc += abs(a + b) * halfT
                 reach.append(acc)
-        else:
-            first = abs(cmd[0] + cmd[1]) * (0.5 * T)
-            reach = [first + vmax * T * k for k in range(H)]
+        else:  # braking: each wheel moves towards 0 by at most dv per interval
+            a, b = cmd
+            acc = abs(a + b) * halfT
+            reach = [acc]
+            for _ in range(H - 1):
+                a = a - dv if a > dv else a + dv if a < -dv else 0.0
+                b = b - dv if b > dv else b + dv if b < -dv else 0.0
+                acc += abs(a + b) * halfT
+                reach.append(acc)
         low, where = math.inf, (0, 0)
         for j, (q, touch) in enumerate(obs):
-            for k, (qk, qk1, tk, rk) in enumerate(zip(q, q[1:], touch, reach)):
-                g = abs(p0 - qk1) - abs(qk1 - qk) - tk - rk
+            qk = q[0]
+            for k in range(H):
+                qk1 = q[k + 1]
+                g = abs(p0 - qk1) - abs(qk1 - qk) - touch[k] - reach[k]
                 if g < low:
                     low, where = g, (j, k)
+                qk = qk1
         if low >= self.margin_m:
-            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]), "bound",
-                                H * T, False)
+            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]),
+                                "bound" if own else "bound, then brake", H * T, False)
             return check, cmd, self._plan(own, w, seq, changed), limited
         # 2. chords: the plan (or the command, then the usual way out, reversing) at the
         # sample instants; between two of them the relative motion is a straight chord within
@@ -531,7 +549,7 @@ class SafetyFilter:
         if own:
             path, label = seq, "plan"
         else:
-            path, label = self._then_reverse(cmd), "then reverse"
+            path, label = self._then_target(cmd, self._reverse_target), "then reverse"
         sag_scale = T * T / (16.0 * W)
         sag = [abs(a + b) * abs(a - b) * sag_scale for a, b in path]
         if own and not changed and poses is not None:  # the caller's roll-out of this very plan
@@ -573,10 +591,11 @@ class SafetyFilter:
             return None
         return w.copy() if not changed and w.dtype == np.float64 else np.array(seq)
 
-    def _then_reverse(self, cmd) -> list[tuple[float, float]]:
-        """``cmd`` for one interval, then towards the ``reverse`` manoeuvre's target."""
+    def _then_target(self, cmd, target) -> list[tuple[float, float]]:
+        """``cmd`` for one interval, then towards the wheel speeds ``target`` (a manoeuvre's:
+        braking (0, 0) or the ``reverse`` manoeuvre's) at the acceleration limit."""
         dv = self._dv
-        tr, tl = self._reverse_target
+        tr, tl = target
         vr, vl = cmd
         out = [cmd]
         ndv = -dv
@@ -609,6 +628,8 @@ class SafetyFilter:
             for a, b, d in zip(c[0::4], c[1::4], c[3::4]):  # cov = [[a, b], [b, d]]
                 lam = 0.5 * (a + d) + hypot(0.5 * (a - d), b)
                 touch.append(base + k * sqrt(0.0 if 0.0 > lam else lam))  # sqrt(max(lam, 0))
+            if not getattr(f, "initialised", True):  # seen once: the next interval only (module text)
+                touch[1:] = [-math.inf] * (H - 1)
             out.append((q, touch))
         for st in statics:
             out.append(([complex(st.position_m[0], st.position_m[1])] * (H + 1), [st.radius_m + R] * H))
@@ -635,6 +656,9 @@ class SafetyFilter:
         statics = observation.static if statics is None else statics
         r = observation.robot
         self.counters["checks"] += 1
+        for f in forecasts:
+            if not getattr(f, "initialised", True):
+                self.counters["unestimated_tracks"] += 1  # checked over the next interval only
         quick = self._quick(r, wheels, forecasts, statics, poses)
         if quick is not None:
             check, cmd, plan, limited = quick

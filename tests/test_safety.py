@@ -145,7 +145,7 @@ def test_bound_is_never_above_the_roll_out():
 def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
     """The plain-float screen that settles most checks: whenever it passes a candidate, its
     clearance is a lower bound of an independent brute force of the sequence it judged (the
-    plan, or the command then the reverse manoeuvre), and at least the margin; when it
+    plan, or the command then braking or reversing), and at least the margin; when it
     cannot tell, it defers (None) to the exact check."""
     rng = np.random.default_rng(21)
     passed = deferred = 0
@@ -165,7 +165,12 @@ def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
                 continue
             check, cmd, seq, _ = q
             assert check.safe and not check.exact and check.min_clearance_m >= f.margin_m
-            judged = plan if own else np.array(f._then_reverse(tuple(plan[0])))
+            if own:
+                judged = plan
+            else:  # the bound judges the command then braking, the chords then reversing
+                target = (0.0, 0.0) if check.continuation == "bound, then brake" else f._reverse_target
+                assert check.continuation in ("bound, then brake", "then reverse")
+                judged = np.array(f._then_target(tuple(plan[0]), target))
             truth = brute_clearance(state, judged, fcs, st, T, f.sigmas, n=200)
             assert check.min_clearance_m <= truth + 1e-9, (check, truth)
             assert (cmd[0], cmd[1]) == tuple(plan[0])
@@ -554,8 +559,9 @@ def test_shipped_network_with_faults_does_not_collide_behind_the_filter():
 @pytest.mark.parametrize("preset_name", ["improved", "paper"])
 def test_filter_costs_at_most_30_percent_of_the_decision(tmp_path, preset_name):
     """Same run, same observations: the time inside the filter against the rest of the
-    decision (estimation, features, both network passes), medians; with the shipped model
-    of the preset when there is one."""
+    decision (estimation, features, the network's passes), medians; with the shipped model
+    of the preset and its own number of passes when there is one (one pass for the shipped
+    models: the smallest decision, so the largest share; measured 0.26 under `paper`)."""
     from casadi_gpc.simulator import simulate
     from nn_export import OnnxPolicy
     from nn_export.policy import shipped_model_path

@@ -1,8 +1,11 @@
 """Export a trained :class:`~nn_export.train.WheelSpeedMLP` to one ONNX file (torch, onnx).
 
-The graph is the whole deployed map, in float32: standardise the features, the hidden layer,
+The graph is the whole deployed map, in float32: standardise the features, the hidden layers,
 un-standardise, and clip both wheel speeds to the robot's limit, so the runtime adds nothing
-of its own. Input ``features`` (batch, n_features), output ``wheel_speeds_mps`` (batch, 2),
+of its own. The standardisation is folded into the first layer's weights and the
+un-standardisation (and the output basis) into the last layer's, computed in float64 before
+the float32 cast: Gemm, Tanh, ..., Gemm, Clip, half the nodes of the plain form and about
+2 us less per call (each node costs onnxruntime a kernel dispatch). Input ``features`` (batch, n_features), output ``wheel_speeds_mps`` (batch, 2),
 right then left. The batch axis is dynamic.
 
 Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
@@ -82,7 +85,7 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
         raise ValueError(f"decision_passes must be 1 or 2, got {decision_passes!r}")
     clip = float(prov["robot"]["max_wheel_speed_mps"])
 
-    deployed = _Deployed(_float32_copy(model.net_), clip).eval()
+    deployed = _Deployed(_folded(model.net_), clip).eval()
     buf = io.BytesIO()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
@@ -143,6 +146,26 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
                         metadata=meta)
 
 
-def _float32_copy(net):
-    import copy
-    return copy.deepcopy(net).float().eval()
+def _folded(net) -> torch.nn.Module:
+    """The trained map as a float32 stack of Linear and activation layers: (x - mu) / sd
+    folded into the first layer (W / sd, b - W mu / sd), u * u_sd + u_mu and the basis matrix
+    into the last (mix diag(u_sd) W, mix (u_sd b + u_mu)); the folding in float64."""
+    with torch.no_grad():
+        lins = [net.hidden, *net.deeper, net.out]
+        Ws = [lin.weight.detach().double().clone() for lin in lins]
+        bs = [lin.bias.detach().double().clone() for lin in lins]
+        mu, sd = net.x_mean.double(), net.x_scale.double()
+        bs[0] = bs[0] - Ws[0] @ (mu / sd)
+        Ws[0] = Ws[0] / sd[None, :]
+        mix, usd, umu = net.y_mix.double(), net.y_scale.double(), net.y_mean.double()
+        Ws[-1] = mix @ (usd[:, None] * Ws[-1])
+        bs[-1] = mix @ (usd * bs[-1] + umu)
+        layers = []
+        for i, (W, b) in enumerate(zip(Ws, bs)):
+            lin = torch.nn.Linear(W.shape[1], W.shape[0])
+            lin.weight.copy_(W.float())
+            lin.bias.copy_(b.float())
+            layers.append(lin)
+            if i < len(Ws) - 1:
+                layers.append(type(net.act)())
+        return torch.nn.Sequential(*layers).eval()

@@ -1,4 +1,6 @@
-"""The paper end to end: label a dataset with the GPC, train the paper's network (17-35-2),
+"""The paper end to end: label a dataset with the GPC (sampled situations, then the GPC's
+own closed-loop states with perturbed wheel speeds: DART rounds on the random and the
+encounters suites), train the paper's network (17-35-2),
 export it to ONNX, run the three Fig. 7 scenarios with the GPC and the network, run the
 random suite with both, run the solver benchmark, and write figures, tables, report.md and
 results.json into --out. The figures use the `paper` preset; the tables add the `improved`
@@ -27,14 +29,17 @@ class Sizes:
     """How much work each stage does."""
 
     samples: int
-    dagger_rounds: int
-    dagger_episodes: int
+    dart_random_episodes: int
+    """GPC-driven episodes of the random suite, wheel speeds perturbed by N(0, 0.05) m/s,
+    starts up to 1.2 m beside the path."""
+    dart_encounter_episodes: int
+    """GPC-driven episodes of the encounters suite, perturbed by N(0, 0.03) m/s."""
     epochs: int
     suite_count: int
 
 
-QUICK = Sizes(samples=6000, dagger_rounds=1, dagger_episodes=16, epochs=400, suite_count=16)
-FULL = Sizes(samples=20000, dagger_rounds=2, dagger_episodes=100, epochs=2000, suite_count=100)
+QUICK = Sizes(samples=6000, dart_random_episodes=100, dart_encounter_episodes=100, epochs=400, suite_count=16)
+FULL = Sizes(samples=20000, dart_random_episodes=600, dart_encounter_episodes=600, epochs=2000, suite_count=100)
 PAPER_SCENARIOS = ("fig7_1_head_on", "fig7_2_crossing", "fig7_3_crossing_off_path")
 
 
@@ -100,28 +105,26 @@ def run(args) -> int:
     data, model_dir, onnx = out / "dataset", out / "model", out / "model.onnx"
     runs, evals = out / "runs", out / "eval"
 
-    # 1. labels (resumable by itself), 2. DAgger rounds, 3. training, 4. export
+    # 1. labels (resumable by itself), 2. the GPC's own states (DART rounds), 3. training + export
     st.run("dataset", {"samples": sizes.samples, "seed": seed}, [data / "manifest.json"], lambda: _cli(
         ["dataset", "--out", data, "--samples", sizes.samples, "--preset", "paper", "--seed", seed,
          "--workers", workers]))
-    train_inputs = {"dataset": st.key("dataset"), "epochs": sizes.epochs, "seed": seed}
+    rounds = ((1, "random", sizes.dart_random_episodes, ["--dagger-noise", 0.05, "--start-offset", 1.2]),
+              (2, "encounters", sizes.dart_encounter_episodes, ["--dagger-noise", 0.03]))
 
-    def train_round(r):
-        def fn():
-            _cli(["train", data, "--out", model_dir, "--preset", "paper", "--seed", seed, "--epochs", sizes.epochs])
-            _cli(["export", model_dir, "--out", onnx])
-        return fn
-
-    st.run("train0", train_inputs, [onnx], train_round(0))
-    for r in range(1, sizes.dagger_rounds + 1):
-        def dagger(r=r):
+    def onpolicy():
+        for r, suite, episodes, extra in rounds:
             man = json.loads((data / "manifest.json").read_text())
-            if f"dagger{r}" not in man.get("parts", {}):
-                _cli(["dataset", "--out", data, "--dagger", onnx, "--round", r, "--episodes", sizes.dagger_episodes,
-                      "--preset", "paper", "--seed", seed, "--workers", workers])
-            train_round(r)()
-        st.run(f"dagger{r}", {"prev": st.key(f"train0" if r == 1 else f"dagger{r - 1}"), "episodes": sizes.dagger_episodes},
-               [onnx], dagger)
+            if episodes and f"gpc{r}" not in man.get("parts", {}):
+                _cli(["dataset", "--out", data, "--dagger", "gpc", "--dagger-suite", suite, "--round", r,
+                      "--episodes", episodes, "--preset", "paper", "--seed", seed, "--workers", workers, *extra])
+    st.run("onpolicy", {"dataset": st.key("dataset"), "rounds": [r[:3] for r in rounds]}, [data / "manifest.json"],
+           onpolicy)
+
+    def train():
+        _cli(["train", data, "--out", model_dir, "--preset", "paper", "--seed", seed, "--epochs", sizes.epochs])
+        _cli(["export", model_dir, "--out", onnx])
+    st.run("train", {"data": st.key("onpolicy"), "epochs": sizes.epochs, "seed": seed}, [onnx], train)
     model_key = _file_digest(onnx)
 
     # 5. the Fig. 7 scenarios, both controllers, both presets

@@ -176,7 +176,8 @@ def _markdown(r: dict, manifest: dict) -> str:
     s = r["sizes"]
     parts = ", ".join(f"{k}: {v['samples']}" for k, v in r["dataset_parts"].items())
     L.append(f"Dataset: {manifest.get('samples')} labelled samples under preset `paper` ({parts}), "
-             f"{s['dagger_rounds']} DAgger round(s) of {s['dagger_episodes']} episodes; feature layout "
+             f"the GPC's own states from {s['dart_random_episodes']} random and {s['dart_encounter_episodes']} "
+             f"encounters episodes with perturbed wheel speeds (DART); feature layout "
              f"`{manifest['feature_layout']['name']}` ({len(manifest['feature_names'])} inputs). Suite: "
              f"{s['suite_count']} episodes of `random`. Benchmark: the control problems of a GPC run of Fig. 7.2.\n")
     L.append("Stage times (s): " + ", ".join(f"{k} {v:.0f}" for k, v in r["stage_seconds"].items()) + ".\n")
@@ -260,4 +261,13 @@ def comparison(r: dict) -> str:
                    f"error {gi['tracking_rmse_median_m']:.2f} m on the suite"
                    + (f" against {gp['tracking_rmse_median_m']:.2f} m for `paper`" if gp else "")
                    + " (and the Fig. 7 rows of the first table).")
+    shipped = [x for x in r["scenarios"] if x["preset"] == "improved" and x["controller"] == "nn"]
+    if shipped:
+        ok = all(x["outcome"] == "reached_goal" for x in shipped)
+        out.append(f"* **The shipped network (`improved` rows).** Trained by the same pipeline with more on-policy "
+                   f"data, three hidden layers of 64 and one pass (docs/nn.md), it "
+                   + ("reaches the goal in all three situations" if ok else "does not reach the goal in every situation")
+                   + f"; its path stays within {max(x['path_deviation_from_gpc_m'] for x in shipped):.2f} m of the "
+                   f"GPC's (same instant: {max(x['deviation_from_gpc_m'] for x in shipped):.2f} m). The paper's "
+                   f"17-35-2 network above is too small to follow the GPC that closely (docs/nn.md).")
     return "\n".join(out) + "\n"

@@ -66,6 +66,7 @@ round "$D" dagger2 --dagger "$OUT/models/paper-multi-a.onnx" --episodes 500 --ro
 round "$D" gpc3 --dagger gpc --episodes 1500 --round 3 --preset paper --dagger-noise 0.03
 net "$D" paper-multi-b paper 3 64 1
 round "$D" dagger4 --dagger "$OUT/models/paper-multi-b.onnx" --episodes 1000 --round 4 --preset paper
-net "$D" paper-multi paper 3 64 1
+net "$D" paper-multi paper 3 64 2     # two passes: 87 % against one pass 75 % behind the filter (seed 7)
 
-python tools/evaluate_shipped.py --workers "$WORKERS" --multi-model "$OUT/models/paper-multi.onnx"
+cp "$OUT/models/paper-multi.onnx" nn_export/models/paper-multi.onnx
+python tools/evaluate_shipped.py --workers "$WORKERS" --multi-model nn_export/models/paper-multi.onnx

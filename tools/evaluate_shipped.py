@@ -148,6 +148,10 @@ def markdown(res: dict) -> str:
     for preset, m in res["models"].items():
         L.append(f"* `{preset}`: `{m['path']}`, {m['bytes']} bytes, {m['layers']} hidden layer(s) of "
                  f"{m['hidden']}, {m['passes']} pass(es), validation RMSE {m['validation_rmse_mps']:.4f} m/s")
+    if "multi_model" in res:
+        mm = res["multi_model"]
+        L.append(f"* multi-obstacle (`random-multi`): `{mm['path']}`, layout `{mm['layout']}`, preset "
+                 f"`{mm['preset']}`, {mm.get('passes', '?')} pass(es)")
     L += ["", "## Fig. 7 situations", "",
           "| preset | scenario | controller | outcome | min clearance (m) | fallbacks | path dev. (m) | "
           "same-instant dev. (m) |", "|---|---|---|---|---|---|---|---|"]
@@ -210,7 +214,8 @@ def main(argv=None) -> int:
     if args.multi_model is not None:
         meta = OnnxPolicy(args.multi_model, safety_filter=False)
         preset = meta.config.name
-        res["multi_model"] = {"path": str(args.multi_model), "preset": preset, "layout": meta.layout.name}
+        res["multi_model"] = {"path": str(args.multi_model), "preset": preset, "layout": meta.layout.name,
+                              "passes": 2 if meta.two_pass else 1}
         res["random-multi"] = {preset: suite_rows("random-multi", 200, 1, preset, args.multi_model, args.workers)}
     figure(all_paths, args.out / "fig7_shipped.png")
     write_json(args.out / "data" / "shipped_models.json", res)

@@ -475,14 +475,12 @@ class SafetyFilter:
             w, rows, own = None, [wheels], False
         else:
             w = wheels if isinstance(wheels, np.ndarray) else np.asarray(wheels, dtype=float)
-        if w is None:
-            pass
-        elif w.shape == (2,):
-            rows, own = [w.tolist()], False
-        elif w.shape == (H, 2):
-            rows, own = w.tolist(), True
-        else:
-            return None  # the exact path says what is wrong
+            if w.shape == (2,):
+                rows, own = [w.tolist()], False
+            elif w.shape == (H, 2):
+                rows, own = w.tolist(), True
+            else:
+                return None  # the exact path says what is wrong
         dv, vmax = self._dv, self.robot.max_wheel_speed_mps
         vr, vl = robot.v_right_mps, robot.v_left_mps
         seq, limited, changed = [], False, False

@@ -353,3 +353,36 @@ def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
     assert gpc_part["samples"] > 0 and gpc_part["info"]["safety_filter"] is None
     assert man2["samples"] == man["samples"] + gpc_part["samples"]
     assert gpc_part["info"]["suite_seed"] != part["info"]["suite_seed"]
+
+
+def test_train_on_some_parts_only(reference_dataset, tmp_path):
+    """gpcnav train --parts: the model is fitted on the named parts only (its provenance says
+    which and how many samples); an unknown part is refused with one line, exit 2."""
+    pytest.importorskip("torch")
+    src, _ = reference_dataset
+    out = tmp_path / "ds"
+    out.mkdir()
+    for p in src.iterdir():
+        if p.is_file() and not p.name.startswith("."):
+            (out / p.name).write_bytes(p.read_bytes())
+    from dataclasses import replace
+    from scenarios import random_suite
+    scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 2, 0)]
+    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, PAPER, layout_for("paper", 6), Labeller(PAPER),
+                                      id_base=10 ** 12)
+    append_part(out, "dagger1", arrays, stats, {"round": 1})
+
+    def train(parts, dest):
+        argv = [sys.executable, "-m", "gpcnav", "train", str(out), "--out", str(dest), "--preset", "paper",
+                "--hidden", "4", "--epochs", "3", "--seed", "0"] + (["--parts", parts] if parts else [])
+        return subprocess.run(argv, capture_output=True, text=True, timeout=300)
+
+    for parts, n in (("offpolicy", 60), (None, 60 + len(arrays["labels"]))):
+        proc = train(parts, tmp_path / f"m_{parts}")
+        assert proc.returncode == 0, proc.stderr
+        prov = json.loads((tmp_path / f"m_{parts}" / "model.json").read_text())["provenance"]["dataset"]
+        assert prov["samples"] == n
+        assert prov["parts"][str(out)] == (["offpolicy"] if parts else ["dagger1", "offpolicy"])
+    proc = train("offpolicy,gpc9", tmp_path / "bad")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "gpc9" in proc.stderr
+    assert not (tmp_path / "bad").exists()

@@ -17,6 +17,9 @@ def add_arguments(p):
     p.add_argument("--out", type=Path, required=True, help="model folder to write")
     p.add_argument("--hidden", type=int, default=35, help="hidden units per layer (paper: 35)")
     p.add_argument("--layers", type=int, default=1, help="hidden layers, 1 to 4 (paper: 1)")
+    p.add_argument("--parts", default=None, metavar="LIST",
+                   help="train on these parts of the dataset(s) only, comma-separated (e.g. offpolicy,gpc1; "
+                        "default all): what each on-policy round adds")
     p.add_argument("--activation", choices=("tanh", "relu", "softsign"), default="tanh", help="hidden non-linearity")
     p.add_argument("--layout", choices=("paper", "multi"), default=None,
                    help="feature layout the datasets must have (default: whatever they have)")
@@ -60,7 +63,7 @@ def run(args) -> int:
         from nn_export.train import WheelSpeedMLP
     except ImportError as exc:
         raise UsageError(f"training needs the train extra (pip install -e '.[train]'): {exc}") from None
-    from nn_export.dataset import load_dataset
+    from nn_export.dataset import load_dataset, read_manifest
     cfg = planner_config(args)
     if not 1 <= args.layers <= 4:
         raise UsageError(f"--layers must be from 1 to 4, got {args.layers}")
@@ -72,12 +75,19 @@ def run(args) -> int:
         raise UsageError(f"--lr must be positive, got {args.lr}")
     if not 0 < args.validation_fraction < 1:
         raise UsageError(f"--validation-fraction must be in (0, 1), got {args.validation_fraction}")
+    parts = None if args.parts is None else tuple(x.strip() for x in args.parts.split(",") if x.strip())
+    if parts is not None:
+        for d in args.datasets:
+            have = set(read_manifest(d).get("parts", {})) if (Path(d) / "manifest.json").is_file() else set()
+            missing = [x for x in parts if x not in have]
+            if have and missing:
+                raise UsageError(f"{d}: no part {', '.join(missing)} (it has {', '.join(sorted(have))})")
     sets = []
     for d in args.datasets:
         if not (d / "manifest.json").is_file():
             raise UsageError(f"{d}: not a dataset folder (no manifest.json)")
         try:
-            sets.append(load_dataset(d))
+            sets.append(load_dataset(d, parts))
         except (ValueError, KeyError, OSError) as exc:
             raise UsageError(f"{d}: cannot read the dataset: {exc}") from None
     first = sets[0]
@@ -122,7 +132,8 @@ def run(args) -> int:
         "feature_layout_version": lay.version, "feature_layout_spec": lay.to_dict(),
         "dataset": {"id": _dataset_id([s.manifest for s in sets]), "paths": [str(d) for d in args.datasets],
                     "samples": int(len(X)),
-                    "parts": {str(d): sorted(s.manifest.get("parts", {})) for d, s in zip(args.datasets, sets)}},
+                    "parts": {str(d): sorted(x for x in s.manifest.get("parts", {}) if parts is None or x in parts)
+                              for d, s in zip(args.datasets, sets)}},
     }
     model.save(args.out, provenance)
     np.save(args.out / "validation_features.npy", X[model.validation_indices_])

@@ -192,6 +192,15 @@ def test_sigkill_partway_then_restart_gives_exactly_the_samples(tmp_path):
     assert not list(out.glob(".*.tmp"))
 
 
+def _copy_dataset(src: Path, out: Path) -> Path:
+    """A copy of the dataset folder ``src`` (its files, not lock or temporary ones) at ``out``."""
+    out.mkdir()
+    for p in src.iterdir():
+        if p.is_file() and not p.name.startswith("."):
+            (out / p.name).write_bytes(p.read_bytes())
+    return out
+
+
 class _SlowStraight:
     """A stand-in for a trained policy: drives straight at 0.3 m/s."""
 
@@ -208,11 +217,7 @@ def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, t
     from dataclasses import replace
     from scenarios import random_suite
     src, _ = reference_dataset
-    out = tmp_path / "ds"
-    out.mkdir()
-    for p in src.iterdir():
-        if p.is_file() and not p.name.startswith("."):
-            (out / p.name).write_bytes(p.read_bytes())
+    out = _copy_dataset(src, tmp_path / "ds")
     scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 2, 0)]  # 6 samples each
     lay = layout_for("paper", 6)
     lab = Labeller(PAPER)
@@ -318,11 +323,7 @@ def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
     pytest.importorskip("torch")
     pytest.importorskip("onnx")
     src, _ = reference_dataset
-    out = tmp_path / "ds"
-    out.mkdir()
-    for p in src.iterdir():
-        if p.is_file() and not p.name.startswith("."):
-            (out / p.name).write_bytes(p.read_bytes())
+    out = _copy_dataset(src, tmp_path / "ds")
 
     def gpcnav(*argv):
         proc = subprocess.run([sys.executable, "-m", "gpcnav", *map(str, argv)], capture_output=True, text=True,
@@ -360,11 +361,7 @@ def test_train_on_some_parts_only(reference_dataset, tmp_path):
     which and how many samples); an unknown part is refused with one line, exit 2."""
     pytest.importorskip("torch")
     src, _ = reference_dataset
-    out = tmp_path / "ds"
-    out.mkdir()
-    for p in src.iterdir():
-        if p.is_file() and not p.name.startswith("."):
-            (out / p.name).write_bytes(p.read_bytes())
+    out = _copy_dataset(src, tmp_path / "ds")
     from dataclasses import replace
     from scenarios import random_suite
     scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 2, 0)]

@@ -44,10 +44,11 @@ the filter **intervenes**, in this order:
    (``no_safer_option``).
 
 A moving obstacle seen only once (``initialised`` false on the policy's track estimate:
-speed and heading unknown) is checked over the next interval only; each such check is
-counted (``unestimated_tracks``). Its forecast beyond that is the EKF's standing-still guess
-with an uncertainty that grows without information, so every option "fails" it some seconds
-ahead; the next sample gives it a velocity and the full check.
+speed and heading unknown) is checked as the planner plans with it
+(:func:`casadi_gpc.ekf.planning_covariances`): standing where it was seen, with its next
+step's uncertainty; each such check is counted (``unestimated_tracks``). The EKF's own
+forecast grows that uncertainty without information, so that every option "fails" it some
+seconds ahead; the next sample gives it a velocity and the full check.
 
 Every check and every intervention is counted in :attr:`SafetyFilter.counters`.
 ``docs/faults.md`` documents the settings and the measured cost.
@@ -60,6 +61,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from casadi_gpc.ekf import planning_covariances
 from casadi_gpc.robot import RobotParams, RobotState, robot_step, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
 
@@ -282,7 +284,7 @@ class SafetyFilter:
         if nm:
             try:
                 m = np.array([f.means_m for f in forecasts], dtype=float)     # (n, H, 2)
-                c = np.array([f.covs_m2 for f in forecasts], dtype=float)     # (n, H, 2, 2)
+                c = np.array([_covs(f) for f in forecasts], dtype=float)     # (n, H, 2, 2)
             except ValueError:
                 raise ValueError("obstacle forecasts of different lengths") from None
             if m.shape[1:] != (H, 2) or c.shape[1:] != (H, 2, 2):
@@ -293,12 +295,6 @@ class SafetyFilter:
             lam = (a + d) * 0.5 + np.hypot((a - d) * 0.5, b)            # largest eigenvalue (n, H)
             radii = np.array([f.radius_m for f in forecasts], dtype=float)
             touch[:nm] = self.sigmas * np.sqrt(np.maximum(lam, 0.0)) + (radii[:, None] + self.robot.radius_m)
-            for i, f in enumerate(forecasts):
-                if not getattr(f, "initialised", True):
-                    # seen once: its motion is unknown and its forecast beyond the next interval
-                    # is a disc growing without information (the next sample brings a velocity),
-                    # so it is checked over the next interval only (counted)
-                    touch[i, 1:] = -np.inf
         for i, st in enumerate(statics):
             q[nm + i] = complex(st.position_m[0], st.position_m[1])
             touch[nm + i] = st.radius_m + self.robot.radius_m
@@ -615,7 +611,7 @@ class SafetyFilter:
         hypot, sqrt = math.hypot, math.sqrt
         out = []
         for f in forecasts:
-            m, c = f.means_m, f.covs_m2
+            m, c = f.means_m, _covs(f)
             if m.shape != (H, 2) or c.shape != (H, 2, 2):
                 return None
             m, c = m.ravel().tolist(), c.ravel().tolist()
@@ -626,8 +622,6 @@ class SafetyFilter:
             for a, b, d in zip(c[0::4], c[1::4], c[3::4]):  # cov = [[a, b], [b, d]]
                 lam = 0.5 * (a + d) + hypot(0.5 * (a - d), b)
                 touch.append(base + k * sqrt(0.0 if 0.0 > lam else lam))  # sqrt(max(lam, 0))
-            if not getattr(f, "initialised", True):  # seen once: the next interval only (module text)
-                touch[1:] = [-math.inf] * (H - 1)
             out.append((q, touch))
         for st in statics:
             out.append(([complex(st.position_m[0], st.position_m[1])] * (H + 1), [st.radius_m + R] * H))
@@ -656,7 +650,7 @@ class SafetyFilter:
         self.counters["checks"] += 1
         for f in forecasts:
             if not getattr(f, "initialised", True):
-                self.counters["unestimated_tracks"] += 1  # checked over the next interval only
+                self.counters["unestimated_tracks"] += 1  # checked as the planner plans with it
         quick = self._quick(r, wheels, forecasts, statics, poses)
         if quick is not None:
             check, cmd, plan, limited = quick
@@ -735,6 +729,12 @@ class SafetyFilter:
         return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
                              why + f"; manoeuvre {name} (clearance {mc.min_clearance_m:.2f} m, margin kept "
                              f"{mc.kept_s:.1f} s)", f"manoeuvre:{name}", check, mw)
+
+
+def _covs(f) -> np.ndarray:
+    """The forecast covariances the check uses: the planner's (a track seen once keeps its
+    next step's uncertainty; objects without ``initialised`` are estimated tracks)."""
+    return planning_covariances(f.covs_m2, getattr(f, "initialised", True))
 
 
 class _Obstacles:

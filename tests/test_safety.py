@@ -226,12 +226,13 @@ def test_no_way_out_takes_the_best_manoeuvre():
         assert abs(got) <= ROBOT.max_wheel_speed_mps and abs(got - was) <= dv + 1e-12
 
 
-def test_a_track_seen_once_is_checked_over_the_next_interval_only():
+def test_a_track_seen_once_is_checked_as_the_planner_plans_with_it():
     """The EKF's forecast of a track with one measurement: standing still, uncertainty growing
-    by 1 m/s x t (EKFSettings.initial_speed_std_mps). Paper timing (T = 1.5 s, H = 6), robot at rest, obstacle 10 m ahead: the
-    2-sigma disc swallows every option some seconds ahead, so as an estimated track it makes
-    the filter intervene; seen once, it is checked over the next interval only (counted). A
-    track seen once right in front of the robot is still refused over that interval."""
+    by 1 m/s x t (EKFSettings.initial_speed_std_mps). Paper timing (T = 1.5 s, H = 6), robot
+    at rest, obstacle 10 m ahead: the 2-sigma disc swallows every option some seconds ahead,
+    so as an estimated track it makes the filter intervene; seen once, it is checked with its
+    next step's uncertainty, as the planner plans with it (counted). A track seen once right
+    in front of the robot is still refused."""
     from dataclasses import dataclass
 
     @dataclass(frozen=True)

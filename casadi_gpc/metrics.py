@@ -9,9 +9,41 @@ import numpy as np
 from .simulator import RunLog
 
 __all__ = ["EpisodeMetrics", "episode_metrics", "path_deviation_m", "same_instant_deviation_m", "run_document",
-           "eval_document", "time_stats", "longest_stop_s"]
+           "eval_document", "time_stats", "longest_stop_s", "clopper_pearson_upper", "path_length_m",
+           "DANGER_CLEARANCE_M", "intervention_count"]
 
 STOP_SPEED_MPS = 0.05
+DANGER_CLEARANCE_M = 0.2
+"""CrowdNav's discomfort distance: a sample whose clearance to some mover falls below this
+is a sample in danger."""
+
+
+def clopper_pearson_upper(failures: int, trials: int, confidence: float = 0.95) -> float:
+    """One-sided Clopper-Pearson upper bound on a failure probability after ``failures`` in
+    ``trials``: the largest p for which seeing so few failures still has probability at
+    least ``1 - confidence`` (0 of 200 at 95 %: 1 - 0.05^(1/200) = 1.49 %)."""
+    if trials < 1:
+        return 1.0
+    if not 0 <= failures <= trials:
+        raise ValueError(f"failures must be within [0, {trials}], got {failures}")
+    if failures == trials:
+        return 1.0
+    from scipy.stats import beta
+    return float(beta.ppf(confidence, failures + 1, trials - failures))
+
+
+def path_length_m(states, sample_time_s: float) -> float:
+    """Length of the robot's path: each interval is an arc driven at the constant speed
+    applied over it (the wheel speeds recorded with the state at its end)."""
+    st = np.asarray(states, dtype=float)
+    if len(st) < 2:
+        return 0.0
+    return float(np.sum(np.abs(0.5 * (st[1:, 3] + st[1:, 4]))) * sample_time_s)
+
+
+def intervention_count(events: dict) -> int:
+    """Decisions changed by a safety check layer, as the controller counted them."""
+    return int(events.get("interventions", events.get("safety_interventions", 0)))
 
 
 def _point_to_polyline_m(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
@@ -75,6 +107,13 @@ class EpisodeMetrics:
     fallbacks: int
     longest_stop_s: float
     compute_median_s: float
+    path_length_m: float = 0.0
+    danger_steps: int = 0
+    """Sample intervals in which the clearance to some mover fell below
+    :data:`DANGER_CLEARANCE_M`."""
+    danger_clearance_sum_m: float = 0.0
+    """Sum over those intervals of their smallest clearance (for the mean over all)."""
+    interventions: int = 0
 
     @property
     def reached_goal(self) -> bool:
@@ -89,6 +128,8 @@ def episode_metrics(log: RunLog) -> EpisodeMetrics:
     st = np.asarray(log.states)
     ref = np.asarray(log.ref_poses)
     err = np.hypot(st[:, 0] - ref[:, 0], st[:, 1] - ref[:, 1])
+    mover = np.asarray(log.mover_clearance_m, dtype=float)
+    danger = mover[mover < DANGER_CLEARANCE_M]
     return EpisodeMetrics(
         scenario=log.scenario.name,
         controller=log.controller,
@@ -100,6 +141,10 @@ def episode_metrics(log: RunLog) -> EpisodeMetrics:
         fallbacks=int(log.fallbacks),
         longest_stop_s=longest_stop_s(log),
         compute_median_s=float(np.median(log.compute_time_s)) if log.compute_time_s else 0.0,
+        path_length_m=path_length_m(log.states, log.sample_time_s),
+        danger_steps=int(danger.size),
+        danger_clearance_sum_m=float(danger.sum()),
+        interventions=intervention_count(log.events),
     )
 
 
@@ -110,10 +155,14 @@ def run_document(log: RunLog, extra: dict | None = None) -> dict:
     obs_xy = np.asarray(log.obstacle_xy)  # (samples, n, 2)
     obstacles = []
     sc = log.scenario
-    kinds = [("moving", o.radius_m) for o in sc.moving] + [("static", o.radius_m) for o in sc.static]
-    for j, (kind, radius) in enumerate(kinds):
-        obstacles.append({"kind": kind, "radius_m": radius, "x": obs_xy[:, j, 0].tolist(),
-                          "y": obs_xy[:, j, 1].tolist()})
+    kinds = [("moving", o) for o in sc.moving] + [("static", o) for o in sc.static]
+    for j, (kind, ob) in enumerate(kinds):
+        entry = {"kind": kind, "radius_m": ob.radius_m, "x": obs_xy[:, j, 0].tolist(), "y": obs_xy[:, j, 1].tolist()}
+        if kind == "moving":
+            entry["behaviour"] = ob.behaviour
+            if ob.behaviour != "constant":
+                entry.update(goal=list(ob.goal_m), sees_robot=ob.sees_robot)
+        obstacles.append(entry)
     doc = {
         "scenario": m.scenario,
         "controller": m.controller,
@@ -128,6 +177,10 @@ def run_document(log: RunLog, extra: dict | None = None) -> dict:
         "compute_time_s": time_stats(log.compute_time_s),
         "fallbacks": m.fallbacks,
         "longest_stop_s": m.longest_stop_s,
+        "path_length_m": m.path_length_m,
+        "danger_rate": m.danger_steps / max(m.steps, 1),
+        "min_clearance_in_danger_m": m.danger_clearance_sum_m / m.danger_steps if m.danger_steps else None,
+        "interventions": m.interventions,
         "clipped_commands": log.clipped_commands,
         "events": {k: int(v) for k, v in log.events.items()},
         "trajectory": {
@@ -144,10 +197,18 @@ def run_document(log: RunLog, extra: dict | None = None) -> dict:
 
 def eval_document(controller: str, metrics: list[EpisodeMetrics], compute_times: list[float],
                   extra: dict | None = None) -> dict:
-    """EVAL.json as CONTRACT.md defines it."""
+    """EVAL.json as CONTRACT.md defines it, with CrowdNav's measures: time to goal over the
+    successes, the share of samples in danger (clearance to some mover below
+    :data:`DANGER_CLEARANCE_M`) and the mean smallest clearance over them, path length, and
+    one-sided 95 % Clopper-Pearson upper bounds on the collision and failure probabilities."""
     n = len(metrics)
     clear = np.array([m.min_clearance_m for m in metrics]) if n else np.zeros(1)
     rmse = np.array([m.tracking_rmse_m for m in metrics]) if n else np.zeros(1)
+    ttg = [m.time_to_goal_s for m in metrics if m.reached_goal]
+    steps = sum(m.steps for m in metrics)
+    danger = sum(m.danger_steps for m in metrics)
+    collisions = sum(m.collided for m in metrics)
+    failures = n - sum(m.reached_goal for m in metrics)
     doc = {
         "controller": controller,
         "episodes": n,
@@ -158,6 +219,13 @@ def eval_document(controller: str, metrics: list[EpisodeMetrics], compute_times:
         "tracking_rmse_m": {"median": float(np.median(rmse))},
         "compute_time_s": time_stats(compute_times),
         "fallbacks": int(sum(m.fallbacks for m in metrics)),
+        "time_to_goal_s": {"mean": float(np.mean(ttg)), "median": float(np.median(ttg))} if ttg else None,
+        "danger_rate": danger / max(steps, 1),
+        "min_clearance_in_danger_m": sum(m.danger_clearance_sum_m for m in metrics) / danger if danger else None,
+        "path_length_m": {"median": float(np.median([m.path_length_m for m in metrics])) if n else 0.0},
+        "collision_rate_upper_95": clopper_pearson_upper(collisions, n),
+        "failure_rate_upper_95": clopper_pearson_upper(failures, n),
+        "interventions": int(sum(m.interventions for m in metrics)),
         "episodes_detail": [asdict(m) for m in metrics],
     }
     doc.update(extra or {})

@@ -8,9 +8,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
-__all__ = ["plot_run", "run_figure", "animate_run"]
+__all__ = ["plot_run", "run_figure", "animate_run", "mover_colour"]
 
 _OBSTACLE_COLOURS = ["tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan"]
+
+
+def mover_colour(j: int, n_moving: int):
+    """A colour per mover, distinct for up to 20 (the paper's few obstacles keep their red,
+    purple, ...; a crowd gets tab10 or tab20 without the robot's blue)."""
+    if n_moving <= len(_OBSTACLE_COLOURS):
+        return _OBSTACLE_COLOURS[j % len(_OBSTACLE_COLOURS)]
+    cmap = plt.get_cmap("tab20")
+    palette = [cmap(i) for i in range(20) if i not in (0, 1)]  # 0, 1: blues (the robot's)
+    return palette[j % len(palette)]
 
 
 def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 3.0, title: str | None = None):
@@ -31,17 +41,29 @@ def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 
         ax.plot([x[k], x[k] + robot_radius_m * np.cos(h[k])], [y[k], y[k] + robot_radius_m * np.sin(h[k])],
                 color="tab:blue", lw=0.8)
         ax.annotate(f"{t[k]:.0f}", (x[k], y[k]), fontsize=6, color="tab:blue", ha="center", va="center")
-    for j, ob in enumerate(doc.get("obstacles", [])):
-        c = _OBSTACLE_COLOURS[j % len(_OBSTACLE_COLOURS)]
+    obstacles = doc.get("obstacles", [])
+    n_moving = sum(o["kind"] == "moving" for o in obstacles)
+    crowd = n_moving > len(_OBSTACLE_COLOURS)
+    for j, ob in enumerate(obstacles):
         ox, oy = np.asarray(ob["x"]), np.asarray(ob["y"])
         if ob["kind"] == "static":
             ax.add_patch(Circle((ox[0], oy[0]), ob["radius_m"], color="0.3", alpha=0.6))
             continue
+        c = mover_colour(j, n_moving)
         ax.plot(ox, oy, color=c, lw=1.0, ls=":", label="moving obstacle" if j == 0 else None)
         for k in marks:
             if k < len(ox):
-                ax.add_patch(Circle((ox[k], oy[k]), ob["radius_m"], fill=False, color=c, lw=0.8))
+                # later footprints darker: who was where when, even where paths cross
+                alpha = 0.35 + 0.65 * k / max(len(t) - 1, 1) if crowd else 1.0
+                ax.add_patch(Circle((ox[k], oy[k]), ob["radius_m"], fill=False, color=c, lw=0.8, alpha=alpha))
                 ax.annotate(f"{t[k]:.0f}", (ox[k], oy[k]), fontsize=6, color=c, ha="center", va="center")
+        if "goal" in ob:
+            ax.plot(*ob["goal"], marker="x", color=c, ms=5, mew=1.2)
+        if crowd or doc.get("outcome") == "collided":
+            ax.add_patch(Circle((ox[-1], oy[-1]), ob["radius_m"], color=c, alpha=0.35))  # where it was at the end
+    if doc.get("outcome") == "collided":
+        ax.add_patch(Circle((x[-1], y[-1]), robot_radius_m, color="tab:blue", alpha=0.35))
+        ax.plot(x[-1], y[-1], marker="X", color="black", ms=8, label=f"collision at {t[-1]:.1f} s")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -81,22 +103,30 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
     path_line, = ax.plot([], [], color="tab:blue", lw=1.2)
     robot = Circle((x[0], y[0]), robot_radius_m, fill=False, color="tab:blue")
     ax.add_patch(robot)
-    discs = []
+    discs, trails = [], []
+    n_moving = sum(o["kind"] == "moving" for o in obs)
+    trail_len = max(1, int(round(3.0 / float(doc["sample_time_s"]))))  # the last 3 s of each mover
     for j, o in enumerate(obs):
-        c = "0.3" if o["kind"] == "static" else _OBSTACLE_COLOURS[j % len(_OBSTACLE_COLOURS)]
+        c = "0.3" if o["kind"] == "static" else mover_colour(j, n_moving)
         d = Circle((o["x"][0], o["y"][0]), o["radius_m"], color=c, alpha=0.5)
         ax.add_patch(d)
         discs.append(d)
+        trails.append(ax.plot([], [], color=c, lw=0.8, alpha=0.7)[0] if o["kind"] == "moving" else None)
+        if "goal" in o:
+            ax.plot(*o["goal"], marker="x", color=c, ms=4)
     label = ax.set_title("")
 
     def frame(k):
         path_line.set_data(x[: k + 1], y[: k + 1])
         robot.center = (x[k], y[k])
-        for d, o in zip(discs, obs):
+        for d, tr, o in zip(discs, trails, obs):
             kk = min(k, len(o["x"]) - 1)
             d.center = (o["x"][kk], o["y"][kk])
-        label.set_text(f"{doc['scenario']}  t = {t[k]:.1f} s")
-        return [path_line, robot, *discs, label]
+            if tr is not None:
+                tr.set_data(o["x"][max(0, kk - trail_len): kk + 1], o["y"][max(0, kk - trail_len): kk + 1])
+        state = f"  {doc['outcome']}" if k == len(t) - 1 else ""
+        label.set_text(f"{doc['scenario']}  t = {t[k]:.1f} s{state}")
+        return [path_line, robot, *discs, *(tr for tr in trails if tr is not None), label]
 
     anim = FuncAnimation(fig, frame, frames=len(t), blit=False)
     try:

@@ -1,17 +1,23 @@
 """The closed loop: true obstacle motion, noisy measurements, the controller, exact robot
-motion, and the contract's outcome rules (goal, collision, time limit)."""
+motion, and the contract's outcome rules (goal, collision, time limit).
+
+:class:`Episode` is one episode stepped by whoever drives the robot (:func:`simulate` with a
+controller, or the Gymnasium environment with an agent's actions); :func:`simulate` runs a
+controller through a whole episode."""
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .movers import MoverWorld
 from .robot import RobotState, brake_wheels, robot_step
 from .types import ControlDecision, ObstacleMeasurement, Observation, Policy
 
-__all__ = ["RunLog", "simulate", "GOAL_TOLERANCE_M", "SUBSTEPS", "interval_clearances"]
+__all__ = ["RunLog", "Episode", "simulate", "GOAL_TOLERANCE_M", "SUBSTEPS"]
 
 GOAL_TOLERANCE_M = 0.3
 SUBSTEPS = 20  # collision-check instants per sample interval (the contract asks for >= 10)
@@ -30,33 +36,15 @@ class RunLog:
     obstacle_xy: list = field(default_factory=list)     # (n_obstacles, 2) true positions at t
     compute_time_s: list = field(default_factory=list)
     decisions: list = field(default_factory=list)
+    mover_clearance_m: list = field(default_factory=list)
+    """Per sample interval: the smallest disc-to-disc gap to any moving obstacle over the
+    interval's collision-check instants (inf without movers)."""
     min_clearance_m: float = float("inf")
     outcome: str = "timed_out"
     end_time_s: float = 0.0
     fallbacks: int = 0
     clipped_commands: int = 0
     events: dict = field(default_factory=dict)
-
-
-def _all_obstacles(scenario):
-    """(radius, position-function) for every obstacle, moving then static."""
-    out = [(m.radius_m, (lambda t, m=m: np.stack(m.state_at(t)[:2], axis=-1))) for m in scenario.moving]
-    out += [(s.radius_m, (lambda t, s=s: np.broadcast_to(np.asarray(s.position_m, float), np.shape(t) + (2,))))
-            for s in scenario.static]
-    return out
-
-
-def interval_clearances(scenario, state: np.ndarray, v_right: float, v_left: float, t0: float, dt: float,
-                        substeps: int = SUBSTEPS) -> np.ndarray:
-    """Disc-to-disc gaps to every obstacle at ``substeps`` evenly spaced instants inside
-    (t0, t0 + dt], shape (substeps, n_obstacles). The arcs are exact."""
-    tau = dt * np.arange(1, substeps + 1) / substeps
-    x, y, _ = robot_step(np, state[0], state[1], state[2], v_right, v_left, tau, scenario.robot.wheel_base_m)
-    gaps = []
-    for radius, pos in _all_obstacles(scenario):
-        xy = pos(t0 + tau)
-        gaps.append(np.hypot(xy[:, 0] - x, xy[:, 1] - y) - radius - scenario.robot.radius_m)
-    return np.stack(gaps, axis=1) if gaps else np.full((substeps, 0), np.inf)
 
 
 class _Sensor:
@@ -66,12 +54,11 @@ class _Sensor:
         self.s, self.rng, self.events = scenario, rng, events
         self.queue: deque = deque()
 
-    def measure(self, t: float) -> tuple[ObstacleMeasurement, ...]:
+    def measure(self, t: float, true_xy: np.ndarray) -> tuple[ObstacleMeasurement, ...]:
         s, f, rng = self.s, self.s.faults, self.rng
         out = []
         for i, m in enumerate(s.moving):
-            x, y, _ = m.state_at(t)
-            z = np.array([x, y]) + rng.normal(0.0, s.sensing.position_noise_std_m, 2)
+            z = np.array(true_xy[i]) + rng.normal(0.0, s.sensing.position_noise_std_m, 2)
             if f.outlier_prob and rng.random() < f.outlier_prob:
                 a = rng.uniform(0, 2 * np.pi)
                 z = z + f.outlier_distance_m * np.array([np.cos(a), np.sin(a)])
@@ -86,64 +73,140 @@ class _Sensor:
         return self.queue.popleft()
 
 
-def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
-    """Run one closed-loop episode of ``scenario`` with ``controller`` (reset first)."""
-    T = controller.sample_time_s
-    robot = scenario.robot
-    rng = np.random.default_rng(scenario.sensing.seed)
-    controller.reset()
-    if hasattr(controller, "inject_failures"):
-        controller.inject_failures(scenario.faults.solver_failure_prob, np.random.default_rng([scenario.sensing.seed, 7]))
-    log = RunLog(scenario, controller_name, T)
-    sensor = _Sensor(scenario, rng, log.events)
-    state = scenario.robot_start.as_array().astype(float)
-    state[3:] = 0.0
-    ref = scenario.reference
-    dv_max = robot.max_step_change_mps(T)
-    obstacles = _all_obstacles(scenario)
-    n_steps = int(np.floor(scenario.duration_s / T + 1e-9))  # never run past duration_s
-    gaps0 = [np.hypot(*(pos(0.0) - state[:2])) - r - robot.radius_m for r, pos in obstacles]
-    log.min_clearance_m = float(min(gaps0)) if gaps0 else float("inf")
+class Episode:
+    """One episode of ``scenario`` at sample time ``sample_time_s``.
 
-    def record(t):
+    ``observation()`` gives what a controller is told now; ``step(decision)`` applies the
+    decision's wheel speeds (clipped to the robot's limits, as the robot would) over one
+    sample interval, moves the obstacles, checks for collision at :data:`SUBSTEPS` instants
+    inside the interval (exact arcs) and for the goal, and returns the outcome once the
+    episode has ended (``None`` while it runs). ``log`` holds everything that happened.
+    """
+
+    def __init__(self, scenario, sample_time_s: float, controller_name: str = ""):
+        self.scenario = scenario
+        self.sample_time_s = T = float(sample_time_s)
+        self.log = RunLog(scenario, controller_name, T)
+        self.world = MoverWorld(scenario.moving, scenario.static, scenario.robot.radius_m)
+        self._sensor = _Sensor(scenario, np.random.default_rng(scenario.sensing.seed), self.log.events)
+        self.state = scenario.robot_start.as_array().astype(float)
+        self.state[3:] = 0.0
+        self.k = 0
+        self.n_steps = int(np.floor(scenario.duration_s / T + 1e-9))  # never run past duration_s
+        self.done = False
+        self._static_xy = np.array([s.position_m for s in scenario.static], dtype=float).reshape(-1, 2)
+        self._radii = np.array([m.radius_m for m in scenario.moving] + [s.radius_m for s in scenario.static])
+        self._n_moving = len(scenario.moving)
+        gaps0 = np.hypot(*(self._obstacles_at(0.0) - self.state[:2]).T) - self._radii - scenario.robot.radius_m
+        self.log.min_clearance_m = float(gaps0.min()) if gaps0.size else float("inf")
+        self._record(0.0)
+        if self.n_steps == 0:
+            self._finish("timed_out", 0.0)
+
+    @property
+    def t_s(self) -> float:
+        return self.k * self.sample_time_s
+
+    def _obstacles_at(self, t) -> np.ndarray:
+        """True positions of every obstacle, moving then static: ``(n, 2)`` at a time,
+        ``(len(t), n, 2)`` at an array of times."""
+        mov = self.world.positions(t)
+        stat = np.broadcast_to(self._static_xy, mov.shape[:-2] + self._static_xy.shape)
+        return np.concatenate([mov, stat], axis=-2)
+
+    def _record(self, t: float) -> None:
+        log = self.log
         log.t.append(t)
-        log.states.append(state.copy())
-        log.ref_poses.append(ref.pose_at_time(t))
-        log.obstacle_xy.append(np.array([pos(t) for _, pos in obstacles]).reshape(-1, 2))
+        log.states.append(self.state.copy())
+        log.ref_poses.append(self.scenario.reference.pose_at_time(t))
+        log.obstacle_xy.append(self._obstacles_at(t).reshape(-1, 2))
 
-    record(0.0)
-    for k in range(n_steps):
-        t = k * T
-        obs = Observation(t, RobotState(*state), ref, sensor.measure(t), scenario.static)
-        t0 = time.perf_counter()
-        dec: ControlDecision = controller.decide(obs)
-        log.compute_time_s.append(time.perf_counter() - t0)
-        log.decisions.append(dec)
-        log.fallbacks += int(dec.fallback)
-        cmd = np.array([dec.v_right_mps, dec.v_left_mps], dtype=float)
+    def observation(self) -> Observation:
+        """What the controller is told at the current sample instant."""
+        t = self.t_s
+        sc = self.scenario
+        moving = self._sensor.measure(t, self.world.positions(t)) if sc.moving else ()
+        return Observation(t, RobotState(*self.state), sc.reference, moving, sc.static)
+
+    def _robot_motion(self, state: np.ndarray, wheels: np.ndarray, t0: float):
+        """The robot's position and velocity at a time in the coming interval (for walkers
+        that see it)."""
+        W = self.scenario.robot.wheel_base_m
+        speed = 0.5 * (wheels[0] + wheels[1])
+
+        def at(t: float):
+            x, y, h = robot_step(math, state[0], state[1], state[2], wheels[0], wheels[1], t - t0, W)
+            return x, y, speed * math.cos(h), speed * math.sin(h)
+        return at
+
+    def interval_clearances(self, wheels: np.ndarray) -> np.ndarray:
+        """Disc-to-disc gaps to every obstacle at :data:`SUBSTEPS` evenly spaced instants
+        inside the coming interval, shape ``(SUBSTEPS, n_obstacles)``, with the robot
+        driving ``wheels`` (exact arcs)."""
+        T, t0, st = self.sample_time_s, self.t_s, self.state
+        tau = T * np.arange(1, SUBSTEPS + 1) / SUBSTEPS
+        x, y, _ = robot_step(np, st[0], st[1], st[2], wheels[0], wheels[1], tau, self.scenario.robot.wheel_base_m)
+        xy = self._obstacles_at(t0 + tau)                                   # (S, n, 2)
+        return np.hypot(xy[..., 0] - x[:, None], xy[..., 1] - y[:, None]) - self._radii - self.scenario.robot.radius_m
+
+    def step(self, decision: ControlDecision, compute_time_s: float = 0.0) -> str | None:
+        """Apply ``decision`` over one interval; the outcome once the episode has ended."""
+        if self.done:
+            raise RuntimeError("the episode has ended")
+        sc, log, T, t = self.scenario, self.log, self.sample_time_s, self.t_s
+        robot = sc.robot
+        dv_max = robot.max_step_change_mps(T)
+        log.compute_time_s.append(compute_time_s)
+        log.decisions.append(decision)
+        log.fallbacks += int(decision.fallback)
+        cmd = np.array([decision.v_right_mps, decision.v_left_mps], dtype=float)
         if not np.all(np.isfinite(cmd)):
-            cmd = np.array(brake_wheels(state[3], state[4], dv_max))
+            cmd = np.array(brake_wheels(self.state[3], self.state[4], dv_max))
             log.events["non_finite_commands"] = log.events.get("non_finite_commands", 0) + 1
-        lim = np.clip(np.clip(cmd, state[3:] - dv_max, state[3:] + dv_max),
+        lim = np.clip(np.clip(cmd, self.state[3:] - dv_max, self.state[3:] + dv_max),
                       -robot.max_wheel_speed_mps, robot.max_wheel_speed_mps)
         if np.any(np.abs(lim - cmd) > 1e-9):
             log.clipped_commands += 1
-        gaps = interval_clearances(scenario, state, lim[0], lim[1], t, T)
+        self.world.advance(t + T, self._robot_motion(self.state, lim, t))
+        gaps = self.interval_clearances(lim)
         if gaps.size:
             log.min_clearance_m = min(log.min_clearance_m, float(gaps.min()))
-        x, y, h = robot_step(np, state[0], state[1], state[2], lim[0], lim[1], T, robot.wheel_base_m)
-        state = np.array([x, y, h, lim[0], lim[1]], dtype=float)
-        record(t + T)
+        log.mover_clearance_m.append(float(gaps[:, :self._n_moving].min()) if self._n_moving else math.inf)
+        x, y, h = robot_step(np, self.state[0], self.state[1], self.state[2], lim[0], lim[1], T, robot.wheel_base_m)
+        self.state = np.array([x, y, h, lim[0], lim[1]], dtype=float)
+        self.k += 1
+        self._record(t + T)
         if gaps.size and gaps.min() < 0.0:
             first = int(np.argmax(gaps.min(axis=1) < 0.0))
-            log.outcome, log.end_time_s = "collided", t + T * (first + 1) / SUBSTEPS
-            break
-        end = ref.end_pose
-        if (t + T) >= ref.duration_s - 1e-9 and np.hypot(state[0] - end[0], state[1] - end[1]) <= GOAL_TOLERANCE_M:
-            log.outcome, log.end_time_s = "reached_goal", t + T
-            break
-    else:
-        log.outcome, log.end_time_s = "timed_out", n_steps * T
+            return self._finish("collided", t + T * (first + 1) / SUBSTEPS)
+        end = sc.reference.end_pose
+        if (t + T) >= sc.reference.duration_s - 1e-9 and math.hypot(x - end[0], y - end[1]) <= GOAL_TOLERANCE_M:
+            return self._finish("reached_goal", t + T)
+        if self.k >= self.n_steps:
+            return self._finish("timed_out", self.n_steps * T)
+        return None
+
+    def _finish(self, outcome: str, end_time_s: float) -> str:
+        self.log.outcome, self.log.end_time_s = outcome, end_time_s
+        self.done = True
+        for name, n in self.world.counters.items():
+            if n:
+                self.log.events[f"movers.{name}"] = n
+        return outcome
+
+
+def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
+    """Run one closed-loop episode of ``scenario`` with ``controller`` (reset first)."""
+    controller.reset()
+    if hasattr(controller, "inject_failures"):
+        controller.inject_failures(scenario.faults.solver_failure_prob, np.random.default_rng([scenario.sensing.seed, 7]))
+    episode = Episode(scenario, controller.sample_time_s, controller_name)
+    while not episode.done:
+        obs = episode.observation()
+        t0 = time.perf_counter()
+        decision = controller.decide(obs)
+        episode.step(decision, time.perf_counter() - t0)
+    log = episode.log
     for name, value in getattr(controller, "counters", {}).items():
         if isinstance(value, dict):  # a nested report (e.g. the policy's feature report): flatten it
             for sub, n in value.items():

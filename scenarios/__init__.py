@@ -2,11 +2,13 @@
 from pathlib import Path
 
 from .loader import ScenarioError, load_scenario, scenario_from_dict
-from .model import Faults, MovingObstacleSpec, Scenario, Sensing
-from .random_suite import SUITES, random_scenario, random_suite
+from .model import Faults, MovingObstacleSpec, Scenario, Sensing, WalkerSpec
+from .random_suite import random_scenario, random_suite
+from .suites import CROWD_BEHAVIOURS, CROWD_SUITES, RANDOM_SUITES, SUITES, Suite
 
 __all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "Scenario", "MovingObstacleSpec", "Sensing",
-           "Faults", "SUITES", "random_scenario", "random_suite", "PAPER_DIR", "paper_scenarios"]
+           "Faults", "SUITES", "RANDOM_SUITES", "CROWD_SUITES", "CROWD_BEHAVIOURS", "Suite", "random_scenario",
+           "random_suite", "PAPER_DIR", "paper_scenarios", "WalkerSpec"]
 
 PAPER_DIR = Path(__file__).parent / "paper"
 PAPER_NAMES = ("fig7_1_head_on", "fig7_2_crossing", "fig7_3_crossing_off_path")

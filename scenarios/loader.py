@@ -16,9 +16,9 @@ from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState
 from casadi_gpc.types import StaticObstacle
 
-from .model import Faults, MovingObstacleSpec, Scenario, Sensing
+from .model import Faults, MovingObstacleSpec, Scenario, Sensing, WalkerSpec
 
-__all__ = ["ScenarioError", "load_scenario", "scenario_from_dict"]
+__all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "BEHAVIOURS"]
 
 _NAME = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -88,12 +88,18 @@ class _Reader:
         return v
 
 
+_TOP_KEYS = {"name", "description", "duration_s", "robot", "reference", "moving_obstacles", "static_obstacles",
+             "sensing", "faults"}
+_CONSTANT_KEYS = {"position", "heading_deg", "speed_mps", "turn_rate_deg_s", "radius_m", "behaviour"}
+_WALKER_KEYS = {"position", "radius_m", "behaviour", "goal", "preferred_speed_mps", "sees_robot"}
+BEHAVIOURS = ("constant", "orca", "social_force")
+"""What a moving obstacle may do: keep its course, or walk to a goal (casadi_gpc.movers)."""
+
+
 def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
     """Validate a parsed scenario document and build the :class:`Scenario`."""
     r = _Reader(source)
-    top = {"name", "description", "duration_s", "robot", "reference", "moving_obstacles",
-           "static_obstacles", "sensing", "faults"}
-    r.table(data, "", top, {"name", "duration_s", "robot", "reference"})
+    r.table(data, "", _TOP_KEYS, {"name", "duration_s", "robot", "reference"})
     name = data["name"]
     if not isinstance(name, str) or not _NAME.match(name):
         r.fail("name", "must be a string of letters, digits, '_' and '-'")
@@ -101,87 +107,111 @@ def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
     if not isinstance(description, str):
         r.fail("description", "must be a string")
     duration = float(r.number(data, "duration_s", "", positive=True))
+    params, start = _robot(r, data["robot"])
+    reference = _reference(r, data["reference"], params)
+    moving = [_moving(r, ob, f"moving_obstacles[{i}]") for i, ob in enumerate(r.array_of_tables(data, "moving_obstacles"))]
+    static = [_static(r, ob, f"static_obstacles[{i}]") for i, ob in enumerate(r.array_of_tables(data, "static_obstacles"))]
+    sensing = _sensing(r, data["sensing"]) if "sensing" in data else Sensing()
+    faults = _faults(r, data["faults"]) if "faults" in data else Faults()
+    for kind, obstacles in (("moving_obstacles", moving), ("static_obstacles", static)):
+        for i, ob in enumerate(obstacles):
+            gap = math.hypot(ob.position_m[0] - start.x_m, ob.position_m[1] - start.y_m) - params.radius_m - ob.radius_m
+            if gap < 0:
+                r.fail(f"{kind}[{i}].position", f"the robot starts overlapping this obstacle (gap {gap:.3f} m)")
+    return Scenario(name, duration, start, reference, params, tuple(moving), tuple(static), sensing, faults,
+                    description, source)
 
-    rob = r.table(data["robot"], "robot",
-                  {"position", "heading_deg", "wheel_base_m", "radius_m", "max_wheel_speed_mps",
-                   "max_wheel_accel_mps2"}, {"position", "heading_deg"})
+
+def _robot(r: _Reader, table) -> tuple[RobotParams, RobotState]:
+    rob = r.table(table, "robot", {"position", "heading_deg", "wheel_base_m", "radius_m", "max_wheel_speed_mps",
+                                   "max_wheel_accel_mps2"}, {"position", "heading_deg"})
     defaults = RobotParams()
     params = RobotParams(**{k: float(r.number(rob, k, "robot", default=getattr(defaults, k), positive=True))
                             for k in ("wheel_base_m", "radius_m", "max_wheel_speed_mps", "max_wheel_accel_mps2")})
     rx, ry = r.point(rob, "position", "robot")
-    start = RobotState(rx, ry, math.radians(r.number(rob, "heading_deg", "robot")))
+    return params, RobotState(rx, ry, math.radians(r.number(rob, "heading_deg", "robot")))
 
-    ref = r.table(data["reference"], "reference", {"position", "heading_deg", "speed_mps", "segments"},
+
+def _segment(r: _Reader, seg, f: str) -> Segment:
+    r.table(seg, f, {"line_m", "arc_radius_m", "arc_angle_deg"}, set())
+    if "line_m" in seg:
+        if set(seg) != {"line_m"}:
+            r.fail(f, "a segment is either line_m or arc_radius_m with arc_angle_deg, not both")
+        return Segment.line(r.number(seg, "line_m", f, positive=True))
+    if set(seg) == {"arc_radius_m", "arc_angle_deg"}:
+        radius = r.number(seg, "arc_radius_m", f, positive=True)
+        angle = r.number(seg, "arc_angle_deg", f)
+        if angle == 0:
+            r.fail(f"{f}.arc_angle_deg", "must not be 0")
+        return Segment.arc(radius, math.radians(angle))
+    r.fail(f, "needs line_m, or arc_radius_m and arc_angle_deg")
+
+
+def _reference(r: _Reader, table, params: RobotParams) -> ReferencePath:
+    ref = r.table(table, "reference", {"position", "heading_deg", "speed_mps", "segments"},
                   {"position", "heading_deg", "speed_mps", "segments"})
     segs_raw = ref["segments"]
     if not isinstance(segs_raw, list) or not all(isinstance(t, dict) for t in segs_raw):
         r.fail("reference.segments", "must be an array of tables ([[reference.segments]])")
     if not segs_raw:
         r.fail("reference.segments", "the path is empty (give at least one segment)")
-    segments = []
-    for i, seg in enumerate(segs_raw):
-        f = f"reference.segments[{i}]"
-        r.table(seg, f, {"line_m", "arc_radius_m", "arc_angle_deg"}, set())
-        if "line_m" in seg:
-            if set(seg) != {"line_m"}:
-                r.fail(f, "a segment is either line_m or arc_radius_m with arc_angle_deg, not both")
-            segments.append(Segment.line(r.number(seg, "line_m", f, positive=True)))
-        elif set(seg) == {"arc_radius_m", "arc_angle_deg"}:
-            radius = r.number(seg, "arc_radius_m", f, positive=True)
-            angle = r.number(seg, "arc_angle_deg", f)
-            if angle == 0:
-                r.fail(f"{f}.arc_angle_deg", "must not be 0")
-            segments.append(Segment.arc(radius, math.radians(angle)))
-        else:
-            r.fail(f, "needs line_m, or arc_radius_m and arc_angle_deg")
+    segments = [_segment(r, seg, f"reference.segments[{i}]") for i, seg in enumerate(segs_raw)]
     speed = float(r.number(ref, "speed_mps", "reference", positive=True))
     reachable = params.max_wheel_speed_mps / max(
         [1.0] + [1.0 + 0.5 * params.wheel_base_m * abs(s.curvature_1pm) for s in segments])
     if speed > reachable + 1e-12:
         r.fail("reference.speed_mps", f"{speed} m/s is above what the wheels can reach on this path "
                                       f"({reachable:.3f} m/s with max_wheel_speed_mps {params.max_wheel_speed_mps})")
-    reference = ReferencePath(r.point(ref, "position", "reference"),
-                              math.radians(r.number(ref, "heading_deg", "reference")), tuple(segments), speed)
+    return ReferencePath(r.point(ref, "position", "reference"), math.radians(r.number(ref, "heading_deg", "reference")),
+                         tuple(segments), speed)
 
-    moving = []
-    for i, ob in enumerate(r.array_of_tables(data, "moving_obstacles")):
-        f = f"moving_obstacles[{i}]"
-        r.table(ob, f, {"position", "heading_deg", "speed_mps", "turn_rate_deg_s", "radius_m"},
-                {"position", "heading_deg", "speed_mps", "radius_m"})
-        moving.append(MovingObstacleSpec(
+
+def _moving(r: _Reader, ob, f: str) -> MovingObstacleSpec | WalkerSpec:
+    """One ``[[moving_obstacles]]`` table: a constant mover, or a walker (``behaviour``
+    ``orca`` or ``social_force``); each refuses the other's keys."""
+    behaviour = ob.get("behaviour", "constant") if isinstance(ob, dict) else "constant"
+    if behaviour not in BEHAVIOURS:
+        r.fail(f"{f}.behaviour", f"must be one of {', '.join(BEHAVIOURS)}, got {behaviour!r}")
+    own, other = (_CONSTANT_KEYS, _WALKER_KEYS) if behaviour == "constant" else (_WALKER_KEYS, _CONSTANT_KEYS)
+    for key in sorted(other - own):
+        if isinstance(ob, dict) and key in ob:
+            r.fail(f"{f}.{key}", f"not for a mover with behaviour {behaviour!r} (one way to say one thing: "
+                                 f"{'a walker starts towards its goal' if behaviour != 'constant' else 'a constant mover has no goal'})")
+    if behaviour == "constant":
+        r.table(ob, f, _CONSTANT_KEYS, {"position", "heading_deg", "speed_mps", "radius_m"})
+        return MovingObstacleSpec(
             r.point(ob, "position", f), math.radians(r.number(ob, "heading_deg", f)),
             float(r.number(ob, "speed_mps", f, nonnegative=True)), float(r.number(ob, "radius_m", f, positive=True)),
-            math.radians(r.number(ob, "turn_rate_deg_s", f, default=0.0))))
-    static = []
-    for i, ob in enumerate(r.array_of_tables(data, "static_obstacles")):
-        f = f"static_obstacles[{i}]"
-        r.table(ob, f, {"position", "radius_m"}, {"position", "radius_m"})
-        static.append(StaticObstacle(r.point(ob, "position", f), float(r.number(ob, "radius_m", f, positive=True))))
+            math.radians(r.number(ob, "turn_rate_deg_s", f, default=0.0)))
+    r.table(ob, f, _WALKER_KEYS, {"position", "radius_m", "goal", "preferred_speed_mps"})
+    sees = ob.get("sees_robot", False)
+    if not isinstance(sees, bool):
+        r.fail(f"{f}.sees_robot", f"must be true or false, got {type(sees).__name__}")
+    return WalkerSpec(r.point(ob, "position", f), float(r.number(ob, "radius_m", f, positive=True)), behaviour,
+                      r.point(ob, "goal", f), float(r.number(ob, "preferred_speed_mps", f, positive=True)), sees)
 
-    sensing = Sensing()
-    if "sensing" in data:
-        s = r.table(data["sensing"], "sensing", {"position_noise_std_m", "seed"}, set())
-        sensing = Sensing(float(r.number(s, "position_noise_std_m", "sensing", default=0.02, nonnegative=True)),
-                          int(r.number(s, "seed", "sensing", default=0, integer=True, nonnegative=True)))
-    faults = Faults()
-    if "faults" in data:
-        s = r.table(data["faults"], "faults", {"dropout_prob", "outlier_prob", "outlier_distance_m",
-                                               "delay_steps", "solver_failure_prob"}, set())
-        faults = Faults(
-            float(r.number(s, "dropout_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
-            float(r.number(s, "outlier_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
-            float(r.number(s, "outlier_distance_m", "faults", default=3.0, positive=True)),
-            int(r.number(s, "delay_steps", "faults", default=0, integer=True, nonnegative=True)),
-            float(r.number(s, "solver_failure_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
-        )
 
-    for kind, obstacles in (("moving_obstacles", moving), ("static_obstacles", static)):
-        for i, ob in enumerate(obstacles):
-            gap = math.hypot(ob.position_m[0] - rx, ob.position_m[1] - ry) - params.radius_m - ob.radius_m
-            if gap < 0:
-                r.fail(f"{kind}[{i}].position", f"the robot starts overlapping this obstacle (gap {gap:.3f} m)")
-    return Scenario(name, duration, start, reference, params, tuple(moving), tuple(static), sensing, faults,
-                    description, source)
+def _static(r: _Reader, ob, f: str) -> StaticObstacle:
+    r.table(ob, f, {"position", "radius_m"}, {"position", "radius_m"})
+    return StaticObstacle(r.point(ob, "position", f), float(r.number(ob, "radius_m", f, positive=True)))
+
+
+def _sensing(r: _Reader, table) -> Sensing:
+    s = r.table(table, "sensing", {"position_noise_std_m", "seed"}, set())
+    return Sensing(float(r.number(s, "position_noise_std_m", "sensing", default=0.02, nonnegative=True)),
+                   int(r.number(s, "seed", "sensing", default=0, integer=True, nonnegative=True)))
+
+
+def _faults(r: _Reader, table) -> Faults:
+    s = r.table(table, "faults", {"dropout_prob", "outlier_prob", "outlier_distance_m", "delay_steps",
+                                  "solver_failure_prob"}, set())
+    return Faults(
+        float(r.number(s, "dropout_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
+        float(r.number(s, "outlier_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
+        float(r.number(s, "outlier_distance_m", "faults", default=3.0, positive=True)),
+        int(r.number(s, "delay_steps", "faults", default=0, integer=True, nonnegative=True)),
+        float(r.number(s, "solver_failure_prob", "faults", default=0.0, nonnegative=True, maximum=1.0)),
+    )
 
 
 def load_scenario(path) -> Scenario:

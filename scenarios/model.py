@@ -9,7 +9,7 @@ from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotParams, RobotState, arc_step
 from casadi_gpc.types import StaticObstacle
 
-__all__ = ["MovingObstacleSpec", "Sensing", "Faults", "Scenario"]
+__all__ = ["MovingObstacleSpec", "WalkerSpec", "Sensing", "Faults", "Scenario"]
 
 
 @dataclass(frozen=True)
@@ -22,10 +22,27 @@ class MovingObstacleSpec:
     radius_m: float
     turn_rate_rad_s: float = 0.0
 
+    behaviour = "constant"
+
     def state_at(self, t_s):
         """True ``(x, y, heading)`` at time(s) ``t_s`` (exact arcs)."""
         return arc_step(np, self.position_m[0], self.position_m[1], self.heading_rad,
                         self.speed_mps, self.turn_rate_rad_s, np.asarray(t_s, dtype=float))
+
+
+@dataclass(frozen=True)
+class WalkerSpec:
+    """A mover that walks to a goal at its preferred speed and avoids the other movers
+    (``behaviour`` ``"orca"`` or ``"social_force"``: navground's ORCA or social force model;
+    :mod:`casadi_gpc.movers`), and the robot when ``sees_robot``. It stands at its goal
+    once there."""
+
+    position_m: tuple[float, float]
+    radius_m: float
+    behaviour: str
+    goal_m: tuple[float, float]
+    preferred_speed_mps: float
+    sees_robot: bool = False
 
 
 @dataclass(frozen=True)
@@ -60,7 +77,7 @@ class Scenario:
     robot_start: RobotState
     reference: ReferencePath
     robot: RobotParams = field(default_factory=RobotParams)
-    moving: tuple[MovingObstacleSpec, ...] = ()
+    moving: tuple[MovingObstacleSpec | WalkerSpec, ...] = ()
     static: tuple[StaticObstacle, ...] = ()
     sensing: Sensing = field(default_factory=Sensing)
     faults: Faults = field(default_factory=Faults)

@@ -33,3 +33,23 @@ def test_path_deviation_is_symmetric_for_a_short_path():
     b = a[:4]
     assert path_deviation_m(a, b) == pytest.approx(7.0)
     assert path_deviation_m(b, a) == pytest.approx(7.0)
+
+
+def test_clopper_pearson_upper_bound_against_known_values():
+    from casadi_gpc.metrics import clopper_pearson_upper
+    assert clopper_pearson_upper(0, 200) == pytest.approx(1 - 0.05 ** (1 / 200), abs=1e-12)  # 1.49 %
+    assert round(100 * clopper_pearson_upper(0, 200), 2) == 1.49
+    # R: binom.test(1, 200, alternative = "less")$conf.int[2] = 0.02350; binom.test(3, 10, ...) = 0.6066
+    assert clopper_pearson_upper(1, 200) == pytest.approx(0.023498, abs=1e-6)
+    assert clopper_pearson_upper(3, 10) == pytest.approx(0.606624, abs=1e-6)
+    assert clopper_pearson_upper(10, 10) == 1.0
+    with pytest.raises(ValueError):
+        clopper_pearson_upper(11, 10)
+
+
+def test_path_length_of_exact_arcs():
+    from casadi_gpc.metrics import path_length_m
+    # 0.4 m/s for 3 intervals of 0.5 s, then 0.2 m/s backwards (turning) for 2: 0.6 + 0.2 m
+    states = [[0, 0, 0, 0, 0], [0, 0, 0, 0.4, 0.4], [0, 0, 0, 0.4, 0.4], [0, 0, 0, 0.4, 0.4],
+              [0, 0, 0, -0.1, -0.3], [0, 0, 0, -0.1, -0.3]]
+    assert path_length_m(states, 0.5) == pytest.approx(0.8, abs=1e-12)

@@ -33,6 +33,35 @@ def planner_config(args):
     return cfg.with_overrides(sample_time_s=args.sample_time, horizon=args.horizon, solver=solver)
 
 
+def add_suite_arguments(p: argparse.ArgumentParser) -> None:
+    """``--suite NAME --count N --seed S --movers N --behaviour B`` (scenarios.suites)."""
+    from scenarios import CROWD_BEHAVIOURS, SUITES
+    p.add_argument("--suite", choices=SUITES, default=None,
+                   help="a seeded suite instead of files (encounters: the family of the paper's Fig. 7; "
+                        "circle-crossing, square-crossing: crowds in CrowdNav's geometry, docs/scenarios.md)")
+    p.add_argument("--count", type=int, default=100, help="episodes of the suite")
+    p.add_argument("--seed", type=int, default=0, help="seed of the suite")
+    p.add_argument("--movers", type=int, default=5, help="crowd suites: how many movers (default 5)")
+    p.add_argument("--behaviour", choices=CROWD_BEHAVIOURS, default="orca",
+                   help="crowd suites: what the movers do (default orca: walkers that avoid each other, "
+                        "not the robot)")
+
+
+def suite_from_args(args):
+    """The :class:`scenarios.Suite` the options name (None without ``--suite``); bad values
+    are a one-line error."""
+    if not getattr(args, "suite", None):
+        return None
+    from scenarios import Suite
+    for name, low in (("count", 1), ("seed", 0), ("movers", 0)):
+        if getattr(args, name) < low:
+            raise UsageError(f"--{name} must be at least {low}, got {getattr(args, name)}")
+    try:
+        return Suite(args.suite, args.count, args.seed, args.movers, args.behaviour)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def add_controller_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--controller", choices=("gpc", "nn"), default="gpc", help="the GPC planner or the network")
     p.add_argument("--model", type=Path, default=None,

@@ -8,17 +8,15 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_controller_arguments, make_controller, planner_config, progress, safety_mode
+from .common import (add_controller_arguments, add_suite_arguments, make_controller, planner_config, progress,
+                     safety_mode, suite_from_args)
 
 _WORKER = {}
 
 
 def add_arguments(p):
     p.add_argument("scenarios", type=Path, nargs="*", help="scenario files")
-    p.add_argument("--suite", choices=("random", "random-multi", "encounters"), default=None,
-                   help="a random suite instead of files (encounters: the family of the paper's Fig. 7)")
-    p.add_argument("--count", type=int, default=100, help="episodes of the suite")
-    p.add_argument("--seed", type=int, default=0, help="seed of the suite")
+    add_suite_arguments(p)
     add_controller_arguments(p)
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
     p.add_argument("--out", type=Path, default=None, help="write EVAL.json here")
@@ -83,18 +81,17 @@ def run(args) -> int:
     from dataclasses import replace
 
     from casadi_gpc.metrics import eval_document
-    from scenarios import load_scenario, random_suite
+    from scenarios import load_scenario
     from casadi_gpc.io import write_json
     if bool(args.scenarios) == bool(args.suite):
         raise UsageError("give scenario files or --suite, not both and not neither")
-    if args.count < 1:
-        raise UsageError(f"--count must be at least 1, got {args.count}")
+    suite = suite_from_args(args)
     if args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     config = planner_config(args)
     faults = parse_faults(args.faults)
-    if args.suite:
-        scenarios = random_suite(args.suite, args.count, args.seed)
+    if suite is not None:
+        scenarios = suite.scenarios()
     else:
         scenarios = [load_scenario(p) for p in args.scenarios]
     if faults is not None:
@@ -108,7 +105,8 @@ def run(args) -> int:
                                       passes=passes)
     doc = eval_document(args.controller, metrics, times, {
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": args.suite,
-        "seed": args.seed if args.suite else None, "events": events,
+        "seed": args.seed if args.suite else None, **({"suite_spec": suite.describe()} if suite else {}),
+        "events": events,
         "faults": None if faults is None else faults.__dict__, "safety_filter": safety, "decision_passes": passes,
         "solver": config.solver if args.controller == "gpc" else None,
     })

@@ -1,0 +1,200 @@
+"""The moving obstacles' true motion in one episode: what the simulator shows the sensor and
+checks collisions against.
+
+Two kinds of movers (the scenario format's ``behaviour``):
+
+- ``constant``: a fixed course, constant speed and turn rate from t = 0, in closed form
+  (:meth:`MovingObstacleSpec.state_at <scenarios.model.MovingObstacleSpec.state_at>`).
+- ``orca`` and ``social_force``: people who walk to a goal at a preferred speed and avoid the
+  other movers (and the robot, when they see it), stepped by navground's own behaviours
+  (``ORCA``, ``SocialForce``; C++ core, ``pip install navground``) with holonomic (``Omni``)
+  kinematics. A walker stands at its goal once it is within :data:`GOAL_TOLERANCE_M` of it.
+
+The reacting movers are advanced on a fixed grid of :data:`CROWD_TIME_STEP_S`, independent
+of the controller's sample time: at each grid instant every walker's behaviour is given the
+positions and velocities of everything it sees at that instant (the other movers, the static
+obstacles as discs, and the robot if ``sees_robot``) and answers a velocity, which it keeps
+until the next grid instant. Positions between grid instants are therefore exactly linear,
+and :meth:`MoverWorld.positions` interpolates them exactly. Nothing here is random: the
+motion follows from the scenario (and the robot's motion, for walkers that see it).
+
+navground is imported only when a scenario has walkers.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable, Sequence
+
+import numpy as np
+
+__all__ = ["CROWD_TIME_STEP_S", "GOAL_TOLERANCE_M", "MOVER_SAFETY_MARGIN_M", "BEHAVIOURS", "MoverWorld"]
+
+CROWD_TIME_STEP_S = 0.1
+"""Grid of the walkers' decisions (navground's usual control period)."""
+GOAL_TOLERANCE_M = 0.05
+"""A walker this close to its goal stands there from then on."""
+MOVER_SAFETY_MARGIN_M = 0.05
+"""navground's ``safety_margin`` of every walker: without one, ORCA's discs touch to within
+its numerical tolerance (measured: overlaps of ~1 mm in a head-on pair)."""
+PERCEPTION_RANGE_M = 5.0
+"""A walker sees what is this close (centre distance; navground's default behaviour horizon)."""
+BEHAVIOURS = {"orca": "ORCA", "social_force": "SocialForce"}
+"""Scenario ``behaviour`` names of the walkers and navground's behaviour types."""
+
+RobotMotion = Callable[[float], tuple[float, float, float, float]]
+"""The robot's ``(x, y, vx, vy)`` at a time (m, m/s), for walkers that see it."""
+
+
+class MoverWorld:
+    """The movers of one episode, advanced in time by the simulator.
+
+    Parameters
+    ----------
+    movers : sequence of mover specs
+        Constant movers (with ``state_at``) and walkers (``behaviour`` in :data:`BEHAVIOURS`,
+        ``goal_m``, ``preferred_speed_mps``, ``sees_robot``), in the scenario's order.
+    statics : sequence of StaticObstacle
+        What walkers also avoid.
+    robot_radius_m : float
+        The robot's disc, for walkers that see it.
+    """
+
+    def __init__(self, movers: Sequence, statics: Sequence = (), robot_radius_m: float = 0.35):
+        self.movers = tuple(movers)
+        self.n = len(self.movers)
+        self.radii = np.array([m.radius_m for m in self.movers], dtype=float)
+        self._walkers = [j for j, m in enumerate(self.movers) if getattr(m, "behaviour", "constant") != "constant"]
+        self._constant = [j for j in range(self.n) if j not in set(self._walkers)]
+        self._robot_radius = float(robot_radius_m)
+        self._statics = tuple(statics)
+        self.steps = 0
+        """Grid steps the walkers have taken."""
+        self.counters = {"walker_steps": 0, "arrived": 0}
+        if self._walkers:
+            from navground import core
+            self._behaviours = [_make_behaviour(self.movers[j]) for j in self._walkers]
+            self._static_discs = [core.Disc(np.asarray(s.position_m, float), s.radius_m) for s in self._statics]
+            start = np.array([self.movers[j].position_m for j in self._walkers], dtype=float)
+            self._grid = [start]                       # walker positions at grid instants 0, 1, ...
+            self._vel = np.zeros_like(start)            # velocity over the current grid step
+            self._arrived = np.zeros(len(self._walkers), dtype=bool)
+
+    @property
+    def has_walkers(self) -> bool:
+        return bool(self._walkers)
+
+    @property
+    def advanced_to_s(self) -> float:
+        """Until when the walkers' motion is known (inf without walkers)."""
+        return (len(self._grid) - 1) * CROWD_TIME_STEP_S if self._walkers else math.inf
+
+    def velocities(self, t_s: float) -> np.ndarray:
+        """True velocities ``(n, 2)`` at time ``t_s`` (m/s); for a walker, over the grid step
+        that contains ``t_s``."""
+        v = np.zeros((self.n, 2))
+        for j in self._constant:
+            m = self.movers[j]
+            _, _, h = m.state_at(t_s)
+            v[j] = m.speed_mps * math.cos(float(h)), m.speed_mps * math.sin(float(h))
+        if self._walkers:
+            k = min(int(math.floor(t_s / CROWD_TIME_STEP_S + 1e-9)), len(self._grid) - 2)
+            if k >= 0:
+                v[self._walkers] = (self._grid[k + 1] - self._grid[k]) / CROWD_TIME_STEP_S
+        return v
+
+    def positions(self, t_s) -> np.ndarray:
+        """True positions at time(s) ``t_s``: shape ``(n, 2)`` for a scalar, ``(len(t), n, 2)``
+        for an array. Walkers must have been advanced past the latest time asked."""
+        t = np.asarray(t_s, dtype=float)
+        ts = np.atleast_1d(t)
+        out = np.empty((len(ts), self.n, 2))
+        for j in self._constant:
+            x, y, _ = self.movers[j].state_at(ts)
+            out[:, j, 0], out[:, j, 1] = x, y
+        if self._walkers:
+            if ts.max(initial=0.0) > self.advanced_to_s + 1e-9:
+                raise ValueError(f"walkers known until {self.advanced_to_s:.2f} s, asked for {ts.max():.2f} s")
+            grid = np.stack(self._grid)                        # (K + 1, w, 2)
+            u = np.clip(ts / CROWD_TIME_STEP_S, 0.0, len(self._grid) - 1)
+            k = np.minimum(np.floor(u).astype(int), len(self._grid) - 2) if len(self._grid) > 1 else np.zeros(len(ts), int)
+            a = (u - k)[:, None, None]
+            nxt = grid[np.minimum(k + 1, len(self._grid) - 1)]
+            out[:, self._walkers, :] = (1.0 - a) * grid[k] + a * nxt
+        return out if t.ndim else out[0]
+
+    def advance(self, t_end_s: float, robot: RobotMotion | None = None) -> None:
+        """Step the walkers until their motion is known at least until ``t_end_s``.
+
+        ``robot(t)`` gives the robot's position and velocity at grid instants up to
+        ``t_end_s`` (needed when a walker sees the robot)."""
+        if not self._walkers:
+            return
+        while self.advanced_to_s < t_end_s - 1e-9:
+            self._step(robot)
+
+    def _step(self, robot: RobotMotion | None) -> None:
+        from navground import core
+        k = len(self._grid) - 1
+        t = k * CROWD_TIME_STEP_S
+        now = self._grid[-1]
+        pos_all = self.positions(t)
+        vel_all = self.velocities(t) if k > 0 else np.zeros((self.n, 2))
+        if k == 0:
+            vel_all[self._walkers] = 0.0
+        for i, j in enumerate(self._walkers):
+            if not self._arrived[i] and math.hypot(*(now[i] - self.movers[j].goal_m)) <= GOAL_TOLERANCE_M:
+                self._arrived[i] = True
+                self.counters["arrived"] += 1
+        standing = {j for i, j in enumerate(self._walkers) if self._arrived[i]}
+        # each mover once, as navground sees it: a walker standing at its goal is a disc (it
+        # will not give way), everything else an agent with its velocity
+        seen = [core.Disc(pos_all[o], float(self.radii[o])) if o in standing
+                else core.Neighbor(pos_all[o], float(self.radii[o]), vel_all[o], o) for o in range(self.n)]
+        robot_neighbour = None
+        if any(self.movers[j].sees_robot for j in self._walkers):
+            if robot is None:
+                raise ValueError("a walker that sees the robot needs the robot's motion")
+            rx, ry, rvx, rvy = robot(t)
+            robot_xy = np.array((rx, ry))
+            robot_neighbour = core.Neighbor(robot_xy, self._robot_radius, np.array((rvx, rvy)), -1)
+        vel = np.zeros_like(now)
+        for i, (j, b) in enumerate(zip(self._walkers, self._behaviours)):
+            if self._arrived[i]:
+                continue
+            m = self.movers[j]
+            near = np.hypot(*(pos_all - now[i]).T) <= PERCEPTION_RANGE_M
+            near[j] = False
+            agents = [seen[o] for o in np.flatnonzero(near) if o not in standing]
+            discs = [seen[o] for o in np.flatnonzero(near) if o in standing]
+            if m.sees_robot and math.hypot(*(robot_xy - now[i])) <= PERCEPTION_RANGE_M:
+                agents.append(robot_neighbour)
+            b.position = now[i]
+            b.velocity = self._vel[i]
+            b.environment_state.neighbors = agents
+            b.environment_state.static_obstacles = self._static_discs + discs
+            cmd = b.compute_cmd(CROWD_TIME_STEP_S, core.Frame.absolute)
+            v = np.asarray(cmd.velocity, dtype=float)
+            # never overshoot the goal within one grid step: stop on it
+            to_goal = np.asarray(m.goal_m, dtype=float) - now[i]
+            d = math.hypot(*to_goal)
+            if math.hypot(*v) * CROWD_TIME_STEP_S > d > 0:
+                v = to_goal / CROWD_TIME_STEP_S
+            vel[i] = v
+        self._vel = vel
+        self._grid.append(now + vel * CROWD_TIME_STEP_S)
+        self.steps += 1
+        self.counters["walker_steps"] += len(self._walkers) - len(standing)
+
+
+def _make_behaviour(mover):
+    """navground's behaviour for one walker: its type, radius, speeds and target."""
+    from navground import core
+    b = core.Behavior.make_type(BEHAVIOURS[mover.behaviour])
+    b.kinematics = core.Kinematics.make_type("Omni")
+    b.kinematics.max_speed = mover.preferred_speed_mps
+    b.max_speed = mover.preferred_speed_mps
+    b.optimal_speed = mover.preferred_speed_mps
+    b.radius = mover.radius_m
+    b.safety_margin = MOVER_SAFETY_MARGIN_M
+    b.target = core.Target.Point(np.asarray(mover.goal_m, dtype=float), GOAL_TOLERANCE_M)
+    return b

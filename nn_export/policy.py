@@ -45,7 +45,7 @@ from casadi_gpc.types import ControlDecision, Observation
 
 from .features import (FeatureLayout, RolloutFeatures, Situation, SituationTracker, feature_values, feature_values_from,
                        layout_from_dict)
-from .safety import SafetyFilter
+from casadi_gpc.safety import SafetyFilter
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadata", "POLICY_FORMAT",
            "DEFAULT_SAFETY_DISTANCE_M"]
@@ -178,11 +178,11 @@ class OnnxPolicy:
     ekf_settings : EKFSettings, optional
         The obstacle filter's noise levels (default as the GPC's).
     safety_filter : bool or SafetyFilter
-        Check every command with :class:`nn_export.safety.SafetyFilter` (default on); a
+        Check every command with :class:`casadi_gpc.safety.SafetyFilter` (default on); a
         filter object to use one with other settings; False to run the bare network.
     fallback : object with ``decide(observation)``, optional
         The planner the safety filter hands over to (e.g. the GPC in a
-        :class:`~nn_export.safety.StandbyPlanner`); without one it brakes or swerves.
+        :class:`~casadi_gpc.safety.StandbyPlanner`); without one it brakes or swerves.
     """
 
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,

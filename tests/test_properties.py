@@ -21,7 +21,7 @@ from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, brake_wheels, robot_step, wheel_to_unicycle
 from casadi_gpc.types import ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
 from nn_export.features import Situation, TrackEstimate, compute_features, layout_for, reference_poses
-from nn_export.safety import SafetyFilter
+from casadi_gpc.safety import SafetyFilter
 
 ROBOT = RobotParams()
 VMAX = ROBOT.max_wheel_speed_mps

@@ -15,7 +15,7 @@ import pytest
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
-from nn_export.safety import MANOEUVRES, SafetyFilter, StandbyPlanner
+from casadi_gpc.safety import MANOEUVRES, SafetyFilter, StandbyPlanner
 
 from conftest import PAPER_DIR, check_run_document
 from synthetic_models import tracker_model

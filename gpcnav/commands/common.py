@@ -76,7 +76,7 @@ def make_controller(kind: str, config, robot, model=None, safety: str = "gpc", p
         if safety == "gpc":
             try:
                 from casadi_gpc.gpc import GPCController
-                from nn_export.safety import StandbyPlanner
+                from casadi_gpc.safety import StandbyPlanner
             except ImportError as exc:
                 raise UsageError(f"--safety-fallback gpc needs the planner ({exc}); use --safety-fallback brake") \
                     from None

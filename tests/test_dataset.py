@@ -1,4 +1,4 @@
-"""Datasets (nn_export.dataset, gpcnav dataset): manifest and shard contents, determinism
+"""Datasets (nn_export.training.dataset, gpcnav dataset): manifest and shard contents, determinism
 per (seed, shard), resuming after a SIGKILL with exactly the samples asked for and none
 twice, refusal of mismatched arguments, on-policy (DAgger) parts."""
 from __future__ import annotations
@@ -16,12 +16,13 @@ import pytest
 
 from casadi_gpc.config import preset
 from casadi_gpc.types import ControlDecision
-from nn_export.dataset import (
-    ARRAY_KEYS, DatasetMismatch, DatasetSpec, append_part, collect_on_policy, generate, load_dataset, read_manifest,
-    read_shard,
+from nn_export.training.dataset import (
+    ARRAY_KEYS, DatasetMismatch, DatasetSpec, OnPolicyOptions, append_part, collect_on_policy, generate, load_dataset,
+    read_manifest, read_shard,
 )
-from nn_export.features import compute_features, layout_for
-from nn_export.labels import LABEL_NAMES, Labeller
+from nn_export.runtime.features import compute_features
+from nn_export.runtime.layouts import layout_for
+from nn_export.training.labels import LABEL_NAMES, Labeller
 
 PAPER = preset("paper")
 
@@ -221,13 +222,13 @@ def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, t
     scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 2, 0)]  # 6 samples each
     lay = layout_for("paper", 6)
     lab = Labeller(PAPER)
-    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, id_base=10 ** 12)
+    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, OnPolicyOptions(PAPER, lay, id_base=10 ** 12), lab)
     assert stats["situations"] == 12 and len(stats["episodes"]) == 2
     n = len(arrays["labels"])
     assert n == 2 * (12 - stats["not_converged"])
     # the visited situations are what the deployed tracker sees: recompute the first one
     from casadi_gpc.simulator import simulate
-    from nn_export.features import SituationTracker
+    from nn_export.runtime.tracker import SituationTracker
     seen = []
 
     class _Spy(_SlowStraight):
@@ -258,8 +259,8 @@ def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, t
 def test_driving_noise_perturbs_the_applied_speeds_only():
     """DART: the recorder adds N(0, sigma) to each wheel speed the driver asks for, counts it,
     and leaves the driver's own answer (and so the labels, made afresh) alone."""
-    from nn_export.dataset import _Recorder
-    rec = _Recorder(_SlowStraight(), PAPER, noise_mps=0.05, seed=3)
+    from nn_export.training.dataset.onpolicy import Recorder
+    rec = Recorder(_SlowStraight(), PAPER, noise_mps=0.05, seed=3)
     from scenarios import random_suite
     from casadi_gpc.types import Observation
     sc = random_suite("random", 1, 0)[0]
@@ -269,7 +270,7 @@ def test_driving_noise_perturbs_the_applied_speeds_only():
     assert abs(e.mean()) < 0.004 and e.std() == pytest.approx(0.05, rel=0.05)
     assert abs(np.corrcoef(e[:, 0], e[:, 1])[0, 1]) < 0.05  # the two wheels independently
     assert rec.counters["driving_noise_applied"] == 4000
-    quiet = _Recorder(_SlowStraight(), PAPER)
+    quiet = Recorder(_SlowStraight(), PAPER)
     assert quiet.decide(obs).v_right_mps == 0.3 and "driving_noise_applied" not in quiet.counters
 
 
@@ -278,16 +279,16 @@ def test_noisy_episodes_visit_other_states_and_report_the_noise():
     from scenarios import random_suite
     scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 1, 0)]
     lay, lab = layout_for("paper", 6), Labeller(PAPER)
-    clean, st0 = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, mirror=False)
-    noisy, st1 = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, mirror=False, noise_mps=0.05,
-                                   noise_seed=1)
+    clean, st0 = collect_on_policy(_SlowStraight(), scenarios, OnPolicyOptions(PAPER, lay, mirror=False), lab)
+    noisy, st1 = collect_on_policy(_SlowStraight(), scenarios,
+                                   OnPolicyOptions(PAPER, lay, mirror=False, noise_mps=0.05, noise_seed=1), lab)
     assert st0["episodes"][0]["noise_applied"] == 0 and st1["episodes"][0]["noise_applied"] == 6
     np.testing.assert_array_equal(clean["features"][0], noisy["features"][0])  # before any noise acts
     assert np.max(np.abs(clean["features"][1:, :2] - noisy["features"][1:, :2])) > 0.01  # applied speeds differ
 
 
 def test_perturb_start_moves_the_robot_sideways_within_the_bounds():
-    from nn_export.dataset import perturb_start
+    from nn_export.training.dataset import perturb_start
     from scenarios import random_suite
     sc = random_suite("random", 1, 0)[0]
     rng = np.random.default_rng(0)
@@ -365,8 +366,8 @@ def test_train_on_some_parts_only(reference_dataset, tmp_path):
     from dataclasses import replace
     from scenarios import random_suite
     scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 2, 0)]
-    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, PAPER, layout_for("paper", 6), Labeller(PAPER),
-                                      id_base=10 ** 12)
+    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, OnPolicyOptions(PAPER, layout_for("paper", 6),
+                                                                                  id_base=10 ** 12), Labeller(PAPER))
     append_part(out, "dagger1", arrays, stats, {"round": 1})
 
     def train(parts, dest):

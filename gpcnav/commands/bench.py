@@ -36,7 +36,7 @@ def extra_policies(args, config, robot) -> list:
     if getattr(args, "no_nn_rows", False):
         return []
     try:
-        from nn_export.bench_rows import policy_entries
+        from nn_export.training.bench_rows import policy_entries
         entries, args._nn_recorder = policy_entries(config, robot, args.model)
     except (ImportError, FileNotFoundError, ValueError) as exc:
         raise UsageError(f"network rows: {exc} (use --no-nn-rows to leave them out)") from None
@@ -48,7 +48,7 @@ def network_rows(args, doc) -> None:
     recorder = getattr(args, "_nn_recorder", None)
     if recorder is None or not recorder.features:
         return
-    from nn_export.bench_rows import forward_rows, network_speedups
+    from nn_export.training.bench_rows import forward_rows, network_speedups
     rows = forward_rows(recorder.policy.model_info["path"], recorder.features)
     doc["results"] += rows
     doc["speedup"].update(network_speedups(doc["results"], doc["chosen"]["name"], doc["reference"]))

@@ -60,10 +60,10 @@ def _dataset_id(manifests) -> str:
 def run(args) -> int:
     import numpy as np
     try:
-        from nn_export.train import WheelSpeedMLP
+        from nn_export.training.train import WheelSpeedMLP
     except ImportError as exc:
         raise UsageError(f"training needs the train extra (pip install -e '.[train]'): {exc}") from None
-    from nn_export.dataset import load_dataset, read_manifest
+    from nn_export.training.dataset import load_dataset, read_manifest
     cfg = planner_config(args)
     if not 1 <= args.layers <= 4:
         raise UsageError(f"--layers must be from 1 to 4, got {args.layers}")

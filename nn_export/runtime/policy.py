@@ -43,14 +43,16 @@ from casadi_gpc.ekf import EKFSettings
 from casadi_gpc.robot import RobotParams, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation
 
-from .features import (FeatureLayout, RolloutFeatures, Situation, SituationTracker, feature_values, feature_values_from,
-                       layout_from_dict)
+from .features import RolloutFeatures, feature_values, feature_values_from
+from .layouts import FeatureLayout, layout_from_dict
+from .situation import Situation
+from .tracker import SituationTracker
 from casadi_gpc.safety import SafetyFilter
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadata", "POLICY_FORMAT",
            "DEFAULT_SAFETY_DISTANCE_M"]
 
-MODELS_DIR = Path(__file__).parent / "models"
+MODELS_DIR = Path(__file__).parents[1] / "models"
 POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.export (kept equal by a test)
 INPUT_NAME, OUTPUT_NAME = "features", "wheel_speeds_mps"
 DEFAULT_SAFETY_DISTANCE_M = {"paper": 1.0, "improved": 1.0}
@@ -340,7 +342,11 @@ class OnnxPolicy:
     # --- the step --------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:
         situation = self.tracker.update(obs)
-        self._counters.update(self.tracker.counters)  # missed measurements and gated outliers
+        # missed measurements and gated outliers (a track seen once is counted by the safety
+        # filter, as safety_unestimated_tracks)
+        tracked, counters = self.tracker.counters, self._counters
+        counters["missed_measurements"] = tracked["missed_measurements"]
+        counters["outliers"] = tracked["outliers"]
         dec = self._decide(obs, situation)
         return dec if self.safety is None else self._checked(obs, situation, dec)
 

@@ -2,7 +2,7 @@
 
 A situation is drawn as the tail of an episode: a reference path, a few samples of robot
 and obstacle history, and the robot's state now. The observations of that history are fed
-to the deployed policy's own :class:`~nn_export.features.SituationTracker` (the obstacle
+to the deployed policy's own :class:`~nn_export.runtime.tracker.SituationTracker` (the obstacle
 EKF and the reference clock of the preset), so the obstacle estimates and covariances, and
 the desired poses, are exactly what the GPC and the deployed network would have at that
 instant. Numpy only.
@@ -61,7 +61,8 @@ from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, arc_step, robot_step
 from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
 
-from .features import Situation, SituationTracker
+from ..runtime.situation import Situation
+from ..runtime.tracker import SituationTracker
 
 __all__ = ["SamplerSettings", "sample_situation", "situation_stream", "episode_tail", "situation_from_tail",
            "EpisodeTail"]

@@ -384,3 +384,59 @@ def test_train_on_some_parts_only(reference_dataset, tmp_path):
     proc = train("offpolicy,gpc9", tmp_path / "bad")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "gpc9" in proc.stderr
     assert not (tmp_path / "bad").exists()
+
+
+def test_every_sampler_number_is_part_of_the_spec_id(reference_dataset):
+    """Every number the sampler draws with is a SamplerSettings field: changing one changes
+    the spec_id, and a resume with it is refused (its situations would be drawn otherwise)."""
+    from dataclasses import replace
+    out, _ = reference_dataset
+    base = _spec()
+    other = replace(base, sampler=replace(base.sampler, tracking_lateral_std_m=0.2))
+    assert other.spec_id != base.spec_id
+    with pytest.raises(DatasetMismatch, match="sampler"):
+        generate(out, other, workers=1)
+
+
+def test_every_sampler_setting_is_drawn_with():
+    """Each field of SamplerSettings is read by the sampler (none is decoration), and the
+    sampler's body names no distribution of its own: its uniform and normal draws take
+    their bounds from the settings."""
+    import inspect
+    import re
+    from dataclasses import fields
+
+    from nn_export.training import sampler
+    source = inspect.getsource(sampler).split("class _Mover", 1)[1]
+    for f in fields(sampler.SamplerSettings):
+        assert re.search(rf"\bst\.{f.name}\b", source), f.name
+    for call in re.findall(r"rng\.(?:uniform|normal|integers)\(([^()]*(?:\([^()]*\)[^()]*)*)\)", source):
+        # no number of its own but a zero mean or bound and the full circle (2 pi, 360 deg)
+        assert set(re.findall(r"\d+(?:\.\d*)?", call)) <= {"0", "0.0", "1", "2", "360.0"}, call
+
+
+def test_damaged_manifest_is_rebuilt_from_the_shards(reference_dataset, tmp_path):
+    """A manifest.json that is not JSON loses nothing: the run says so in one line, reuses
+    every finished shard (untouched), labels only the missing one, and writes the manifest
+    anew; with other arguments it refuses in one line instead of writing over the shards."""
+    src, man0 = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    (out / "manifest.json").write_text('{"samples": 60, "shards": [')  # cut off mid-write by hand
+    (out / "shard-00002.npz").unlink()
+    kept = {n: (out / n).stat().st_mtime_ns for n in ("shard-00000.npz", "shard-00001.npz")}
+    base = [sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--samples", "60", "--shard-size", "20",
+            "--preset", "paper", "--workers", "1", "--mirror-check-every", "0"]
+    proc = subprocess.run(base + ["--seed", "4"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "damaged" in proc.stderr and "other arguments" in proc.stderr
+    proc = subprocess.run(base + ["--seed", "3"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert [line for line in proc.stderr.splitlines() if "damaged" in line] == [
+        "gpcnav dataset: manifest.json was damaged (JSONDecodeError): rebuilt from the shards, finished shards reused"]
+    man = read_manifest(out)
+    assert man["samples"] == 60 and man["shards"] == man0["shards"]
+    assert man["parts"]["offpolicy"]["last_run"]["resumed_shards"] == 2
+    assert man["parts"]["offpolicy"]["last_run"]["shards_done"] == 1
+    assert {n: (out / n).stat().st_mtime_ns for n in kept} == kept  # reused, not relabelled
+    for s in man["shards"]:
+        np.testing.assert_array_equal(read_shard(out / s)["features"], read_shard(src / s)["features"])

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_preset_arguments, planner_config, progress
+from .common import add_preset_arguments, check_output_files, planner_config, progress
 
 DEFAULT_SCENARIO = "fig7_2_crossing"
 
@@ -72,6 +72,7 @@ def run(args) -> int:
 
     from casadi_gpc.io import save_figure, write_json
     solvers = parse_solvers(args.solvers)
+    check_output_files(out=args.out, plot=args.plot)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")
 

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_preset_arguments, planner_config, progress
+from .common import add_preset_arguments, check_seed, planner_config, progress
 
 
 def add_arguments(p):
@@ -68,6 +68,7 @@ def run(args) -> int:
     from nn_export.training.labels import label_solver
     if args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    check_seed(args.seed)
     if args.address and args.backend != "ray":
         raise UsageError("--address needs --backend ray")
     if not (0.0 <= args.dagger_noise <= 0.8):

@@ -1,4 +1,4 @@
-"""The one feature definition (nn_export.features): layouts, known answers, the absent
+"""The one feature definition (nn_export.runtime: layouts, features): layouts, known answers, the absent
 obstacle, the mirror map, identity of the dataset and deployed paths, and invariance to a
 rotation and translation of the whole world."""
 from __future__ import annotations

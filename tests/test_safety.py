@@ -1,4 +1,4 @@
-"""The safety filter (nn_export.safety) against independent brute-force answers, and the
+"""The safety filter (casadi_gpc.safety) against independent brute-force answers, and the
 network behind it: an obstacle-blind network collides without the filter and does not
 with it, every intervention counted."""
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 :class:`OnnxPolicy` answers ``decide(observation) -> ControlDecision`` like the GPC
 controller, with the same obstacle EKF and reference clock (through
-:class:`nn_export.features.SituationTracker`) and the same feature definition as the
+:class:`nn_export.runtime.tracker.SituationTracker`) and the same feature definition as the
 dataset. It runs the paper's two-pass scheme (section 4):
 
 1. predict the robot's next H poses with the network as if there were no obstacle: the
@@ -17,7 +17,7 @@ dataset. It runs the paper's two-pass scheme (section 4):
 ``two_pass=False`` is the plain variant: one call with the obstacles and the real reference.
 
 A model file is checked when it is loaded, never at the first decision: it must be a
-readable ONNX graph written by :mod:`nn_export.export` (format key), with one float input
+readable ONNX graph written by :mod:`nn_export.training.export` (format key), with one float input
 of the size its feature layout says and one (batch, 2) output, a feature layout name and
 version this code computes, and a preset, horizon, sample time and robot equal to the ones
 it is asked to run with. Anything else is a one-line ``ValueError``
@@ -53,7 +53,7 @@ __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadat
            "DEFAULT_SAFETY_DISTANCE_M"]
 
 MODELS_DIR = Path(__file__).parents[1] / "models"
-POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.export (kept equal by a test)
+POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.training.export (kept equal by a test)
 INPUT_NAME, OUTPUT_NAME = "features", "wheel_speeds_mps"
 DEFAULT_SAFETY_DISTANCE_M = {"paper": 1.0, "improved": 1.0}
 """Clearance below which the second pass runs, per preset (measured: docs/nn.md)."""

@@ -1,4 +1,4 @@
-"""Export a trained :class:`~nn_export.train.WheelSpeedMLP` to one ONNX file (torch, onnx).
+"""Export a trained :class:`~nn_export.training.train.WheelSpeedMLP` to one ONNX file (torch, onnx).
 
 The graph is the whole deployed map, in float32: standardise the features, the hidden layers,
 un-standardise, and clip both wheel speeds to the robot's limit, so the runtime adds nothing
@@ -9,7 +9,7 @@ the float32 cast: Gemm, Tanh, ..., Gemm, Clip, half the nodes of the plain form 
 right then left. The batch axis is dynamic.
 
 Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
-trained for; :class:`nn_export.policy.OnnxPolicy` refuses a file whose metadata do not match
+trained for; :class:`nn_export.runtime.policy.OnnxPolicy` refuses a file whose metadata do not match
 the preset, the robot or the feature layout it is asked to run with. Keys: ``format``,
 ``feature_layout``, ``feature_layout_version``, ``feature_layout_spec``, ``feature_names``, ``label_names``,
 ``n_features``, ``preset``, ``horizon``, ``sample_time_s``, ``planner_config``, ``robot``,

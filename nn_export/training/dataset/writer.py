@@ -42,7 +42,7 @@ def generate(out_dir, spec: DatasetSpec, workers: int = 1, backend: str = "local
         todo = [i for i in range(spec.n_shards) if i not in done]
         run = {"backend": backend, "workers": workers, "resumed_shards": len(done), "stale_temporaries_removed": stale,
                "shards_done": 0, "samples_done": 0, "elapsed_s": 0.0, "samples_per_s": None}
-        record = _Recorder(out, spec, parts, done, stats)
+        record = _ManifestWriter(out, spec, parts, done, stats)
         manifest = record(not todo, run)
         if log and done:
             log(f"resuming: {len(done)} of {spec.n_shards} shards already finished")
@@ -120,7 +120,7 @@ def _finished_shards(out: Path, spec: DatasetSpec) -> tuple[dict[int, int], dict
     return done, stats
 
 
-class _Recorder:
+class _ManifestWriter:
     """Writes the manifest: the other parts as found, the off-policy part as it stands."""
 
     def __init__(self, out: Path, spec: DatasetSpec, parts: dict, done: dict, stats: dict):
@@ -146,7 +146,7 @@ class _Recorder:
         return write_manifest(self.out / MANIFEST, doc)
 
 
-def _label_missing(out: Path, spec: DatasetSpec, todo: list[int], pool: WorkerPool, record: _Recorder, run: dict,
+def _label_missing(out: Path, spec: DatasetSpec, todo: list[int], pool: WorkerPool, record: _ManifestWriter, run: dict,
                    progress) -> dict | None:
     """Label the shards ``todo`` on ``pool``, writing each (and the manifest) as it comes."""
     manifest = None

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_controller_arguments, check_output_files, check_seed, make_controller, planner_config, progress, safety_mode
+from .common import add_controller_arguments, check_seed, make_controller, planner_config, progress, safety_mode
 
 _WORKER = {}
 
@@ -87,7 +87,6 @@ def run(args) -> int:
     if args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     check_seed(args.seed)
-    check_output_files(out=args.out)
     config = planner_config(args)
     faults = parse_faults(args.faults)
     if args.suite:

@@ -2,7 +2,6 @@
 a per-step time budget, and the fallback."""
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field, fields, replace
 
@@ -10,12 +9,14 @@ import numpy as np
 
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
-from .ekf import EKFSettings, ObstacleEKF, planning_covariances
+from .ekf import EKFSettings, ObstacleEKF
 from .guesses import initial_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
+from .selection import planner_parameters
 from .solvers import Backend, SolveResult, canonical_name, make_backend
-from .types import ControlDecision, Observation, ObstacleForecast, StaticObstacle
+from .tracking import TrackBank
+from .types import ControlDecision, Observation, ObstacleForecast
 
 __all__ = ["Plan", "GPCController"]
 
@@ -80,7 +81,6 @@ class GPCController:
 
     # --- state -----------------------------------------------------------------------
     def reset(self) -> None:
-        self.tracks: dict[int, ObstacleEKF] = {}
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self._warm: Plan | None = None
         self._last_wheels: np.ndarray | None = None
@@ -88,29 +88,19 @@ class GPCController:
                          "missed_measurements": 0, "outliers": 0, "over_budget": 0, "budget_skips": 0,
                          "injected_failures": 0, "backup_solves": 0, "backup_successes": 0,
                          "unestimated_tracks": 0}
+        # the obstacle filters count their events (missed, outliers, unestimated) here too
+        self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings, self.counters)
+
+    @property
+    def tracks(self) -> dict[int, ObstacleEKF]:
+        """The obstacle filters by obstacle id."""
+        return self.bank.filters
 
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
         """Fuse this sample's measurements and predict every track over the horizon."""
         H = self.config.horizon
-        forecasts = []
-        for m in obs.moving:
-            track = self.tracks.get(m.obstacle_id)
-            if track is None:
-                track = self.tracks[m.obstacle_id] = ObstacleEKF(self.config.sample_time_s, self.ekf_settings)
-            event = track.step(m.position_m)
-            if event == "missed":
-                self.counters["missed_measurements"] += 1
-            elif event in ("outlier",):
-                self.counters["outliers"] += 1
-            if track.state_ is None:
-                continue
-            means, covs = track.predict(H)
-            if not track.initialised:
-                self.counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
-            forecasts.append(ObstacleForecast(m.obstacle_id, m.radius_m, means,
-                                              planning_covariances(covs, track.initialised)))
-        return forecasts
+        return [self.bank.forecast(m, ekf, H) for m, ekf in self.bank.step(obs.moving)]
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
         self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
@@ -195,17 +185,10 @@ class GPCController:
             self._deadline = None
 
     def _decide(self, obs: Observation) -> ControlDecision:
-        cfg, robot = self.config, self.robot
         forecasts = self.estimate(obs)
         ref = self.desired_poses(obs)
         x0 = obs.robot.as_array()
-        if len(forecasts) > cfg.max_moving:
-            forecasts = sorted(forecasts, key=lambda f: np.min(np.hypot(*(f.means_m - x0[:2]).T)))[: cfg.max_moving]
-        statics = list(obs.static)
-        if len(statics) > cfg.max_static:
-            statics = sorted(statics, key=lambda s: math.hypot(s.position_m[0] - x0[0], s.position_m[1] - x0[1]))
-            statics = statics[: cfg.max_static]
-        p = self.problem.layout.pack(x0, ref, forecasts, statics, cfg.uncertainty_scale_m)
+        p, forecasts, statics = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.config)
         near = self.obstacles_near(x0, forecasts, statics)
         if near:
             self.counters["multistart"] += 1

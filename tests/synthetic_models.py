@@ -15,7 +15,7 @@ import numpy as np
 
 from casadi_gpc.config import PlannerConfig, preset
 from casadi_gpc.robot import RobotParams
-from nn_export.features import layout_for
+from nn_export.runtime.layouts import layout_for
 
 POLICY_FORMAT = "gpcnav-onnx-policy/1"
 

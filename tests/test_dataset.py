@@ -1,4 +1,4 @@
-"""Datasets (nn_export.dataset, gpcnav dataset): manifest and shard contents, determinism
+"""Datasets (nn_export.training.dataset, gpcnav dataset): manifest and shard contents, determinism
 per (seed, shard), resuming after a SIGKILL with exactly the samples asked for and none
 twice, refusal of mismatched arguments, on-policy (DAgger) parts."""
 from __future__ import annotations
@@ -16,12 +16,13 @@ import pytest
 
 from casadi_gpc.config import preset
 from casadi_gpc.types import ControlDecision
-from nn_export.dataset import (
-    ARRAY_KEYS, DatasetMismatch, DatasetSpec, append_part, collect_on_policy, generate, load_dataset, read_manifest,
-    read_shard,
+from nn_export.training.dataset import (
+    ARRAY_KEYS, DatasetMismatch, DatasetSpec, OnPolicyOptions, append_part, collect_on_policy, generate, load_dataset,
+    read_manifest, read_shard,
 )
-from nn_export.features import compute_features, layout_for
-from nn_export.labels import LABEL_NAMES, Labeller
+from nn_export.runtime.features import compute_features
+from nn_export.runtime.layouts import layout_for
+from nn_export.training.labels import LABEL_NAMES, Labeller
 
 PAPER = preset("paper")
 
@@ -221,13 +222,13 @@ def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, t
     scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 2, 0)]  # 6 samples each
     lay = layout_for("paper", 6)
     lab = Labeller(PAPER)
-    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, id_base=10 ** 12)
+    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, OnPolicyOptions(PAPER, lay, id_base=10 ** 12), lab)
     assert stats["situations"] == 12 and len(stats["episodes"]) == 2
     n = len(arrays["labels"])
     assert n == 2 * (12 - stats["not_converged"])
     # the visited situations are what the deployed tracker sees: recompute the first one
     from casadi_gpc.simulator import simulate
-    from nn_export.features import SituationTracker
+    from nn_export.runtime.tracker import SituationTracker
     seen = []
 
     class _Spy(_SlowStraight):
@@ -258,8 +259,8 @@ def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, t
 def test_driving_noise_perturbs_the_applied_speeds_only():
     """DART: the recorder adds N(0, sigma) to each wheel speed the driver asks for, counts it,
     and leaves the driver's own answer (and so the labels, made afresh) alone."""
-    from nn_export.dataset import _Recorder
-    rec = _Recorder(_SlowStraight(), PAPER, noise_mps=0.05, seed=3)
+    from nn_export.training.dataset.onpolicy import Recorder
+    rec = Recorder(_SlowStraight(), PAPER, noise_mps=0.05, seed=3)
     from scenarios import random_suite
     from casadi_gpc.types import Observation
     sc = random_suite("random", 1, 0)[0]
@@ -269,7 +270,7 @@ def test_driving_noise_perturbs_the_applied_speeds_only():
     assert abs(e.mean()) < 0.004 and e.std() == pytest.approx(0.05, rel=0.05)
     assert abs(np.corrcoef(e[:, 0], e[:, 1])[0, 1]) < 0.05  # the two wheels independently
     assert rec.counters["driving_noise_applied"] == 4000
-    quiet = _Recorder(_SlowStraight(), PAPER)
+    quiet = Recorder(_SlowStraight(), PAPER)
     assert quiet.decide(obs).v_right_mps == 0.3 and "driving_noise_applied" not in quiet.counters
 
 
@@ -278,16 +279,16 @@ def test_noisy_episodes_visit_other_states_and_report_the_noise():
     from scenarios import random_suite
     scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 1, 0)]
     lay, lab = layout_for("paper", 6), Labeller(PAPER)
-    clean, st0 = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, mirror=False)
-    noisy, st1 = collect_on_policy(_SlowStraight(), scenarios, PAPER, lay, lab, mirror=False, noise_mps=0.05,
-                                   noise_seed=1)
+    clean, st0 = collect_on_policy(_SlowStraight(), scenarios, OnPolicyOptions(PAPER, lay, mirror=False), lab)
+    noisy, st1 = collect_on_policy(_SlowStraight(), scenarios,
+                                   OnPolicyOptions(PAPER, lay, mirror=False, noise_mps=0.05, noise_seed=1), lab)
     assert st0["episodes"][0]["noise_applied"] == 0 and st1["episodes"][0]["noise_applied"] == 6
     np.testing.assert_array_equal(clean["features"][0], noisy["features"][0])  # before any noise acts
     assert np.max(np.abs(clean["features"][1:, :2] - noisy["features"][1:, :2])) > 0.01  # applied speeds differ
 
 
 def test_perturb_start_moves_the_robot_sideways_within_the_bounds():
-    from nn_export.dataset import perturb_start
+    from nn_export.training.dataset import perturb_start
     from scenarios import random_suite
     sc = random_suite("random", 1, 0)[0]
     rng = np.random.default_rng(0)
@@ -365,8 +366,8 @@ def test_train_on_some_parts_only(reference_dataset, tmp_path):
     from dataclasses import replace
     from scenarios import random_suite
     scenarios = [replace(s, duration_s=9.0) for s in random_suite("random", 2, 0)]
-    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, PAPER, layout_for("paper", 6), Labeller(PAPER),
-                                      id_base=10 ** 12)
+    arrays, stats = collect_on_policy(_SlowStraight(), scenarios, OnPolicyOptions(PAPER, layout_for("paper", 6),
+                                                                                  id_base=10 ** 12), Labeller(PAPER))
     append_part(out, "dagger1", arrays, stats, {"round": 1})
 
     def train(parts, dest):
@@ -383,3 +384,59 @@ def test_train_on_some_parts_only(reference_dataset, tmp_path):
     proc = train("offpolicy,gpc9", tmp_path / "bad")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "gpc9" in proc.stderr
     assert not (tmp_path / "bad").exists()
+
+
+def test_every_sampler_number_is_part_of_the_spec_id(reference_dataset):
+    """Every number the sampler draws with is a SamplerSettings field: changing one changes
+    the spec_id, and a resume with it is refused (its situations would be drawn otherwise)."""
+    from dataclasses import replace
+    out, _ = reference_dataset
+    base = _spec()
+    other = replace(base, sampler=replace(base.sampler, tracking_lateral_std_m=0.2))
+    assert other.spec_id != base.spec_id
+    with pytest.raises(DatasetMismatch, match="sampler"):
+        generate(out, other, workers=1)
+
+
+def test_every_sampler_setting_is_drawn_with():
+    """Each field of SamplerSettings is read by the sampler (none is decoration), and the
+    sampler's body names no distribution of its own: its uniform and normal draws take
+    their bounds from the settings."""
+    import inspect
+    import re
+    from dataclasses import fields
+
+    from nn_export.training import sampler
+    source = inspect.getsource(sampler).split("class _Mover", 1)[1]
+    for f in fields(sampler.SamplerSettings):
+        assert re.search(rf"\bst\.{f.name}\b", source), f.name
+    for call in re.findall(r"rng\.(?:uniform|normal|integers)\(([^()]*(?:\([^()]*\)[^()]*)*)\)", source):
+        # no number of its own but a zero mean or bound and the full circle (2 pi, 360 deg)
+        assert set(re.findall(r"\d+(?:\.\d*)?", call)) <= {"0", "0.0", "1", "2", "360.0"}, call
+
+
+def test_damaged_manifest_is_rebuilt_from_the_shards(reference_dataset, tmp_path):
+    """A manifest.json that is not JSON loses nothing: the run says so in one line, reuses
+    every finished shard (untouched), labels only the missing one, and writes the manifest
+    anew; with other arguments it refuses in one line instead of writing over the shards."""
+    src, man0 = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    (out / "manifest.json").write_text('{"samples": 60, "shards": [')  # cut off mid-write by hand
+    (out / "shard-00002.npz").unlink()
+    kept = {n: (out / n).stat().st_mtime_ns for n in ("shard-00000.npz", "shard-00001.npz")}
+    base = [sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--samples", "60", "--shard-size", "20",
+            "--preset", "paper", "--workers", "1", "--mirror-check-every", "0"]
+    proc = subprocess.run(base + ["--seed", "4"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "damaged" in proc.stderr and "other arguments" in proc.stderr
+    proc = subprocess.run(base + ["--seed", "3"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert [line for line in proc.stderr.splitlines() if "damaged" in line] == [
+        "gpcnav dataset: manifest.json was damaged (JSONDecodeError): rebuilt from the shards, finished shards reused"]
+    man = read_manifest(out)
+    assert man["samples"] == 60 and man["shards"] == man0["shards"]
+    assert man["parts"]["offpolicy"]["last_run"]["resumed_shards"] == 2
+    assert man["parts"]["offpolicy"]["last_run"]["shards_done"] == 1
+    assert {n: (out / n).stat().st_mtime_ns for n in kept} == kept  # reused, not relabelled
+    for s in man["shards"]:
+        np.testing.assert_array_equal(read_shard(out / s)["features"], read_shard(src / s)["features"])

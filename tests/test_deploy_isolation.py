@@ -8,7 +8,7 @@ import textwrap
 
 import pytest
 
-from nn_export.policy import shipped_model_path
+from nn_export.runtime.policy import shipped_model_path
 
 BLOCKER = textwrap.dedent("""
     import sys

@@ -1,4 +1,4 @@
-"""The one feature definition (nn_export.features): layouts, known answers, the absent
+"""The one feature definition (nn_export.runtime: layouts, features): layouts, known answers, the absent
 obstacle, the mirror map, identity of the dataset and deployed paths, and invariance to a
 rotation and translation of the whole world."""
 from __future__ import annotations
@@ -14,11 +14,11 @@ from casadi_gpc.ekf import ObstacleEKF
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotState
 from casadi_gpc.types import ObstacleMeasurement, Observation, StaticObstacle
-from nn_export.features import (
-    FEATURE_VERSION, Situation, SituationTracker, TrackEstimate, compute_features, layout_for, layout_from_dict,
-    mirror_features, reference_poses, track_estimate,
-)
-from nn_export.sampler import episode_tail, sample_situation, situation_from_tail
+from nn_export.runtime.features import compute_features, mirror_features
+from nn_export.runtime.layouts import FEATURE_VERSION, layout_for, layout_from_dict
+from nn_export.runtime.situation import Situation, TrackEstimate, reference_poses, track_estimate
+from nn_export.runtime.tracker import SituationTracker
+from nn_export.training.sampler import episode_tail, sample_situation, situation_from_tail
 
 ANGLES = {"mov1_heading_rad", "mov2_heading_rad", "mov3_heading_rad"}
 
@@ -169,7 +169,7 @@ def test_dataset_and_deployed_paths_give_identical_features(preset_name, layout_
     rng = np.random.default_rng(3)
     n_obstacles = 0
     for _ in range(60):
-        sit = sample_situation(rng, cfg, layout_name)  # what nn_export.dataset labels
+        sit = sample_situation(rng, cfg, layout_name)  # what nn_export.training.dataset labels
         tail = sit.info["tail"]
         deployed = _replay_deployed(tail, cfg)
         np.testing.assert_array_equal(compute_features(lay, sit), compute_features(lay, deployed))
@@ -273,7 +273,7 @@ def test_rollout_features_equal_compute_features_exactly(layout_name):
     """The deployed policy's pass-1 features (shared arc terms of overlapping windows, the
     absent-obstacle slots written once) are compute_features of the obstacle-free situation,
     bit for bit, curvature clipping counted the same."""
-    from nn_export.features import RolloutFeatures
+    from nn_export.runtime.features import RolloutFeatures
     rng = np.random.default_rng(8)
     T, H = 1.5, 6
     lay = layout_for(layout_name, H)

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import preset
-from nn_export.features import compute_features, layout_for, mirror_features
-from nn_export.labels import Labeller, mirror_label
-from nn_export.sampler import sample_situation
+from nn_export.runtime.features import compute_features, mirror_features
+from nn_export.runtime.layouts import layout_for
+from nn_export.training.labels import Labeller, mirror_label
+from nn_export.training.sampler import sample_situation
 
 TOL_MPS = 1e-6
 
@@ -91,7 +92,7 @@ def test_mirror_map_swaps_wheels_and_negates_lateral_quantities():
 
 
 def test_mirror_samples_in_a_shard_are_the_mirror_of_their_partners(labellers):
-    from nn_export.dataset import DatasetSpec, label_shard
+    from nn_export.training.dataset import DatasetSpec, label_shard
     cfg = preset("paper")
     spec = DatasetSpec(samples=16, config=cfg, layout=layout_for("paper", cfg.horizon), seed=4, shard_size=16,
                        solver=_labeller(labellers, "paper").solver, mirror_check_every=2)
@@ -121,7 +122,7 @@ def test_known_answer_label_on_the_reference_without_obstacles(labellers, preset
 
     from casadi_gpc.reference import ReferencePath, Segment
     from casadi_gpc.robot import RobotState
-    from nn_export.features import Situation, reference_poses
+    from nn_export.runtime.situation import Situation, reference_poses
     lab = _labeller(labellers, preset_name)
     cfg = lab.config
     path = ReferencePath((0.0, 0.0), 0.3, (Segment.line(40.0),), 0.4)

@@ -45,7 +45,7 @@ def _bad_files(tmp_path):
     out["other_robot"] = (tracker_model(tmp_path / "robot.onnx", "improved", robot=RobotParams(wheel_base_m=0.6)),
                           "robot")
     out["input_size"] = (tracker_model(tmp_path / "inputs.onnx", "improved", n_inputs=20), "input")
-    from nn_export.features import layout_for
+    from nn_export.runtime.layouts import layout_for
     spec = {**layout_for("paper", 12).to_dict(), "version": 99}  # features of a future version of the code
     out["layout_version"] = (tracker_model(tmp_path / "version.onnx", "improved", feature_layout_version="99",
                                            feature_layout_spec=json.dumps(spec)), "version")

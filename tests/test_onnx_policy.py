@@ -16,8 +16,10 @@ from casadi_gpc.config import preset
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
-from nn_export.features import compute_features, layout_for, reference_poses
-from nn_export.policy import POLICY_FORMAT, OnnxPolicy, shipped_model_path
+from nn_export.runtime.features import compute_features
+from nn_export.runtime.layouts import layout_for
+from nn_export.runtime.situation import reference_poses
+from nn_export.runtime.policy import POLICY_FORMAT, OnnxPolicy, shipped_model_path
 
 torch = pytest.importorskip("torch")
 onnx = pytest.importorskip("onnx")
@@ -25,8 +27,8 @@ onnx = pytest.importorskip("onnx")
 
 def _model(tmp_path, preset_name="paper", layout="paper", robot=None, name="m", seed=0):
     """A small network with real provenance, trained on synthetic data (fast)."""
-    from nn_export.export import POLICY_FORMAT as EXPORT_FORMAT, export_onnx
-    from nn_export.train import WheelSpeedMLP
+    from nn_export.training.export import POLICY_FORMAT as EXPORT_FORMAT, export_onnx
+    from nn_export.training.train import WheelSpeedMLP
     assert EXPORT_FORMAT == POLICY_FORMAT
     cfg = preset(preset_name)
     lay = layout_for(layout, cfg.horizon)
@@ -164,7 +166,7 @@ def _free_rollout(policy, obs):
     r = obs.robot
     state = [r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps]
     poses, wheels = [], []
-    from nn_export.features import Situation
+    from nn_export.runtime.situation import Situation
     for j in range(H):
         sit = Situation(RobotState(*state), ref[j:j + H + 1], T, obs.reference.speed_mps)
         w = _net(policy, compute_features(lay, sit))
@@ -264,8 +266,8 @@ def test_retrain_a_small_model_from_scratch(tmp_path):
     assert "parity" in out
     for name in ("training_curve.json", "training_curve.png", "model.json", "weights.npz"):
         assert (tmp_path / "model" / name).is_file()
-    from nn_export.dataset import load_dataset
-    from nn_export.train import WheelSpeedMLP
+    from nn_export.training.dataset import load_dataset
+    from nn_export.training.train import WheelSpeedMLP
     data = load_dataset(tmp_path / "data")
     m = WheelSpeedMLP.load(tmp_path / "model")
     p = OnnxPolicy(tmp_path / "m.onnx", preset="paper", safety_filter=False)
@@ -287,7 +289,7 @@ def test_retrain_a_small_model_from_scratch(tmp_path):
 
 # --- the bench's network rows compute the same function as onnxruntime -------------------
 def test_graph_forward_numpy_and_torch_match_onnxruntime(paper_model):
-    from nn_export.bench_rows import graph_forward
+    from nn_export.training.bench_rows import graph_forward
     p = OnnxPolicy(paper_model, safety_filter=False)
     X = np.random.default_rng(0).normal(size=(64, p.layout.size)).astype(np.float32) * 3
     ref = p.network(X)

@@ -29,8 +29,10 @@ import pytest
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotState
 from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
-from nn_export.features import SituationTracker, compute_features, layout_for
-from nn_export.policy import OnnxPolicy
+from nn_export.runtime.features import compute_features
+from nn_export.runtime.layouts import layout_for
+from nn_export.runtime.tracker import SituationTracker
+from nn_export.runtime.policy import OnnxPolicy
 
 DATA = Path(__file__).parent / "data"
 CASES = {

@@ -20,8 +20,10 @@ from casadi_gpc.ekf import ObstacleEKF
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, brake_wheels, robot_step, wheel_to_unicycle
 from casadi_gpc.types import ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
-from nn_export.features import Situation, TrackEstimate, compute_features, layout_for, reference_poses
-from nn_export.safety import SafetyFilter
+from nn_export.runtime.features import compute_features
+from nn_export.runtime.layouts import layout_for
+from nn_export.runtime.situation import Situation, TrackEstimate, reference_poses
+from casadi_gpc.safety import SafetyFilter
 
 ROBOT = RobotParams()
 VMAX = ROBOT.max_wheel_speed_mps
@@ -267,7 +269,7 @@ def policies(tmp_path_factory):
     """OnnxPolicy with each shipped model (if any) and with the synthetic tracker, with and
     without the safety filter."""
     from nn_export import OnnxPolicy
-    from nn_export.policy import shipped_model_path
+    from nn_export.runtime.policy import shipped_model_path
     from synthetic_models import tracker_model
 
     out = {}

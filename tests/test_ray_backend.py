@@ -11,9 +11,9 @@ import pytest
 ray = pytest.importorskip("ray")
 
 from casadi_gpc.config import preset  # noqa: E402
-from nn_export.dataset import ARRAY_KEYS, DatasetSpec, generate, read_manifest, read_shard  # noqa: E402
-from nn_export.features import layout_for  # noqa: E402
-from nn_export.labels import Labeller  # noqa: E402
+from nn_export.training.dataset import ARRAY_KEYS, DatasetSpec, generate, read_manifest, read_shard  # noqa: E402
+from nn_export.runtime.layouts import layout_for  # noqa: E402
+from nn_export.training.labels import Labeller  # noqa: E402
 
 PAPER = preset("paper")
 

@@ -1,4 +1,4 @@
-"""The safety filter (nn_export.safety) against independent brute-force answers, and the
+"""The safety filter (casadi_gpc.safety) against independent brute-force answers, and the
 network behind it: an obstacle-blind network collides without the filter and does not
 with it, every intervention counted."""
 from __future__ import annotations
@@ -15,7 +15,7 @@ import pytest
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
-from nn_export.safety import MANOEUVRES, SafetyFilter, StandbyPlanner
+from casadi_gpc.safety import MANOEUVRES, SafetyFilter, StandbyPlanner
 
 from conftest import PAPER_DIR, check_run_document
 from synthetic_models import tracker_model
@@ -528,7 +528,7 @@ def test_cli_safety_options_reach_run_json(tracker_path, tmp_path):
 
 
 def _shipped(preset_name="improved"):
-    from nn_export.policy import shipped_model_path
+    from nn_export.runtime.policy import shipped_model_path
     path = shipped_model_path(preset_name)
     if not path.is_file():
         pytest.skip(f"no shipped model for preset {preset_name}")
@@ -565,7 +565,7 @@ def test_filter_costs_at_most_30_percent_of_the_decision(tmp_path, preset_name):
     models: the smallest decision, so the largest share; measured 0.26 under `paper`)."""
     from casadi_gpc.simulator import simulate
     from nn_export import OnnxPolicy
-    from nn_export.policy import shipped_model_path
+    from nn_export.runtime.policy import shipped_model_path
     from scenarios import load_scenario
 
     path = shipped_model_path(preset_name)

@@ -11,8 +11,8 @@ torch = pytest.importorskip("torch")
 onnx = pytest.importorskip("onnx")
 ort = pytest.importorskip("onnxruntime")
 
-from nn_export.export import INPUT_NAME, POLICY_FORMAT, REQUIRED_METADATA, export_onnx  # noqa: E402
-from nn_export.train import WheelSpeedMLP  # noqa: E402
+from nn_export.training.export import INPUT_NAME, POLICY_FORMAT, REQUIRED_METADATA, export_onnx  # noqa: E402
+from nn_export.training.train import WheelSpeedMLP  # noqa: E402
 
 PROV = {"preset": "paper", "horizon": 6, "sample_time_s": 1.5, "feature_layout": "paper",
         "feature_layout_version": 1, "robot": {"wheel_base_m": 0.5, "radius_m": 0.35, "max_wheel_speed_mps": 0.8,

@@ -38,7 +38,7 @@ from casadi_gpc.metrics import path_deviation_m, same_instant_deviation_m  # noq
 from casadi_gpc.simulator import simulate  # noqa: E402
 from gpcnav.commands.common import make_controller  # noqa: E402
 from gpcnav.commands.evaluate import evaluate  # noqa: E402
-from nn_export.policy import OnnxPolicy, shipped_model_path  # noqa: E402
+from nn_export.runtime.policy import OnnxPolicy, shipped_model_path  # noqa: E402
 from scenarios import paper_scenarios, random_suite  # noqa: E402
 
 

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_preset_arguments, planner_config, progress
+from .common import add_preset_arguments, check_output_files, planner_config, progress
 
 DEFAULT_SCENARIO = "fig7_2_crossing"
 
@@ -36,7 +36,7 @@ def extra_policies(args, config, robot) -> list:
     if getattr(args, "no_nn_rows", False):
         return []
     try:
-        from nn_export.bench_rows import policy_entries
+        from nn_export.training.bench_rows import policy_entries
         entries, args._nn_recorder = policy_entries(config, robot, args.model)
     except (ImportError, FileNotFoundError, ValueError) as exc:
         raise UsageError(f"network rows: {exc} (use --no-nn-rows to leave them out)") from None
@@ -48,7 +48,7 @@ def network_rows(args, doc) -> None:
     recorder = getattr(args, "_nn_recorder", None)
     if recorder is None or not recorder.features:
         return
-    from nn_export.bench_rows import forward_rows, network_speedups
+    from nn_export.training.bench_rows import forward_rows, network_speedups
     rows = forward_rows(recorder.policy.model_info["path"], recorder.features)
     doc["results"] += rows
     doc["speedup"].update(network_speedups(doc["results"], doc["chosen"]["name"], doc["reference"]))
@@ -72,6 +72,7 @@ def run(args) -> int:
 
     from casadi_gpc.io import save_figure, write_json
     solvers = parse_solvers(args.solvers)
+    check_output_files(out=args.out, plot=args.plot)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")
 

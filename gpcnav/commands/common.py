@@ -105,7 +105,7 @@ def make_controller(kind: str, config, robot, model=None, safety: str = "gpc", p
         if safety == "gpc":
             try:
                 from casadi_gpc.gpc import GPCController
-                from nn_export.safety import StandbyPlanner
+                from casadi_gpc.safety import StandbyPlanner
             except ImportError as exc:
                 raise UsageError(f"--safety-fallback gpc needs the planner ({exc}); use --safety-fallback brake") \
                     from None
@@ -116,6 +116,39 @@ def make_controller(kind: str, config, robot, model=None, safety: str = "gpc", p
         except (FileNotFoundError, ValueError) as exc:
             raise UsageError(str(exc)) from None
     raise UsageError(f"unknown controller {kind!r}")
+
+
+def check_seed(seed: int | None) -> None:
+    """Refuse a negative ``--seed`` in one line (numpy's generators take none)."""
+    if seed is not None and seed < 0:
+        raise UsageError(f"--seed must be 0 or more, got {seed}")
+
+
+def make_output_folder(path: Path, option: str) -> None:
+    """Make the folder ``path`` (and its parents), or refuse in one line (exit 2): before
+    any work, so that nothing is computed for nowhere to go."""
+    _make_folder(path, f"{option} {path}")
+
+
+def check_output_files(**paths) -> None:
+    """Make the folder of each output file given (option name -> path or None), or refuse
+    in one line (exit 2); a path that is a folder is refused too."""
+    for option, path in paths.items():
+        if path is None:
+            continue
+        what = f"--{option.replace('_', '-')} {path}"
+        if path.is_dir():
+            raise UsageError(f"{what} is a folder, not a file")
+        _make_folder(path.parent, f"{what}: its folder {path.parent}")
+
+
+def _make_folder(folder: Path, what: str) -> None:
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"{what} exists and is not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"{what} cannot be made ({exc.strerror or exc})") from None
 
 
 def progress(iterable=None, **kw):

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_preset_arguments, planner_config, progress
+from .common import add_preset_arguments, check_seed, planner_config, progress
 
 
 def add_arguments(p):
@@ -36,7 +36,7 @@ def add_arguments(p):
                    help="solve the mirrored situation for every K-th situation as a check of the labels (0: never)")
     p.add_argument("--solver", default=None,
                    help="the planner's NLP solver for labelling (default: the one measured fastest for "
-                        "labels under the preset, nn_export.labels.LABEL_SOLVERS)")
+                        "labels under the preset, nn_export.training.labels.LABEL_SOLVERS)")
     p.add_argument("--dagger", type=Path, default=None, metavar="MODEL.onnx|gpc",
                    help="append one round of on-policy data from this network (or, with the word gpc, from "
                         "the GPC itself) to the dataset at --out")
@@ -58,16 +58,17 @@ def add_arguments(p):
 
 
 def _layout_and_config(args):
-    from nn_export.features import layout_for
+    from nn_export.runtime.layouts import layout_for
     config = planner_config(args)
     return config, layout_for(args.layout, config.horizon)
 
 
 def run(args) -> int:
-    from nn_export.dataset import DatasetMismatch, DatasetSpec, generate
-    from nn_export.labels import label_solver
+    from nn_export.training.dataset import DatasetMismatch, DatasetSpec, generate
+    from nn_export.training.labels import label_solver
     if args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    check_seed(args.seed)
     if args.address and args.backend != "ray":
         raise UsageError("--address needs --backend ray")
     if not (0.0 <= args.dagger_noise <= 0.8):
@@ -130,7 +131,7 @@ def run(args) -> int:
 
 def _check_solver(spec) -> None:
     """Refuse an unknown solver name before any work (one line)."""
-    from nn_export.dataset import prepare_labeller
+    from nn_export.training.dataset import prepare_labeller
     try:
         prepare_labeller(spec)  # local workers are forked afterwards and inherit the built solver
     except (ValueError, RuntimeError) as exc:
@@ -139,23 +140,14 @@ def _check_solver(spec) -> None:
 
 def _dagger(args) -> int:
     """One DAgger round: the network drives, the GPC labels what it sees."""
-    import functools
-
+    from casadi_gpc.pool import WorkerPool
     from casadi_gpc.robot import RobotParams
-    from nn_export.dataset import (
-        _PART_STRIDE, DatasetMismatch, append_part, collect_on_policy_parallel, prepare_labeller, read_manifest,
+    from nn_export.training.dataset import (
+        PART_STRIDE, DatasetMismatch, OnPolicyOptions, append_part, collect_on_policy_parallel,
     )
-    from nn_export.features import layout_from_dict
-    from nn_export.labels import label_solver
-    from scenarios import random_suite
-    from .common import make_controller
-    if not (args.out / "manifest.json").is_file():
-        raise UsageError(f"--dagger appends to an existing dataset, and {args.out} has no manifest.json")
-    if args.episodes < 1:
-        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
-    if args.round < 1:
-        raise UsageError(f"--round must be at least 1, got {args.round}")
-    man = read_manifest(args.out)
+    from nn_export.runtime.layouts import layout_from_dict
+    from nn_export.training.labels import label_solver
+    man = _dagger_manifest(args)
     config = planner_config(args)
     if man.get("preset") != config.name:
         raise UsageError(f"{args.out} was labelled under preset {man.get('preset')!r}, not {config.name!r}")
@@ -165,32 +157,19 @@ def _dagger(args) -> int:
         raise UsageError(f"{args.out} already has a part {part} (round {args.round})")
     layout = layout_from_dict(man["feature_layout"])
     robot = RobotParams()
-    if by_gpc:
-        factory = functools.partial(make_controller, "gpc", config, robot)
-    else:
-        factory = functools.partial(make_controller, "nn", config, robot, args.dagger, args.dagger_safety)
-        factory()  # refuse a bad model before any work (one line)
+    factory = _driver(args, config, robot, by_gpc)
     solver = args.solver or label_solver(config)
-    from nn_export.dataset import DatasetSpec
-    try:
-        prepare_labeller(DatasetSpec(1, config, layout, solver=solver))
-    except (ValueError, RuntimeError) as exc:
-        raise UsageError(f"--solver {solver}: {str(exc).splitlines()[0]}") from None
+    _check_solver_for(config, layout, solver)
     suite = args.dagger_suite or ("random-multi" if layout.name == "multi" else "random")
     # episodes never repeat the evaluation suite (seed 1) nor each other (GPC parts: +500)
     suite_seed = args.seed + 1000 * args.round + (500 if by_gpc else 0)
-    scenarios = random_suite(suite, args.episodes, suite_seed)
-    if args.start_offset > 0:
-        import numpy as np
-
-        from nn_export.dataset import perturb_start
-        rng = np.random.default_rng([suite_seed, 77])
-        scenarios = [perturb_start(sc, rng, args.start_offset, args.start_offset / 2) for sc in scenarios]
-    arrays, stats = collect_on_policy_parallel(
-        factory, scenarios, config, layout, solver, robot, args.workers, args.backend, args.address,
-        mirror=not args.no_mirror, id_base=(args.round + (500 if by_gpc else 0)) * _PART_STRIDE,
-        mirror_check_every=args.mirror_check_every,
-        progress=lambda **kw: progress(desc=f"{part}", **kw), noise_mps=args.dagger_noise)
+    scenarios = _dagger_scenarios(suite, args.episodes, suite_seed, args.start_offset)
+    options = OnPolicyOptions(config, layout, solver, robot,
+                              mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
+                              noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE)
+    arrays, stats = collect_on_policy_parallel(factory, scenarios, options,
+                                               WorkerPool(args.workers, args.backend, args.address),
+                                               progress=lambda **kw: progress(desc=f"{part}", **kw))
     info = {"round": args.round, "model": str(args.dagger), "suite": suite, "episodes": args.episodes,
             "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety,
             "driving_noise_mps": args.dagger_noise, "start_offset_m": args.start_offset,
@@ -207,3 +186,54 @@ def _dagger(args) -> int:
           f"episodes of {suite} ({', '.join(f'{k} {v}' for k, v in sorted(outcomes.items()))}); "
           f"dataset now {doc['samples']} samples")
     return 0
+
+
+def _dagger_manifest(args) -> dict:
+    """The manifest of the dataset a round appends to, after checking the round's numbers."""
+    from nn_export.training.dataset import read_manifest
+    if not (args.out / "manifest.json").is_file():
+        raise UsageError(f"--dagger appends to an existing dataset, and {args.out} has no manifest.json")
+    if args.episodes < 1:
+        raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.round < 1:
+        raise UsageError(f"--round must be at least 1, got {args.round}")
+    try:
+        man = read_manifest(args.out)
+        if not isinstance(man.get("parts"), dict) or "feature_layout" not in man:
+            raise ValueError("not a manifest")
+    except (ValueError, AttributeError, OSError):
+        raise UsageError(f"{args.out}/manifest.json is damaged: run `gpcnav dataset --out {args.out}` with the "
+                         f"arguments that made it to rebuild it from its shards, then the round again") from None
+    return man
+
+
+def _driver(args, config, robot, by_gpc: bool):
+    """A picklable factory of the round's driver: the GPC, or the network (refused now, in
+    one line, if its model is bad)."""
+    import functools
+
+    from .common import make_controller
+    if by_gpc:
+        return functools.partial(make_controller, "gpc", config, robot)
+    factory = functools.partial(make_controller, "nn", config, robot, args.dagger, args.dagger_safety)
+    factory()  # refuse a bad model before any work (one line)
+    return factory
+
+
+def _check_solver_for(config, layout, solver: str) -> None:
+    """Refuse an unknown labelling solver before any work (one line)."""
+    from nn_export.training.dataset import DatasetSpec
+    _check_solver(DatasetSpec(1, config, layout, solver=solver))
+
+
+def _dagger_scenarios(suite: str, episodes: int, suite_seed: int, start_offset_m: float) -> list:
+    """The round's episodes, their starts moved up to ``start_offset_m`` beside the path."""
+    from scenarios import random_suite
+    scenarios = random_suite(suite, episodes, suite_seed)
+    if start_offset_m > 0:
+        import numpy as np
+
+        from nn_export.training.dataset import perturb_start
+        rng = np.random.default_rng([suite_seed, 77])
+        scenarios = [perturb_start(sc, rng, start_offset_m, start_offset_m / 2) for sc in scenarios]
+    return scenarios

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import os
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import (add_controller_arguments, add_suite_arguments, make_controller, planner_config, progress,
-                     safety_mode, suite_from_args)
+from .common import (add_controller_arguments, add_suite_arguments, check_seed, make_controller, planner_config,
+                     progress, safety_mode, suite_from_args)
 
 _WORKER = {}
 
@@ -24,8 +23,8 @@ def add_arguments(p):
                    help="inject faults into every episode, e.g. 'dropout_prob=0.1,outlier_prob=0.02'")
 
 
-def _episode(job):
-    """Worker: one episode; the controller is built once per worker and robot."""
+def _episode(index, job):
+    """Worker: episode ``index``; the controller is built once per worker and robot."""
     from casadi_gpc.metrics import episode_metrics
     from casadi_gpc.simulator import simulate
     scenario, kind, config, model, safety, passes = job
@@ -34,7 +33,7 @@ def _episode(job):
         _WORKER[key] = make_controller(kind, config, scenario.robot, model, safety, passes)
     controller = _WORKER[key]
     log = simulate(scenario, controller, kind)
-    return episode_metrics(log), log.compute_time_s, dict(log.events)
+    return index, (episode_metrics(log), log.compute_time_s, dict(log.events))
 
 
 def parse_faults(spec: str | None):
@@ -57,23 +56,19 @@ def parse_faults(spec: str | None):
 
 def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", safety="gpc", passes=None):
     """Run every scenario; returns (metrics, all compute times, summed events)."""
-    jobs = [(s, kind, config, model, safety, passes) for s in scenarios]
+    from casadi_gpc.pool import WorkerPool
+    jobs = [(i, (s, kind, config, model, safety, passes)) for i, s in enumerate(scenarios)]
+    # the episodes come back as they finish; the metrics keep the scenarios' order
+    pool = WorkerPool(min(workers, len(jobs)))
+    results = [None] * len(jobs)
+    for i, result in progress(pool.imap_unordered(_episode, jobs), total=len(jobs), desc=desc, unit="ep"):
+        results[i] = result
     metrics, times, events = [], [], {}
-    if workers <= 1 or len(jobs) <= 1:
-        results = map(_episode, jobs)
-        pool = None
-    else:
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)))
-        results = pool.map(_episode, jobs, chunksize=1)
-    try:
-        for m, t, ev in progress(results, total=len(jobs), desc=desc, unit="ep"):
-            metrics.append(m)
-            times.extend(t)
-            for k, v in ev.items():
-                events[k] = events.get(k, 0) + v
-    finally:
-        if pool is not None:
-            pool.shutdown(cancel_futures=True)
+    for m, t, ev in results:
+        metrics.append(m)
+        times.extend(t)
+        for k, v in ev.items():
+            events[k] = events.get(k, 0) + v
     return metrics, times, events
 
 
@@ -88,6 +83,7 @@ def run(args) -> int:
     suite = suite_from_args(args)
     if args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    check_seed(args.seed)
     config = planner_config(args)
     faults = parse_faults(args.faults)
     if suite is not None:

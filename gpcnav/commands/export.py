@@ -21,8 +21,8 @@ def run(args) -> int:
     if not (args.model_dir / "model.json").is_file():
         raise UsageError(f"{args.model_dir}: not a trained model folder (no model.json; run `gpcnav train` first)")
     try:
-        from nn_export.export import export_onnx
-        from nn_export.train import WheelSpeedMLP
+        from nn_export.training.export import export_onnx
+        from nn_export.training.train import WheelSpeedMLP
     except ImportError as exc:
         raise UsageError(f"export needs the train extra (pip install -e '.[train]'): {exc}") from None
     try:

@@ -14,14 +14,16 @@ import hashlib
 import json
 import os
 import platform
-import shutil
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from casadi_gpc.io import write_json
+
 from ..errors import UsageError
-from casadi_gpc.io import write_json, write_text
+from .common import check_seed, make_output_folder
+from .reproduce_report import write_report
 
 
 @dataclass(frozen=True)
@@ -40,7 +42,6 @@ class Sizes:
 
 QUICK = Sizes(samples=6000, dart_random_episodes=100, dart_encounter_episodes=100, epochs=400, suite_count=16)
 FULL = Sizes(samples=20000, dart_random_episodes=600, dart_encounter_episodes=600, epochs=2000, suite_count=100)
-PAPER_SCENARIOS = ("fig7_1_head_on", "fig7_2_crossing", "fig7_3_crossing_off_path")
 
 
 def add_arguments(p):
@@ -93,19 +94,27 @@ def _file_digest(path: Path) -> str:
 def run(args) -> int:
     if args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    check_seed(args.seed)
     sizes = QUICK if args.quick else FULL
     out: Path = args.out
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {out} exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
-    from scenarios import PAPER_DIR
+    make_output_folder(out, "--out")
     st = _Stages(out)
     t_start = time.perf_counter()
-    seed, workers = args.seed, args.workers
-    data, model_dir, onnx = out / "dataset", out / "model", out / "model.onnx"
-    runs, evals = out / "runs", out / "eval"
+    onnx = _label_train_export(st, out, sizes, args.seed, args.workers)
+    model_key = _file_digest(onnx)
+    run_files = _scenario_runs(st, out / "runs", onnx, model_key)
+    eval_files = _suite_runs(st, out / "eval", onnx, model_key, sizes.suite_count, args.seed, args.workers)
+    bench = _bench(st, out, onnx, model_key)
+    # total work: the stages' own times (a resumed run reuses finished stages and their times)
+    write_report(out, sizes, args, run_files, eval_files, bench, st.timing, sum(st.timing.values()), environment())
+    print(f"[reproduce] wrote {out / 'report.md'} in {time.perf_counter() - t_start:.0f} s", file=sys.stderr)
+    return 0
 
-    # 1. labels (resumable by itself), 2. the GPC's own states (DART rounds), 3. training + export
+
+def _label_train_export(st: _Stages, out: Path, sizes: Sizes, seed: int, workers: int) -> Path:
+    """1. the labels (resumable by themselves), 2. the GPC's own states (DART rounds),
+    3. training and export; returns the model file."""
+    data, model_dir, onnx = out / "dataset", out / "model", out / "model.onnx"
     st.run("dataset", {"samples": sizes.samples, "seed": seed}, [data / "manifest.json"], lambda: _cli(
         ["dataset", "--out", data, "--samples", sizes.samples, "--preset", "paper", "--seed", seed,
          "--workers", workers]))
@@ -125,12 +134,16 @@ def run(args) -> int:
         _cli(["train", data, "--out", model_dir, "--preset", "paper", "--seed", seed, "--epochs", sizes.epochs])
         _cli(["export", model_dir, "--out", onnx])
     st.run("train", {"data": st.key("onpolicy"), "epochs": sizes.epochs, "seed": seed}, [onnx], train)
-    model_key = _file_digest(onnx)
+    return onnx
 
-    # 5. the Fig. 7 scenarios, both controllers, both presets
+
+def _scenario_runs(st: _Stages, runs: Path, onnx: Path, model_key: str) -> dict:
+    """5. the Fig. 7 scenarios, both controllers, both presets (the `paper` network is the
+    one just trained, the `improved` one the shipped)."""
+    from scenarios import PAPER_DIR, PAPER_NAMES
     run_files = {}
     for preset_name in ("paper", "improved"):
-        for name in PAPER_SCENARIOS:
+        for name in PAPER_NAMES:
             for ctrl in ("gpc", "nn"):
                 run_files[(preset_name, name, ctrl)] = runs / f"{name}_{preset_name}_{ctrl}.json"
 
@@ -141,32 +154,32 @@ def run(args) -> int:
                 argv += ["--model", onnx]
             _cli(argv)
     st.run("scenarios", {"model": model_key}, list(run_files.values()), scenario_runs)
+    return run_files
 
-    # 6. the random suite, both controllers, both presets
+
+def _suite_runs(st: _Stages, evals: Path, onnx: Path, model_key: str, count: int, seed: int, workers: int) -> dict:
+    """6. the random suite, both controllers, both presets."""
     eval_files = {(p, c): evals / f"random_{p}_{c}.json" for p in ("paper", "improved") for c in ("gpc", "nn")}
 
     def suite_runs():
         for (preset_name, ctrl), path in eval_files.items():
-            argv = ["evaluate", "--suite", "random", "--count", sizes.suite_count, "--seed", seed, "--controller", ctrl,
+            argv = ["evaluate", "--suite", "random", "--count", count, "--seed", seed, "--controller", ctrl,
                     "--preset", preset_name, "--workers", workers, "--out", path]
             if ctrl == "nn" and preset_name == "paper":
                 argv += ["--model", onnx]
             _cli(argv)
-    st.run("suite", {"model": model_key, "count": sizes.suite_count, "seed": seed}, list(eval_files.values()),
-           suite_runs)
+    st.run("suite", {"model": model_key, "count": count, "seed": seed}, list(eval_files.values()), suite_runs)
+    return eval_files
 
-    # 7. the benchmark (GPC solvers and the network paths on the same recorded problems)
+
+def _bench(st: _Stages, out: Path, onnx: Path, model_key: str) -> Path:
+    """7. the benchmark: the GPC solvers and the network paths on the same recorded problems."""
+    from scenarios import PAPER_DIR
     bench = out / "bench.json"
     st.run("bench", {"model": model_key}, [bench], lambda: _cli(
         ["bench", PAPER_DIR / "fig7_2_crossing.toml", "--preset", "paper", "--model", onnx, "--out", bench,
          "--plot", out / "bench_solvers.png"]))
-
-    # 8. figures, report, results
-    from .reproduce_report import write_report
-    # total work: the stages' own times (a resumed run reuses finished stages and their times)
-    write_report(out, sizes, args, run_files, eval_files, bench, st.timing, sum(st.timing.values()))
-    print(f"[reproduce] wrote {out / 'report.md'} in {time.perf_counter() - t_start:.0f} s", file=sys.stderr)
-    return 0
+    return bench
 
 
 def environment() -> dict:
@@ -188,8 +201,3 @@ def environment() -> dict:
     except OSError:
         pass
     return env
-
-
-def copy_if_exists(src: Path, dst: Path) -> None:
-    if src.is_file():
-        shutil.copyfile(src, dst)

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from casadi_gpc.io import save_figure, write_json, write_text
+from scenarios import PAPER_NAMES as PAPER_SCENARIOS
 
-PAPER_SCENARIOS = ("fig7_1_head_on", "fig7_2_crossing", "fig7_3_crossing_off_path")
 TITLES = {"fig7_1_head_on": "7.1 head-on", "fig7_2_crossing": "7.2 crossing",
           "fig7_3_crossing_off_path": "7.3 crossing, robot off the path"}
 
@@ -113,8 +113,10 @@ def _fmt_ms(s: float) -> str:
 
 
 def write_report(out: Path, sizes, args, run_files: dict, eval_files: dict, bench_path: Path, stage_timing: dict,
-                 total_s: float) -> None:
-    from .reproduce import environment
+                 total_s: float, environment: dict) -> None:
+    """Figures, ``results.json`` and ``report.md`` in ``out`` from the stages' files;
+    ``environment``: the versions and machine the run reports (given by the command, so this
+    module imports nothing of it)."""
     run_docs = {k: _load(p) for k, p in run_files.items()}
     eval_docs = {k: _load(p) for k, p in eval_files.items()}
     bench = _load(bench_path)
@@ -152,7 +154,7 @@ def write_report(out: Path, sizes, args, run_files: dict, eval_files: dict, benc
     decision_speedup = gpc_dec["median_s"] / nn_dec["median_s"] if gpc_dec and nn_dec and nn_dec["median_s"] else None
     all_reached = all(r["outcome"] == "reached_goal" for r in scen_rows if r["preset"] == "paper")
     results = {
-        "environment": environment(), "quick": bool(args.quick), "seed": args.seed, "workers": args.workers,
+        "environment": environment, "quick": bool(args.quick), "seed": args.seed, "workers": args.workers,
         "sizes": sizes.__dict__, "stage_seconds": stage_timing, "total_seconds": total_s,
         "dataset": {k: manifest.get(k) for k in ("samples", "feature_layout", "preset", "seed", "shards")},
         "dataset_parts": {k: {kk: v.get(kk) for kk in ("samples", "kind")} for k, v in manifest.get("parts", {}).items()},

@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import add_controller_arguments, make_controller, planner_config, safety_mode
+from .common import add_controller_arguments, check_output_files, check_seed, make_controller, planner_config, safety_mode
 
 
 def add_arguments(p):
@@ -37,6 +37,8 @@ def run_one(scenario, controller_kind, config, model=None, safety="gpc", passes=
 def run(args) -> int:
     from scenarios import load_scenario
     from casadi_gpc.io import save_figure, write_json
+    check_seed(args.seed)
+    check_output_files(out=args.out, plot=args.plot, animate=args.animate)
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_preset_arguments, planner_config, progress
+from .common import add_preset_arguments, check_seed, planner_config, progress
 
 
 def add_arguments(p):
@@ -60,11 +60,12 @@ def _dataset_id(manifests) -> str:
 def run(args) -> int:
     import numpy as np
     try:
-        from nn_export.train import WheelSpeedMLP
+        from nn_export.training.train import WheelSpeedMLP
     except ImportError as exc:
         raise UsageError(f"training needs the train extra (pip install -e '.[train]'): {exc}") from None
-    from nn_export.dataset import load_dataset, read_manifest
+    from nn_export.training.dataset import load_dataset, read_manifest
     cfg = planner_config(args)
+    check_seed(args.seed)
     if not 1 <= args.layers <= 4:
         raise UsageError(f"--layers must be from 1 to 4, got {args.layers}")
     for name, v, lo in (("--hidden", args.hidden, 1), ("--epochs", args.epochs, 1), ("--patience", args.patience, 1),

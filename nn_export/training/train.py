@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -162,27 +163,28 @@ class WheelSpeedMLP:
             Called after each epoch (the CLI's progress bar).
         """
         self._check_params()
-        X = np.asarray(X, dtype=np.float64)
-        Y = np.asarray(Y, dtype=np.float64)
-        if X.ndim != 2 or Y.ndim != 2:
-            raise ValueError(f"X and Y must be 2-D, got shapes {X.shape} and {Y.shape}")
-        if len(X) != len(Y):
-            raise ValueError(f"X has {len(X)} rows but Y has {len(Y)}")
-        if len(X) < 10:
-            raise ValueError(f"need at least 10 samples to train and validate, got {len(X)}")
-        if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Y))):
-            raise ValueError("X and Y must be finite")
-        if feature_names is not None and len(feature_names) != X.shape[1]:
-            raise ValueError(f"{len(feature_names)} feature names for {X.shape[1]} features")
-        if label_names is not None and len(label_names) != Y.shape[1]:
-            raise ValueError(f"{len(label_names)} label names for {Y.shape[1]} labels")
-
+        X, Y = _checked_arrays(X, Y, feature_names, label_names)
         rng = np.random.default_rng(self.random_state)
         train_idx, val_idx = self._split(len(X), groups, rng)
         torch.set_num_threads(1)  # a small net: threads only add nondeterminism and contention
         torch.manual_seed(self.random_state)
         gen = torch.Generator().manual_seed(self.random_state)
+        net, data = self._standardised(X, Y, train_idx, val_idx)
+        t0 = time.perf_counter()
+        curve, best_state = self._train(net, data, gen, progress)
+        net.load_state_dict(best_state)
+        net.eval()
+        self._keep(net, data, X, Y, train_idx, val_idx, feature_names, label_names)
+        restarts = curve.pop("lbfgs_restarts")
+        self.curve_ = {**curve, "optimizer": self.optimizer, "n_train": int(len(train_idx)),
+                       "n_validation": int(len(val_idx)), "best_epoch": self.best_epoch_,
+                       "stop_reason": self.stop_reason_, "lbfgs_restarts": restarts,
+                       "train_time_s": time.perf_counter() - t0, "units": "(m/s)^2, mean over samples and wheels"}
+        return self
 
+    def _standardised(self, X: np.ndarray, Y: np.ndarray, train_idx, val_idx) -> tuple[_Net, "_Splits"]:
+        """The network with the training split's standardisation in its buffers, and both
+        splits standardised (in the learned output basis)."""
         x_mean, x_scale = X[train_idx].mean(0), _scale(X[train_idx])
         if self.output_basis == "speed_turn" and Y.shape[1] != 2:
             raise ValueError(f"output_basis 'speed_turn' needs 2 outputs, Y has {Y.shape[1]}")
@@ -198,24 +200,25 @@ class WheelSpeedMLP:
             net.y_scale.copy_(torch.from_numpy(y_scale))
         Xn = torch.from_numpy((X - x_mean) / x_scale)
         Yn = torch.from_numpy((U - y_mean) / y_scale)
-        ysc = torch.from_numpy(y_scale)
-        mixt = torch.from_numpy(mix)
-        xt, yt, xv, yv = Xn[train_idx], Yn[train_idx], Xn[val_idx], Yn[val_idx]
+        return net, _Splits(Xn[train_idx], Yn[train_idx], Xn[val_idx], Yn[val_idx], torch.from_numpy(y_scale),
+                            torch.from_numpy(mix))
 
-        def mse(xn, yn):  # physical units: mean over samples and both wheels, (m/s)^2
-            with torch.no_grad():
-                return float(((((net.normalised(xn) - yn) * ysc) @ mixt.T) ** 2).mean())
-
-        lbfgs = self.optimizer == "lbfgs"
-        if lbfgs:
+    def _optimizer(self, net: _Net):
+        """The optimizer and its learning-rate schedule (None for L-BFGS)."""
+        if self.optimizer == "lbfgs":
             # 10 iterations per step: with one, torch's L-BFGS can stall for good (measured)
-            opt = torch.optim.LBFGS(net.parameters(), lr=1.0, max_iter=LBFGS_ITERATIONS_PER_STEP, history_size=50,
-                                    line_search_fn="strong_wolfe")
-            sched = None
-        else:
-            opt = torch.optim.Adam(net.parameters(), lr=self.learning_rate, weight_decay=self.weight_decay)
-            sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=1 / 3, patience=max(1, self.patience // 4),
+            return torch.optim.LBFGS(net.parameters(), lr=1.0, max_iter=LBFGS_ITERATIONS_PER_STEP, history_size=50,
+                                     line_search_fn="strong_wolfe"), None
+        opt = torch.optim.Adam(net.parameters(), lr=self.learning_rate, weight_decay=self.weight_decay)
+        return opt, torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=1 / 3, patience=max(1, self.patience // 4),
                                                                min_lr=self.learning_rate * 1e-3)
+
+    def _train(self, net: _Net, data: "_Splits", gen: torch.Generator, progress) -> tuple[dict, dict]:
+        """Steps (L-BFGS) or epochs (Adam) until the validation error stalls for ``patience``
+        of them or ``max_epochs`` pass: the curve (with ``lbfgs_restarts``) and the best
+        weights. Sets ``best_epoch_`` and ``stop_reason_``."""
+        opt, sched = self._optimizer(net)
+        xt, yt, xv, yv = data.xt, data.yt, data.xv, data.yv
 
         def closure():
             opt.zero_grad(set_to_none=True)
@@ -225,40 +228,25 @@ class WheelSpeedMLP:
             loss.backward()
             return loss
 
-        curve = {"epoch": [0], "train_mse": [mse(xt, yt)], "val_mse": [mse(xv, yv)], "learning_rate": [self.learning_rate]}
+        curve = {"epoch": [0], "train_mse": [data.mse(net, xt, yt)], "val_mse": [data.mse(net, xv, yv)],
+                 "learning_rate": [self.learning_rate]}
         best_val, best_state, best_epoch, stale = curve["val_mse"][0], _copy_state(net), 0, 0
-        t0 = time.perf_counter()
-        n_train, bs = len(xt), int(self.batch_size)
-        stop_reason = "max_epochs"
-        restarts = 0
+        stop_reason, restarts = "max_epochs", 0
         for epoch in range(1, int(self.max_epochs) + 1):
             net.train()
-            if lbfgs:
-                before = [q.detach().clone() for q in net.parameters()]
-                opt.step(closure)
-                if all(torch.equal(a, b) for a, b in zip(before, net.parameters())):
-                    opt.state.clear()  # no move at all: restart from steepest descent
-                    restarts += 1
-                    opt.step(closure)
+            if sched is None:
+                restarts += _lbfgs_step(opt, net, closure)
             else:
-                order = torch.randperm(n_train, generator=gen)
-                for start in range(0, n_train, bs):
-                    b = order[start:start + bs]
-                    opt.zero_grad(set_to_none=True)
-                    loss = ((net.normalised(xt[b]) - yt[b]) ** 2).mean()
-                    loss.backward()
-                    opt.step()
+                _adam_epoch(opt, net, xt, yt, int(self.batch_size), gen)
             net.eval()
-            tr, va = mse(xt, yt), mse(xv, yv)
+            tr, va = data.mse(net, xt, yt), data.mse(net, xv, yv)
             if not (math.isfinite(tr) and math.isfinite(va)):
                 raise FloatingPointError(f"training diverged at epoch {epoch} (learning_rate {self.learning_rate})")
             if sched is not None:
                 sched.step(va)
-            lr = opt.param_groups[0]["lr"]
-            curve["epoch"].append(epoch)
-            curve["train_mse"].append(tr)
-            curve["val_mse"].append(va)
-            curve["learning_rate"].append(lr)
+            for key, value in zip(("epoch", "train_mse", "val_mse", "learning_rate"),
+                                  (epoch, tr, va, opt.param_groups[0]["lr"])):
+                curve[key].append(value)
             if progress is not None:
                 progress(epoch, tr, va)
             if va < best_val * (1 - 1e-4):
@@ -268,24 +256,22 @@ class WheelSpeedMLP:
                 if stale >= self.patience:
                     stop_reason = "early_stopping"
                     break
-        net.load_state_dict(best_state)
-        net.eval()
+        self.best_epoch_, self.stop_reason_ = best_epoch, stop_reason
+        curve["lbfgs_restarts"] = restarts
+        return curve, best_state
 
+    def _keep(self, net: _Net, data: "_Splits", X: np.ndarray, Y: np.ndarray, train_idx, val_idx, feature_names,
+              label_names) -> None:
+        """The learned attributes of a fitted model (the best weights are in ``net``)."""
         self.net_ = net
         self.n_features_in_ = X.shape[1]
         self.n_outputs_ = Y.shape[1]
         self.feature_names_ = list(feature_names) if feature_names is not None else [f"x{i}" for i in range(X.shape[1])]
         self.label_names_ = list(label_names) if label_names is not None else ["v_right_mps", "v_left_mps"][: Y.shape[1]]
         self.train_indices_, self.validation_indices_ = train_idx, val_idx
-        self.best_epoch_ = best_epoch
-        self.stop_reason_ = stop_reason
-        self.train_mse_ = mse(xt, yt)
-        self.validation_mse_ = mse(xv, yv)
+        self.train_mse_ = data.mse(net, data.xt, data.yt)
+        self.validation_mse_ = data.mse(net, data.xv, data.yv)
         self.validation_max_abs_error_ = float(np.max(np.abs(self.predict(X[val_idx]) - Y[val_idx])))
-        self.curve_ = {**curve, "optimizer": self.optimizer, "n_train": int(len(train_idx)), "n_validation": int(len(val_idx)),
-                       "best_epoch": best_epoch, "stop_reason": stop_reason, "lbfgs_restarts": restarts,
-                       "train_time_s": time.perf_counter() - t0, "units": "(m/s)^2, mean over samples and wheels"}
-        return self
 
     def _split(self, n: int, groups, rng: np.random.Generator):
         if groups is None:
@@ -395,6 +381,65 @@ class WheelSpeedMLP:
         curve = model_dir / "training_curve.json"
         self.curve_ = json.loads(curve.read_text()) if curve.is_file() else None
         return self
+
+
+def _checked_arrays(X, Y, feature_names, label_names) -> tuple[np.ndarray, np.ndarray]:
+    """``X`` and ``Y`` as float64 arrays, refused (ValueError) when they cannot be learned."""
+    X = np.asarray(X, dtype=np.float64)
+    Y = np.asarray(Y, dtype=np.float64)
+    if X.ndim != 2 or Y.ndim != 2:
+        raise ValueError(f"X and Y must be 2-D, got shapes {X.shape} and {Y.shape}")
+    if len(X) != len(Y):
+        raise ValueError(f"X has {len(X)} rows but Y has {len(Y)}")
+    if len(X) < 10:
+        raise ValueError(f"need at least 10 samples to train and validate, got {len(X)}")
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Y))):
+        raise ValueError("X and Y must be finite")
+    if feature_names is not None and len(feature_names) != X.shape[1]:
+        raise ValueError(f"{len(feature_names)} feature names for {X.shape[1]} features")
+    if label_names is not None and len(label_names) != Y.shape[1]:
+        raise ValueError(f"{len(label_names)} label names for {Y.shape[1]} labels")
+    return X, Y
+
+
+@dataclass(frozen=True)
+class _Splits:
+    """The standardised training (``xt``, ``yt``) and validation (``xv``, ``yv``) splits,
+    and what maps the network's errors back to wheel speeds."""
+
+    xt: torch.Tensor
+    yt: torch.Tensor
+    xv: torch.Tensor
+    yv: torch.Tensor
+    y_scale: torch.Tensor
+    mix: torch.Tensor
+
+    def mse(self, net: _Net, xn: torch.Tensor, yn: torch.Tensor) -> float:
+        """Mean squared wheel-speed error over samples and both wheels, (m/s)^2."""
+        with torch.no_grad():
+            return float(((((net.normalised(xn) - yn) * self.y_scale) @ self.mix.T) ** 2).mean())
+
+
+def _lbfgs_step(opt, net: _Net, closure) -> int:
+    """One L-BFGS step; if it did not move at all, a restart from steepest descent (returns 1)."""
+    before = [q.detach().clone() for q in net.parameters()]
+    opt.step(closure)
+    if all(torch.equal(a, b) for a, b in zip(before, net.parameters())):
+        opt.state.clear()
+        opt.step(closure)
+        return 1
+    return 0
+
+
+def _adam_epoch(opt, net: _Net, xt: torch.Tensor, yt: torch.Tensor, batch_size: int, gen: torch.Generator) -> None:
+    """One pass of Adam over the training split in a shuffled order."""
+    order = torch.randperm(len(xt), generator=gen)
+    for start in range(0, len(xt), batch_size):
+        b = order[start:start + batch_size]
+        opt.zero_grad(set_to_none=True)
+        loss = ((net.normalised(xt[b]) - yt[b]) ** 2).mean()
+        loss.backward()
+        opt.step()
 
 
 def _scale(A: np.ndarray) -> np.ndarray:

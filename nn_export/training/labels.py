@@ -12,7 +12,7 @@ all with an obstacle already inside the clearance margin). Only converged soluti
 samples; the others are counted.
 
 Mirror samples: a situation reflected about the reference's tangent has the mirrored
-features (:func:`~nn_export.features.mirror_features`) and, because the GPC problem is
+features (:func:`~nn_export.runtime.features.mirror_features`) and, because the GPC problem is
 mirror-equivariant, the label with the wheels swapped. :meth:`Labeller.mirror_check`
 solves the mirrored situation for real and returns the largest difference, which the
 dataset writer records for a share of the situations as a check of the labels. Measured:
@@ -26,15 +26,17 @@ This module needs CasADi (it runs the planner); the features it uses are numpy o
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig
 from casadi_gpc.robot import RobotParams
+from casadi_gpc.selection import planner_parameters
 
-from .features import FeatureLayout, Situation, compute_features, mirror_features
+from ..runtime.features import compute_features, mirror_features
+from ..runtime.layouts import FeatureLayout
+from ..runtime.situation import Situation
 
 __all__ = ["LABEL_NAMES", "GUESS_NAMES", "MIRROR_GUESS_ORDER", "Label", "Labeller", "fastest_solver", "label_solver",
            "available_solvers", "mirror_label", "mirror_guess"]
@@ -201,16 +203,9 @@ class Labeller:
         cfg = self.config
         if situation.horizon != cfg.horizon:
             raise ValueError(f"situation horizon {situation.horizon} != planner horizon {cfg.horizon}")
-        x0 = situation.robot.as_array()
-        forecasts = situation.forecasts()
-        if len(forecasts) > cfg.max_moving:
-            forecasts = sorted(forecasts, key=lambda f: np.min(np.hypot(*(f.means_m - x0[:2]).T)))[: cfg.max_moving]
-        statics = list(situation.statics)
-        if len(statics) > cfg.max_static:
-            statics = sorted(statics, key=lambda s: math.hypot(s.position_m[0] - x0[0], s.position_m[1] - x0[1]))
-            statics = statics[: cfg.max_static]
-        return self.controller.problem.layout.pack(x0, situation.ref_poses[1:], forecasts, statics,
-                                                   cfg.uncertainty_scale_m)
+        p, _, _ = planner_parameters(self.controller.problem.layout, situation.robot.as_array(),
+                                     situation.ref_poses[1:], situation.forecasts(), situation.statics, cfg)
+        return p
 
     def label(self, situation: Situation) -> Label:
         """Solve from every initial guess and keep the planner's choice (with the fallback

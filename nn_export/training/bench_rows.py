@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .policy import INPUT_NAME, OUTPUT_NAME, OnnxPolicy
+from ..runtime.policy import OnnxPolicy
 
 __all__ = ["policy_entries", "FeatureRecorder", "graph_forward", "forward_rows", "network_speedups"]
 

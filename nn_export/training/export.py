@@ -1,4 +1,4 @@
-"""Export a trained :class:`~nn_export.train.WheelSpeedMLP` to one ONNX file (torch, onnx).
+"""Export a trained :class:`~nn_export.training.train.WheelSpeedMLP` to one ONNX file (torch, onnx).
 
 The graph is the whole deployed map, in float32: standardise the features, the hidden layers,
 un-standardise, and clip both wheel speeds to the robot's limit, so the runtime adds nothing
@@ -9,7 +9,7 @@ the float32 cast: Gemm, Tanh, ..., Gemm, Clip, half the nodes of the plain form 
 right then left. The batch axis is dynamic.
 
 Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
-trained for; :class:`nn_export.policy.OnnxPolicy` refuses a file whose metadata do not match
+trained for; :class:`nn_export.runtime.policy.OnnxPolicy` refuses a file whose metadata do not match
 the preset, the robot or the feature layout it is asked to run with. Keys: ``format``,
 ``feature_layout``, ``feature_layout_version``, ``feature_layout_spec``, ``feature_names``, ``label_names``,
 ``n_features``, ``preset``, ``horizon``, ``sample_time_s``, ``planner_config``, ``robot``,
@@ -70,9 +70,6 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
     The provenance stored with the model must say the preset, horizon, sample time, robot
     and feature layout (``gpcnav train`` does).
     """
-    import onnx
-    import onnxruntime as ort
-
     if not isinstance(model, WheelSpeedMLP):
         model = WheelSpeedMLP.load(model)
     model._check_fitted()
@@ -84,7 +81,25 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
     if decision_passes not in (1, 2):
         raise ValueError(f"decision_passes must be 1 or 2, got {decision_passes!r}")
     clip = float(prov["robot"]["max_wheel_speed_mps"])
+    meta = _metadata(model, prov, clip, decision_passes)
+    data = _onnx_bytes(model, clip, meta)
+    if parity_X is None:
+        rng = np.random.default_rng(0)
+        p = model.numpy_params()
+        parity_X = p["x_mean"] + p["x_scale"] * rng.standard_normal((512, model.n_features_in_))
+    parity_X = np.asarray(parity_X, dtype=np.float64)
+    parity = _parity(model, data, parity_X, clip)
 
+    from casadi_gpc.io import write_bytes
+    out_path = Path(out_path)
+    write_bytes(out_path, data)
+    return ExportReport(path=str(out_path), bytes=len(data), parity_max_abs_mps=parity, parity_samples=len(parity_X),
+                        metadata=meta)
+
+
+def _onnx_bytes(model: WheelSpeedMLP, clip: float, meta: dict) -> bytes:
+    """The deployed map (folded, clipped, float32) as a checked ONNX file with ``meta``."""
+    import onnx
     deployed = _Deployed(_folded(model.net_), clip).eval()
     buf = io.BytesIO()
     with warnings.catch_warnings():
@@ -94,8 +109,19 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
                           dynamic_axes={INPUT_NAME: {0: "batch"}, OUTPUT_NAME: {0: "batch"}},
                           opset_version=OPSET, do_constant_folding=True)
     proto = onnx.load_from_string(buf.getvalue())
+    # the module's name before nn_export.training: kept, so that an export is byte for byte
+    # what it was (the file's sha256 keys reproduce's stages and travels in RUN.json)
     proto.producer_name, proto.doc_string = "gpcnav", "GPC-imitating wheel-speed network (nn_export.export)"
-    meta = {
+    del proto.metadata_props[:]
+    for k, v in meta.items():
+        proto.metadata_props.add(key=k, value=v)
+    onnx.checker.check_model(proto, full_check=True)
+    return proto.SerializeToString()
+
+
+def _metadata(model: WheelSpeedMLP, prov: dict, clip: float, decision_passes: int) -> dict:
+    """The metadata of the module docstring, all strings (JSON where structured)."""
+    return {
         "format": POLICY_FORMAT,
         "feature_layout": str(prov["feature_layout"]),
         "feature_layout_version": str(prov["feature_layout_version"]),
@@ -120,30 +146,19 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
         "trained_with": json.dumps({"params": model.get_params(), "best_epoch": model.best_epoch_,
                                     "stop_reason": model.stop_reason_, **prov.get("training", {})}),
     }
-    del proto.metadata_props[:]
-    for k, v in meta.items():
-        proto.metadata_props.add(key=k, value=v)
-    onnx.checker.check_model(proto, full_check=True)
-    data = proto.SerializeToString()
 
-    # parity: onnxruntime on the bytes about to be written against the float64 torch model
-    if parity_X is None:
-        rng = np.random.default_rng(0)
-        p = model.numpy_params()
-        parity_X = p["x_mean"] + p["x_scale"] * rng.standard_normal((512, model.n_features_in_))
-    parity_X = np.asarray(parity_X, dtype=np.float64)
+
+def _parity(model: WheelSpeedMLP, data: bytes, parity_X: np.ndarray, clip: float) -> float:
+    """Largest difference (m/s) between onnxruntime on the bytes about to be written and the
+    float64 torch model clipped the same way; above :data:`PARITY_TOL` is an error."""
+    import onnxruntime as ort
     sess = ort.InferenceSession(data, providers=["CPUExecutionProvider"])
     got = sess.run(None, {INPUT_NAME: parity_X.astype(np.float32)})[0]
     want = np.clip(model.predict(parity_X), -clip, clip)
     parity = float(np.max(np.abs(got - want))) if len(parity_X) else 0.0
     if not parity <= PARITY_TOL:
         raise RuntimeError(f"ONNX/torch parity {parity:.3g} m/s exceeds {PARITY_TOL:g}")
-
-    from casadi_gpc.io import write_bytes
-    out_path = Path(out_path)
-    write_bytes(out_path, data)
-    return ExportReport(path=str(out_path), bytes=len(data), parity_max_abs_mps=parity, parity_samples=len(parity_X),
-                        metadata=meta)
+    return parity
 
 
 def _folded(net) -> torch.nn.Module:

@@ -2,7 +2,7 @@
 
 :class:`OnnxPolicy` answers ``decide(observation) -> ControlDecision`` like the GPC
 controller, with the same obstacle EKF and reference clock (through
-:class:`nn_export.features.SituationTracker`) and the same feature definition as the
+:class:`nn_export.runtime.tracker.SituationTracker`) and the same feature definition as the
 dataset. It runs the paper's two-pass scheme (section 4):
 
 1. predict the robot's next H poses with the network as if there were no obstacle: the
@@ -17,7 +17,7 @@ dataset. It runs the paper's two-pass scheme (section 4):
 ``two_pass=False`` is the plain variant: one call with the obstacles and the real reference.
 
 A model file is checked when it is loaded, never at the first decision: it must be a
-readable ONNX graph written by :mod:`nn_export.export` (format key), with one float input
+readable ONNX graph written by :mod:`nn_export.training.export` (format key), with one float input
 of the size its feature layout says and one (batch, 2) output, a feature layout name and
 version this code computes, and a preset, horizon, sample time and robot equal to the ones
 it is asked to run with. Anything else is a one-line ``ValueError``
@@ -43,15 +43,17 @@ from casadi_gpc.ekf import EKFSettings
 from casadi_gpc.robot import RobotParams, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation
 
-from .features import (FeatureLayout, RolloutFeatures, Situation, SituationTracker, feature_values, feature_values_from,
-                       layout_from_dict)
-from .safety import SafetyFilter
+from .features import RolloutFeatures, feature_values, feature_values_from
+from .layouts import FeatureLayout, layout_from_dict
+from .situation import Situation
+from .tracker import SituationTracker
+from casadi_gpc.safety import SafetyFilter
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadata", "POLICY_FORMAT",
            "DEFAULT_SAFETY_DISTANCE_M"]
 
-MODELS_DIR = Path(__file__).parent / "models"
-POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.export (kept equal by a test)
+MODELS_DIR = Path(__file__).parents[1] / "models"
+POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.training.export (kept equal by a test)
 INPUT_NAME, OUTPUT_NAME = "features", "wheel_speeds_mps"
 DEFAULT_SAFETY_DISTANCE_M = {"paper": 1.0, "improved": 1.0}
 """Clearance below which the second pass runs, per preset (measured: docs/nn.md)."""
@@ -178,11 +180,11 @@ class OnnxPolicy:
     ekf_settings : EKFSettings, optional
         The obstacle filter's noise levels (default as the GPC's).
     safety_filter : bool or SafetyFilter
-        Check every command with :class:`nn_export.safety.SafetyFilter` (default on); a
+        Check every command with :class:`casadi_gpc.safety.SafetyFilter` (default on); a
         filter object to use one with other settings; False to run the bare network.
     fallback : object with ``decide(observation)``, optional
         The planner the safety filter hands over to (e.g. the GPC in a
-        :class:`~nn_export.safety.StandbyPlanner`); without one it brakes or swerves.
+        :class:`~casadi_gpc.safety.StandbyPlanner`); without one it brakes or swerves.
     """
 
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
@@ -340,7 +342,11 @@ class OnnxPolicy:
     # --- the step --------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:
         situation = self.tracker.update(obs)
-        self._counters.update(self.tracker.counters)  # missed measurements and gated outliers
+        # missed measurements and gated outliers (a track seen once is counted by the safety
+        # filter, as safety_unestimated_tracks)
+        tracked, counters = self.tracker.counters, self._counters
+        counters["missed_measurements"] = tracked["missed_measurements"]
+        counters["outliers"] = tracked["outliers"]
         dec = self._decide(obs, situation)
         return dec if self.safety is None else self._checked(obs, situation, dec)
 

@@ -1,0 +1,65 @@
+"""The safety check layer: check a controller's wheel speeds against the predicted
+obstacles and replace them when they come too close (numpy only: imports without CasADi).
+
+A network that imitates an optimiser has no guarantee. Each sample, :class:`SafetyFilter`
+rolls the candidate wheel-speed sequence out over the horizon with the one robot model
+(:func:`casadi_gpc.robot.robot_step`, sub-sampled inside every interval like the
+simulator's collision check), and measures the clearance to every obstacle disc:
+
+    clearance(t) = |p_robot(t) - q_obstacle(t)| - r_robot - r_obstacle - k sigma(t)
+
+where ``q`` is the EKF's predicted position (linearly interpolated between samples) and
+``sigma`` the standard deviation of the predicted position along its worst direction
+(the square root of the largest eigenvalue of the 2x2 covariance at the end of the
+interval), so an uncertain obstacle is a larger disc. Static discs have ``sigma = 0``.
+Between two sub-samples the robot and the obstacle move on straight chords and the
+closest approach on each chord is computed exactly, so a fast pass between sub-samples is
+not missed.
+
+A candidate is the command for the next interval, optionally with the candidate's own plan
+for the whole horizon (the network's pass-1 roll-out). It is **accepted** when its plan keeps
+the smallest clearance over the horizon at or above ``margin_m``, or, failing that (or
+without a plan), when after one interval of the command at least one manoeuvre of the fixed
+set below still does: there is still a way out, checked against every obstacle over the
+whole horizon. When the robot is already inside the margin (an obstacle first seen close
+by), a sequence that makes the clearance no smaller than it is now also passes. Otherwise
+the filter **intervenes**, in this order:
+
+1. the fallback planner, if one was given (an object with ``decide(observation)``, usually
+   the GPC kept on standby by :class:`StandbyPlanner`), unless its own answer is a
+   fallback. Its answer is taken when it passes the same check or keeps the margin for at
+   least ``trust_planner_s`` (default 3 s, at least two intervals: it replans at every
+   sample, and a violation late in the horizon is mostly the forecast's grown
+   uncertainty); else the best of it, the candidate and the best manoeuvre below (by the
+   order below; counted ``fallback_overruled`` when it is not the planner's). (Overruling
+   it on any violation made the robot back away from a fast head-on obstacle for 25
+   samples in a row, each reverse keeping the margin a little longer than the GPC's swerve.)
+2. else the best of a small fixed set of manoeuvres within the speed and acceleration
+   limits (brake, swerve left/right, slow turns, reverse, dash ahead), each a constant
+   wheel-speed target approached at the acceleration limit. Best means: the clearance stays
+   above the margin for the longest time (a violation late in the horizon, where the
+   forecast's uncertainty has grown, is not as bad as one in the next second), then the
+   largest smallest clearance, then the earlier one in :data:`MANOEUVRES` (braking first).
+   If none is better than the candidate itself, the candidate is kept and that is counted
+   (``no_safer_option``).
+
+A moving obstacle seen only once (``initialised`` false on the policy's track estimate:
+speed and heading unknown) is checked as the planner plans with it
+(:func:`casadi_gpc.ekf.planning_covariances`): standing where it was seen, with its next
+step's uncertainty; each such check is counted (``unestimated_tracks``). The EKF's own
+forecast grows that uncertainty without information, so that every option "fails" it some
+seconds ahead; the next sample gives it a velocity and the full check.
+
+Every check and every intervention is counted in :attr:`SafetyFilter.counters`.
+``docs/faults.md`` documents the settings and the measured cost.
+
+Rooms: ``check`` (the roll-out, the clearances and the verdict on a sequence, the
+manoeuvres), ``screen`` (the quick screen in plain floats in front of the check),
+``filter`` (:class:`SafetyFilter`: the interventions and their counters) and ``standby``
+(:class:`StandbyPlanner`, the planner kept in step behind the filter).
+"""
+from .check import MANOEUVRES, SafetyCheck, TrajectoryCheck
+from .filter import SafetyFilter, SafetyVerdict
+from .standby import StandbyPlanner
+
+__all__ = ["MANOEUVRES", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "StandbyPlanner", "TrajectoryCheck"]

@@ -1,0 +1,390 @@
+"""The exact check of a wheel-speed sequence: the roll-out with the one robot model,
+sub-sampled inside every interval, the obstacles at the same instants, the clearances with
+the closest approach on every chord, a roll-out-free lower bound, and the verdict
+(:class:`SafetyCheck`) on a candidate: its own plan, or the command followed by the best
+way out of :data:`MANOEUVRES` (numpy only; see :mod:`casadi_gpc.safety`)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..ekf import planning_covariances
+from ..robot import RobotParams, robot_step
+
+__all__ = ["MANOEUVRES", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances"]
+
+MANOEUVRES: tuple[tuple[str, float, float], ...] = (
+    ("brake", 0.0, 0.0),
+    ("swerve_right", -0.25, 0.25),
+    ("swerve_left", 0.25, -0.25),
+    ("slow_right", 0.0, 0.5),
+    ("slow_left", 0.5, 0.0),
+    ("reverse", -0.5, -0.5),
+    ("reverse_right", -0.5, -0.2),
+    ("reverse_left", -0.2, -0.5),
+    ("dash", 1.0, 1.0),
+)
+"""(name, right, left) wheel-speed targets as fractions of the speed limit. The two swerves
+are offsets added to the current mean wheel speed (at least a quarter of the limit), the
+others are absolute targets. 'right'/'left' name the side the robot turns towards."""
+
+_TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
+_NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
+
+@dataclass(slots=True)  # made for every check: slots, not frozen (a frozen init costs 5x)
+class SafetyCheck:
+    """The verdict on one wheel-speed sequence."""
+
+    safe: bool
+    min_clearance_m: float
+    """Smallest inflated clearance over the horizon (``inf`` without obstacles); with
+    ``continuation == "bound"`` a lower bound of it (see :meth:`SafetyFilter.bound`)."""
+    current_clearance_m: float
+    """Inflated clearance now, before the robot moves (a lower bound, as above)."""
+    time_s: float
+    """When the smallest clearance occurs, from now."""
+    obstacle: str
+    """Which obstacle: ``"moving <id>"`` or ``"static <index>"`` (empty without obstacles)."""
+    continuation: str
+    """What follows the command in the sequence judged: ``"plan"`` (the candidate's own),
+    ``"then <manoeuvre>"`` (the best way out after one interval of the command), or
+    ``"bound"`` / ``"bound, then brake"`` (far enough from everything, the plan or the
+    command then braking, that no roll-out was needed)."""
+    kept_s: float = math.inf
+    """How long from now the clearance stays at or above the margin (or, inside the margin,
+    at or above the clearance now); the horizon when it always does."""
+    exact: bool = True
+    """False when a quick screen settled it: ``min_clearance_m`` is then a lower bound."""
+
+
+
+class TrajectoryCheck:
+    """The exact check (see the module text); :class:`~casadi_gpc.safety.filter.SafetyFilter`
+    adds the quick screen and the interventions.
+
+    Parameters
+    ----------
+    robot : RobotParams
+        Geometry and limits (radius, wheel base, speed and acceleration limits).
+    sample_time_s : float
+        T, the interval over which each wheel-speed pair is held.
+    horizon : int
+        H, the number of intervals checked (the forecasts must cover them).
+    margin_m : float
+        Smallest acceptable inflated clearance, m.
+    sigmas : float
+        k, how many predicted standard deviations inflate a moving obstacle.
+    substeps : int
+        Sub-samples per interval of the roll-out (closest approach exact between them).
+    """
+
+    def __init__(self, robot: RobotParams, sample_time_s: float, horizon: int, margin_m: float = 0.05,
+                 sigmas: float = 2.0, substeps: int = 4):
+        if not (math.isfinite(sample_time_s) and sample_time_s > 0):
+            raise ValueError(f"sample_time_s must be positive, got {sample_time_s}")
+        if int(horizon) != horizon or horizon < 1:
+            raise ValueError(f"horizon must be a positive integer, got {horizon}")
+        if int(substeps) != substeps or substeps < 1:
+            raise ValueError(f"substeps must be a positive integer, got {substeps}")
+        if not (math.isfinite(margin_m) and margin_m >= 0):
+            raise ValueError(f"margin_m must be finite and not negative, got {margin_m}")
+        if not (math.isfinite(sigmas) and sigmas >= 0):
+            raise ValueError(f"sigmas must be finite and not negative, got {sigmas}")
+        self.robot = robot
+        self.sample_time_s = float(sample_time_s)
+        self.horizon = int(horizon)
+        self.margin_m = float(margin_m)
+        self.sigmas = float(sigmas)
+        self.substeps = int(substeps)
+        S, T = self.substeps, self.sample_time_s
+        self._tau = T * np.arange(1, S + 1) / S          # sub-sample times inside an interval
+        self._frac = np.arange(1, S + 1) / S              # the same as fractions of T
+        self._steps = np.arange(1, self.horizon + 1)
+        # obstacle positions now and at steps 1..H from steps 1..H: now is the step back from
+        # step 1 (the EKF's model moves an obstacle by a near-constant chord each step) ...
+        H, N = self.horizon, self.horizon * S
+        self._known = np.zeros((H, H + 1))
+        self._known[:, 1:] = np.eye(H)
+        self._known[0, 0] = 2.0 if H > 1 else 1.0
+        if H > 1:
+            self._known[1, 0] = -1.0
+        # ... and at the sub-sample instants, linear between steps
+        self._interp = np.zeros((H + 1, N + 1))
+        self._interp[0, 0] = 1.0
+        for k in range(H):
+            self._interp[k, 1 + k * S:1 + (k + 1) * S] = 1.0 - self._frac
+            self._interp[k + 1, 1 + k * S:1 + (k + 1) * S] = self._frac
+        # path length bound of 'the command, then anything within the limits' after step 1
+        self._full_reach = self.robot.max_wheel_speed_mps * T * np.arange(H)
+        self._names = [m[0] for m in MANOEUVRES]
+        self._then_names = ["then " + n for n in self._names]
+        rev = MANOEUVRES[self._names.index("reverse")]
+        self._reverse_target = (rev[1] * self.robot.max_wheel_speed_mps, rev[2] * self.robot.max_wheel_speed_mps)
+        self._targets = np.array([m[1:] for m in MANOEUVRES], dtype=float)
+        self._swerves = np.array([m[0].startswith("swerve") for m in MANOEUVRES])
+        self._fixed_targets = self._targets * self.robot.max_wheel_speed_mps
+        self._swerve_rows = self._swerves[:, None].astype(float)
+        self._reach = self.robot.max_step_change_mps(T) * self._steps[None, :, None]
+        self._dv = self.robot.max_step_change_mps(T)
+
+
+    # --- roll-out and clearances ---------------------------------------------------------
+    # Written for speed: every step of the filter is a handful of whole-array operations
+    # (numpy's per-call overhead, not the arithmetic, is what costs at these sizes).
+    def limit(self, v0, wheels: np.ndarray) -> np.ndarray:
+        """``wheels`` (..., H, 2) followed within the limits from the current speeds ``v0``,
+        exactly as the simulator clips them (rate first, then speed)."""
+        dv, vmax = self.robot.max_step_change_mps(self.sample_time_s), self.robot.max_wheel_speed_mps
+        if wheels.ndim == 2:  # one sequence: plain floats beat numpy calls on pairs
+            vr, vl = float(v0[0]), float(v0[1])
+            rows = []
+            for r, l in wheels.tolist():
+                vr = min(max(min(max(r, vr - dv), vr + dv), -vmax), vmax)
+                vl = min(max(min(max(l, vl - dv), vl + dv), -vmax), vmax)
+                rows.append((vr, vl))
+            return np.array(rows)
+        out = np.empty_like(wheels)
+        v = np.broadcast_to(np.asarray(v0, dtype=float), wheels[..., 0, :].shape)
+        for i in range(wheels.shape[-2]):
+            v = np.minimum(np.maximum(np.minimum(np.maximum(wheels[..., i, :], v - dv), v + dv), -vmax), vmax)
+            out[..., i, :] = v
+        return out
+
+    def within_limits(self, v0, wheels: np.ndarray) -> bool:
+        """Whether the (H, 2) sequence ``wheels`` already keeps the speed and rate limits."""
+        dv, vmax = self.robot.max_step_change_mps(self.sample_time_s), self.robot.max_wheel_speed_mps
+        tol = 1e-9
+        if np.abs(wheels).max() > vmax + tol or np.abs(wheels[0] - v0).max() > dv + tol:
+            return False
+        return len(wheels) < 2 or bool(np.abs(wheels[1:] - wheels[:-1]).max() <= dv + tol)
+
+    def rollout(self, state, wheels: np.ndarray) -> np.ndarray:
+        """Robot positions at the sub-sample instants as complex numbers x + iy,
+        ``(M, H * substeps + 1)``, the first column now. ``state`` = (x, y, heading, ...),
+        ``wheels`` (M, H, 2)."""
+        T, W = self.sample_time_s, self.robot.wheel_base_m
+        vr, vl = wheels[..., 0], wheels[..., 1]
+        # heading at the start of each interval: the model turns by (vr - vl) T / W per interval
+        turn = (vr - vl) * (T / W)
+        h0 = (state[2] - turn) + np.add.accumulate(turn, axis=-1)
+        # one call of the model for every sub-sample of every interval, from a local origin
+        dx, dy, _ = robot_step(np, 0.0, 0.0, h0[..., None], vr[..., None], vl[..., None], self._tau, W)
+        d = dx + 1j * dy                                                      # (M, H, S)
+        # interval start points: the cumulated full-interval displacements (last sub-sample)
+        end = d[..., -1]
+        start = (complex(state[0], state[1]) - end) + np.add.accumulate(end, axis=-1)
+        M, N = wheels.shape[0], self.horizon * self.substeps
+        p = np.empty((M, N + 1), dtype=complex)
+        p[:, 0] = complex(state[0], state[1])
+        p[:, 1:] = (start[..., None] + d).reshape(M, N)
+        return p
+
+    def obstacle_tracks(self, forecasts, statics) -> "Obstacles":
+        """The obstacles at the sample instants: positions now and at steps 1..H (complex
+        x + iy, ``(n, H + 1)``) and the distance at which the robot touches each one over
+        each interval ``(n, H)`` (radii plus k sigma at the end of the interval, m)."""
+        H = self.horizon
+        nm, n = len(forecasts), len(forecasts) + len(statics)
+        q = np.empty((n, H + 1), dtype=complex)
+        touch = np.empty((n, H))
+        if nm:
+            try:
+                m = np.array([f.means_m for f in forecasts], dtype=float)     # (n, H, 2)
+                c = np.array([forecast_covariances(f) for f in forecasts], dtype=float)     # (n, H, 2, 2)
+            except ValueError:
+                raise ValueError("obstacle forecasts of different lengths") from None
+            if m.shape[1:] != (H, 2) or c.shape[1:] != (H, 2, 2):
+                raise ValueError(f"obstacle forecasts must cover {H} steps with (H, 2) means and (H, 2, 2) "
+                                 f"covariances, got {m.shape[1:]} and {c.shape[1:]}")
+            q[:nm] = m.view(complex)[..., 0] @ self._known          # x + iy, without arithmetic
+            a, b, d = c[..., 0, 0], c[..., 0, 1], c[..., 1, 1]
+            lam = (a + d) * 0.5 + np.hypot((a - d) * 0.5, b)            # largest eigenvalue (n, H)
+            radii = np.array([f.radius_m for f in forecasts], dtype=float)
+            touch[:nm] = self.sigmas * np.sqrt(np.maximum(lam, 0.0)) + (radii[:, None] + self.robot.radius_m)
+        for i, st in enumerate(statics):
+            q[nm + i] = complex(st.position_m[0], st.position_m[1])
+            touch[nm + i] = st.radius_m + self.robot.radius_m
+        return Obstacles(q, touch, tuple(forecasts), tuple(statics), self)
+
+    def bound(self, state, cmd, plan, obstacles: "Obstacles") -> tuple[float, int, int]:
+        """A lower bound of the clearance over the horizon that needs no roll-out: over
+        interval k the robot is within its path length S_k of where it is now, and the
+        obstacle within its chord of where it is at step k, so the clearance is at least
+        ``|p_now - q_k| - S_k - |q_k - q_(k-1)| - touch_k``. S_k is the plan's path length,
+        or, with a command alone, the command's interval then full speed (any way out).
+        Returns the bound, the obstacle and the interval (0-based) where it is smallest."""
+        T = self.sample_time_s
+        if plan is not None:
+            reach = np.add.accumulate(np.abs(plan[:, 0] + plan[:, 1])) * (0.5 * T)
+        else:
+            reach = abs(0.5 * float(cmd[0] + cmd[1])) * T + self._full_reach
+        q = obstacles.q
+        gap = (np.abs(q[:, 1:] - complex(state[0], state[1])) - np.abs(q[:, 1:] - q[:, :-1])) - obstacles.touch
+        low = gap - reach
+        i = int(low.argmin())
+        return float(low.flat[i]), i // self.horizon, i % self.horizon
+
+    def clearances(self, state, wheels: np.ndarray, obstacles: "Obstacles") -> tuple[np.ndarray, np.ndarray,
+                                                                                  np.ndarray, np.ndarray]:
+        """For each sequence in ``wheels`` (M, H, 2): the smallest inflated clearance over the
+        horizon, the clearance now, the chord index and the obstacle of the minimum, and how
+        many chords pass before the clearance first falls below the threshold (the margin,
+        or, inside it, the clearance now): H * substeps when it never does."""
+        M, N = wheels.shape[0], self.horizon * self.substeps
+        if not len(obstacles.q):
+            inf = np.full(M, np.inf)
+            return inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N)
+        q, touch = obstacles.sub_samples()
+        rel = self.rollout(state, wheels)[:, None, :] - q                   # (M, n, N+1) robot - obstacle
+        r0 = rel[..., :-1]                                                  # chord starts
+        u = rel[..., 1:] - r0                                               # chord directions
+        # closest approach on each chord: the relative motion is linear between sub-samples;
+        # Re(r0 conj(u)) is the dot product, |u|^2 = Re(u conj(u))
+        cu = np.conj(u)
+        s = (r0 * cu).real / ((u * cu).real + 1e-18)
+        s = np.minimum(np.maximum(-s, 0.0), 1.0)
+        gap = np.abs(r0 + s * u) - touch
+        flat = gap.reshape(M, -1)
+        k = flat.argmin(axis=1)
+        cmin = flat[np.arange(M), k]
+        now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
+        threshold = np.minimum(self.margin_m, now - _NOT_WORSE_M)
+        if M == 1 and cmin[0] >= threshold[0]:
+            kept = np.full(1, N)  # never below: no need to find where
+        else:
+            below = gap.min(axis=1) < threshold[:, None]
+            kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
+        return cmin, now, k % N, k // N, kept
+
+    # --- candidates ----------------------------------------------------------------------
+    def manoeuvres(self, v0, steps: int | None = None) -> tuple[list[str], np.ndarray]:
+        """The fixed manoeuvres from wheel speeds ``v0``: names and (M, steps, 2) wheel
+        speeds (``steps`` = H by default), each target approached at the acceleration limit
+        and then held."""
+        steps = self.horizon if steps is None else steps
+        vmax = self.robot.max_wheel_speed_mps
+        v0 = np.minimum(np.maximum(np.asarray(v0, dtype=float), -vmax), vmax)
+        # the swerves keep the current mean speed (at least a quarter of the limit)
+        tgt = self._fixed_targets + self._swerve_rows * max(0.5 * float(v0[0] + v0[1]), 0.25 * vmax)
+        tgt = np.minimum(np.maximum(tgt, -vmax), vmax)                          # (M, 2)
+        reach = self._reach[:, :steps]                                           # (1, steps, 1)
+        # between v0 and the target, both within the limits: no speed clip needed
+        return self._names, v0 + np.minimum(np.maximum(tgt[:, None, :] - v0, -reach), reach)
+
+    def _escapes(self, cmd: np.ndarray) -> np.ndarray:
+        """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there."""
+        _, man = self.manoeuvres(cmd, self.horizon - 1)
+        W = np.empty((len(self._names), self.horizon, 2))
+        W[:, 0] = cmd
+        W[:, 1:] = man
+        return W
+
+    def _as_candidate(self, state, wheels) -> tuple[np.ndarray | None, np.ndarray | None, bool]:
+        """(command (2,), own plan (H, 2) or None, whether it had to be limited); None
+        command when it is not finite."""
+        w = wheels if isinstance(wheels, np.ndarray) and wheels.dtype == float else np.asarray(wheels, dtype=float)
+        if w.shape == (2,):
+            plan = None
+        elif w.shape == (self.horizon, 2):
+            plan = w
+        else:
+            raise ValueError(f"candidate wheel speeds must have shape (2,) or ({self.horizon}, 2), got {w.shape}")
+        if not np.all(np.isfinite(w)):
+            return None, None, False
+        seq = w.reshape(-1, 2)
+        limited = not self.within_limits(state[3:5], seq)
+        if limited:
+            seq = self.limit(state[3:5], seq)
+        return seq[0].copy(), (seq if plan is not None else None), limited
+
+    def _check_best(self, state, wheels, obstacles, labels: list[str]) -> SafetyCheck:
+        """The check of the best sequence of ``wheels`` (M, H, 2): the one that keeps the
+        clearance above the threshold longest (a violation late in the horizon, where the
+        forecasts are uncertain, is not as bad as one in the next second), then the one with
+        the largest smallest clearance, then the first."""
+        cmin, now, chord, which, kept = self.clearances(state, wheels, obstacles)
+        i = 0
+        if len(cmin) > 1:
+            longest = kept == kept.max()
+            i = int(np.argmax(longest & (cmin >= cmin[longest].max() - _TIE_M)))
+        N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
+        return SafetyCheck(bool(kept[i] == N), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
+                           obstacles.label(int(which[i])), labels[i], float(kept[i]) * tau)
+
+    @staticmethod
+    def _better(a: SafetyCheck, b: SafetyCheck) -> bool:
+        """Whether ``a`` is strictly better than ``b`` by the order of :meth:`_check_best`."""
+        return a.kept_s > b.kept_s + 1e-12 or (abs(a.kept_s - b.kept_s) <= 1e-12
+                                               and a.min_clearance_m > b.min_clearance_m + _TIE_M)
+
+    def _assess(self, state, cmd, plan, obstacles) -> SafetyCheck:
+        """The check of a command (and its own plan, if any): its plan first; if that fails
+        or there is none, the command followed by each manoeuvre (the best of them)."""
+        horizon_s = self.horizon * self.sample_time_s
+        if not len(obstacles.q):
+            return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", horizon_s)
+        lower, j, k = self.bound(state, cmd, plan, obstacles)
+        if lower >= self.margin_m:
+            # far from everything whatever follows: no roll-out needed
+            return SafetyCheck(True, lower, lower, (k + 1) * self.sample_time_s, obstacles.label(j), "bound",
+                               horizon_s)
+        if plan is not None:
+            plan_check = self._check_best(state, plan[None], obstacles, ["plan"])
+            if plan_check.safe:
+                return plan_check
+        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names)
+        if plan is not None and self._better(plan_check, way_out):
+            return plan_check
+        return way_out
+
+    def check(self, state, wheels, forecasts=(), statics=()) -> SafetyCheck:
+        """The verdict on a candidate from ``state`` = (x, y, heading, v_right, v_left).
+
+        ``wheels``: the command ``(2,)``, or the candidate's own plan ``(H, 2)`` whose first
+        row is the command. It is safe when its plan keeps the clearance, or when after one
+        interval of the command some manoeuvre of :data:`MANOEUVRES` does (there is still a
+        way out). Sequences outside the limits are checked as the robot would follow them.
+        """
+        state = np.asarray(state, dtype=float)
+        if state.shape != (5,) or not np.all(np.isfinite(state)):
+            raise ValueError(f"state must be 5 finite numbers (x, y, heading, v_right, v_left), got {state}")
+        cmd, plan, _ = self._as_candidate(state, wheels)
+        if cmd is None:
+            return SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
+        return self._assess(state, cmd, plan, self.obstacle_tracks(forecasts, statics))
+
+    def best_manoeuvre(self, state, obstacles) -> tuple[str, np.ndarray, SafetyCheck]:
+        """The best manoeuvre from now (see :meth:`_check_best`): name, (H, 2) wheels and its check."""
+        names, W = self.manoeuvres(np.asarray(state, float)[3:5])
+        check = self._check_best(np.asarray(state, float), W, obstacles, names)
+        i = names.index(check.continuation)
+        return names[i], W[i], check
+
+
+def forecast_covariances(f) -> np.ndarray:
+    """The forecast covariances the check uses: the planner's (a track seen once keeps its
+    next step's uncertainty; objects without ``initialised`` are estimated tracks)."""
+    return planning_covariances(f.covs_m2, getattr(f, "initialised", True))
+
+
+class Obstacles:
+    """The obstacles of one check at the sample instants, with their sub-sampled form made
+    once when a roll-out needs it."""
+
+    __slots__ = ("q", "touch", "moving", "statics", "_filter", "_sub")
+
+    def __init__(self, q, touch, moving, statics, flt: TrajectoryCheck):
+        self.q, self.touch, self.moving, self.statics, self._filter, self._sub = q, touch, moving, statics, flt, None
+
+    def sub_samples(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions ``(n, H * substeps + 1)`` and touching distances ``(n, H * substeps)``."""
+        if self._sub is None:
+            f = self._filter
+            self._sub = (self.q @ f._interp, np.repeat(self.touch, f.substeps, axis=1))
+        return self._sub
+
+    def label(self, j: int) -> str:
+        n = len(self.moving)
+        return f"moving {self.moving[j].obstacle_id}" if j < n else f"static {j - n}"

@@ -1,0 +1,169 @@
+"""The safety filter: each sample, let the candidate through when the check passes it, or
+intervene: the fallback planner, else the best manoeuvre, else the candidate kept and said
+so; every check and intervention counted (numpy only; see :mod:`casadi_gpc.safety`)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..robot import RobotParams
+from ..types import ControlDecision, Observation
+from .check import SafetyCheck
+from .screen import QuickScreen
+
+__all__ = ["SafetyVerdict", "SafetyFilter"]
+
+
+@dataclass(slots=True)
+class SafetyVerdict:
+    """What the filter lets through."""
+
+    v_right_mps: float
+    v_left_mps: float
+    intervened: bool
+    reason: str
+    """Why it intervened and what replaced the candidate (empty when accepted)."""
+    source: str
+    """``"candidate"``, ``"fallback"`` or ``"manoeuvre:<name>"``."""
+    check: SafetyCheck
+    """The check of the candidate."""
+    planned_wheels_mps: np.ndarray | None = None
+    """(H, 2) the sequence that was let through, when known."""
+
+
+class SafetyFilter(QuickScreen):
+    """Checks candidate wheel speeds against the predicted obstacles; see the package text.
+
+    Parameters
+    ----------
+    robot, sample_time_s, horizon, margin_m, sigmas, substeps
+        As :class:`~casadi_gpc.safety.check.TrajectoryCheck`.
+    fallback : object with ``decide(observation) -> ControlDecision``, optional
+        The planner to hand over to (the GPC). If it has ``observe(observation)``, the
+        filter calls it on every sample it does not hand over, so it stays in step.
+    trust_planner_s : float, optional
+        The planner's answer is taken when it keeps the margin at least this long, even if
+        it fails the check later in the horizon (it replans at every sample, and late in the
+        horizon the forecast's uncertainty has grown). Default: the larger of 3 s and two
+        intervals, at most the horizon.
+    """
+    def __init__(self, robot: RobotParams, sample_time_s: float, horizon: int, margin_m: float = 0.05,
+                 sigmas: float = 2.0, substeps: int = 4, fallback=None, trust_planner_s: float | None = None):
+        super().__init__(robot, sample_time_s, horizon, margin_m, sigmas, substeps)
+        if fallback is not None and not callable(getattr(fallback, "decide", None)):
+            raise TypeError("fallback must have a decide(observation) method")
+        self.fallback = fallback
+        if trust_planner_s is None:
+            trust_planner_s = min(self.horizon * self.sample_time_s, max(3.0, 2 * self.sample_time_s))
+        if not (math.isfinite(trust_planner_s) and trust_planner_s >= 0):
+            raise ValueError(f"trust_planner_s must be finite and not negative, got {trust_planner_s}")
+        self.trust_planner_s = float(trust_planner_s)
+        self.reset()
+
+    def reset(self) -> None:
+        self.counters = {"checks": 0, "interventions": 0, "fallback_used": 0, "fallback_failed": 0,
+                         "fallback_overruled": 0,
+                         "manoeuvres": 0, "no_safer_option": 0, "candidate_limited": 0,
+                         "non_finite_candidate": 0, "unestimated_tracks": 0}
+        if self.fallback is not None and hasattr(self.fallback, "reset"):
+            self.fallback.reset()
+    # --- the filter ----------------------------------------------------------------------
+    def filter(self, observation: Observation, wheels, forecasts=(), statics=None, poses=None) -> SafetyVerdict:
+        """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
+        replace it (see :meth:`check`).
+
+        ``forecasts`` are the obstacle forecasts the candidate was made with (steps 1..H):
+        objects with the fields of :class:`~casadi_gpc.types.ObstacleForecast`
+        (``obstacle_id``, ``radius_m``, ``means_m``, ``covs_m2``), such as the policy's
+        track estimates; ``statics`` default to the observation's. ``poses`` (optional,
+        ``(H, 3)``): the robot's poses after each step of the plan ``wheels`` from the
+        observed state, as :func:`~casadi_gpc.robot.robot_step_float` gives them (the
+        network's own roll-out), so that a plan the limits leave unchanged is not rolled
+        out a second time. The fallback planner, if any, sees ``observation`` either way.
+        """
+        statics = observation.static if statics is None else statics
+        r = observation.robot
+        self.counters["checks"] += 1
+        for f in forecasts:
+            if not getattr(f, "initialised", True):
+                self.counters["unestimated_tracks"] += 1  # checked as the planner plans with it
+        quick = self._quick(r, wheels, forecasts, statics, poses)
+        if quick is not None:
+            check, cmd, plan, limited = quick
+            if limited:
+                self.counters["candidate_limited"] += 1
+            if self.fallback is not None and hasattr(self.fallback, "observe"):
+                self.fallback.observe(observation)
+            return SafetyVerdict(cmd[0], cmd[1], False, "", "candidate", check, plan)
+        state = np.array([r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps], dtype=float)
+        obstacles = self.obstacle_tracks(forecasts, statics)
+        cmd, plan, limited = self._as_candidate(state, wheels)
+        if cmd is None:
+            self.counters["non_finite_candidate"] += 1
+            check = SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
+            return self._intervene(observation, state, obstacles, check, None)
+        if limited:
+            # the simulator (and the robot) would clip it: what is checked is what would happen
+            self.counters["candidate_limited"] += 1
+        check = self._assess(state, cmd, plan, obstacles)
+        if check.safe:
+            if self.fallback is not None and hasattr(self.fallback, "observe"):
+                self.fallback.observe(observation)
+            return SafetyVerdict(float(cmd[0]), float(cmd[1]), False, "", "candidate", check, plan)
+        return self._intervene(observation, state, obstacles, check, cmd)
+
+    def _intervene(self, observation, state, obstacles, check: SafetyCheck, cmd) -> SafetyVerdict:
+        self.counters["interventions"] += 1
+        if math.isfinite(check.min_clearance_m):
+            why = (f"safety: {check.obstacle} predicted clearance {check.min_clearance_m:.2f} m at "
+                   f"+{check.time_s:.1f} s (margin {self.margin_m:.2f} m)")
+        else:
+            why = f"safety: {check.continuation}"
+        if self.fallback is not None:
+            dec: ControlDecision = self.fallback.decide(observation)
+            fcmd = np.array([dec.v_right_mps, dec.v_left_mps], dtype=float)
+            if not dec.fallback and np.all(np.isfinite(fcmd)):
+                plan = dec.planned_wheels_mps
+                pcmd, pplan, _ = self._as_candidate(state, fcmd if plan is None else np.asarray(plan, float))
+                pcheck = self._assess(state, pcmd, pplan, obstacles) if pcmd is not None else None
+                if pcheck is not None and (pcheck.safe or pcheck.kept_s >= self.trust_planner_s - 1e-9):
+                    self.counters["fallback_used"] += 1
+                    return SafetyVerdict(float(pcmd[0]), float(pcmd[1]), True, why + "; fallback planner",
+                                         "fallback", check, pplan)
+                # the planner's answer fails the same check (it was handed a late situation, or
+                # its soft margin gave way): take it only if neither a manoeuvre nor the
+                # candidate itself does better
+                name, mw, mc = self.best_manoeuvre(state, obstacles)
+                if pcheck is not None and not self._better(mc, pcheck) and (
+                        cmd is None or not self._better(check, pcheck)):
+                    self.counters["fallback_used"] += 1
+                    return SafetyVerdict(float(pcmd[0]), float(pcmd[1]), True,
+                                         why + "; fallback planner (no manoeuvre does better)", "fallback", check,
+                                         pplan)
+                self.counters["fallback_overruled"] += 1
+                if cmd is not None and not self._better(mc, check):
+                    # e.g. a track seen once, whose unknown motion makes every option fail far
+                    # ahead: the candidate keeps the margin longest, so it stays
+                    self.counters["no_safer_option"] += 1
+                    return SafetyVerdict(float(cmd[0]), float(cmd[1]), True,
+                                         why + "; fallback planner's answer fails the check, no manoeuvre does "
+                                         "better: candidate kept", "candidate", check, None)
+                self.counters["manoeuvres"] += 1
+                return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
+                                     why + f"; fallback planner's answer fails the check, manoeuvre {name} "
+                                     f"(clearance {mc.min_clearance_m:.2f} m, margin kept {mc.kept_s:.1f} s)",
+                                     f"manoeuvre:{name}", check, mw)
+            self.counters["fallback_failed"] += 1
+            why += f"; fallback planner failed ({dec.reason})"
+        name, mw, mc = self.best_manoeuvre(state, obstacles)
+        if cmd is not None and not self._better(mc, check):
+            # nothing in the set does better than the candidate: keep it, and say so
+            self.counters["no_safer_option"] += 1
+            return SafetyVerdict(float(cmd[0]), float(cmd[1]), True, why + "; no safer manoeuvre, candidate kept",
+                                 "candidate", check, None)
+        self.counters["manoeuvres"] += 1
+        return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
+                             why + f"; manoeuvre {name} (clearance {mc.min_clearance_m:.2f} m, margin kept "
+                             f"{mc.kept_s:.1f} s)", f"manoeuvre:{name}", check, mw)

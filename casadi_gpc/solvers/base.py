@@ -1,0 +1,112 @@
+"""What every solver backend shares: the result of a solve, the backend interface and the
+CasADi call path (bounds converted once), and the constraint check of an answer."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..cost import GPCProblem
+
+__all__ = ["SolveResult", "Backend", "CasadiBackend", "all_finite", "nonzeros", "constraint_violation_mps"]
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """One solve of the NLP: the increments, the cost and what the solver said."""
+
+    u: np.ndarray
+    cost: float
+    success: bool
+    status: str
+    iterations: int
+    lam_x: np.ndarray | None = None
+    lam_g: np.ndarray | None = None
+    solve_time_s: float = 0.0
+    """Wall time of the whole call from Python (conversions included)."""
+    evaluations: int = 0
+    """Cost evaluations (Powell only; the gradient-based solvers count iterations)."""
+
+
+def all_finite(*arrays) -> bool:
+    """Whether every array given (None counts as finite) holds finite numbers only."""
+    return all(a is None or bool(np.all(np.isfinite(a))) for a in arrays)
+
+
+def nonzeros(dm) -> np.ndarray:
+    """A CasADi matrix's entries as a float array."""
+    return np.asarray(dm.nonzeros(), dtype=float)
+
+
+@dataclass
+class Backend:
+    """Base of the solver backends (built once for one :class:`GPCProblem`)."""
+
+    name: str
+    problem: GPCProblem
+    compiled: bool = False
+    notes: list = field(default_factory=list)
+
+    def solve(self, p, u0, lam_x=None, lam_g=None) -> SolveResult:
+        """Solve at parameters ``p`` from ``u0`` (and the multipliers, where used).
+
+        Non-finite inputs are refused before the solver sees them (fatrop, given a NaN,
+        does not return)."""
+        if not all_finite(np.asarray(p, float), np.asarray(u0, float), lam_x, lam_g):
+            return self._failed(u0, "refused: non-finite parameters or start", time.perf_counter())
+        return self._solve(np.asarray(p, float), np.asarray(u0, float), lam_x, lam_g)
+
+    def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def info(self) -> dict:
+        return {"name": self.name, "compiled": self.compiled, "notes": list(self.notes)}
+
+    def _failed(self, u0, status: str, t0: float) -> SolveResult:
+        return SolveResult(np.asarray(u0, float), float("nan"), False, status, -1, None, None,
+                           time.perf_counter() - t0)
+
+
+class CasadiBackend(Backend):
+    """Shared call path: constant bounds converted once, the rest per call."""
+
+    uses_multipliers = True
+
+    def _setup(self, solver: ca.Function):
+        pr = self.problem
+        self.solver = solver
+        self._bounds = [ca.DM(a) for a in (pr.lbx, pr.ubx, pr.lbg, pr.ubg)]
+        self._none = ca.DM()
+
+    def _status(self) -> tuple[bool, str, int]:
+        stats = self.solver.stats()
+        return bool(stats.get("success", False)), str(stats.get("return_status", "unknown")), int(
+            stats.get("iter_count", -1))
+
+    def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
+        t0 = time.perf_counter()
+        warm = self.uses_multipliers and lam_x is not None and lam_g is not None
+        args = [ca.DM(u0), ca.DM(p), *self._bounds,
+                ca.DM(lam_x) if warm else self._none, ca.DM(lam_g) if warm else self._none]
+        try:
+            out = self.solver.call(args)
+            ok, status, iters = self._status()
+        except RuntimeError as exc:  # evaluation errors, or no status after a failed QP
+            return self._failed(u0, f"error: {str(exc).strip().splitlines()[-1]}", t0)
+        u, cost = nonzeros(out[0]), float(out[1])
+        lx, lg = nonzeros(out[3]), nonzeros(out[4])  # outputs: x, f, g, lam_x, lam_g, lam_p
+        ok = ok and math.isfinite(cost) and all_finite(u, lx, lg)
+        return SolveResult(u, cost, ok, status, iters, lx, lg, time.perf_counter() - t0)
+
+
+
+def constraint_violation_mps(problem: GPCProblem, u: np.ndarray, p: np.ndarray) -> float:
+    """Largest violation (m/s) of the increment bounds and the wheel-speed limits by ``u``."""
+    u = np.asarray(u, float)
+    v = np.asarray(p[3:5], float) + np.cumsum(u.reshape(-1, 2), axis=0)
+    over_u = np.max(np.maximum(u - problem.ubx, problem.lbx - u), initial=0.0)
+    over_v = np.max(np.maximum(v.reshape(-1) - problem.ubg, problem.lbg - v.reshape(-1)), initial=0.0)
+    return float(max(over_u, over_v, 0.0))

@@ -1,0 +1,92 @@
+"""The multiple-shooting transcription of the GPC problem, solved by fatrop."""
+from __future__ import annotations
+
+import math
+import time
+
+import casadi as ca
+import numpy as np
+
+from ..cost import GPCProblem, effort_cost, parameter_blocks, state_cost
+from ..robot import robot_step
+from .base import Backend, SolveResult, all_finite, nonzeros
+from .compiling import build_nlpsol
+
+__all__ = ["FatropBackend"]
+
+_FATROP = {"print_level": 0, "tol": 1e-9, "mu_init": 1e-2, "max_iter": 200}  # mu_init 1e-3 left one H=12 warm start at max_iter
+
+
+class FatropBackend(Backend):
+    """The same problem in multiple shooting, stage by stage, for fatrop.
+
+    Variables ``[X_0, U_0, X_1, U_1, ..., X_H]`` with ``X = (x, y, heading, v_right, v_left)``
+    and ``U`` the increments; constraints ``X_0 = x0`` and ``X_{k+1} = F(X_k, U_k)`` with
+    :func:`robot_step`; the cost is :func:`effort_cost` of ``U_k`` plus :func:`state_cost` of
+    ``X_{k+1}``, the very terms the single-shooting NLP sums, so both share one optimum.
+    Warm start: the states of the rolled-out ``u0``; fatrop takes no multiplier warm start.
+    """
+
+    def __init__(self, name: str, problem: GPCProblem, compiled: bool):
+        super().__init__(name, problem)
+        cfg, robot = problem.config, problem.robot
+        H, T = cfg.horizon, cfg.sample_time_s
+        p = ca.SX.sym("p", problem.layout.size)
+        P = parameter_blocks(problem.layout, p)
+        X = [ca.SX.sym(f"x{k}", 5) for k in range(H + 1)]
+        U = [ca.SX.sym(f"u{k}", 2) for k in range(H)]
+        w, g, J = [], [X[0] - P["x0"]], 0
+        vmax, dv = robot.max_wheel_speed_mps, robot.max_step_change_mps(T)
+        lbw, ubw = [], []
+        for k in range(H + 1):
+            w.append(X[k])
+            lim = np.inf if k == 0 else vmax  # X_0 is fixed by its equality constraint
+            lbw += [-np.inf] * 3 + [-lim] * 2
+            ubw += [np.inf] * 3 + [lim] * 2
+            if k > 0:
+                J += sum(state_cost(cfg, robot, P, k - 1, *(X[k][i] for i in range(5))))
+            if k < H:
+                w.append(U[k])
+                lbw += [-dv] * 2
+                ubw += [dv] * 2
+                J += effort_cost(cfg, U[k][0], U[k][1])
+                vr, vl = X[k][3] + U[k][0], X[k][4] + U[k][1]
+                xn, yn, thn = robot_step(ca, X[k][0], X[k][1], X[k][2], vr, vl, T, robot.wheel_base_m)
+                g.append(X[k + 1] - ca.vertcat(xn, yn, thn, vr, vl))
+        G = ca.vertcat(*g)
+        nlp = {"x": ca.vertcat(*w), "p": p, "f": J, "g": G}
+        opts = {"structure_detection": "auto", "equality": [True] * G.numel(), "print_time": False,
+                "fatrop": dict(_FATROP)}
+        if not compiled:
+            opts["expand"] = True
+        solver, self.compiled, note = build_nlpsol(name, "fatrop", nlp, opts, compiled)
+        self.notes.append(note)
+        self.solver = solver
+        self._lbw, self._ubw = ca.DM(lbw), ca.DM(ubw)
+        self._zero = ca.DM.zeros(G.numel())
+        self._iu = np.concatenate([np.arange(7 * k + 5, 7 * k + 7) for k in range(H)])
+        self._iv = np.concatenate([np.arange(7 * k + 3, 7 * k + 5) for k in range(1, H + 1)])
+        self._ix = np.concatenate([np.arange(7 * k, 7 * k + 5) for k in range(1, H + 1)])
+        self._n = 7 * H + 5
+
+    def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
+        t0 = time.perf_counter()
+        pr = self.problem
+        try:
+            poses, wheels = pr.rollout_fn(u0, p)
+            w0 = np.empty(self._n)
+            w0[:5] = p[:5]
+            w0[self._ix] = np.hstack([np.asarray(poses), np.asarray(wheels)]).reshape(-1)
+            w0[self._iu] = u0
+            out = self.solver.call([ca.DM(w0), ca.DM(p), self._lbw, self._ubw, self._zero, self._zero,
+                                    ca.DM(), ca.DM()])
+            stats = self.solver.stats()
+        except RuntimeError as exc:
+            return self._failed(u0, f"error: {str(exc).strip().splitlines()[-1]}", t0)
+        w, lam_w = nonzeros(out[0]), nonzeros(out[3])
+        u, cost = w[self._iu], float(out[1])
+        # the single-shooting multipliers: increment bounds and wheel-speed limits
+        lx, lg = lam_w[self._iu], lam_w[self._iv]
+        ok = bool(stats.get("success", False)) and math.isfinite(cost) and all_finite(w, lam_w)
+        return SolveResult(u, cost, ok, str(stats.get("return_status", "unknown")),
+                           int(stats.get("iter_count", -1)), lx, lg, time.perf_counter() - t0)

@@ -1,0 +1,50 @@
+"""The solvers by name: which exist, their aliases, the fastest, and the backend built for
+a problem."""
+from __future__ import annotations
+
+from ..cost import GPCProblem
+from .base import Backend
+from .fatrop import FatropBackend
+from .hybrid import HybridBackend
+from .ipopt import IpoptBackend
+from .powell import PowellBackend
+from .sqp import SqpBackend
+
+__all__ = ["SOLVER_NAMES", "ALIASES", "FASTEST_SOLVER", "canonical_name", "make_backend"]
+
+SOLVER_NAMES = ("ipopt-cold", "ipopt-warm", "ipopt-warm-compiled", "sqpmethod-qrqp", "sqpmethod-daqp", "fatrop",
+                "sqpmethod-daqp+fatrop", "powell")
+ALIASES = {"ipopt": "ipopt-warm"}
+FASTEST_SOLVER = "sqpmethod-daqp+fatrop"
+"""The backend ``gpcnav bench`` chose on both presets (docs/solvers.md): the presets'
+``PlannerConfig.solver`` and the label generator's default."""
+
+
+def canonical_name(name: str) -> str:
+    """The backend name behind ``name`` (aliases resolved); ValueError if unknown."""
+    name = ALIASES.get(name, name)
+    if name not in SOLVER_NAMES:
+        raise ValueError(f"unknown solver {name!r} (choose from {', '.join(SOLVER_NAMES + tuple(ALIASES))})")
+    return name
+
+
+def make_backend(name: str, problem: GPCProblem, max_wall_time_s: float | None = None,
+                 compiled: bool = True, ipopt_options: dict | None = None) -> Backend:
+    """The backend ``name`` for ``problem``, built now (compiling if needed and not cached).
+
+    ``max_wall_time_s`` caps IPOPT's own wall time (the controller's time budget); the SQP
+    and fatrop are capped by their iteration limits, Powell by its evaluation limit.
+    ``compiled=False`` keeps CasADi's uncompiled functions everywhere; ``ipopt_options`` are
+    added to the IPOPT backends' options."""
+    name = canonical_name(name)
+    if name.startswith("ipopt-"):
+        return IpoptBackend(name, problem, warm=name != "ipopt-cold", compiled=compiled and name.endswith("-compiled"),
+                            max_wall_time_s=max_wall_time_s, extra_options=ipopt_options)
+    if name == "sqpmethod-daqp+fatrop":
+        return HybridBackend(name, SqpBackend("sqpmethod-daqp", problem, "daqp", compiled),
+                             FatropBackend("fatrop", problem, compiled))
+    if name.startswith("sqpmethod-"):
+        return SqpBackend(name, problem, name.split("-", 1)[1], compiled)
+    if name == "fatrop":
+        return FatropBackend(name, problem, compiled)
+    return PowellBackend(name, problem)

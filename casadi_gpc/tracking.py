@@ -1,0 +1,71 @@
+"""The bank of obstacle filters: one :class:`~casadi_gpc.ekf.ObstacleEKF` per obstacle id,
+stepped once per sample, and the forecasts a planner plans with (numpy only).
+
+The planner (:meth:`casadi_gpc.gpc.GPCController.estimate`) and the deployed policy's
+situation tracker (:class:`nn_export.runtime.tracker.SituationTracker`) both keep their
+tracks here, so the network sees exactly the estimates the planner would see.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from .ekf import EKFSettings, ObstacleEKF, planning_covariances
+from .types import ObstacleForecast, ObstacleMeasurement
+
+__all__ = ["TrackBank", "TRACK_COUNTERS"]
+
+TRACK_COUNTERS = ("missed_measurements", "outliers", "unestimated_tracks")
+"""What a bank counts: measurements missing (or not finite), measurements gated as
+outliers, and tracks that have a state but have seen a single position (speed and heading
+unknown; planned standing, :func:`~casadi_gpc.ekf.planning_covariances`), once per sample."""
+
+
+class TrackBank:
+    """One obstacle EKF per obstacle id, made at its first measurement.
+
+    Parameters
+    ----------
+    sample_time_s : float
+        T, the filters' step.
+    settings : EKFSettings, optional
+        The filters' noise levels.
+    counters : dict, optional
+        Where to count the events of :data:`TRACK_COUNTERS` (the owner's own counters, so
+        that they read as one dict; a new dict by default). Missing keys start at 0.
+    """
+
+    def __init__(self, sample_time_s: float, settings: EKFSettings | None = None, counters: dict | None = None):
+        self.sample_time_s = sample_time_s
+        self.settings = settings or EKFSettings()
+        self.filters: dict[int, ObstacleEKF] = {}
+        self.counters = {} if counters is None else counters
+        for k in TRACK_COUNTERS:
+            self.counters.setdefault(k, 0)
+
+    def step(self, moving: Iterable[ObstacleMeasurement]) -> list[tuple[ObstacleMeasurement, ObstacleEKF]]:
+        """Fuse one sample's measurements (one step of every measured obstacle's filter);
+        returns the ``(measurement, filter)`` pairs of the tracks that have a state."""
+        seen = []
+        counters = self.counters
+        for m in moving:
+            ekf = self.filters.get(m.obstacle_id)
+            if ekf is None:
+                ekf = self.filters[m.obstacle_id] = ObstacleEKF(self.sample_time_s, self.settings)
+            event = ekf.step(m.position_m)
+            if event == "missed":
+                counters["missed_measurements"] += 1
+            elif event == "outlier":
+                counters["outliers"] += 1
+            if ekf.state_ is not None:
+                if not ekf.initialised:
+                    counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
+                seen.append((m, ekf))
+        return seen
+
+    @staticmethod
+    def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int) -> ObstacleForecast:
+        """What a planner plans with: the filter's H-step prediction, a track seen once kept
+        at its next step's uncertainty (:func:`~casadi_gpc.ekf.planning_covariances`)."""
+        means, covs = ekf.predict(horizon)
+        return ObstacleForecast(measurement.obstacle_id, measurement.radius_m, means,
+                                planning_covariances(covs, ekf.initialised))

@@ -1,0 +1,144 @@
+"""The situation: everything the planner knows at one sample instant, in the world frame
+(the robot's state, the desired poses over the horizon, the obstacle EKF estimates, the
+static obstacles), and the helpers both of its makers use (numpy only).
+
+Two ways build a :class:`Situation`, and both use the same helpers here, so they cannot
+disagree:
+
+- the dataset sampler (:mod:`nn_export.training.sampler`) from a sampled reference path,
+  robot state and noisy past obstacle measurements (:func:`reference_poses`,
+  :func:`track_estimate`);
+- the deployed policy from the stream of :class:`~casadi_gpc.types.Observation` with
+  :class:`~nn_export.runtime.tracker.SituationTracker` (the same obstacle EKF bank and
+  reference clock as the GPC).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from itertools import chain
+
+import numpy as np
+
+from casadi_gpc.ekf import ObstacleEKF, planning_covariances
+from casadi_gpc.reference import ReferencePath
+from casadi_gpc.robot import RobotState
+from casadi_gpc.types import ObstacleForecast, StaticObstacle
+
+__all__ = ["TrackEstimate", "Situation", "reference_poses", "track_estimate"]
+
+
+@dataclass(frozen=True)
+class TrackEstimate:
+    """A moving obstacle as its EKF sees it now, with the forecast the planner uses."""
+
+    obstacle_id: int
+    radius_m: float
+    state: np.ndarray
+    """EKF state ``[x_m, y_m, speed_mps, heading_rad, turn_rad_per_step]``, shape (5,)."""
+    cov: np.ndarray
+    """Its covariance, shape (5, 5)."""
+    means_m: np.ndarray
+    """Predicted positions at steps 1..H, shape (H, 2)."""
+    covs_m2: np.ndarray
+    """Their covariances, shape (H, 2, 2)."""
+    initialised: bool = True
+    """False while the filter has seen a single position: speed and heading are unknown
+    (the filter assumes it stands still, with a growing uncertainty)."""
+
+    def forecast(self) -> ObstacleForecast:
+        """What the planner plans with (:func:`casadi_gpc.ekf.planning_covariances`)."""
+        return ObstacleForecast(self.obstacle_id, self.radius_m, self.means_m,
+                                planning_covariances(self.covs_m2, self.initialised))
+
+
+@dataclass(frozen=True)
+class Situation:
+    """Everything the planner knows at one sample instant, in the world frame."""
+
+    robot: RobotState
+    ref_poses: np.ndarray
+    """Desired poses ``[x_m, y_m, heading_rad]`` at steps 0..H, shape (H+1, 3); step 0 is
+    where the reference point is now, steps 1..H are what the GPC tracks."""
+    sample_time_s: float
+    ref_speed_mps: float
+    """The reference's nominal speed (the GPC's initial guesses use it)."""
+    tracks: tuple[TrackEstimate, ...] = ()
+    statics: tuple[StaticObstacle, ...] = ()
+    info: dict = field(default_factory=dict, compare=False)
+    """Provenance (sampler draws), not used by the features."""
+
+    @property
+    def horizon(self) -> int:
+        return len(self.ref_poses) - 1
+
+    def forecasts(self) -> list[ObstacleForecast]:
+        return [t.forecast() for t in self.tracks]
+
+    def with_reference(self, ref_poses: np.ndarray) -> "Situation":
+        """The same situation with another desired trajectory (the paper's second pass uses the
+        robot's predicted poses, with step 0 the robot's current pose)."""
+        return replace(self, ref_poses=np.asarray(ref_poses, dtype=float))
+
+    def without_obstacles(self) -> "Situation":
+        return replace(self, tracks=(), statics=())
+
+    def transformed(self, rotation_rad: float, translation_m=(0.0, 0.0), mirror: bool = False) -> "Situation":
+        """The situation seen in another world frame: an optional reflection about the world
+        x axis, then a rotation by ``rotation_rad`` about the origin, then a translation.
+        The local-frame features of the result equal the original ones (mirrored if
+        ``mirror``); the GPC's answer is equivariant the same way."""
+        c, s = math.cos(rotation_rad), math.sin(rotation_rad)
+        sg = -1.0 if mirror else 1.0
+        R = np.array([[c, -s], [s, c]]) @ np.diag([1.0, sg])
+        t = np.asarray(translation_m, dtype=float)
+
+        def pt(xy):
+            return np.asarray(xy, dtype=float) @ R.T + t
+
+        def ang(a):
+            return sg * np.asarray(a, dtype=float) + rotation_rad
+
+        r = self.robot
+        x, y = pt([r.x_m, r.y_m])
+        vr, vl = (r.v_left_mps, r.v_right_mps) if mirror else (r.v_right_mps, r.v_left_mps)
+        robot = RobotState(float(x), float(y), float(ang(r.heading_rad)), vr, vl)
+        ref = np.column_stack([pt(self.ref_poses[:, :2]), ang(self.ref_poses[:, 2])])
+        J = np.eye(5)
+        J[:2, :2] = R
+        J[4, 4] = sg
+        J[3, 3] = sg
+        tracks = []
+        for tr in self.tracks:
+            st = tr.state.copy()
+            st[:2] = pt(st[:2])
+            st[3] = ang(st[3])
+            st[4] = sg * st[4]
+            tracks.append(replace(tr, state=st, cov=J @ tr.cov @ J.T, means_m=pt(tr.means_m),
+                                  covs_m2=R @ tr.covs_m2 @ R.T))
+        statics = tuple(StaticObstacle(tuple(float(v) for v in pt(s.position_m)), s.radius_m) for s in self.statics)
+        return replace(self, robot=robot, ref_poses=ref, tracks=tuple(tracks), statics=statics)
+
+    def mirrored(self) -> "Situation":
+        """Reflected about the tangent of the reference at step 0 (the paper's symmetry)."""
+        x0, y0, h0 = (float(v) for v in self.ref_poses[0])
+        # reflection about the line through (x0, y0) at angle h0: Rot(2 h0) diag(1, -1), and
+        # the translation that keeps (x0, y0) in place
+        c, s = math.cos(2.0 * h0), math.sin(2.0 * h0)
+        t = (x0 - (c * x0 + s * y0), y0 - (s * x0 - c * y0))
+        return self.transformed(2.0 * h0, t, mirror=True)
+
+
+def reference_poses(path: ReferencePath, s0_m: float, sample_time_s: float, horizon: int) -> np.ndarray:
+    """Desired poses at steps 0..H from a reference point at arc length ``s0_m``: the same
+    arc lengths as :meth:`ReferenceClock.horizon_arclengths` (steps 1..H) plus step 0."""
+    n = horizon + 1
+    return np.fromiter(chain.from_iterable(path.poses_along(s0_m, path.speed_mps * sample_time_s, n)), float,
+                       3 * n).reshape(n, 3)
+
+
+def track_estimate(ekf: ObstacleEKF, obstacle_id: int, radius_m: float, horizon: int) -> TrackEstimate:
+    """Snapshot of a running EKF with its H-step forecast (as the GPC's ``estimate``)."""
+    means, covs = ekf.predict(horizon)
+    return TrackEstimate(int(obstacle_id), float(radius_m), ekf.state_.copy(), ekf.cov_.copy(), means, covs,
+                         bool(ekf.initialised))

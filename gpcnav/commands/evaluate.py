@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_seed, make_controller, planner_config,
-                     progress, safety_mode, suite_from_args)
+                     progress, shield_mode, suite_from_args)
 
 _WORKER = {}
 
@@ -27,10 +27,10 @@ def _episode(index, job):
     """Worker: episode ``index``; the controller is built once per worker and robot."""
     from casadi_gpc.metrics import episode_metrics
     from casadi_gpc.simulator import simulate
-    scenario, kind, config, model, safety, passes = job
-    key = (kind, config, scenario.robot, str(model), safety, passes)
+    scenario, kind, config, model, shield, passes = job
+    key = (kind, config, scenario.robot, str(model), shield, passes)
     if key not in _WORKER:
-        _WORKER[key] = make_controller(kind, config, scenario.robot, model, safety, passes)
+        _WORKER[key] = make_controller(kind, config, scenario.robot, model, shield, passes)
     controller = _WORKER[key]
     log = simulate(scenario, controller, kind)
     return index, (episode_metrics(log), log.compute_time_s, dict(log.events))
@@ -54,10 +54,10 @@ def parse_faults(spec: str | None):
     return Faults(**values)
 
 
-def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", safety="gpc", passes=None):
+def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", shield=None, passes=None):
     """Run every scenario; returns (metrics, all compute times, summed events)."""
     from casadi_gpc.pool import WorkerPool
-    jobs = [(i, (s, kind, config, model, safety, passes)) for i, s in enumerate(scenarios)]
+    jobs = [(i, (s, kind, config, model, shield, passes)) for i, s in enumerate(scenarios)]
     # the episodes come back as they finish; the metrics keep the scenarios' order
     pool = WorkerPool(min(workers, len(jobs)))
     results = [None] * len(jobs)
@@ -96,14 +96,14 @@ def run(args) -> int:
     if args.controller == "nn":
         # refuse a bad model before any work; the passes it runs with
         passes = 2 if make_controller("nn", config, scenarios[0].robot, args.model, "off", args.passes).two_pass else 1
-    safety = safety_mode(args) if args.controller == "nn" else None
-    metrics, times, events = evaluate(scenarios, args.controller, config, args.model, args.workers, safety=safety,
+    shield = shield_mode(args)
+    metrics, times, events = evaluate(scenarios, args.controller, config, args.model, args.workers, shield=shield,
                                       passes=passes)
     doc = eval_document(args.controller, metrics, times, {
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": args.suite,
         "seed": args.seed if args.suite else None, **({"suite_spec": suite.describe()} if suite else {}),
         "events": events,
-        "faults": None if faults is None else faults.__dict__, "safety_filter": safety, "decision_passes": passes,
+        "faults": None if faults is None else faults.__dict__, "shield": shield, "decision_passes": passes,
         "solver": config.solver if args.controller == "gpc" else None,
     })
     if args.out:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import add_controller_arguments, check_output_files, check_seed, make_controller, planner_config, safety_mode
+from .common import DEFAULT_SHIELD, add_controller_arguments, check_output_files, check_seed, make_controller, planner_config, shield_mode
 
 
 def add_arguments(p):
@@ -16,19 +16,20 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=None, help="override the scenario's sensing seed")
 
 
-def run_one(scenario, controller_kind, config, model=None, safety="gpc", passes=None):
+def run_one(scenario, controller_kind, config, model=None, shield=None, passes=None):
     """Simulate ``scenario`` and return its RUN document."""
     from casadi_gpc.metrics import run_document
     from casadi_gpc.simulator import simulate
-    controller = make_controller(controller_kind, config, scenario.robot, model, safety, passes)
+    controller = make_controller(controller_kind, config, scenario.robot, model, shield, passes)
     log = simulate(scenario, controller, controller_kind)
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
              "robot_radius_m": scenario.robot.radius_m}
-    model_info = getattr(controller, "model_info", None)
+    inner = getattr(controller, "policy", controller)  # the controller behind a Shield
+    extra["shield"] = shield or DEFAULT_SHIELD.get(controller_kind, "off")  # docs/faults.md
+    model_info = getattr(inner, "model_info", None)
     if model_info:
         extra["model"] = model_info
-        extra["safety_filter"] = safety  # gpc, brake or off (docs/faults.md)
-    solver_info = getattr(controller, "solver_info", None)
+    solver_info = getattr(inner, "solver_info", None)
     if solver_info:
         extra["solver"] = solver_info  # the GPC's NLP solver (docs/solvers.md)
     return run_document(log, extra)
@@ -43,7 +44,7 @@ def run(args) -> int:
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
     config = planner_config(args)
-    doc = run_one(scenario, args.controller, config, args.model, safety_mode(args), args.passes)
+    doc = run_one(scenario, args.controller, config, args.model, shield_mode(args), args.passes)
     if args.out:
         write_json(args.out, doc)
     if args.plot:

@@ -51,7 +51,17 @@ class PlannerConfig:
     """If set, the reference point never runs more than this far ahead of the robot's
     projection on the path (it waits while the robot yields). None: the paper's clock."""
     max_moving: int = 3
-    """Moving-obstacle slots of the NLP (unused slots are switched off)."""
+    """Moving-obstacle slots of the NLP (unused slots are switched off). With more movers,
+    the most relevant fill them (:mod:`casadi_gpc.selection`)."""
+    relevance_range_m: float = 2.5
+    """A mover left out of the slots is counted (``left_out``) when its predicted clearance
+    to the robot's predicted path is under this (the obstacle term's 1.5 m reach of the
+    ``improved`` preset plus 1 m of room for the plan to change)."""
+    goal_weight: float = 1.0
+    """Factor on the tracking weight of the desired poses at the end of the path. The
+    paper's 1 lets an obstacle standing near the goal hold the robot off it: under
+    ``improved``, a walker standing 1 m from the goal kept the robot 0.4 m away, outside the
+    goal's 0.3 m, until the time limit (docs/model.md)."""
     max_static: int = 3
     """Static-obstacle slots of the NLP."""
     multistart_range_m: float = 3.0
@@ -59,6 +69,9 @@ class PlannerConfig:
     the GPC solve from several initial guesses."""
     swerve_turn_rate_rad_s: float = 0.5
     """Turn rate of the swerve-left / swerve-right initial guesses."""
+    guesses: tuple[str, ...] = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left")
+    """The fixed initial guesses of the multi-start, by name (:data:`casadi_gpc.guesses.TIE_ORDER`
+    gives their tie-break order whatever the order here)."""
     solver: str = "ipopt"
     """NLP solver backend of the controller (``casadi_gpc.solvers.SOLVER_NAMES``; ``ipopt`` is
     ``ipopt-warm``). The presets use the one ``gpcnav bench`` measured fastest among those
@@ -86,6 +99,9 @@ PRESETS: dict[str, PlannerConfig] = {
         clearance_margin_m=0.15,
         max_lead_m=0.5,
         solver="sqpmethod-daqp+fatrop",
+        max_moving=6,
+        goal_weight=10.0,
+        guesses=("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake"),
     ),
 }
 DEFAULT_PRESET = "improved"

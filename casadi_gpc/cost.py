@@ -6,12 +6,13 @@ dVl_{H-1}]`` (m/s). Everything that changes from tick to tick is a parameter, pa
 
 Cost (``docs/model.md``)::
 
-    J = sum_i  wt ((x_i - xd_i)^2 + (y_i - yd_i)^2) + wh wrap(th_i - thd_i)^2
+    J = sum_i  wt w_i ((x_i - xd_i)^2 + (y_i - yd_i)^2) + wh wrap(th_i - thd_i)^2
       + sum_i  lambda1 (dVr_i^2 + dVl_i^2) + lambda2 (Vr_i - Vl_i)^2
       + sum_j sum_i  xi / (P_ij dist_ij^2)          (paper; or xi/P (1/d - 1/d0)_+^2)
       [+ sum_j sum_i  w (margin_ij - dist_ij)_+^2]   (improved: soft clearance constraint)
 
-with ``dist`` the clearance between the robot's disc and the obstacle's disc.
+with ``dist`` the clearance between the robot's disc and the obstacle's disc and ``w_i`` the
+goal factor of desired pose i (``PlannerConfig.goal_weight`` at the end of the path, else 1).
 """
 from __future__ import annotations
 
@@ -43,6 +44,7 @@ class ParameterLayout:
         return {
             "x0": (5,),                  # x, y, heading, v_right, v_left
             "ref": (H, 3),               # desired x, y, heading at steps 1..H
+            "ref_w": (H,),               # tracking weight factor of each (goal_weight at the path's end)
             "mov_xy": (M, H, 2),         # predicted obstacle positions
             "mov_p": (M, H),             # the paper's P (>= 1)
             "mov_sigma": (M, H),         # predicted position std (m) for the margin
@@ -72,8 +74,11 @@ class ParameterLayout:
         forecasts: list[ObstacleForecast] | tuple = (),
         statics: list[StaticObstacle] | tuple = (),
         uncertainty_scale_m: float = 0.5,
+        ref_weights: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Parameter vector for one tick. The nearest obstacles fill the slots."""
+        """Parameter vector for one tick, the obstacles in the order given
+        (:mod:`casadi_gpc.selection` chooses them). ``ref_weights``: the tracking weight
+        factor of each desired pose (:func:`casadi_gpc.selection.goal_weights`; None: 1)."""
         H, M, S = self.horizon, self.max_moving, self.max_static
         if len(forecasts) > M or len(statics) > S:
             raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")
@@ -81,6 +86,7 @@ class ParameterLayout:
         p = np.zeros(self.size)
         p[sl["x0"]] = x0
         p[sl["ref"]] = np.asarray(ref, dtype=float).reshape(-1)
+        p[sl["ref_w"]] = 1.0 if ref_weights is None else np.asarray(ref_weights, dtype=float)
         mov_xy = np.full((M, H, 2), FAR_AWAY_M)
         mov_p = np.ones((M, H))
         mov_sigma = np.zeros((M, H))
@@ -161,7 +167,7 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
     obst = margin_pen = 0
     turning = config.lambda2 * (vr - vl) ** 2
     e_h = th - ref[i, 2]
-    tracking = config.tracking_weight * ((x - ref[i, 0]) ** 2 + (y - ref[i, 1]) ** 2)
+    tracking = config.tracking_weight * P["ref_w"][i] * ((x - ref[i, 0]) ** 2 + (y - ref[i, 1]) ** 2)
     tracking += config.heading_weight * ca.atan2(ca.sin(e_h), ca.cos(e_h)) ** 2
     obstacles = []
     for j in range(M):

@@ -10,7 +10,7 @@ import numpy as np
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
 from .ekf import EKFSettings, ObstacleEKF
-from .guesses import initial_guesses
+from .guesses import TIE_ORDER, initial_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
 from .selection import planner_parameters
@@ -32,7 +32,15 @@ class Plan(SolveResult):
 
 @dataclass
 class GPCController:
-    """The paper's GPC with an EKF per moving obstacle. ``decide(observation)`` each sample."""
+    """The paper's GPC with an EKF per moving obstacle. ``decide(observation)`` each sample.
+
+    Each decision carries the forecasts of every tracked mover (``forecasts``: the shield
+    checks against them) and the other solved candidates, cheapest first (``alternatives``:
+    what the shield tries before its manoeuvres). The planner as shipped runs behind the
+    check, ``casadi_gpc.safety.Shield(GPCController(...))``: its answer must keep clear of
+    the predicted discs whatever the cost's weights (``gpcnav --controller gpc``)."""
+
+    provides_forecasts = True
 
     config: PlannerConfig = field(default_factory=lambda: preset("improved"))
     robot: RobotParams = field(default_factory=RobotParams)
@@ -61,6 +69,10 @@ class GPCController:
             self.backup = make_backend(self.backup_solver, self.problem, max_wall_time_s=self.time_budget_s,
                                        compiled=self.compile_solver, ipopt_options=self.ipopt_options)
         self._ref_slice = self.problem.layout.slices()["ref"]
+        self.horizon = self.config.horizon
+        unknown = sorted(set(self.config.guesses) - set(TIE_ORDER))
+        if unknown:
+            raise ValueError(f"unknown initial guesses {unknown} (choose from {', '.join(TIE_ORDER)})")
         self._failure_prob, self._failure_rng = 0.0, None
         self._deadline: float | None = None
         self.reset()
@@ -84,10 +96,12 @@ class GPCController:
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self._warm: Plan | None = None
         self._last_wheels: np.ndarray | None = None
+        self._path_xy: np.ndarray | None = None
+        """The robot's predicted positions at steps 1..H of the last plan (for relevance)."""
         self.counters = {"solves": 0, "failed_solves": 0, "fallbacks": 0, "multistart": 0,
                          "missed_measurements": 0, "outliers": 0, "over_budget": 0, "budget_skips": 0,
                          "injected_failures": 0, "backup_solves": 0, "backup_successes": 0,
-                         "unestimated_tracks": 0}
+                         "unestimated_tracks": 0, "left_out": 0}
         # the obstacle filters count their events (missed, outliers, unestimated) here too
         self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings, self.counters)
 
@@ -103,8 +117,11 @@ class GPCController:
         return [self.bank.forecast(m, ekf, H) for m, ekf in self.bank.step(obs.moving)]
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
+        """Advance the reference clock; the desired poses at steps 0..H, shape (H + 1, 3)
+        (step 0: where the reference point is now)."""
         self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
-        return obs.reference.pose_at_arclength(self.clock.horizon_arclengths(obs.reference, self.config.horizon))
+        s = np.concatenate([[self.clock.s_m], self.clock.horizon_arclengths(obs.reference, self.config.horizon)])
+        return obs.reference.pose_at_arclength(s)
 
     # --- solving -----------------------------------------------------------------------
     def solve(self, p: np.ndarray, u0: np.ndarray, guess: str = "", lam_x=None, lam_g=None) -> Plan:
@@ -141,7 +158,7 @@ class GPCController:
         """Solve from the warm start and, if ``multistart``, from the fixed guesses; keep the
         cheapest successful plan. Exact ties keep the earliest guess (swerve right first)."""
         candidates: list[Plan] = []
-        ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)
+        ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
         guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses) if (multistart or warm is None) else {}
         # The warm start is solved first (the likeliest answer, when the budget is short);
         # the candidates keep the guesses-then-warm order that breaks ties.
@@ -188,29 +205,54 @@ class GPCController:
         forecasts = self.estimate(obs)
         ref = self.desired_poses(obs)
         x0 = obs.robot.as_array()
-        p, forecasts, statics = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.config)
-        near = self.obstacles_near(x0, forecasts, statics)
+        p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.config,
+                                    self._predicted_path(ref))
+        self.counters["left_out"] += sel.left_out
+        near = self.obstacles_near(x0, sel.forecasts, sel.statics)
         if near:
             self.counters["multistart"] += 1
         if self._failure_prob > 0.0 and self._failure_rng.random() < self._failure_prob:
             self.counters["injected_failures"] += 1
-            return self._fallback(obs, "injected solver failure")
+            return self._fallback(obs, "injected solver failure", forecasts)
         best, candidates = self.plan(p, x0, obs.reference.speed_mps, near, self._warm)
         if best is None:
             statuses = sorted({c.status for c in candidates}) or ["no solve started within the time budget"]
-            return self._fallback(obs, "all solves failed: " + ", ".join(statuses))
+            return self._fallback(obs, "all solves failed: " + ", ".join(statuses), forecasts)
         self._warm = best
         poses, wheels = (np.asarray(a) for a in self.problem.rollout_fn(best.u, p))
         self._last_wheels = wheels
+        self._path_xy = poses[:, :2]
         return ControlDecision(
             float(wheels[0, 0]), float(wheels[0, 1]), False, best.guess, wheels, poses, best.cost,
-            {"iterations": best.iterations, "candidates": len(candidates), "forecasts": forecasts,
+            {"iterations": best.iterations, "candidates": len(candidates), "selected": len(sel.forecasts),
              "solver": self.solver_name, "solve_time_s": sum(c.solve_time_s for c in candidates)},
-        )
+            forecasts=tuple(forecasts), alternatives=self._alternatives(best, candidates, x0))
 
-    def _fallback(self, obs: Observation, reason: str) -> ControlDecision:
+    def _predicted_path(self, ref: np.ndarray) -> np.ndarray:
+        """Where the robot is predicted to be at steps 1..H: its last plan shifted by a step
+        (the last position held), or, without one, the desired poses."""
+        if self._path_xy is None:
+            return ref[1:, :2]
+        return np.vstack([self._path_xy[1:], self._path_xy[-1:]])
+
+    def _alternatives(self, best: Plan, candidates: list[Plan], x0: np.ndarray) -> tuple:
+        """The other solved candidates' wheel-speed plans (H, 2), cheapest first, one per
+        distinct optimum (increments within 1e-4 m/s of a kept one are the same)."""
+        H = self.config.horizon
+        kept, out = [np.asarray(best.u)], []
+        for c in sorted((c for c in candidates if c.success and c is not best), key=lambda c: c.cost):
+            u = np.asarray(c.u)
+            if any(np.max(np.abs(u - k)) <= 1e-4 for k in kept):
+                continue
+            kept.append(u)
+            out.append(x0[3:5] + np.cumsum(u.reshape(H, 2), axis=0))
+        return tuple(out)
+
+    def _fallback(self, obs: Observation, reason: str, forecasts=()) -> ControlDecision:
         """The shifted previous plan if there is one, else braking within the limits."""
         self.counters["fallbacks"] += 1
+        forecasts = tuple(forecasts)
+        self._path_xy = None
         dv = self.robot.max_step_change_mps(self.config.sample_time_s)
         if self._warm is not None and self._last_wheels is not None and len(self._last_wheels) > 1:
             wheels = self._last_wheels[1:]
@@ -219,7 +261,7 @@ class GPCController:
                               0, guess="shifted")
             vr, vl = (float(np.clip(w, v - dv, v + dv)) for w, v in
                       zip(wheels[0], (obs.robot.v_right_mps, obs.robot.v_left_mps)))
-            return ControlDecision(vr, vl, True, "shifted previous plan; " + reason)
+            return ControlDecision(vr, vl, True, "shifted previous plan; " + reason, forecasts=forecasts)
         self._warm = None
         vr, vl = brake_wheels(obs.robot.v_right_mps, obs.robot.v_left_mps, dv)
-        return ControlDecision(vr, vl, True, "brake; " + reason)
+        return ControlDecision(vr, vl, True, "brake; " + reason, forecasts=forecasts)

@@ -2,7 +2,8 @@
 
 The cost is not convex near obstacles: a head-on encounter has a pass-left and a
 pass-right minimum, and an obstacle (or a gap too narrow to pass) in front of a stopped
-robot has a "wait" minimum. Solving from several guesses and keeping the cheapest answer
+robot has a "wait" minimum, which the ``brake`` guess (slow down at the acceleration limit
+and stand) starts in: in a crowd, a moving robot's guesses all lead into the crowd. Solving from several guesses and keeping the cheapest answer
 finds the minimum a single warm start would miss. The order of the guesses is the order
 ties are broken in (``TIE_ORDER``): swerve right first, so an exact tie passes on the right.
 """
@@ -12,9 +13,9 @@ import numpy as np
 
 from .robot import robot_step
 
-__all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "initial_guesses"]
+__all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "brake_guess", "initial_guesses"]
 
-TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left")
+TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake")
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
 
 
@@ -71,9 +72,19 @@ def detour_guesses(cfg, robot, x0, ref_poses, ref_speed_mps: float, gain: float 
     return out
 
 
+def brake_guess(cfg, robot, x0) -> np.ndarray:
+    """Both wheels to a stand at the acceleration limit, then standing."""
+    H, dv_max, v_max = cfg.horizon, robot.max_step_change_mps(cfg.sample_time_s), robot.max_wheel_speed_mps
+    return wheels_to_increments(x0[3:5], np.zeros((H, 2)), dv_max, v_max)
+
+
 def initial_guesses(problem, x0, ref_speed_mps: float, ref_poses=None) -> dict[str, np.ndarray]:
-    """All fixed guesses in tie-break order (detours only when the reference is known)."""
-    guesses = swerve_guesses(problem.config, problem.robot, x0, ref_speed_mps)
-    if ref_poses is not None:
-        guesses.update(detour_guesses(problem.config, problem.robot, x0, ref_poses, ref_speed_mps))
-    return {k: guesses[k] for k in TIE_ORDER if k in guesses}
+    """The configuration's fixed guesses (``PlannerConfig.guesses``) in tie-break order
+    (detours only when the reference is known)."""
+    cfg, wanted = problem.config, set(problem.config.guesses)
+    guesses = swerve_guesses(cfg, problem.robot, x0, ref_speed_mps)
+    if ref_poses is not None and wanted & {"detour_right", "detour_left"}:
+        guesses.update(detour_guesses(cfg, problem.robot, x0, ref_poses, ref_speed_mps))
+    if "brake" in wanted:
+        guesses["brake"] = brake_guess(cfg, problem.robot, x0)
+    return {k: guesses[k] for k in TIE_ORDER if k in guesses and k in wanted}

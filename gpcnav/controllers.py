@@ -17,8 +17,10 @@ controllers here, so a name means the same thing everywhere:
 
 ``gpc`` and ``nn`` are built by :func:`gpcnav.commands.common.make_controller`, as the
 commands always built them. A name that cannot be made is a :class:`~gpcnav.errors.UsageError`
-(one line, exit 2), raised by :func:`check` before any work. ``--shield`` puts any of them
-behind the controller-agnostic safety check layer (:class:`casadi_gpc.safety.Shield`).
+(one line, exit 2), raised by :func:`check` before any work. Any of them runs behind the
+controller-agnostic safety check layer (:class:`casadi_gpc.safety.Shield`) as the shield mode
+says (``--shield``, ``--no-shield``, ``--shield-fallback``; :data:`~gpcnav.commands.common.SHIELD_MODES`):
+by default ``gpc`` and ``nn`` do, the peers and a user's class run bare, as their users run them.
 
 A ``MODULE:CLASS`` is imported with the current folder first on ``sys.path`` (as ``python -m``
 would), so a ``mymod.py`` beside the user works with the installed ``gpcnav`` command too.
@@ -26,7 +28,6 @@ Episodes on Ray workers need the module importable there (installed, or on ``PYT
 """
 from __future__ import annotations
 
-import argparse
 import importlib
 import math
 import os
@@ -36,12 +37,11 @@ from pathlib import Path
 
 from .errors import UsageError
 
-__all__ = ["BUILTIN", "PEERS", "ControllerSpec", "make", "check", "load_user_class", "describe",
-           "add_controller_arguments", "spec_from_args", "parse_controller_list"]
+__all__ = ["BUILTIN", "PEERS", "ControllerSpec", "make", "check", "load_user_class", "describe", "spec_from_args",
+           "parse_controller_list"]
 
 PEERS = ("orca", "hrvo", "social_force", "mppi")
 BUILTIN = ("gpc", "nn") + PEERS
-SAFETY_MODES = ("gpc", "brake", "off")
 
 
 @dataclass(frozen=True)
@@ -55,24 +55,33 @@ class ControllerSpec:
         A name of :data:`BUILTIN` or ``MODULE:CLASS``.
     model : Path or None
         ``nn``: the ONNX model (None: the one shipped for the preset).
-    safety : {"gpc", "brake", "off"}
-        ``nn``: its safety filter's fallback, or no filter.
+    shield : str or None
+        The check layer's mode (``off``, ``on``, ``gpc``:
+        :data:`gpcnav.commands.common.SHIELD_MODES`); None: the controller's default
+        (:attr:`mode`).
     passes : int or None
         ``nn``: 1 or 2 passes, None for what the model file says.
-    shield : bool
-        Behind :class:`casadi_gpc.safety.Shield`.
     """
 
     name: str
     model: Path | None = None
-    safety: str = "gpc"
+    shield: str | None = None
     passes: int | None = None
-    shield: bool = False
+
+    @property
+    def mode(self) -> str:
+        """The shield mode it runs with: the one asked for, else the controller's default
+        (``on`` for gpc, ``gpc`` for nn, ``off`` for the others)."""
+        from .commands.common import DEFAULT_SHIELD
+        mode = self.shield or DEFAULT_SHIELD.get(self.name, "off")
+        return "on" if mode == "brake" else mode
 
     @property
     def label(self) -> str:
-        """The name a document and a table show."""
-        return self.name + ("+shield" if self.shield else "")
+        """The name a document and a table show: the name, and the shield mode when it is
+        not the controller's default."""
+        default = ControllerSpec(self.name).mode
+        return self.name if self.mode == default else f"{self.name}[shield={self.mode}]"
 
     @property
     def is_user_class(self) -> bool:
@@ -142,12 +151,21 @@ def _make_peer(name: str, config, robot):
     return NavgroundPeer(NAVGROUND_PEERS[name](), robot)
 
 
-def _shielded(controller, robot):
-    try:
-        from casadi_gpc.safety import Shield
-    except ImportError:
-        raise UsageError("--shield: casadi_gpc.safety.Shield is not available in this version") from None
-    return Shield(controller, robot=robot, fallback=None)
+def _shielded(controller, config, robot, mode: str):
+    """``controller`` behind :class:`casadi_gpc.safety.Shield` as ``mode`` says (as
+    :func:`gpcnav.commands.common.make_controller` puts gpc and nn behind it)."""
+    if mode == "off":
+        return controller
+    from casadi_gpc.ekf import EKFSettings
+    from casadi_gpc.safety import Shield, StandbyPlanner
+    fallback = None
+    if mode == "gpc":
+        from casadi_gpc.gpc import GPCController
+        fallback = StandbyPlanner(GPCController(config, robot))
+    # the shield's own obstacle filters run at the controller's sample time: with the
+    # planner's noise per second, or a 6 s check at 0.1 s loses every heading (docs/peers.md)
+    ekf = EKFSettings().for_sample_time(controller.sample_time_s)
+    return Shield(controller, robot, fallback=fallback, ekf_settings=ekf)
 
 
 def make(spec: ControllerSpec, config, robot):
@@ -155,32 +173,25 @@ def make(spec: ControllerSpec, config, robot):
     ``robot``: an object with ``reset()``, ``decide(observation)`` and ``sample_time_s``."""
     if spec.name in ("gpc", "nn"):
         from .commands.common import make_controller
-        controller = make_controller(spec.name, config, robot, spec.model, spec.safety, spec.passes)
-    elif spec.name in PEERS:
-        controller = _make_peer(spec.name, config, robot)
-    else:
-        controller = _make_user(spec.name)
-    return _shielded(controller, robot) if spec.shield else controller
+        return make_controller(spec.name, config, robot, spec.model, spec.mode, spec.passes)
+    controller = _make_peer(spec.name, config, robot) if spec.name in PEERS else _make_user(spec.name)
+    return _shielded(controller, config, robot, spec.mode)
 
 
 def check(spec: ControllerSpec, config, robot) -> None:
     """Refuse, before any work and in one line, a controller that cannot be made: an unknown
     name, a user class that does not load or answer the protocol, ``mppi`` without torch,
-    ``nn`` with a bad model, ``--shield`` where there is none. Options meant for ``nn``
-    given to another controller are refused too."""
+    ``nn`` with a bad model, an unknown shield mode. Options meant for ``nn`` given to
+    another controller are refused too."""
+    from .commands.common import SHIELD_MODES
     if spec.name != "nn" and (spec.model is not None or spec.passes is not None):
         raise UsageError(f"--model and --passes are options of --controller nn, not of {spec.name}")
-    if spec.safety not in SAFETY_MODES:
-        raise UsageError(f"unknown safety mode {spec.safety!r} ({', '.join(SAFETY_MODES)})")
+    if spec.mode not in SHIELD_MODES:
+        raise UsageError(f"unknown shield mode {spec.shield!r} (choose from {', '.join(SHIELD_MODES)})")
     if spec.name == "nn":
         make(ControllerSpec("nn", spec.model, "off", spec.passes), config, robot)  # the model loads
     elif spec.name in PEERS or spec.is_user_class:
-        make(ControllerSpec(spec.name), config, robot)
-    if spec.shield:
-        try:
-            from casadi_gpc.safety import Shield  # noqa: F401
-        except ImportError:
-            raise UsageError("--shield: casadi_gpc.safety.Shield is not available in this version") from None
+        make(ControllerSpec(spec.name, shield="off"), config, robot)
 
 
 def describe(controller) -> dict:
@@ -217,43 +228,13 @@ def parse_controller_list(text: str) -> list[str]:
     return list(dict.fromkeys(names))
 
 
-def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> None:
-    """``--controller NAME`` (or ``--controllers LIST`` with ``many``), the network's options,
-    ``--shield`` and the planner preset options."""
-    from .commands.common import add_preset_arguments
-    names = ", ".join(BUILTIN)
-    if many:
-        p.add_argument("--controllers", default="gpc,nn", metavar="LIST",
-                       help=f"comma-separated controllers ({names}, or MODULE:CLASS; default gpc,nn)")
-    else:
-        p.add_argument("--controller", default="gpc", metavar="NAME",
-                       help=f"{names}, or MODULE:CLASS: a class of yours that answers the Policy protocol "
-                            "(README, 'Your own controller'); default gpc")
-    p.add_argument("--shield", action="store_true",
-                   help="put the controller behind the safety check layer (casadi_gpc.safety.Shield)")
-    p.add_argument("--model", type=Path, default=None,
-                   help="ONNX model for --controller nn (default: the one shipped for --preset)")
-    p.add_argument("--no-safety-filter", action="store_true",
-                   help="--controller nn: run the bare network, without the safety filter (docs/faults.md)")
-    p.add_argument("--safety-fallback", choices=("gpc", "brake"), default="gpc",
-                   help="--controller nn: what the safety filter hands over to: the GPC on standby (default) "
-                        "or the best braking/turning manoeuvre")
-    p.add_argument("--passes", type=int, choices=(1, 2), default=None,
-                   help="--controller nn: one pass or the paper's two passes (default: what the model file "
-                        "says, docs/nn.md)")
-    p.add_argument("--solver", default=None, metavar="NAME",
-                   help="--controller gpc: the NLP solver (default: the preset's; see docs/solvers.md)")
-    add_preset_arguments(p)
-
-
 def spec_from_args(args, name: str | None = None) -> ControllerSpec:
-    """The :class:`ControllerSpec` the options give. With ``name`` (one of ``--controllers``),
-    the network's options go to ``nn`` only; without, they go to ``--controller`` as given,
-    and :func:`check` refuses them for another controller."""
-    safety = "off" if args.no_safety_filter else args.safety_fallback
+    """The :class:`ControllerSpec` the options give (:func:`gpcnav.commands.common.add_controller_arguments`).
+    With ``name`` (one of ``--controllers``) the network's options go to ``nn`` only; without,
+    they go to ``--controller`` as given, and :func:`check` refuses them for another one."""
+    from .commands.common import shield_mode
     if name is None:
         name = args.controller
-        return ControllerSpec(name, args.model, safety if name == "nn" else "gpc", args.passes, bool(args.shield))
+        return ControllerSpec(name, args.model, shield_mode(args, name), args.passes)
     is_nn = name == "nn"
-    return ControllerSpec(name, args.model if is_nn else None, safety if is_nn else "gpc",
-                          args.passes if is_nn else None, bool(args.shield))
+    return ControllerSpec(name, args.model if is_nn else None, shield_mode(args, name), args.passes if is_nn else None)

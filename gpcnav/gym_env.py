@@ -51,6 +51,7 @@ import numpy as np
 from gymnasium import spaces
 
 from casadi_gpc.config import preset as preset_config
+from casadi_gpc.ekf import EKFSettings
 from casadi_gpc.simulator import Episode
 from casadi_gpc.tracking import TrackBank
 from casadi_gpc.types import ControlDecision, Observation
@@ -256,7 +257,7 @@ class NavigationEnv(gymnasium.Env):
         super().reset(seed=seed)
         scenario = self._next_scenario(options)
         self.episode = Episode(scenario, self.sample_time_s, self.expert_name or "gym")
-        self._bank = TrackBank(self.sample_time_s)
+        self._bank = TrackBank(self.sample_time_s, EKFSettings().for_sample_time(self.sample_time_s))
         self._s_m = 0.0
         self._progress_m()
         expert = self._expert(scenario.robot)

@@ -42,7 +42,7 @@ def controller_policies(args, config, robot) -> list:
     from ..controllers import ControllerSpec, check, make
     entries = []
     for name in dict.fromkeys(getattr(args, "controller", []) or []):
-        spec = ControllerSpec(name, shield=bool(args.shield))
+        spec = ControllerSpec(name, shield="on" if args.shield else None)
         check(spec, config, robot)
         entries.append((spec.label, lambda spec=spec: make(spec, config, robot)))
     return entries

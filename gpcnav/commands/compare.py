@@ -6,8 +6,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..controllers import add_controller_arguments, check, parse_controller_list, spec_from_args
-from .common import add_suite_arguments, check_output_files, planner_config
+from ..controllers import check, parse_controller_list, spec_from_args
+from .common import add_controller_arguments, add_suite_arguments, check_output_files, planner_config
 from .evaluate import add_pool_arguments, controller_extra, eval_doc, pool_from_args, run_episodes, scenarios_from_args
 
 

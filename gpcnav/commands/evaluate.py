@@ -6,9 +6,9 @@ import os
 import sys
 from pathlib import Path
 
-from ..controllers import ControllerSpec, add_controller_arguments, check, spec_from_args
+from ..controllers import ControllerSpec, check, spec_from_args
 from ..errors import UsageError
-from .common import add_suite_arguments, check_seed, planner_config, progress, suite_from_args
+from .common import add_controller_arguments, add_suite_arguments, check_seed, planner_config, progress, suite_from_args
 
 _WORKER = {}
 
@@ -86,12 +86,12 @@ def run_episodes(scenarios, specs, config, pool, desc: str = "episodes") -> list
     return out
 
 
-def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", safety="gpc", passes=None,
+def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", shield=None, passes=None,
              backend="local", address=None):
-    """Run every scenario with one controller; returns (metrics, all compute times, summed
-    events)."""
+    """Run every scenario with one controller (a name or a :class:`ControllerSpec`); returns
+    (metrics, all compute times, summed events)."""
     from casadi_gpc.pool import WorkerPool
-    spec = kind if isinstance(kind, ControllerSpec) else ControllerSpec(kind, model, safety or "gpc", passes)
+    spec = kind if isinstance(kind, ControllerSpec) else ControllerSpec(kind, model, shield, passes)
     return run_episodes(scenarios, [spec], config, WorkerPool(workers, backend, address), desc)[0]
 
 
@@ -133,14 +133,15 @@ def scenarios_from_args(args) -> tuple[list, object]:
 def controller_extra(spec: ControllerSpec, config, robot) -> dict:
     """What an EVAL document records of how a controller was made."""
     from .. import controllers
-    extra = {"shield": spec.shield, "safety_filter": None, "decision_passes": None, "solver": None}
+    extra = {"shield": spec.mode, "decision_passes": None, "solver": None}
     if spec.name == "nn":
         controller = controllers.make(ControllerSpec("nn", spec.model, "off", spec.passes), config, robot)
-        extra.update(safety_filter=spec.safety, decision_passes=2 if controller.two_pass else 1)
+        extra["decision_passes"] = 2 if controller.two_pass else 1
     elif spec.name == "gpc":
         extra["solver"] = config.solver
     else:
-        extra["controller_settings"] = controllers.describe(controllers.make(ControllerSpec(spec.name), config, robot))
+        bare = controllers.make(ControllerSpec(spec.name, shield="off"), config, robot)
+        extra["controller_settings"] = controllers.describe(bare)
     return extra
 
 

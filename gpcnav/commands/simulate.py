@@ -4,8 +4,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..controllers import ControllerSpec, add_controller_arguments, check, describe, make, spec_from_args
-from .common import check_output_files, check_seed, planner_config
+from ..controllers import ControllerSpec, check, describe, make, spec_from_args
+from .common import add_controller_arguments, check_output_files, check_seed, planner_config
 
 
 def add_arguments(p):
@@ -17,21 +17,22 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=None, help="override the scenario's sensing seed")
 
 
-def run_one(scenario, spec: ControllerSpec | str, config, model=None, safety="gpc", passes=None):
-    """Simulate ``scenario`` with the controller ``spec`` names and return its RUN document."""
+def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=None, passes=None):
+    """Simulate ``scenario`` with the controller ``spec`` names (or ``spec``, ``model``,
+    ``shield``, ``passes`` as the controller's name and options) and return its RUN document."""
     from casadi_gpc.metrics import run_document
     from casadi_gpc.simulator import simulate
     if isinstance(spec, str):
-        spec = ControllerSpec(spec, model, safety, passes)
+        spec = ControllerSpec(spec, model, shield, passes)
     controller = make(spec, config, scenario.robot)
     log = simulate(scenario, controller, spec.label)
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
-             "robot_radius_m": scenario.robot.radius_m, "shield": spec.shield}
-    model_info = getattr(controller, "model_info", None)
+             "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode}  # docs/faults.md
+    inner = getattr(controller, "policy", controller)  # the controller behind a Shield
+    model_info = getattr(inner, "model_info", None)
     if model_info:
         extra["model"] = model_info
-        extra["safety_filter"] = spec.safety  # gpc, brake or off (docs/faults.md)
-    solver_info = getattr(controller, "solver_info", None)
+    solver_info = getattr(inner, "solver_info", None)
     if solver_info:
         extra["solver"] = solver_info  # the GPC's NLP solver (docs/solvers.md)
     if spec.name not in ("gpc", "nn"):

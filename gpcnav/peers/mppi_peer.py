@@ -66,6 +66,8 @@ class MPPIPeer:
     """
 
     name = "MPPI"
+    provides_forecasts = True
+    """Its decisions carry the EKF bank's forecasts (a Shield checks against those)."""
 
     def __init__(self, settings: MPPISettings | None = None, config: PlannerConfig | None = None,
                  robot: RobotParams | None = None):
@@ -94,7 +96,7 @@ class MPPIPeer:
         self._generator_state = torch.Generator().manual_seed(s.seed).get_state()
         self._x0 = np.zeros(5)
         self._p = None
-
+        self._path_xy = None  # the last plan's positions at steps 1..H
         def dynamics(wheels, increment):
             return torch.clamp(wheels + increment, -vmax, vmax)
 
@@ -119,15 +121,21 @@ class MPPIPeer:
         return torch.as_tensor(np.asarray(self._cost_of_samples(u, self._p)).ravel(), dtype=w.dtype)
 
     def parameters(self, observation: Observation) -> np.ndarray:
-        """The GPC's NLP parameters for this observation (one step of the EKF bank and the
-        reference clock: call once per decision)."""
+        """The GPC's NLP parameters for this observation, made as
+        :meth:`casadi_gpc.gpc.GPCController.decide` makes them (its EKF bank, reference clock,
+        obstacle selection by relevance to the last plan's path, and packing): one step of
+        the bank and the clock, so call once per decision. The forecasts are kept for the
+        decision."""
         cfg = self.config
         H = cfg.horizon
         forecasts = [self.bank.forecast(m, ekf, H) for m, ekf in self.bank.step(observation.moving)]
         self.clock.update(observation.reference, observation.t_s, (observation.robot.x_m, observation.robot.y_m))
-        ref = observation.reference.pose_at_arclength(self.clock.horizon_arclengths(observation.reference, H))
-        x0 = observation.robot.as_array()
-        p, _, _ = planner_parameters(self.problem.layout, x0, ref, forecasts, observation.static, cfg)
+        s = np.concatenate([[self.clock.s_m], self.clock.horizon_arclengths(observation.reference, H)])
+        ref = observation.reference.pose_at_arclength(s)                     # steps 0..H
+        path_xy = ref[1:, :2] if self._path_xy is None else np.vstack([self._path_xy[1:], self._path_xy[-1:]])
+        p, _ = planner_parameters(self.problem.layout, observation.robot.as_array(), ref, forecasts,
+                                  observation.static, cfg, path_xy)
+        self._forecasts = tuple(forecasts)
         return p
 
     def decide(self, observation: Observation) -> ControlDecision:
@@ -150,5 +158,6 @@ class MPPIPeer:
         applied = np.diff(np.asarray(wheels), axis=0).reshape(-1)
         poses, planned = (np.asarray(a) for a in self.problem.rollout_fn(applied, self._p))
         cost = float(self.problem.cost_fn(applied, self._p))
+        self._path_xy = poses[:, :2]
         return ControlDecision(float(planned[0, 0]), float(planned[0, 1]), reason="mppi",
-                               planned_wheels_mps=planned, planned_poses=poses, cost=cost)
+                               planned_wheels_mps=planned, planned_poses=poses, cost=cost, forecasts=self._forecasts)

@@ -8,7 +8,8 @@ Each decision:
    their constraints from the current velocity, so it must be the robot's real one;
 2. the moving obstacles enter as navground ``Neighbor`` s with the positions and velocities
    of the one EKF bank the GPC plans with (:class:`casadi_gpc.tracking.TrackBank`, fed the
-   same measured positions, stepped at this controller's sample time); a track seen once
+   same measured positions, stepped at this controller's sample time with the planner's
+   noise per second, :meth:`~casadi_gpc.ekf.EKFSettings.for_sample_time`); a track seen once
    has no velocity yet and enters standing; static obstacles enter as ``Disc`` s;
 3. the target is navground's path following: reach the end of the reference path along the
    path (``Target.Point(end, along_path=...)``, navground's look-ahead and relaxation time),
@@ -31,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from casadi_gpc.ekf import EKFSettings
 from casadi_gpc.robot import RobotParams
 from casadi_gpc.tracking import TrackBank
 from casadi_gpc.types import ControlDecision, Observation
@@ -214,7 +216,7 @@ class NavgroundPeer:
         self._behaviour, self._kinematics = b, kin
         self._reference = None
         self.counters = {"missed_measurements": 0, "outliers": 0, "unestimated_tracks": 0, "acceleration_limited": 0}
-        self.bank = TrackBank(s.sample_time_s, counters=self.counters)
+        self.bank = TrackBank(s.sample_time_s, EKFSettings().for_sample_time(s.sample_time_s), self.counters)
 
     def _set_target(self, reference) -> None:
         from navground import core

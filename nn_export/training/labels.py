@@ -199,12 +199,13 @@ class Labeller:
         return GPCController(cfg, self.robot, **kw)
 
     def parameters(self, situation: Situation) -> np.ndarray:
-        """The NLP parameter vector the planner would use, slots filled as ``decide`` fills them."""
+        """The NLP parameter vector the planner would use, slots filled as ``decide`` fills them
+        for a robot without a previous plan (the desired poses as its predicted path)."""
         cfg = self.config
         if situation.horizon != cfg.horizon:
             raise ValueError(f"situation horizon {situation.horizon} != planner horizon {cfg.horizon}")
-        p, _, _ = planner_parameters(self.controller.problem.layout, situation.robot.as_array(),
-                                     situation.ref_poses[1:], situation.forecasts(), situation.statics, cfg)
+        p, _ = planner_parameters(self.controller.problem.layout, situation.robot.as_array(), situation.ref_poses,
+                                  situation.forecasts(), situation.statics, cfg)
         return p
 
     def label(self, situation: Situation) -> Label:

@@ -87,9 +87,12 @@ def compare_figure(doc: dict):
     data = [[d["time_to_goal_s"] for d in e["episodes_detail"] if d["time_to_goal_s"] is not None] for e in evals]
     shown = [i for i, d in enumerate(data) if d]
     if shown:
-        box = ax.boxplot([data[i] for i in shown], positions=y[shown], vert=False, widths=0.6, whis=(5, 95),
-                         patch_artist=True, flierprops={"markersize": 2}, medianprops={"color": "k"},
-                         manage_ticks=False)
+        kw = dict(positions=y[shown], widths=0.6, whis=(5, 95), patch_artist=True, manage_ticks=False,
+                  flierprops={"markersize": 2}, medianprops={"color": "k"})
+        try:
+            box = ax.boxplot([data[i] for i in shown], orientation="horizontal", **kw)  # matplotlib >= 3.10
+        except TypeError:
+            box = ax.boxplot([data[i] for i in shown], vert=False, **kw)
         for patch, i in zip(box["boxes"], shown):
             patch.set_facecolor(colours[i])
             patch.set_alpha(0.6)

@@ -80,9 +80,8 @@ class OrcaSettings(NavgroundSettings):
     """ORCA (van den Berg et al. 2011), navground's ``ORCA``."""
 
     time_horizon_s: float = 5.0
-    """ORCA's time horizon for other agents: 5 s, as CrowdNav runs its ORCA robot (and the
-    best of 3, 5 and 10 s on the development seed, docs/peers.md). navground's default of
-    10 s kept the robot slow among standing walkers."""
+    """ORCA's time horizon for other agents: 5 s, as CrowdNav runs its ORCA robot (3 and
+    10 s did as well on the development episodes, within one in 40: docs/peers.md)."""
     static_time_horizon_s: float = 5.0
     """The same for static obstacles (CrowdNav: 5 s)."""
     effective_center: bool = False
@@ -122,8 +121,8 @@ class SocialForceSettings(NavgroundSettings):
     """Relaxation time towards the desired velocity (Helbing's, navground's default)."""
     neighbour_strength: float = 5.0
     """``v_a`` (m^2/s^2), strength of the repulsion by a neighbour. Helbing's 2.1 is made for
-    pedestrians about 0.3 m across; with our 0.35 m robot it collided in 30 % of the
-    development episodes, 5.0 in none (docs/peers.md)."""
+    pedestrians about 0.3 m across; with our 0.35 m robot it collided in 27.5 % of the
+    development crowd episodes, 5.0 in none (docs/peers.md)."""
     neighbour_range_m: float = 0.3
     """``v_r``: range of that repulsion (navground's default)."""
     obstacle_strength: float = 10.0

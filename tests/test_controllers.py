@@ -129,3 +129,22 @@ def test_a_controller_that_cannot_be_loaded_exits_2_with_one_line(outside, name,
     assert r.returncode == 2, r.stderr
     assert message in r.stderr and "Traceback" not in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and r.stdout == ""
+
+
+def test_the_readme_s_example_policy_runs_bare_and_behind_the_shield(tmp_path):
+    """The README's example, copied out of the README into a module outside the project:
+    alone it follows the path into the crossing obstacle of Fig. 7.2; behind the shield it
+    reaches the goal."""
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    i = readme.index("class MyPolicy")
+    start, end = readme.rindex("```python", 0, i) + len("```python"), readme.index("```", i)
+    assert len(readme[start:end].strip().splitlines()) <= 20
+    (tmp_path / "mymod.py").write_text(readme[start:end], encoding="utf-8")
+    fig = REPO / "scenarios" / "paper" / "fig7_2_crossing.toml"
+    outcomes = []
+    for shield in ([], ["--shield"]):
+        r = _cli(tmp_path, "simulate", fig, "--controller", "mymod:MyPolicy", *shield, "--out", "run.json")
+        assert r.returncode == 0, r.stderr
+        doc = json.loads((tmp_path / "run.json").read_text())
+        outcomes.append((doc["outcome"], doc["shield"], doc["interventions"] > 0))
+    assert outcomes == [("collided", "off", False), ("reached_goal", "on", True)]

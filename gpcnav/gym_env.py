@@ -46,9 +46,12 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import gymnasium
 import numpy as np
 from gymnasium import spaces
+from gymnasium.core import Env
+# registration's own names, not gymnasium's: Gymnasium 0.26-0.29 import this module (the
+# entry point) while ``import gymnasium`` is still running
+from gymnasium.envs.registration import register, registry
 
 from casadi_gpc.config import preset as preset_config
 from casadi_gpc.ekf import EKFSettings
@@ -161,7 +164,7 @@ def observation_vector(obs: Observation, tracks: list, layout: ObservationLayout
     return np.asarray(out, dtype=np.float32)
 
 
-class NavigationEnv(gymnasium.Env):
+class NavigationEnv(Env):
     """gpcnav's episodes as a Gymnasium environment (see the module's documentation)."""
 
     metadata = {"render_modes": []}
@@ -288,8 +291,8 @@ class NavigationEnv(gymnasium.Env):
 
 def register_envs() -> None:
     """Register ``gpcnav/Navigation-v0`` (the package's ``gymnasium.envs`` entry point)."""
-    if ENV_ID not in gymnasium.registry:
-        gymnasium.register(id=ENV_ID, entry_point="gpcnav.gym_env:NavigationEnv")
+    if ENV_ID not in registry:
+        register(id=ENV_ID, entry_point="gpcnav.gym_env:NavigationEnv")
 
 
 register_envs()

@@ -31,25 +31,27 @@ from .types import ObstacleForecast, StaticObstacle
 __all__ = ["Selection", "select_obstacles", "planner_parameters", "goal_weights", "relevance_m"]
 
 
-def relevance_m(forecast, x0: np.ndarray, path_xy: np.ndarray | None) -> float:
-    """A moving obstacle's predicted clearance to the robot's predicted path (module text):
-    centre distances minus the obstacle's radius, m (smaller is more relevant)."""
-    q = np.asarray(forecast.means_m, dtype=float)
-    d = math.hypot(q[0, 0] - x0[0], q[0, 1] - x0[1])
+def relevance_m(forecasts, x0: np.ndarray, path_xy: np.ndarray | None) -> np.ndarray:
+    """The moving obstacles' predicted clearances to the robot's predicted path (module
+    text): centre distances minus each obstacle's radius, m, shape (n,) (smaller is more
+    relevant)."""
+    q = np.array([f.means_m for f in forecasts], dtype=float)            # (n, H, 2)
+    d = np.hypot(q[:, 0, 0] - x0[0], q[:, 0, 1] - x0[1])
     if path_xy is not None:
-        n = min(len(q), len(path_xy))
-        d = min(d, float(np.min(np.hypot(q[:n, 0] - path_xy[:n, 0], q[:n, 1] - path_xy[:n, 1]))))
-    return d - forecast.radius_m
+        k = min(q.shape[1], len(path_xy))
+        d = np.minimum(d, np.hypot(q[:, :k, 0] - path_xy[:k, 0], q[:, :k, 1] - path_xy[:k, 1]).min(axis=1))
+    return d - np.array([f.radius_m for f in forecasts], dtype=float)
 
 
 class Selection:
     """What :func:`select_obstacles` chose: the forecasts and static obstacles in the slots,
-    and how many relevant movers did not fit (``left_out``)."""
+    how many relevant movers did not fit (``left_out``), and the ids of every mover within
+    ``relevance_range_m`` of the predicted path (``relevant``)."""
 
-    __slots__ = ("forecasts", "statics", "left_out")
+    __slots__ = ("forecasts", "statics", "left_out", "relevant")
 
-    def __init__(self, forecasts, statics, left_out: int):
-        self.forecasts, self.statics, self.left_out = forecasts, statics, left_out
+    def __init__(self, forecasts, statics, left_out: int, relevant: frozenset = frozenset()):
+        self.forecasts, self.statics, self.left_out, self.relevant = forecasts, statics, left_out, relevant
 
 
 def select_obstacles(x0: np.ndarray, forecasts, statics, config: PlannerConfig,
@@ -72,16 +74,19 @@ def select_obstacles(x0: np.ndarray, forecasts, statics, config: PlannerConfig,
         The robot's predicted positions at steps 1..H (module text); None: the robot now.
     """
     forecasts = list(forecasts)
-    left_out = 0
-    if len(forecasts) > config.max_moving:
-        ranked = sorted((relevance_m(f, x0, path_xy), i) for i, f in enumerate(forecasts))
-        left_out = sum(1 for r, _ in ranked[config.max_moving:] if r < config.relevance_range_m)
-        forecasts = [forecasts[i] for _, i in ranked[: config.max_moving]]
+    left_out, relevant = 0, frozenset()
+    if forecasts:
+        rel = relevance_m(forecasts, x0, path_xy)
+        relevant = frozenset(f.obstacle_id for f, r in zip(forecasts, rel) if r < config.relevance_range_m)
+        if len(forecasts) > config.max_moving:
+            order = np.argsort(rel, kind="stable")  # ties keep the given order
+            left_out = int(np.count_nonzero(rel[order[config.max_moving:]] < config.relevance_range_m))
+            forecasts = [forecasts[i] for i in order[: config.max_moving]]
     statics = list(statics)
     if len(statics) > config.max_static:
         statics = sorted(statics, key=lambda s: math.hypot(s.position_m[0] - x0[0], s.position_m[1] - x0[1]))
         statics = statics[: config.max_static]
-    return Selection(forecasts, statics, left_out)
+    return Selection(forecasts, statics, left_out, relevant)
 
 
 def goal_weights(ref_poses: np.ndarray, config: PlannerConfig) -> np.ndarray | None:

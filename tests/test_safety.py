@@ -404,7 +404,9 @@ def test_standby_planner_replays_what_it_missed_exactly():
     from casadi_gpc.config import preset
     from casadi_gpc.gpc import GPCController
 
-    cfg = preset("improved")
+    # the full multi-start at every step: the same answer whatever the planner solved before
+    # (persistent candidates carry their history, which the standby planner does not have)
+    cfg = preset("improved").with_overrides(candidates="multistart")
     ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
     obs = []
     for k in range(10):

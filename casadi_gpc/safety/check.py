@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..ekf import planning_covariances
+from ..ekf import planning_covariances, worst_std_m
 from ..robot import RobotParams, robot_step
 
 __all__ = ["MANOEUVRES", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances"]
@@ -199,10 +199,8 @@ class TrajectoryCheck:
                 raise ValueError(f"obstacle forecasts must cover {H} steps with (H, 2) means and (H, 2, 2) "
                                  f"covariances, got {m.shape[1:]} and {c.shape[1:]}")
             q[:nm] = m.view(complex)[..., 0] @ self._known          # x + iy, without arithmetic
-            a, b, d = c[..., 0, 0], c[..., 0, 1], c[..., 1, 1]
-            lam = (a + d) * 0.5 + np.hypot((a - d) * 0.5, b)            # largest eigenvalue (n, H)
             radii = np.array([f.radius_m for f in forecasts], dtype=float)
-            touch[:nm] = self.sigmas * np.sqrt(np.maximum(lam, 0.0)) + (radii[:, None] + self.robot.radius_m)
+            touch[:nm] = self.sigmas * worst_std_m(c) + (radii[:, None] + self.robot.radius_m)
         for i, st in enumerate(statics):
             q[nm + i] = complex(st.position_m[0], st.position_m[1])
             touch[nm + i] = st.radius_m + self.robot.radius_m

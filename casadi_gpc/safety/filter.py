@@ -72,7 +72,7 @@ class SafetyFilter(QuickScreen):
             self.fallback.reset()
     # --- the filter ----------------------------------------------------------------------
     def filter(self, observation: Observation, wheels, forecasts=(), statics=None, poses=None,
-               alternatives=()) -> SafetyVerdict:
+               alternatives=(), trust_s: float | None = None) -> SafetyVerdict:
         """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
         replace it (see :meth:`check`).
 
@@ -85,7 +85,10 @@ class SafetyFilter(QuickScreen):
         network's own roll-out), so that a plan the limits leave unchanged is not rolled
         out a second time. The fallback planner, if any, sees ``observation`` either way.
         ``alternatives``: other ``(H, 2)`` plans of the controller, best first, tried before
-        the fallback planner and the manoeuvres when the candidate fails.
+        the fallback planner and the manoeuvres when the candidate fails. ``trust_s``: for a
+        planner that replans at every sample, a candidate (or alternative) whose check keeps
+        the margin at least this long passes, as the fallback planner's answer does with
+        ``trust_planner_s`` (None: the whole horizon, the rule for anything else).
         """
         statics = observation.static if statics is None else statics
         r = observation.robot
@@ -107,18 +110,19 @@ class SafetyFilter(QuickScreen):
         if cmd is None:
             self.counters["non_finite_candidate"] += 1
             check = SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
-            return self._intervene(observation, state, obstacles, check, None, alternatives)
+            return self._intervene(observation, state, obstacles, check, None, alternatives, trust_s)
         if limited:
             # the simulator (and the robot) would clip it: what is checked is what would happen
             self.counters["candidate_limited"] += 1
         check = self._assess(state, cmd, plan, obstacles)
-        if check.safe:
+        if _passes(check, trust_s):
             if self.fallback is not None and hasattr(self.fallback, "observe"):
                 self.fallback.observe(observation)
             return SafetyVerdict(float(cmd[0]), float(cmd[1]), False, "", "candidate", check, plan)
-        return self._intervene(observation, state, obstacles, check, cmd, alternatives)
+        return self._intervene(observation, state, obstacles, check, cmd, alternatives, trust_s)
 
-    def _intervene(self, observation, state, obstacles, check: SafetyCheck, cmd, alternatives=()) -> SafetyVerdict:
+    def _intervene(self, observation, state, obstacles, check: SafetyCheck, cmd, alternatives=(),
+                   trust_s: float | None = None) -> SafetyVerdict:
         self.counters["interventions"] += 1
         if math.isfinite(check.min_clearance_m):
             why = (f"safety: {check.obstacle} predicted clearance {check.min_clearance_m:.2f} m at "
@@ -133,7 +137,7 @@ class SafetyFilter(QuickScreen):
             if acmd is None:
                 continue
             achk = self._assess(state, acmd, aplan, obstacles)
-            if achk.safe:
+            if _passes(achk, trust_s):
                 self.counters["alternative_used"] += 1
                 return SafetyVerdict(float(acmd[0]), float(acmd[1]), True, why + f"; the controller's alternative {i}",
                                      f"alternative:{i}", check, aplan)
@@ -186,3 +190,8 @@ class SafetyFilter(QuickScreen):
         return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
                              why + f"; manoeuvre {name} (clearance {mc.min_clearance_m:.2f} m, margin kept "
                              f"{mc.kept_s:.1f} s)", f"manoeuvre:{name}", check, mw)
+
+
+def _passes(check: SafetyCheck, trust_s: float | None) -> bool:
+    """Safe over the whole horizon, or, with ``trust_s``, for at least that long."""
+    return check.safe or (trust_s is not None and check.kept_s >= trust_s - 1e-9)

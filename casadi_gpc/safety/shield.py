@@ -63,13 +63,19 @@ class Shield:
         As :class:`~casadi_gpc.safety.SafetyFilter`.
     horizon : int, optional
         Intervals checked (default: the controller's horizon, see the module text).
+    trust_plans : bool
+        The controller is a planner that replans at every sample (the GPC): its plan, or
+        one of its alternatives, passes when it keeps the margin for the filter's
+        ``trust_planner_s`` (default 3 s), as the fallback planner's answer does; a
+        violation later in the horizon, where the forecast's uncertainty has grown, is left
+        to its next plans. Otherwise (a network, a reactive peer) the whole horizon counts.
     ekf_settings : EKFSettings, optional
         The shield's own obstacle filters, for a controller that provides no forecasts.
     """
 
     def __init__(self, policy, robot: RobotParams | None = None, fallback=None, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, trust_planner_s: float | None = None,
-                 horizon: int | None = None, ekf_settings: EKFSettings | None = None):
+                 horizon: int | None = None, ekf_settings: EKFSettings | None = None, trust_plans: bool = False):
         for attr in ("decide", "reset"):
             if not callable(getattr(policy, attr, None)):
                 raise TypeError(f"the shielded controller must have a {attr}() method")
@@ -83,6 +89,7 @@ class Shield:
         self.filter = SafetyFilter(self.robot, self.sample_time_s, self.horizon, margin_m, sigmas, substeps,
                                    fallback=fallback, trust_planner_s=trust_planner_s)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
+        self.trust_plans = bool(trust_plans)
         self.ekf_settings = ekf_settings or EKFSettings()
         self._names: dict[str, str] = {}
         self.reset()
@@ -136,7 +143,7 @@ class Shield:
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
         cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
         v = self.filter.filter(obs, cand, forecasts, obs.static, dec.planned_poses if own else None,
-                               dec.alternatives)
+                               dec.alternatives, self.filter.trust_planner_s if self.trust_plans else None)
         info = dec.info  # the decision is new each step: annotate it in place
         info["safety_time_s"] = time.perf_counter() - t0
         info["safety_clearance_m"] = v.check.min_clearance_m

@@ -143,7 +143,8 @@ def make_controller(kind: str, config, robot, model=None, shield: str | None = N
         except ImportError as exc:
             raise UsageError(f"--shield-fallback gpc needs the planner ({exc}); use --shield-fallback brake") from None
         fallback = StandbyPlanner(GPCController(config, robot))
-    return Shield(base, robot, fallback=fallback)
+    # the planner replans at every sample: its plans are trusted for the filter's trust time
+    return Shield(base, robot, fallback=fallback, trust_plans=kind == "gpc")
 
 
 def check_seed(seed: int | None) -> None:

@@ -153,9 +153,9 @@ class MPPIPeer:
         cfg = self.config
         H = cfg.horizon
         forecasts = [self.bank.forecast(m, ekf, H) for m, ekf in self.bank.step(observation.moving)]
-        self.clock.update(observation.reference, observation.t_s, (observation.robot.x_m, observation.robot.y_m))
-        s = np.concatenate([[self.clock.s_m], self.clock.horizon_arclengths(observation.reference, H)])
-        ref = observation.reference.pose_at_arclength(s)                     # steps 0..H
+        path = observation.reference
+        self.clock.update(path, observation.t_s, (observation.robot.x_m, observation.robot.y_m))
+        ref = np.array(path.poses_along(self.clock.s_m, path.speed_mps * cfg.sample_time_s, H + 1))  # steps 0..H
         path_xy = ref[1:, :2] if self._path_xy is None else np.vstack([self._path_xy[1:], self._path_xy[-1:]])
         p, _ = planner_parameters(self.problem.layout, observation.robot.as_array(), ref, forecasts,
                                   observation.static, cfg, path_xy)

@@ -46,9 +46,9 @@ class MPPISettings:
     noise_std_mps: float = 0.05
     """Standard deviation of the sampled wheel-speed increments per step (m/s), each wheel.
     The GPC's cost charges increments (lambda1 = 63 per (m/s)^2), so noise is expensive: at
-    0.2 m/s a random sample's effort alone costs about 60, and MPPI tracked an empty path at
-    0.41 m RMS (mean closed-loop cost 43); at 0.05, 0.33 m (cost 9.5, the GPC: 0.14 m, 2.2)
-    with no fewer successes among crowds (docs/peers.md)."""
+    0.2 m/s a random sample's effort alone costs about 60, and on an empty path MPPI's mean
+    closed-loop cost was 75; at 0.05, 18 (the GPC's: 2.4), with as many development crowd
+    and random-multi episodes reached (docs/peers.md)."""
     temperature: float = 1.0
     """lambda, in units of the GPC's cost J. 0.3 and 10 were no better."""
     iterations: int = 1

@@ -17,6 +17,11 @@ start from last tick's optimum needs a few iterations. The fixed guesses are sol
 - ``PlannerConfig.multistart_period_s`` has passed since the last full multi-start (a new
   minimum can open without a new obstacle, as an obstacle moves).
 
+While a single candidate is kept near an obstacle that matters, the two swerves are solved
+beside it (``opening_solves``): a head-on mover puts that one plan on the ridge between passing
+left and passing right, where a warm start falls to either side by the solver's round-off; the
+swerves find both sides and the tie goes to the right, as in the full multi-start.
+
 Candidates that reach the same optimum (increments within :data:`SAME_PLAN_MPS`) are one
 class: the first in tie order stays. A candidate whose solve fails is dropped. Far from
 every obstacle only the incumbent is kept. The cheapest survivor wins, exact ties going to

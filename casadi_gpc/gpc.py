@@ -12,7 +12,7 @@ from .candidates import CandidateSet
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
 from .ekf import EKFSettings, ObstacleEKF
-from .guesses import TIE_ORDER, initial_guesses
+from .guesses import TIE_ORDER, initial_guesses, swerve_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
 from .selection import planner_parameters
@@ -228,6 +228,17 @@ class GPCController:
         full = cs.full_multistart_due(near, relevant)
         previous = cs.incumbent
         solved = []
+        if not full and near and relevant and len(cs.plans) == 1:
+            # one class near an obstacle that matters: the plan may sit on the ridge between
+            # passing left and right (a head-on mover), where a warm start falls to either side
+            # by round-off. The two swerves are solved first, so a tie goes to the right.
+            self.counters["opening_solves"] = self.counters.get("opening_solves", 0) + 2
+            openings = swerve_guesses(self.config, self.robot, x0, ref_speed_mps)
+            for name in ("swerve_right", "swerve_left"):
+                if self._out_of_time():
+                    self.counters["budget_skips"] += 1
+                    continue
+                solved.append(self.solve(p, openings[name], name))
         for name, (u0, lam_x, lam_g) in cs.starts(near, full):
             if self._out_of_time():
                 self.counters["budget_skips"] += 1

@@ -148,6 +148,8 @@ def train(data: str, parts: str | None, net: str, models: Path) -> Path:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", nargs="*", default=[], metavar="NAME=DIR[:PARTS]")
+    ap.add_argument("--models", nargs="*", default=[], metavar="NAME=MODEL.onnx",
+                    help="rows for networks already trained (e.g. the shipped one), with their own passes")
     ap.add_argument("--nets", default="35,64,64x2")
     ap.add_argument("--passes", default="1,2")
     ap.add_argument("--random", type=int, default=100)
@@ -173,16 +175,20 @@ def main(argv=None) -> int:
             for passes in (int(p) for p in args.passes.split(",")):
                 todo.append((f"{name}-{net}-p{passes}", "nn", folder.with_name(folder.name + f"-p{passes}.onnx"),
                              passes, None))
+    for spec in args.models:
+        name, _, path = spec.partition("=")
+        todo.append((name, "nn", Path(path), None, None))
     for key, kind, model, passes, margin in todo:
         if key in results:
             continue
         print(f"measuring {key} ...", flush=True)
         row = measure(kind, model, passes, gpc, args, margin)
         if model is not None:
-            meta = json.loads((Path(str(model)).parent / Path(str(model)).name.rsplit("-p", 1)[0] / "model.json")
-                              .read_text())
-            row["validation_rmse_mps"] = meta["validation_mse"] ** 0.5
-            row["samples"] = meta["n_train"] + meta["n_validation"]
+            from nn_export.runtime.policy import OnnxPolicy
+            info = OnnxPolicy(model, preset="paper", safety_filter=False).model_info
+            row["validation_rmse_mps"] = info["validation_rmse_mps"]
+            row["samples"] = info["dataset"].get("samples")
+            row["network"] = f"17-{'-'.join([str(info['hidden'])] * info['layers'])}-2"
         results[key] = row
         write_json(results_path, results)
         print(key, json.dumps({k: v for k, v in row.items() if k != "fig7"}),

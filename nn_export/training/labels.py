@@ -273,9 +273,9 @@ class Labeller:
                ) -> Label:
         x0 = situation.robot.as_array()
         best, candidates = ctl.plan(p, x0, situation.ref_speed_mps, True, None)
+        self.counters["solves"] += len(candidates)
         if best is not None and obstacle is not None:
             return self._near_tie_label(ctl, solver, situation, p, obstacle, candidates)
-        self.counters["solves"] += len(candidates)
         costs = np.full(len(GUESS_NAMES), np.nan)
         for c in candidates:
             if c.success and c.guess in GUESS_NAMES:

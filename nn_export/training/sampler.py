@@ -177,6 +177,8 @@ class SamplerSettings:
     """A conflict passes within +-this of the desired point, laterally, m."""
     second_pass_max_clearance_m: float = 1.25
     """Kept only if it comes within this clearance of the desired path at some step 1..H, m."""
+    second_pass_reference: str = "rollout"
+    """The first pass's prediction: ``rollout`` (as the deployed policy) or ``plan`` (the GPC's open-loop plan)."""
     # --- static obstacles (``multi`` only)
     static_counts_multi: tuple[float, ...] = (0.4, 0.2, 0.2, 0.2)
     """Probabilities of 0..3 static obstacles."""
@@ -263,10 +265,10 @@ def episode_tail(rng: np.random.Generator, config: PlannerConfig, layout_name: s
     obstacle counts and history lengths, the reference path, the robot now, the rollout
     reference, the moving obstacles, the static ones, the measurements.
 
-    ``first_pass``: the paper's second pass. A callable given the obstacle-free tail (the
-    same path, robot and history) that returns the first pass's prediction: the desired
-    poses at steps 0..H, shape (H+1, 3), step 0 the robot's pose, and their mean speed. The
-    obstacles are then drawn against that path (module docstring); no rollout reference."""
+    ``first_pass``: the paper's second pass. A callable given the obstacle-free tail (same
+    path, robot, history) and ``second_pass_reference`` that returns the first pass's
+    prediction: the desired poses at steps 0..H, shape (H+1, 3), step 0 the robot's pose,
+    and their mean speed. The obstacle is drawn against that path; no rollout reference."""
     st = settings or SamplerSettings()
     robot = robot or RobotParams()
     H, T = config.horizon, config.sample_time_s
@@ -280,7 +282,7 @@ def episode_tail(rng: np.random.Generator, config: PlannerConfig, layout_name: s
     lateral, near = st.conflict_lateral_m, None
     if first_pass is not None:
         free = EpisodeTail(_history(rng, st, path, T, n_now, [], robot_now, (), ()), (), None)
-        rollout_ref, rollout_speed = first_pass(free)
+        rollout_ref, rollout_speed = first_pass(free, st.second_pass_reference)
         lateral, near = st.second_pass_lateral_m, _near_path(rollout_ref, robot, st.second_pass_max_clearance_m, T)
     elif rng.random() < st.p_rollout_reference:
         rollout_ref, rollout_speed = _rollout(rng, st, robot, robot_now.as_array(), H, T)

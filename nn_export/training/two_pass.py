@@ -62,6 +62,37 @@ def predicted_poses(situation: Situation, plan_wheels_mps: np.ndarray, robot: Ro
     return np.array(poses)
 
 
+def first_pass_prediction(labeller: Labeller, situation: Situation, ref_ahead: np.ndarray, mode: str = "rollout",
+                          first: Label | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The first pass with the GPC as the network: the robot's poses at steps 0..H and its
+    wheel speeds (H, 2), as if there were no obstacle; None if a label did not converge.
+
+    ``mode``: ``"rollout"``, as the deployed policy predicts (the obstacle-free answer
+    applied step by step, step j with the desired poses ``ref_ahead[j:j + H + 1]``; needs
+    ``ref_ahead`` of 2H poses), or ``"plan"`` (the GPC's open-loop plan from now).
+    ``first``: the label of the obstacle-free situation now, if already solved."""
+    free = situation.without_obstacles()
+    robot = labeller.robot
+    if mode == "plan":
+        label = first or labeller.label(free)
+        return (predicted_poses(free, label.plan_wheels_mps, robot), label.plan_wheels_mps) if label.converged else None
+    H, W, T = situation.horizon, robot.wheel_base_m, situation.sample_time_s
+    state, poses, wheels = situation.robot, [situation.robot.as_array()[:3]], []
+    for j in range(H):
+        # each step labelled as the dataset labels (every guess): what a network that
+        # imitates the labels predicts
+        label = first if j == 0 and first is not None else labeller.label(
+            replace(free, robot=state, ref_poses=ref_ahead[j:j + H + 1]))
+        if not label.converged:
+            return None
+        vr, vl = (float(v) for v in label.wheels_mps)
+        x, y, h = (float(a) for a in robot_step(np, state.x_m, state.y_m, state.heading_rad, vr, vl, T, W))
+        state = RobotState(x, y, h, vr, vl)
+        poses.append((x, y, h))
+        wheels.append((vr, vl))
+    return np.array(poses, dtype=float), np.array(wheels)
+
+
 class _Unlabelled(Exception):
     """The first pass's situation had no converged GPC answer: draw again."""
 
@@ -72,21 +103,24 @@ def two_pass_samples(rng: np.random.Generator, config: PlannerConfig, labeller: 
     """One draw: ``[(first-pass situation, its label), (second-pass situation, its label)]``
     (the second label may be unconverged; the first is converged, else the draw is repeated)."""
     robot = robot or RobotParams()
-    tracker = tracker or SituationTracker(config)
+    tracker = tracker or SituationTracker(config, reference_steps=2 * config.horizon - 1)
     first: list = []
 
-    def first_pass(free_tail):
+    def first_pass(free_tail, mode: str):
         sit = situation_from_tail(free_tail, config, tracker=tracker)
         label = labeller.label(sit)
-        if not label.converged:
+        prediction = label.converged and first_pass_prediction(labeller, sit, tracker.reference_ahead_,
+                                                               mode, label)
+        if not prediction:
             raise _Unlabelled
         sit.info.update(tail=free_tail, decision_pass=1)
         first.append((sit, label))
-        return predicted_poses(sit, label.plan_wheels_mps, robot), float(np.mean(label.plan_wheels_mps))
+        poses, wheels = prediction
+        return poses, float(np.mean(wheels))
 
     for _attempt in range(100):
         try:
-            second = sample_situation(rng, config, "paper", robot, settings, tracker, first_pass)
+            second = sample_situation(rng, config, "paper", robot, settings or SETTINGS, tracker, first_pass)
         except _Unlabelled:
             continue
         second.info["decision_pass"] = 2
@@ -97,7 +131,7 @@ def two_pass_samples(rng: np.random.Generator, config: PlannerConfig, labeller: 
 def two_pass_stream(rng: np.random.Generator, config: PlannerConfig, labeller: Labeller,
                     robot: RobotParams | None = None, settings: SamplerSettings | None = None):
     """An endless stream of ``(situation, label)`` pairs from :func:`two_pass_samples`."""
-    tracker = SituationTracker(config)
+    tracker = SituationTracker(config, reference_steps=2 * config.horizon - 1)
     while True:
         yield from two_pass_samples(rng, config, labeller, robot, settings, tracker)
 
@@ -128,20 +162,7 @@ class TwoPassGPC:
 
     def predict(self, situation: Situation, ref_ahead: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The first pass: desired poses at steps 0..H and the wheel speeds (H, 2)."""
-        free = situation.without_obstacles()
-        if self.first_pass == "plan":
-            label = self.labeller.label(free)
-            return predicted_poses(free, label.plan_wheels_mps, self.robot), label.plan_wheels_mps
-        H, W, T = self.config.horizon, self.robot.wheel_base_m, self.sample_time_s
-        r = situation.robot
-        state, poses, wheels = r, [(r.x_m, r.y_m, r.heading_rad)], []
-        for j in range(H):
-            vr, vl = self.labeller.label(replace(free, robot=state, ref_poses=ref_ahead[j:j + H + 1])).wheels_mps
-            x, y, h = (float(a) for a in robot_step(np, state.x_m, state.y_m, state.heading_rad, vr, vl, T, W))
-            state = RobotState(x, y, h, float(vr), float(vl))
-            poses.append((x, y, h))
-            wheels.append((float(vr), float(vl)))
-        return np.array(poses), np.array(wheels)
+        return first_pass_prediction(self.labeller, situation, ref_ahead, self.first_pass)
 
     def decide(self, obs: Observation) -> ControlDecision:
         situation = self.tracker.update(obs)

@@ -100,8 +100,11 @@ class _RecordingController(GPCController):
 
 
 def record_problems(scenario, config: PlannerConfig) -> Recording:
-    """Run ``scenario`` closed loop with the GPC on the reference solver and keep every NLP."""
-    ctl = _RecordingController(config.with_overrides(solver=REFERENCE), scenario.robot, compile_solver=False)
+    """Run ``scenario`` closed loop with the GPC on the reference solver and keep every NLP.
+    The GPC runs the full multi-start here (every step: the previous plan warm, and near
+    obstacles every fixed guess), so that each step has its one warm-started problem."""
+    ctl = _RecordingController(config.with_overrides(solver=REFERENCE, candidates="multistart"), scenario.robot,
+                               compile_solver=False)
     log = simulate(scenario, ctl, "gpc")
     by_step: dict[int, list[int]] = {}
     for i, q in enumerate(ctl.recorded):
@@ -319,12 +322,16 @@ def speedups(rows: list[dict], chosen: str, reference: str = REFERENCE) -> dict:
 
 def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_NAMES,
               policies: Sequence[tuple[str, Callable[[], Policy]]] = (), gpc_rows: bool = True,
-              progress: Callable | None = None, compiled: bool = True, say: Callable[[str], None] | None = None) -> dict:
+              progress: Callable | None = None, compiled: bool = True, say: Callable[[str], None] | None = None,
+              decision_scenarios: Sequence = ()) -> dict:
     """Record ``scenario`` under ``config``, run ``solvers`` (the reference is always added)
     on its problems and ``policies`` on its observations; returns the BENCH document.
 
     ``gpc_rows`` adds two policy rows, the full GPC decision (estimation included) with the
-    reference solver and with the chosen one, replayed on the recorded observations."""
+    reference solver and with the chosen one, replayed on the recorded observations.
+    ``decision_scenarios`` (a crowd scene, say) are run closed loop with the planner as shipped,
+    beside ``scenario`` itself (:mod:`casadi_gpc.bench_decisions`): decision times, solves
+    per decision, and the persistent candidates against the full multi-start."""
     say = say or (lambda msg: None)
     names = list(dict.fromkeys([REFERENCE, *solvers]))
     say(f"recording the control problems of {scenario.name} (preset {config.name}, H={config.horizon}, "
@@ -366,10 +373,28 @@ def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_N
                    "as_good_as_reference_rate": (ch.get("vs_reference") or {}).get("as_good_rate", 1.0)},
         "results": rows,
         "speedup": speedups(rows, chosen),
+        "decisions": decision_rows([scenario, *decision_scenarios], config, ch["time_s"]["median"], say),
         "timing": "time_s: wall time of one solve called from Python (conversions included), one call per "
                   "problem, solvers interleaved problem by problem",
     }
     return _finite_or_none(doc)
+
+
+def decision_rows(scenarios, config: PlannerConfig, warm_solve_median_s: float, say) -> list[dict]:
+    """The planner's whole decision on each scenario (closed loop, as shipped) beside one
+    warm solve of the chosen solver, and its persistent candidates against the full
+    multi-start on the same recorded problems."""
+    from .bench_decisions import compare_candidates, decision_run, record_ticks
+    out = []
+    for sc in scenarios:
+        say(f"the planner's decision on {sc.name} ({len(sc.moving)} movers), and its candidates against the "
+            f"full multi-start")
+        row = decision_run(sc, config)
+        row["single_warm_solve_median_s"] = warm_solve_median_s
+        row["decision_over_warm_solve"] = row["time_s"]["median"] / warm_solve_median_s
+        row["candidates_vs_multistart"] = compare_candidates(record_ticks(sc, config), config, sc.robot)
+        out.append(row)
+    return out
 
 
 def format_table(doc: dict) -> str:

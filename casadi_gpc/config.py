@@ -45,20 +45,57 @@ class PlannerConfig:
     """If set, a soft constraint d >= margin + k sigma enforced by a steep penalty."""
     clearance_penalty: float = 1e4
     """Weight of the squared violation of the clearance margin."""
+    margin_smoothing_m: float | None = None
+    """If set, the margin's violation ``max(m - d, 0)`` enters as the smooth
+    ``(v + sqrt(v^2 + e^2)) / 2`` with this ``e``: the exact form's curvature jumps from 0
+    to twice the penalty at the margin, and the SQP's Newton steps kept overshooting it
+    (warm starts in crowds: 14 iterations median, 8 with e = 0.05 m, on the same recorded
+    problems). It adds e^2/4 times the penalty right at the margin and fades within ~2 e
+    outside it: the robot keeps a few cm more."""
     uncertainty_sigmas: float = 2.0
     """k: how many predicted position standard deviations inflate the margin."""
     max_lead_m: float | None = None
     """If set, the reference point never runs more than this far ahead of the robot's
     projection on the path (it waits while the robot yields). None: the paper's clock."""
     max_moving: int = 3
-    """Moving-obstacle slots of the NLP (unused slots are switched off)."""
+    """Moving-obstacle slots of the NLP (unused slots are switched off). With more movers,
+    the most relevant fill them (:mod:`casadi_gpc.selection`)."""
+    relevance_range_m: float = 2.5
+    """A mover left out of the slots is counted (``left_out``) when its predicted clearance
+    to the robot's predicted path is under this (the obstacle term's 1.5 m reach of the
+    ``improved`` preset plus 1 m of room for the plan to change)."""
+    goal_weight: float = 1.0
+    """Factor on the tracking weight of the desired poses at the end of the path. The
+    paper's 1 lets an obstacle standing near the goal hold the robot off it: under
+    ``improved``, a walker standing 1 m from the goal kept the robot 0.4 m away, outside the
+    goal's 0.3 m, until the time limit; with 10, two walkers standing 1 m either side of the
+    goal still did (their obstacle terms outweighed 40 times the squared offset); 30 brings
+    it within 0.15 m (docs/model.md)."""
     max_static: int = 3
     """Static-obstacle slots of the NLP."""
     multistart_range_m: float = 3.0
     """Extra range, beyond the robot's reach in one horizon, within which an obstacle makes
     the GPC solve from several initial guesses."""
+    candidates: str = "persistent"
+    """``persistent``: the solutions found are kept alive from tick to tick and warm-started,
+    the fixed guesses solved again only when an obstacle comes near, when every candidate was
+    lost, or every ``multistart_period_s`` (:mod:`casadi_gpc.candidates`); ``multistart``:
+    every fixed guess and the previous plan at every tick near obstacles (the reference)."""
+    multistart_period_s: float = 3.0
+    """Longest time between two full multi-starts while obstacles are near (persistent
+    candidates)."""
+    surprise_ratio: float | None = 0.2
+    """Persistent candidates: when the best warm-started candidate costs more than this
+    fraction above the last tick's best, the fixed guesses are solved as well in the same
+    tick (a minimum may have opened that no kept candidate is in). None: never."""
+    prune_ratio: float | None = 0.25
+    """Persistent candidates: a candidate dearer than the best by more than this fraction
+    is let go (None: every distinct one is kept)."""
     swerve_turn_rate_rad_s: float = 0.5
     """Turn rate of the swerve-left / swerve-right initial guesses."""
+    guesses: tuple[str, ...] = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left")
+    """The fixed initial guesses of the multi-start, by name (:data:`casadi_gpc.guesses.TIE_ORDER`
+    gives their tie-break order whatever the order here)."""
     solver: str = "ipopt"
     """NLP solver backend of the controller (``casadi_gpc.solvers.SOLVER_NAMES``; ``ipopt`` is
     ``ipopt-warm``). The presets use the one ``gpcnav bench`` measured fastest among those
@@ -76,7 +113,11 @@ class PlannerConfig:
 
 PRESETS: dict[str, PlannerConfig] = {
     # solver: measured by `gpcnav bench --preset paper|improved` (docs/solvers.md)
-    "paper": PlannerConfig(name="paper", sample_time_s=1.5, solver="sqpmethod-daqp+fatrop"),
+    # a full multi-start every 4 steps at most: 3 s would be every other step at T = 1.5 s
+    # at T = 1.5 s the cost jumps from step to step as an obstacle nears: a surprise is no sign
+    # of a new minimum there (measured: the same plans on Fig. 7 with one solve a step fewer)
+    "paper": PlannerConfig(name="paper", sample_time_s=1.5, solver="sqpmethod-daqp+fatrop", multistart_period_s=6.0,
+                           surprise_ratio=None),
     "improved": PlannerConfig(
         name="improved",
         sample_time_s=0.5,
@@ -86,6 +127,10 @@ PRESETS: dict[str, PlannerConfig] = {
         clearance_margin_m=0.15,
         max_lead_m=0.5,
         solver="sqpmethod-daqp+fatrop",
+        max_moving=6,
+        margin_smoothing_m=0.05,
+        goal_weight=30.0,
+        guesses=("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake"),
     ),
 }
 DEFAULT_PRESET = "improved"

@@ -6,21 +6,25 @@ dVl_{H-1}]`` (m/s). Everything that changes from tick to tick is a parameter, pa
 
 Cost (``docs/model.md``)::
 
-    J = sum_i  wt ((x_i - xd_i)^2 + (y_i - yd_i)^2) + wh wrap(th_i - thd_i)^2
+    J = sum_i  wt w_i ((x_i - xd_i)^2 + (y_i - yd_i)^2) + wh wrap(th_i - thd_i)^2
       + sum_i  lambda1 (dVr_i^2 + dVl_i^2) + lambda2 (Vr_i - Vl_i)^2
       + sum_j sum_i  xi / (P_ij dist_ij^2)          (paper; or xi/P (1/d - 1/d0)_+^2)
-      [+ sum_j sum_i  w (margin_ij - dist_ij)_+^2]   (improved: soft clearance constraint)
+      [+ sum_j sum_i  w (margin_ij - dist_ij)_+^2]   (improved: soft clearance constraint,
+                                                       ( )_+ smoothed, PlannerConfig.margin_smoothing_m)
 
-with ``dist`` the clearance between the robot's disc and the obstacle's disc.
+with ``dist`` the clearance between the robot's disc and the obstacle's disc and ``w_i`` the
+goal factor of desired pose i (``PlannerConfig.goal_weight`` at the end of the path, else 1).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import casadi as ca
 import numpy as np
 
 from .config import PlannerConfig
+from .ekf import worst_std_m
 from .robot import RobotParams, robot_step
 from .types import ObstacleForecast, StaticObstacle
 
@@ -43,6 +47,7 @@ class ParameterLayout:
         return {
             "x0": (5,),                  # x, y, heading, v_right, v_left
             "ref": (H, 3),               # desired x, y, heading at steps 1..H
+            "ref_w": (H,),               # tracking weight factor of each (goal_weight at the path's end)
             "mov_xy": (M, H, 2),         # predicted obstacle positions
             "mov_p": (M, H),             # the paper's P (>= 1)
             "mov_sigma": (M, H),         # predicted position std (m) for the margin
@@ -53,11 +58,17 @@ class ParameterLayout:
             "sta_on": (S,),
         }
 
-    @property
+    @cached_property
     def size(self) -> int:
         return sum(int(np.prod(s)) for s in self.blocks.values())
 
     def slices(self) -> dict[str, slice]:
+        """The named blocks' places in the parameter vector (the same dict every call: do not
+        change it)."""
+        return self._slices
+
+    @cached_property
+    def _slices(self) -> dict[str, slice]:
         out, k = {}, 0
         for name, shape in self.blocks.items():
             n = int(np.prod(shape))
@@ -72,8 +83,11 @@ class ParameterLayout:
         forecasts: list[ObstacleForecast] | tuple = (),
         statics: list[StaticObstacle] | tuple = (),
         uncertainty_scale_m: float = 0.5,
+        ref_weights: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Parameter vector for one tick. The nearest obstacles fill the slots."""
+        """Parameter vector for one tick, the obstacles in the order given
+        (:mod:`casadi_gpc.selection` chooses them). ``ref_weights``: the tracking weight
+        factor of each desired pose (:func:`casadi_gpc.selection.goal_weights`; None: 1)."""
         H, M, S = self.horizon, self.max_moving, self.max_static
         if len(forecasts) > M or len(statics) > S:
             raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")
@@ -81,18 +95,20 @@ class ParameterLayout:
         p = np.zeros(self.size)
         p[sl["x0"]] = x0
         p[sl["ref"]] = np.asarray(ref, dtype=float).reshape(-1)
+        p[sl["ref_w"]] = 1.0 if ref_weights is None else np.asarray(ref_weights, dtype=float)
         mov_xy = np.full((M, H, 2), FAR_AWAY_M)
         mov_p = np.ones((M, H))
         mov_sigma = np.zeros((M, H))
         mov_r = np.zeros(M)
         mov_on = np.zeros(M)
-        for j, f in enumerate(forecasts):
-            mov_xy[j] = f.means_m
-            var = np.trace(f.covs_m2, axis1=1, axis2=2)
-            mov_p[j] = 1.0 + var / uncertainty_scale_m ** 2
-            mov_sigma[j] = np.sqrt(np.linalg.eigvalsh(f.covs_m2)[:, -1])
-            mov_r[j] = f.radius_m
-            mov_on[j] = 1.0
+        n = len(forecasts)
+        if n:  # all forecasts at once: numpy's per-call cost, not the arithmetic, is what costs here
+            covs = np.array([f.covs_m2 for f in forecasts], dtype=float)      # (n, H, 2, 2)
+            mov_xy[:n] = [f.means_m for f in forecasts]
+            mov_p[:n] = 1.0 + (covs[..., 0, 0] + covs[..., 1, 1]) / uncertainty_scale_m ** 2
+            mov_sigma[:n] = worst_std_m(covs)
+            mov_r[:n] = [f.radius_m for f in forecasts]
+            mov_on[:n] = 1.0
         sta_xy = np.full((S, 2), FAR_AWAY_M)
         sta_r = np.zeros(S)
         sta_on = np.zeros(S)
@@ -161,7 +177,7 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
     obst = margin_pen = 0
     turning = config.lambda2 * (vr - vl) ** 2
     e_h = th - ref[i, 2]
-    tracking = config.tracking_weight * ((x - ref[i, 0]) ** 2 + (y - ref[i, 1]) ** 2)
+    tracking = config.tracking_weight * P["ref_w"][i] * ((x - ref[i, 0]) ** 2 + (y - ref[i, 1]) ** 2)
     tracking += config.heading_weight * ca.atan2(ca.sin(e_h), ca.cos(e_h)) ** 2
     obstacles = []
     for j in range(M):
@@ -181,7 +197,9 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
             obst += on * xi / p_unc * ca.fmax(1.0 / d_eff - 1.0 / config.influence_m, 0.0) ** 2
         if config.clearance_margin_m is not None:
             m = config.clearance_margin_m + config.uncertainty_sigmas * sigma
-            margin_pen += on * config.clearance_penalty * ca.fmax(m - d, 0.0) ** 2
+            e = config.margin_smoothing_m
+            violation = ca.fmax(m - d, 0.0) if e is None else _smooth_positive(m - d, e)
+            margin_pen += on * config.clearance_penalty * violation ** 2
     return tracking, turning, obst, margin_pen
 
 

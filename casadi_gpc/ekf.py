@@ -9,17 +9,24 @@ constant turn increment), with T the sample time::
     y'     = y + V T sin(theta')
     V' = V,  dtheta' = dtheta
 
-Measurements are positions with white noise. Numpy only (the deployed policy uses it).
+Measurements are positions with white noise. An innovation beyond the Mahalanobis gate is
+not fused. When it is within what the obstacle could have done in a sample
+(``EKFSettings.max_maneuver_mps``) and the next measurement is gated out too and agrees with
+it, the obstacle manoeuvred (a walker stopping dead at its goal): the velocity is estimated
+afresh from the two, counted; meanwhile :meth:`ObstacleEKF.ghost` stands at the pending
+measurement for planners to avoid too. A run of ``max_rejections`` rejections restarts the
+track at the last one. Numpy only (the deployed policy uses it).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from operator import itemgetter
 
 import numpy as np
 
-__all__ = ["EKFSettings", "ObstacleEKF", "obstacle_model_step", "planning_covariances", "GATE_CHI2_2DOF"]
+__all__ = ["EKFSettings", "ObstacleEKF", "obstacle_model_step", "planning_covariances", "worst_std_m",
+           "GATE_CHI2_2DOF"]
 
 GATE_CHI2_2DOF = 18.42  # chi-square(2) 0.9999 quantile: an innovation beyond it is an outlier
 
@@ -34,6 +41,15 @@ def planning_covariances(covs_m2: np.ndarray, initialised: bool) -> np.ndarray:
     with its next step's uncertainty at every step: the next sample gives it a velocity."""
     covs_m2 = np.asarray(covs_m2)
     return covs_m2 if initialised else np.repeat(covs_m2[:1], len(covs_m2), axis=0)
+
+
+def worst_std_m(covs_m2) -> np.ndarray:
+    """Standard deviation of predicted positions along their worst direction: the square
+    root of the largest eigenvalue of each 2x2 covariance (last two axes), in closed form.
+    The planner's clearance margin and the safety check both widen by it."""
+    c = np.asarray(covs_m2, dtype=float)
+    a, b, d = c[..., 0, 0], c[..., 0, 1], c[..., 1, 1]
+    return np.sqrt(np.maximum((a + d) * 0.5 + np.hypot((a - d) * 0.5, b), 0.0))
 
 
 def obstacle_model_step(s: np.ndarray, sample_time_s: float) -> np.ndarray:
@@ -174,8 +190,32 @@ class EKFSettings:
     """Std of the speed while only one position has been seen."""
     gate_chi2: float = GATE_CHI2_2DOF
     """Mahalanobis gate of the innovation; larger innovations are rejected as outliers."""
+    max_maneuver_mps: float = 1.5
+    """The largest change of velocity an obstacle makes within one sample: a measurement
+    beyond the gate but nearer its prediction than this times T may be a manoeuvre (a stop, a
+    swerve), which the next measurement confirms; a farther one is a sensor glitch."""
     max_rejections: int = 3
     """After this many outliers in a row the track restarts at the new measurement."""
+
+    def for_sample_time(self, sample_time_s: float, reference_sample_time_s: float = 0.5) -> "EKFSettings":
+        """These settings, meant per step of ``reference_sample_time_s`` (the ``improved``
+        planner's 0.5 s), for a filter stepped every ``sample_time_s`` with the same noise
+        per second: the random walks of position and heading keep their variance per second
+        (std x sqrt(T / T0)), the speed's too (std x sqrt(T0 / T), as its std per step is
+        this times T), and the turn increment, a turn rate times T, keeps its turn rate's
+        (std x (T / T0)^1.5; its initial std x T / T0). Without this a filter stepped every
+        0.1 s forecasts 6 s ahead with a heading lost entirely (the turn increment's random
+        walk summed over 60 steps instead of 12)."""
+        r = float(sample_time_s) / float(reference_sample_time_s)
+        if not (math.isfinite(r) and r > 0):
+            raise ValueError(f"sample times must be positive, got {sample_time_s} and {reference_sample_time_s}")
+        if r == 1.0:
+            return self
+        return replace(self, speed_noise_mps2=self.speed_noise_mps2 / math.sqrt(r),
+                       turn_noise_rad=self.turn_noise_rad * r ** 1.5,
+                       heading_noise_rad=self.heading_noise_rad * math.sqrt(r),
+                       position_noise_m=self.position_noise_m * math.sqrt(r),
+                       initial_turn_std_rad=self.initial_turn_std_rad * r)
 
 
 @dataclass
@@ -189,8 +229,13 @@ class ObstacleEKF:
     measurements_seen_: int = 0
     missed_: int = 0
     outliers_: int = 0
+    maneuvers_: int = 0
     _last_z: np.ndarray | None = None
     _rejections_in_row: int = 0
+    _since_z: int = 0  # samples since the last fused measurement (_last_z)
+    pending_z_: np.ndarray | None = None
+    """A plausible measurement gated out at the last step, waiting for the next one to tell a
+    glitch from a manoeuvre (:meth:`ghost`)."""
     _steps_since_first: int = 1  # samples between the first and the second measurement
 
     def _R(self) -> np.ndarray:
@@ -225,6 +270,8 @@ class ObstacleEKF:
         self.cov_ = np.diag([r, r, st.initial_speed_std_mps ** 2, np.pi ** 2, st.initial_turn_std_rad ** 2])
         self.measurements_seen_ = 1
         self._last_z = z
+        self._since_z = 0
+        self.pending_z_ = None
         self._rejections_in_row = 0
         self._steps_since_first = 1
 
@@ -273,7 +320,7 @@ class ObstacleEKF:
                 return "missed"
             z = np.array((zx, zy))
             self._second(z)
-            self._last_z = z
+            self._last_z, self._since_z = z, 0
             return "update"
         # propagation (plain floats: see _propagate)
         x, y, v, th, dth = self.state_.tolist()
@@ -283,6 +330,8 @@ class ObstacleEKF:
             self.state_ = np.array((x, y, v, th, dth))
             self.cov_ = _cov_array(U)
             self.missed_ += 1
+            self._since_z += 1
+            self.pending_z_ = None
             return "missed"
         # correction, with an innovation gate against outliers; S = P[:2, :2] + R is 2x2
         r = self._r()
@@ -291,14 +340,36 @@ class ObstacleEKF:
         det = s00 * s11 - s01 * s01
         m2 = (s11 * i0 * i0 - 2.0 * s01 * i0 * i1 + s00 * i1 * i1) / det  # innov^T S^-1 innov
         if m2 > self.settings.gate_chi2:
+            T = self.sample_time_s
+            z = np.array((zx, zy))
+            plausible = i0 * i0 + i1 * i1 <= (self.settings.max_maneuver_mps * T) ** 2
+            pending = self.pending_z_
+            if plausible and pending is not None and np.hypot(*(z - pending)) <= self.settings.max_maneuver_mps * T:
+                # Two plausible rejections in a row that agree with each other: a manoeuvre
+                # (a walker that stops dead at its goal, or turns). The constant-velocity model
+                # has no say in it: the velocity is estimated afresh from the two, as at a
+                # track's second sighting.
+                self.maneuvers_ += 1
+                self._last_z, self._steps_since_first = pending, 1
+                self._second(z)
+                self._last_z, self._since_z, self._rejections_in_row, self.pending_z_ = z, 0, 0, None
+                return "manoeuvre"
+            # Not fused: a sensor glitch, or the first sample of a manoeuvre (a walker that stops
+            # is 0.25 m from its prediction after 0.5 s; gated out three times in a row, a
+            # stopped walker was predicted walking on and the planner drove into it). While
+            # the next sample decides, a plausible one is kept as pending: :meth:`ghost` is
+            # the obstacle standing there, for planners to keep clear of as well.
+            self.pending_z_ = z if plausible else None
             self.state_ = np.array((x, y, v, th, dth))
             self.cov_ = _cov_array(U)
             self.outliers_ += 1
             self._rejections_in_row += 1
+            self._since_z += 1
             if self._rejections_in_row >= self.settings.max_rejections:
-                self._start(np.array((zx, zy)))  # the obstacle really is somewhere else: start over
+                self._start(z)  # the obstacle really is somewhere else: start over
                 return "start"
             return "outlier"
+        self.pending_z_ = None
         self._rejections_in_row = 0
         # gain K = P[:, :2] S^-1 (rows (k_i0, k_i1)) and the Joseph-form covariance
         K, N = _joseph(U, s11 / det, -s01 / det, s00 / det, r)
@@ -307,8 +378,20 @@ class ObstacleEKF:
         self.state_ = np.array((x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
                                 (th + math.pi) % (2 * math.pi) - math.pi, dth + k40 * i0 + k41 * i1))
         self.cov_ = _cov_array(N)
-        self._last_z = np.array((zx, zy))
+        self._last_z, self._since_z = np.array((zx, zy)), 0
         return "update"
+
+    def ghost(self) -> "ObstacleEKF | None":
+        """While a plausible measurement waits for confirmation (``pending_z_``): a filter of
+        the obstacle standing there, as if it had stopped (its speed as uncertain as two equal
+        measurements leave it), for a planner to keep clear of beside the track itself; else
+        None."""
+        if self.pending_z_ is None:
+            return None
+        g = ObstacleEKF(self.sample_time_s, self.settings)
+        g._start(self.pending_z_)
+        g._second(self.pending_z_)
+        return g
 
     def predict(self, horizon: int) -> tuple[np.ndarray, np.ndarray]:
         """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H."""

@@ -2,15 +2,17 @@
 a per-step time budget, and the fallback."""
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from .candidates import CandidateSet
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
 from .ekf import EKFSettings, ObstacleEKF
-from .guesses import initial_guesses
+from .guesses import TIE_ORDER, initial_guesses
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
 from .selection import planner_parameters
@@ -18,7 +20,7 @@ from .solvers import Backend, SolveResult, canonical_name, make_backend
 from .tracking import TrackBank
 from .types import ControlDecision, Observation, ObstacleForecast
 
-__all__ = ["Plan", "GPCController"]
+__all__ = ["Plan", "Tick", "GPCController"]
 
 TIE_RELATIVE = 1e-7  # candidates closer than this in cost are a tie; the earlier one wins
 
@@ -30,9 +32,32 @@ class Plan(SolveResult):
     guess: str = ""
 
 
+@dataclass(frozen=True)
+class Tick:
+    """One control step's NLP, as the planner poses it: what its candidates are solved on."""
+
+    p: np.ndarray
+    """The NLP parameters (``casadi_gpc.cost.ParameterLayout``)."""
+    x0: np.ndarray
+    """The robot's state (x, y, heading, v_right, v_left)."""
+    ref_speed_mps: float
+    near: bool
+    """Obstacles within the multi-start range (the cost is not convex)."""
+    relevant: frozenset
+    """The obstacles that matter now (:meth:`GPCController.plan_persistent`)."""
+
+
 @dataclass
 class GPCController:
-    """The paper's GPC with an EKF per moving obstacle. ``decide(observation)`` each sample."""
+    """The paper's GPC with an EKF per moving obstacle. ``decide(observation)`` each sample.
+
+    Each decision carries the forecasts of every tracked mover (``forecasts``: the shield
+    checks against them) and the other solved candidates, cheapest first (``alternatives``:
+    what the shield tries before its manoeuvres). The planner as shipped runs behind the
+    check, ``casadi_gpc.safety.Shield(GPCController(...))``: its answer must keep clear of
+    the predicted discs whatever the cost's weights (``gpcnav --controller gpc``)."""
+
+    provides_forecasts = True
 
     config: PlannerConfig = field(default_factory=lambda: preset("improved"))
     robot: RobotParams = field(default_factory=RobotParams)
@@ -61,6 +86,14 @@ class GPCController:
             self.backup = make_backend(self.backup_solver, self.problem, max_wall_time_s=self.time_budget_s,
                                        compiled=self.compile_solver, ipopt_options=self.ipopt_options)
         self._ref_slice = self.problem.layout.slices()["ref"]
+        self.horizon = self.config.horizon
+        unknown = sorted(set(self.config.guesses) - set(TIE_ORDER))
+        if unknown:
+            raise ValueError(f"unknown initial guesses {unknown} (choose from {', '.join(TIE_ORDER)})")
+        if self.config.candidates not in ("persistent", "multistart"):
+            raise ValueError(f"candidates must be 'persistent' or 'multistart', got {self.config.candidates!r}")
+        period = max(1, int(round(self.config.multistart_period_s / self.config.sample_time_s)))
+        self.candidates = CandidateSet(self.config.horizon, period, self.config.prune_ratio)
         self._failure_prob, self._failure_rng = 0.0, None
         self._deadline: float | None = None
         self.reset()
@@ -84,10 +117,14 @@ class GPCController:
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self._warm: Plan | None = None
         self._last_wheels: np.ndarray | None = None
+        self._path_xy: np.ndarray | None = None
+        """The robot's predicted positions at steps 1..H of the last plan (for relevance)."""
+        if hasattr(self, "candidates"):
+            self.candidates.reset()
         self.counters = {"solves": 0, "failed_solves": 0, "fallbacks": 0, "multistart": 0,
                          "missed_measurements": 0, "outliers": 0, "over_budget": 0, "budget_skips": 0,
                          "injected_failures": 0, "backup_solves": 0, "backup_successes": 0,
-                         "unestimated_tracks": 0}
+                         "unestimated_tracks": 0, "left_out": 0, "full_multistarts": 0}
         # the obstacle filters count their events (missed, outliers, unestimated) here too
         self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings, self.counters)
 
@@ -103,8 +140,13 @@ class GPCController:
         return [self.bank.forecast(m, ekf, H) for m, ekf in self.bank.step(obs.moving)]
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
-        self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
-        return obs.reference.pose_at_arclength(self.clock.horizon_arclengths(obs.reference, self.config.horizon))
+        """Advance the reference clock; the desired poses at steps 0..H, shape (H + 1, 3)
+        (step 0: where the reference point is now)."""
+        path = obs.reference
+        self.clock.update(path, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
+        # the arc lengths s + k v T, k = 0..H, clipped to the path (ReferenceClock.horizon_arclengths)
+        poses = path.poses_along(self.clock.s_m, path.speed_mps * self.config.sample_time_s, self.config.horizon + 1)
+        return np.array(poses)
 
     # --- solving -----------------------------------------------------------------------
     def solve(self, p: np.ndarray, u0: np.ndarray, guess: str = "", lam_x=None, lam_g=None) -> Plan:
@@ -131,17 +173,25 @@ class GPCController:
         return plan
 
     def obstacles_near(self, x0: np.ndarray, forecasts, statics) -> bool:
+        return bool(self.near_obstacles(x0, forecasts, statics))
+
+    def near_obstacles(self, x0: np.ndarray, forecasts, statics) -> frozenset:
+        """The obstacles (``("moving", id)``, ``("static", index)``) within the robot's reach
+        in one horizon plus ``multistart_range_m``: the ones that make the cost non-convex."""
         cfg, robot = self.config, self.robot
         reach = robot.max_wheel_speed_mps * cfg.horizon * cfg.sample_time_s + cfg.multistart_range_m
-        pts = [f.means_m for f in forecasts] + [np.asarray([s.position_m]) for s in statics]
-        return any(np.min(np.hypot(q[:, 0] - x0[0], q[:, 1] - x0[1])) < reach for q in pts)
+        near = [("moving", f.obstacle_id) for f in forecasts
+                if np.min(np.hypot(f.means_m[:, 0] - x0[0], f.means_m[:, 1] - x0[1])) < reach]
+        near += [("static", j) for j, s in enumerate(statics)
+                 if math.hypot(s.position_m[0] - x0[0], s.position_m[1] - x0[1]) < reach]
+        return frozenset(near)
 
     def plan(self, p: np.ndarray, x0: np.ndarray, ref_speed_mps: float, multistart: bool,
              warm: Plan | None = None) -> tuple[Plan, list[Plan]]:
         """Solve from the warm start and, if ``multistart``, from the fixed guesses; keep the
         cheapest successful plan. Exact ties keep the earliest guess (swerve right first)."""
         candidates: list[Plan] = []
-        ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)
+        ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
         guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses) if (multistart or warm is None) else {}
         # The warm start is solved first (the likeliest answer, when the budget is short);
         # the candidates keep the guesses-then-warm order that breaks ties.
@@ -167,6 +217,40 @@ class GPCController:
                 best = c
         return best, candidates
 
+    def plan_persistent(self, p: np.ndarray, x0: np.ndarray, ref_speed_mps: float, near: bool,
+                        relevant: frozenset) -> tuple[Plan, list[Plan]]:
+        """The persistent candidates' tick (:mod:`casadi_gpc.candidates`): each kept
+        candidate warm-started, or, when due, the full multi-start of :meth:`plan`.
+        ``near``: obstacles within the multi-start range; ``relevant``: the obstacles that
+        matter now (movers within ``relevance_range_m`` of the predicted path, static ones
+        near), whose newcomers make a full multi-start due."""
+        cs = self.candidates
+        full = cs.full_multistart_due(near, relevant)
+        previous = cs.incumbent
+        solved = []
+        for name, (u0, lam_x, lam_g) in cs.starts(near, full):
+            if self._out_of_time():
+                self.counters["budget_skips"] += 1
+                continue
+            solved.append(self.solve(p, u0, name, lam_x, lam_g))
+        surprise = self.config.surprise_ratio
+        if not full and near and surprise is not None:
+            best = min((c.cost for c in solved if c.success), default=math.inf)
+            if previous is not None and not best <= (1.0 + surprise) * abs(previous.cost) + 1e-9:
+                full = True  # dearer than expected: look for a minimum no kept candidate is in
+                cs.reason = "surprise"
+        if full:
+            self.counters["full_multistarts"] += 1
+            key = "multistart_" + cs.reason.replace(" ", "_")
+            self.counters[key] = self.counters.get(key, 0) + 1
+            ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
+            for name, u0 in initial_guesses(self.problem, x0, ref_speed_mps, ref_poses).items():
+                if self._out_of_time():
+                    self.counters["budget_skips"] += 1
+                    continue
+                solved.append(self.solve(p, u0, name))
+        return cs.update(solved, full, TIE_RELATIVE), solved
+
     def _out_of_time(self) -> bool:
         return self._deadline is not None and time.perf_counter() > self._deadline
 
@@ -184,42 +268,84 @@ class GPCController:
         finally:
             self._deadline = None
 
-    def _decide(self, obs: Observation) -> ControlDecision:
-        forecasts = self.estimate(obs)
+    def pose(self, obs: Observation, forecasts) -> tuple[Tick, object]:
+        """This step's NLP (:class:`Tick`) and the obstacle selection behind it: the
+        reference clock advanced, the movers chosen for the slots, the parameters packed."""
         ref = self.desired_poses(obs)
         x0 = obs.robot.as_array()
-        p, forecasts, statics = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.config)
-        near = self.obstacles_near(x0, forecasts, statics)
-        if near:
+        p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.config,
+                                    self._predicted_path(ref))
+        self.counters["left_out"] += sel.left_out
+        near_ids = self.near_obstacles(x0, sel.forecasts, sel.statics)
+        if near_ids:
             self.counters["multistart"] += 1
+        relevant = sel.relevant | {k for k in near_ids if k[0] == "static"}
+        return Tick(p, x0, float(obs.reference.speed_mps), bool(near_ids), relevant), sel
+
+    def solve_tick(self, tick: Tick) -> tuple[Plan | None, list[Plan]]:
+        """The best plan of one step and every solve it took (persistent candidates, or the
+        full multi-start, as ``PlannerConfig.candidates`` says)."""
+        if self.config.candidates == "persistent":
+            return self.plan_persistent(tick.p, tick.x0, tick.ref_speed_mps, tick.near, tick.relevant)
+        return self.plan(tick.p, tick.x0, tick.ref_speed_mps, tick.near, self._warm)
+
+    def _decide(self, obs: Observation) -> ControlDecision:
+        forecasts = self.estimate(obs)
+        tick, sel = self.pose(obs, forecasts)
+        p, x0 = tick.p, tick.x0
         if self._failure_prob > 0.0 and self._failure_rng.random() < self._failure_prob:
             self.counters["injected_failures"] += 1
-            return self._fallback(obs, "injected solver failure")
-        best, candidates = self.plan(p, x0, obs.reference.speed_mps, near, self._warm)
+            return self._fallback(obs, "injected solver failure", forecasts)
+        best, candidates = self.solve_tick(tick)
         if best is None:
             statuses = sorted({c.status for c in candidates}) or ["no solve started within the time budget"]
-            return self._fallback(obs, "all solves failed: " + ", ".join(statuses))
+            return self._fallback(obs, "all solves failed: " + ", ".join(statuses), forecasts)
         self._warm = best
         poses, wheels = (np.asarray(a) for a in self.problem.rollout_fn(best.u, p))
         self._last_wheels = wheels
+        self._path_xy = poses[:, :2]
         return ControlDecision(
             float(wheels[0, 0]), float(wheels[0, 1]), False, best.guess, wheels, poses, best.cost,
-            {"iterations": best.iterations, "candidates": len(candidates), "forecasts": forecasts,
+            {"iterations": best.iterations, "candidates": len(candidates), "selected": len(sel.forecasts),
              "solver": self.solver_name, "solve_time_s": sum(c.solve_time_s for c in candidates)},
-        )
+            forecasts=tuple(forecasts), alternatives=self._alternatives(best, candidates, x0))
 
-    def _fallback(self, obs: Observation, reason: str) -> ControlDecision:
+    def _predicted_path(self, ref: np.ndarray) -> np.ndarray:
+        """Where the robot is predicted to be at steps 1..H: its last plan shifted by a step
+        (the last position held), or, without one, the desired poses."""
+        if self._path_xy is None:
+            return ref[1:, :2]
+        return np.vstack([self._path_xy[1:], self._path_xy[-1:]])
+
+    def _alternatives(self, best: Plan, candidates: list[Plan], x0: np.ndarray) -> tuple:
+        """The other solved candidates' wheel-speed plans (H, 2), cheapest first, one per
+        distinct optimum (increments within 1e-4 m/s of a kept one are the same)."""
+        H = self.config.horizon
+        kept, out = [np.asarray(best.u)], []
+        for c in sorted((c for c in candidates if c.success and c is not best), key=lambda c: c.cost):
+            u = np.asarray(c.u)
+            if any(np.max(np.abs(u - k)) <= 1e-4 for k in kept):
+                continue
+            kept.append(u)
+            out.append(x0[3:5] + np.cumsum(u.reshape(H, 2), axis=0))
+        return tuple(out)
+
+    def _fallback(self, obs: Observation, reason: str, forecasts=()) -> ControlDecision:
         """The shifted previous plan if there is one, else braking within the limits."""
         self.counters["fallbacks"] += 1
+        forecasts = tuple(forecasts)
+        self._path_xy = None
+        self.candidates.reset()
         dv = self.robot.max_step_change_mps(self.config.sample_time_s)
         if self._warm is not None and self._last_wheels is not None and len(self._last_wheels) > 1:
             wheels = self._last_wheels[1:]
             self._last_wheels = wheels
             self._warm = Plan(np.concatenate([self._warm.u[2:], np.zeros(2)]), float("nan"), True, "shifted",
                               0, guess="shifted")
+            self.candidates.restart_from(self._warm)
             vr, vl = (float(np.clip(w, v - dv, v + dv)) for w, v in
                       zip(wheels[0], (obs.robot.v_right_mps, obs.robot.v_left_mps)))
-            return ControlDecision(vr, vl, True, "shifted previous plan; " + reason)
+            return ControlDecision(vr, vl, True, "shifted previous plan; " + reason, forecasts=forecasts)
         self._warm = None
         vr, vl = brake_wheels(obs.robot.v_right_mps, obs.robot.v_left_mps, dv)
-        return ControlDecision(vr, vl, True, "brake; " + reason)
+        return ControlDecision(vr, vl, True, "brake; " + reason, forecasts=forecasts)

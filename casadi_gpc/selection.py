@@ -1,11 +1,23 @@
 """Which obstacles enter the planner's NLP, and its parameter vector (numpy only).
 
 The NLP has a fixed number of obstacle slots (``PlannerConfig.max_moving`` and
-``max_static``). When more obstacles are known, the nearest fill them: a moving obstacle by
-the smallest distance from the robot now to its predicted positions (steps 1..H), a static
-one by its distance from the robot. The planner (:class:`casadi_gpc.gpc.GPCController`)
-and the labeller (:class:`nn_export.training.labels.Labeller`) both choose and pack here,
-so a change of the criterion is made once.
+``max_static``). When more obstacles are known, the most relevant fill them:
+
+- a moving obstacle by its **predicted distance to the robot's predicted path**: the
+  smallest clearance, over the steps k = 1..H, between its predicted position at step k and
+  where the robot is predicted to be at step k (the plan it follows, shifted by one step;
+  without one, the desired poses), and between its position at step 1 and the robot now. A
+  crowd member that will cross the robot's path matters more than a nearer one walking away.
+- a static obstacle by its distance from the robot.
+
+Movers left out although they come within ``PlannerConfig.relevance_range_m`` of the
+predicted path are counted by the planner (``left_out``): they are still in the safety
+check (:mod:`casadi_gpc.safety`), which sees every obstacle.
+
+The planner (:class:`casadi_gpc.gpc.GPCController`) and the labeller
+(:class:`nn_export.training.labels.Labeller`) both choose and pack here, so a change of the
+criterion is made once. :func:`goal_weights` marks the desired poses at the end of the path
+(the same rule for both).
 """
 from __future__ import annotations
 
@@ -16,13 +28,36 @@ import numpy as np
 from .config import PlannerConfig
 from .types import ObstacleForecast, StaticObstacle
 
-__all__ = ["select_obstacles", "planner_parameters"]
+__all__ = ["Selection", "select_obstacles", "planner_parameters", "goal_weights", "relevance_m"]
 
 
-def select_obstacles(x0: np.ndarray, forecasts, statics, config: PlannerConfig
-                     ) -> tuple[list[ObstacleForecast], list[StaticObstacle]]:
-    """The forecasts and static obstacles that fill the NLP's slots, nearest first when
-    there are more than the slots (else as given).
+def relevance_m(forecasts, x0: np.ndarray, path_xy: np.ndarray | None) -> np.ndarray:
+    """The moving obstacles' predicted clearances to the robot's predicted path (module
+    text): centre distances minus each obstacle's radius, m, shape (n,) (smaller is more
+    relevant)."""
+    q = np.array([f.means_m for f in forecasts], dtype=float)            # (n, H, 2)
+    d = np.hypot(q[:, 0, 0] - x0[0], q[:, 0, 1] - x0[1])
+    if path_xy is not None:
+        k = min(q.shape[1], len(path_xy))
+        d = np.minimum(d, np.hypot(q[:, :k, 0] - path_xy[:k, 0], q[:, :k, 1] - path_xy[:k, 1]).min(axis=1))
+    return d - np.array([f.radius_m for f in forecasts], dtype=float)
+
+
+class Selection:
+    """What :func:`select_obstacles` chose: the forecasts and static obstacles in the slots,
+    how many relevant movers did not fit (``left_out``), and the ids of every mover within
+    ``relevance_range_m`` of the predicted path (``relevant``)."""
+
+    __slots__ = ("forecasts", "statics", "left_out", "relevant")
+
+    def __init__(self, forecasts, statics, left_out: int, relevant: frozenset = frozenset()):
+        self.forecasts, self.statics, self.left_out, self.relevant = forecasts, statics, left_out, relevant
+
+
+def select_obstacles(x0: np.ndarray, forecasts, statics, config: PlannerConfig,
+                     path_xy: np.ndarray | None = None) -> Selection:
+    """The forecasts and static obstacles that fill the NLP's slots, most relevant first
+    when there are more than the slots (else as given).
 
     Parameters
     ----------
@@ -33,25 +68,51 @@ def select_obstacles(x0: np.ndarray, forecasts, statics, config: PlannerConfig
     statics : sequence of StaticObstacle
         The static obstacles.
     config : PlannerConfig
-        Its ``max_moving`` and ``max_static`` are the slots.
+        Its ``max_moving`` and ``max_static`` are the slots; ``relevance_range_m`` says
+        which movers left out are counted.
+    path_xy : array (H, 2), optional
+        The robot's predicted positions at steps 1..H (module text); None: the robot now.
     """
     forecasts = list(forecasts)
-    if len(forecasts) > config.max_moving:
-        forecasts = sorted(forecasts, key=lambda f: np.min(np.hypot(*(f.means_m - x0[:2]).T)))[: config.max_moving]
+    left_out, relevant = 0, frozenset()
+    if forecasts:
+        rel = relevance_m(forecasts, x0, path_xy)
+        relevant = frozenset(f.obstacle_id for f, r in zip(forecasts, rel) if r < config.relevance_range_m)
+        if len(forecasts) > config.max_moving:
+            order = np.argsort(rel, kind="stable")  # ties keep the given order
+            left_out = int(np.count_nonzero(rel[order[config.max_moving:]] < config.relevance_range_m))
+            forecasts = [forecasts[i] for i in order[: config.max_moving]]
     statics = list(statics)
     if len(statics) > config.max_static:
         statics = sorted(statics, key=lambda s: math.hypot(s.position_m[0] - x0[0], s.position_m[1] - x0[1]))
         statics = statics[: config.max_static]
-    return forecasts, statics
+    return Selection(forecasts, statics, left_out, relevant)
 
 
-def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts, statics, config: PlannerConfig
-                       ) -> tuple[np.ndarray, list[ObstacleForecast], list[StaticObstacle]]:
+def goal_weights(ref_poses: np.ndarray, config: PlannerConfig) -> np.ndarray | None:
+    """Tracking weight factors of the desired poses at steps 1..H: ``config.goal_weight`` at
+    the end of the path, 1 elsewhere (None when ``goal_weight`` is 1).
+
+    ``ref_poses``: the desired poses at steps 0..H, shape (H + 1, 3). A desired pose is at
+    the end of the path when it equals the one before: the reference point moves on at its
+    speed (waiting only with the robot, never in the horizon) and stops only there."""
+    if config.goal_weight == 1.0:
+        return None
+    ref = np.asarray(ref_poses, dtype=float)
+    at_end = np.all(ref[1:] == ref[:-1], axis=1)
+    return np.where(at_end, float(config.goal_weight), 1.0)
+
+
+def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts, statics, config: PlannerConfig,
+                       path_xy: np.ndarray | None = None) -> tuple[np.ndarray, Selection]:
     """The NLP parameter vector of one tick and the obstacles in it: :func:`select_obstacles`,
     packed by the problem's parameter ``layout`` (:meth:`casadi_gpc.cost.ParameterLayout.pack`).
 
-    ``ref_poses``: the desired poses ``[x_m, y_m, heading_rad]`` at steps 1..H, shape (H, 3).
-    Returns the parameters and the selected forecasts and static obstacles.
+    ``ref_poses``: the desired poses ``[x_m, y_m, heading_rad]`` at steps 0..H, shape
+    (H + 1, 3) (step 0: where the reference point is now). Returns the parameters and the
+    selection.
     """
-    forecasts, statics = select_obstacles(x0, forecasts, statics, config)
-    return layout.pack(x0, ref_poses, forecasts, statics, config.uncertainty_scale_m), forecasts, statics
+    sel = select_obstacles(x0, forecasts, statics, config, path_xy)
+    ref = np.asarray(ref_poses, dtype=float)
+    p = layout.pack(x0, ref[1:], sel.forecasts, sel.statics, config.uncertainty_scale_m, goal_weights(ref, config))
+    return p, sel

@@ -14,10 +14,13 @@ from .types import ObstacleForecast, ObstacleMeasurement
 
 __all__ = ["TrackBank", "TRACK_COUNTERS"]
 
-TRACK_COUNTERS = ("missed_measurements", "outliers", "unestimated_tracks")
+TRACK_COUNTERS = ("missed_measurements", "outliers", "unestimated_tracks", "manoeuvres", "ghosts")
 """What a bank counts: measurements missing (or not finite), measurements gated as
-outliers, and tracks that have a state but have seen a single position (speed and heading
-unknown; planned standing, :func:`~casadi_gpc.ekf.planning_covariances`), once per sample."""
+outliers, tracks that have a state but have seen a single position (speed and heading
+unknown; planned standing, :func:`~casadi_gpc.ekf.planning_covariances`), once per sample,
+manoeuvres (two gated measurements that agree: the velocity estimated afresh) and ghosts
+(samples a gated measurement waited for confirmation, its position planned as an obstacle
+standing there too, :meth:`~casadi_gpc.ekf.ObstacleEKF.ghost`)."""
 
 
 class TrackBank:
@@ -44,7 +47,9 @@ class TrackBank:
 
     def step(self, moving: Iterable[ObstacleMeasurement]) -> list[tuple[ObstacleMeasurement, ObstacleEKF]]:
         """Fuse one sample's measurements (one step of every measured obstacle's filter);
-        returns the ``(measurement, filter)`` pairs of the tracks that have a state."""
+        returns the ``(measurement, filter)`` pairs of the tracks that have a state, then
+        those of their ghosts (a gated, plausible measurement: the obstacle standing there,
+        :meth:`~casadi_gpc.ekf.ObstacleEKF.ghost`), which every planner avoids as well."""
         seen = []
         counters = self.counters
         for m in moving:
@@ -56,11 +61,15 @@ class TrackBank:
                 counters["missed_measurements"] += 1
             elif event == "outlier":
                 counters["outliers"] += 1
+            elif event == "manoeuvre":
+                counters["manoeuvres"] += 1
             if ekf.state_ is not None:
                 if not ekf.initialised:
                     counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
                 seen.append((m, ekf))
-        return seen
+        ghosts = [(m, g) for m, g in ((m, ekf.ghost()) for m, ekf in seen) if g is not None]
+        counters["ghosts"] += len(ghosts)
+        return seen + ghosts
 
     @staticmethod
     def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int) -> ObstacleForecast:

@@ -86,6 +86,16 @@ class ControlDecision:
     """(H, 3) predicted poses after each planned step."""
     cost: float = float("nan")
     info: dict = field(default_factory=dict)
+    forecasts: tuple | None = None
+    """The obstacle forecasts the decision was made with, one per moving obstacle the
+    controller tracks (objects with the fields of :class:`ObstacleForecast`), when the
+    controller estimates them with :class:`casadi_gpc.tracking.TrackBank`; a
+    :class:`~casadi_gpc.safety.Shield` then checks against these instead of running a second
+    bank. None: the controller does not say."""
+    alternatives: tuple = ()
+    """Other (H, 2) wheel-speed plans the controller would accept, best first (the planner's
+    other solved candidates): what a :class:`~casadi_gpc.safety.Shield` tries before its own
+    manoeuvres when the decision fails the check."""
 
 
 class Policy(Protocol):

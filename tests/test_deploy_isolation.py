@@ -27,12 +27,13 @@ BLOCKER = textwrap.dedent("""
 SCRIPT = BLOCKER + textwrap.dedent("""
     import numpy as np
     from nn_export import OnnxPolicy
+    from casadi_gpc.safety import Shield
     from casadi_gpc.reference import ReferencePath, Segment
     from casadi_gpc.robot import RobotState
     from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
 
     for preset in ("paper", "improved"):
-        policy = OnnxPolicy(preset=preset)
+        policy = Shield(OnnxPolicy(preset=preset))  # deployed behind the check layer
         T = policy.sample_time_s
         ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(10.0),), 0.4)
         robot = RobotState(0.0, 0.0, 0.0, 0.0, 0.0)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step
+from casadi_gpc.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step, planning_covariances
 from casadi_gpc.robot import RobotState
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.types import ObstacleMeasurement, Observation
@@ -157,23 +157,55 @@ def test_missed_samples_between_the_first_two_measurements(gap):
     assert ekf.state_[2] == pytest.approx(0.5, abs=1e-3)
 
 
-def test_outlier_is_gated_then_the_track_restarts():
+def test_a_glitch_is_gated_and_changes_nothing():
+    """A measurement 3 m off (6 m/s of velocity change in 0.5 s) is a sensor glitch: not
+    fused, the prediction and its covariance untouched, no ghost; the next good one is fused."""
     T = 0.5
     ekf = run_filter(T, 20, noise=0.02, seed=2)
     s0, p0 = ekf.state_.copy(), ekf.cov_.copy()
     x, y, _ = OBSTACLE.state_at(20 * T)
+    _, p_pred = _matrix_step(ekf, s0, p0, None)  # the propagated covariance, independently
     assert ekf.step([x + 3.0, y]) == "outlier"
-    assert ekf.outliers_ == 1
+    assert ekf.outliers_ == 1 and ekf.ghost() is None
     np.testing.assert_allclose(ekf.state_, obstacle_model_step(s0, T), atol=1e-15)  # no update
-    assert np.trace(ekf.cov_[:2, :2]) > np.trace(p0[:2, :2])
-    # the next good measurement is accepted
+    np.testing.assert_allclose(ekf.cov_, p_pred, rtol=1e-12, atol=1e-15)
     x, y, _ = OBSTACLE.state_at(21 * T)
     assert ekf.step([x, y]) == "update"
-    # max_rejections outliers in a row: the obstacle really is elsewhere, start over there
-    far = np.array([50.0, 50.0])
-    events = [ekf.step(far + 0.01 * k) for k in range(ekf.settings.max_rejections)]
-    assert events == ["outlier"] * (ekf.settings.max_rejections - 1) + ["start"]
-    np.testing.assert_allclose(ekf.state_[:2], far + 0.01 * (ekf.settings.max_rejections - 1))
+
+
+def test_a_plausible_rejection_leaves_a_ghost_until_the_next_sample_decides():
+    """0.3 m off (0.6 m/s of velocity change, within max_maneuver_mps): not fused, but kept
+    pending, and the ghost filter stands there; the next measurement back on the track is
+    fused (a glitch after all) and the ghost is gone."""
+    T = 0.5
+    ekf = run_filter(T, 20, noise=0.02, seed=2)
+    s0 = ekf.state_.copy()
+    predicted = obstacle_model_step(s0, T)
+    z = predicted[:2] + np.array([0.18, -0.24])
+    assert ekf.step(z) == "outlier"
+    np.testing.assert_allclose(ekf.state_, predicted, atol=1e-15)
+    g = ekf.ghost()
+    np.testing.assert_allclose(g.state_[:3], [z[0], z[1], 0.0], atol=1e-15)  # standing there
+    means, _ = g.predict(4)
+    np.testing.assert_allclose(means, np.tile(z, (4, 1)), atol=1e-12)
+    x, y, _ = OBSTACLE.state_at(21 * T)
+    assert ekf.step([x, y]) == "update" and ekf.ghost() is None
+
+
+def test_an_obstacle_that_stops_dead_is_a_ghost_then_a_manoeuvre():
+    """A walker at 0.5 m/s stops at its goal: the first measurement of it standing is gated
+    (0.25 m from the prediction) and its ghost stands there; the second agrees with the
+    first: a manoeuvre, the velocity estimated afresh from the two (0)."""
+    T = 0.5
+    ekf = ObstacleEKF(T)
+    for k in range(12):
+        ekf.step([0.5 * k * T, 0.0])
+    stop = (0.5 * 11 * T, 0.0)
+    assert ekf.step(stop) == "outlier"
+    np.testing.assert_allclose(ekf.ghost().state_[:3], [stop[0], stop[1], 0.0], atol=1e-15)
+    assert ekf.step(stop) == "manoeuvre" and ekf.maneuvers_ == 1
+    np.testing.assert_allclose(ekf.state_[:3], [stop[0], stop[1], 0.0], atol=1e-12)
+    assert ekf.ghost() is None
 
 
 def test_controller_counts_missed_measurements_and_outliers():

@@ -353,9 +353,12 @@ def tracker_path(tmp_path_factory):
     return tracker_model(tmp_path_factory.mktemp("models") / "tracker.onnx", "improved")
 
 
-def _policy(path, **kw):
+def _policy(path, shield: bool = True):
+    """The network, behind the check layer (manoeuvres only, no planner) unless told not."""
+    from casadi_gpc.safety import Shield
     from nn_export import OnnxPolicy
-    return OnnxPolicy(path, preset="improved", **kw)
+    net = OnnxPolicy(path, preset="improved")
+    return Shield(net) if shield else net
 
 
 @pytest.mark.parametrize("path", [HEAD_ON, CROSSING], ids=["head_on", "crossing"])
@@ -368,14 +371,14 @@ def test_filtered_network_survives_an_obstacle_first_seen_1_5_m_away(tracker_pat
     assert log.outcome != "collided" and log.min_clearance_m > 0.0
     assert 1.2 < hidden.first_seen[0] <= 1.5
     assert log.events["missed_measurements"] >= 20
-    assert log.fallbacks == log.events["safety_interventions"] > 0
+    assert log.fallbacks == log.events["interventions"] > 0
     assert_commands_finite_within_limits_of_fallbacks(log)
 
 
 def assert_commands_finite_within_limits_of_fallbacks(log):
     """All commands finite and within the speed limit; the filter's own commands within
     the acceleration limit too (the network's raw output may ask for more, which the filter
-    checks as the robot would follow it and counts in ``safety_candidate_limited``)."""
+    checks as the robot would follow it and counts in ``shield_candidate_limited``)."""
     st = np.asarray(log.states)
     dv = ROBOT.max_step_change_mps(log.sample_time_s)
     for k, d in enumerate(log.decisions):
@@ -398,7 +401,7 @@ outlier_distance_m = 5.0
 delay_steps = 1
 """
     s = load_scenario(write_scenario(text))
-    pol = _policy(tracker_path, safety_filter=safety)
+    pol = _policy(tracker_path, shield=safety)
     steps = {k: (float("nan"), 0.0) for k in range(20, 24)}
     log = simulate(s, NonFinite(pol, steps), "nn")
     ev = log.events
@@ -407,6 +410,6 @@ delay_steps = 1
     assert_commands_finite_within_limits_of_fallbacks(log)
     if safety:
         assert log.outcome != "collided"
-        assert log.fallbacks == ev["safety_interventions"]
+        assert log.fallbacks == ev["interventions"]
     else:
-        assert log.fallbacks == 0 and "safety_checks" not in ev
+        assert log.fallbacks == 0 and "shield_checks" not in ev

@@ -70,7 +70,9 @@ def _cost(u, x0, ref, obstacles, cfg, robot):
             J = J + np.sum(xi / p_unc * np.maximum(1.0 / d_eff - 1.0 / cfg.influence_m, 0.0) ** 2, axis=-1)
         if cfg.clearance_margin_m is not None:
             m = cfg.clearance_margin_m + cfg.uncertainty_sigmas * sigma
-            J = J + np.sum(cfg.clearance_penalty * np.maximum(m - d, 0.0) ** 2, axis=-1)
+            e = cfg.margin_smoothing_m
+            viol = np.maximum(m - d, 0.0) if e is None else 0.5 * ((m - d) + np.sqrt((m - d) ** 2 + e * e))
+            J = J + np.sum(cfg.clearance_penalty * viol ** 2, axis=-1)
     return J
 
 

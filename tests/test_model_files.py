@@ -68,7 +68,7 @@ def test_the_good_file_loads_and_decides(tmp_path):
     from nn_export import OnnxPolicy
     pol = OnnxPolicy(good(tmp_path), preset="improved")
     assert pol.model_info["n_features"] == pol.layout.size
-    assert pol.model_info["safety_filter"] is True
+    assert "safety_filter" not in pol.model_info  # the bare network: the check layer wraps it (Shield)
 
 
 @pytest.mark.parametrize("kind", KINDS)

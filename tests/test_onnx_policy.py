@@ -72,12 +72,12 @@ def _one_line_refusal(exc_info, path):
 
 # --- load-time checks ---------------------------------------------------------------------
 def test_loads_and_reports_metadata(paper_model):
-    p = OnnxPolicy(paper_model, preset="paper", safety_filter=False)
+    p = OnnxPolicy(paper_model, preset="paper")
     assert p.sample_time_s == 1.5 and p.horizon == 6
     info = p.model_info
     assert info["preset"] == "paper" and info["feature_layout"] == "paper" and info["n_features"] == 17
     assert info["dataset"] == {"id": "synthetic"} and len(info["sha256"]) == 64
-    assert OnnxPolicy(paper_model, safety_filter=False).config.name == "paper"  # preset from the file
+    assert OnnxPolicy(paper_model).config.name == "paper"  # preset from the file
 
 
 def test_missing_file(tmp_path):
@@ -178,7 +178,7 @@ def _free_rollout(policy, obs):
 
 
 def test_pass_one_is_the_networks_free_rollout(paper_model):
-    p = OnnxPolicy(paper_model, safety_filter=False, safety_distance_m=-1e9)  # never a second pass
+    p = OnnxPolicy(paper_model, safety_distance_m=-1e9)  # never a second pass
     obs = _obs(3.0, RobotState(1.0, 0.2, 0.1, 0.3, 0.35), obstacle_xy=(4.0, 0.0))
     d = p.decide(obs)
     poses, wheels = _free_rollout(p, obs)
@@ -189,7 +189,7 @@ def test_pass_one_is_the_networks_free_rollout(paper_model):
 
 
 def test_pass_two_follows_the_predicted_path_with_the_obstacle(paper_model):
-    p = OnnxPolicy(paper_model, safety_filter=False, safety_distance_m=1e9)  # always a second pass
+    p = OnnxPolicy(paper_model, safety_distance_m=1e9)  # always a second pass
     robot = RobotState(1.0, 0.2, 0.1, 0.3, 0.35)
     obs = _obs(3.0, robot, obstacle_xy=(4.0, 0.0), statics=(StaticObstacle((3.0, 1.5), 0.3),))
     d = p.decide(obs)
@@ -197,7 +197,7 @@ def test_pass_two_follows_the_predicted_path_with_the_obstacle(paper_model):
     sit = p.tracker.update.__self__  # the tracker after this sample (its state is what decide used)
     assert sit is p.tracker
     # the situation decide saw, rebuilt: same tracks (one EKF step), the predicted poses as reference
-    q = OnnxPolicy(paper_model, safety_filter=False)
+    q = OnnxPolicy(paper_model)
     situation = q.tracker.update(obs)
     desired = np.vstack([[robot.x_m, robot.y_m, robot.heading_rad], poses])
     w = _net(p, compute_features(p.layout, situation.with_reference(desired)))
@@ -206,16 +206,16 @@ def test_pass_two_follows_the_predicted_path_with_the_obstacle(paper_model):
 
 
 def test_one_pass_variant_uses_the_real_reference_and_the_obstacles(paper_model):
-    p = OnnxPolicy(paper_model, safety_filter=False, two_pass=False)
+    p = OnnxPolicy(paper_model, two_pass=False)
     obs = _obs(1.5, RobotState(0.5, -0.1, 0.0, 0.2, 0.2), obstacle_xy=(5.0, 0.5))
     d = p.decide(obs)
-    q = OnnxPolicy(paper_model, safety_filter=False)
+    q = OnnxPolicy(paper_model)
     w = _net(p, compute_features(p.layout, q.tracker.update(obs)))
     assert (d.v_right_mps, d.v_left_mps) == pytest.approx(tuple(w), abs=1e-6)
 
 
 def test_second_pass_triggers_on_the_predicted_clearance(paper_model):
-    p = OnnxPolicy(paper_model, safety_filter=False, safety_distance_m=0.5)
+    p = OnnxPolicy(paper_model, safety_distance_m=0.5)
     robot = RobotState(0.0, 0.0, 0.0, 0.3, 0.3)
     far = p.decide(_obs(0.0, robot, obstacle_xy=(0.0, 30.0)))  # far away: one pass is enough
     assert far.reason.startswith("pass 1") and p.counters["second_pass"] == 0
@@ -231,7 +231,7 @@ def test_shipped_model_matches_its_preset(name):
     path = shipped_model_path(name)
     if not path.is_file():
         pytest.skip("model not shipped yet")
-    p = OnnxPolicy(preset=name, safety_filter=False)
+    p = OnnxPolicy(preset=name)
     cfg = preset(name)
     assert p.model_info["preset"] == name and p.sample_time_s == cfg.sample_time_s and p.horizon == cfg.horizon
     assert p.model_info["feature_layout"] == "paper" and p.model_info["n_features"] == 11 + cfg.horizon
@@ -244,7 +244,7 @@ def test_shipped_model_matches_its_preset(name):
 def test_default_policy_is_the_improved_preset():
     if not shipped_model_path("improved").is_file():
         pytest.skip("model not shipped yet")
-    assert OnnxPolicy(safety_filter=False).config.name == "improved"
+    assert OnnxPolicy().config.name == "improved"
 
 
 # --- a small model retrained from scratch through the command line ------------------------
@@ -270,7 +270,7 @@ def test_retrain_a_small_model_from_scratch(tmp_path):
     from nn_export.training.train import WheelSpeedMLP
     data = load_dataset(tmp_path / "data")
     m = WheelSpeedMLP.load(tmp_path / "model")
-    p = OnnxPolicy(tmp_path / "m.onnx", preset="paper", safety_filter=False)
+    p = OnnxPolicy(tmp_path / "m.onnx", preset="paper")
     got = p.network(data.X)
     np.testing.assert_allclose(got, np.clip(m.predict(data.X), -0.8, 0.8), atol=1e-5)
     tr = np.setdiff1d(np.arange(len(data.X)), m.validation_indices_)
@@ -290,7 +290,7 @@ def test_retrain_a_small_model_from_scratch(tmp_path):
 # --- the bench's network rows compute the same function as onnxruntime -------------------
 def test_graph_forward_numpy_and_torch_match_onnxruntime(paper_model):
     from nn_export.training.bench_rows import graph_forward
-    p = OnnxPolicy(paper_model, safety_filter=False)
+    p = OnnxPolicy(paper_model)
     X = np.random.default_rng(0).normal(size=(64, p.layout.size)).astype(np.float32) * 3
     ref = p.network(X)
     proto = onnx.load(paper_model)
@@ -306,20 +306,20 @@ def test_the_number_of_passes_comes_from_the_model_file_unless_asked(tmp_path):
     one = tracker_model(tmp_path / "one.onnx", "paper", decision_passes="1")
     two = tracker_model(tmp_path / "two.onnx", "paper", decision_passes="2")
     plain = tracker_model(tmp_path / "plain.onnx", "paper")
-    assert OnnxPolicy(one, safety_filter=False).two_pass is False
-    assert OnnxPolicy(two, safety_filter=False).two_pass is True
-    assert OnnxPolicy(plain, safety_filter=False).two_pass is True
-    assert OnnxPolicy(one, safety_filter=False, two_pass=True).two_pass is True
+    assert OnnxPolicy(one).two_pass is False
+    assert OnnxPolicy(two).two_pass is True
+    assert OnnxPolicy(plain).two_pass is True
+    assert OnnxPolicy(one, two_pass=True).two_pass is True
     bad = tracker_model(tmp_path / "bad.onnx", "paper", decision_passes="3")
     with pytest.raises(ValueError, match="decision_passes") as err:
-        OnnxPolicy(bad, safety_filter=False)
+        OnnxPolicy(bad)
     assert len(str(err.value).splitlines()) == 1
     # one pass really runs one network call per decision, two passes more when an obstacle is near
     from casadi_gpc.types import ObstacleMeasurement
     ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(10.0),), 0.4)
     calls = {}
     for name, path in (("one", one), ("two", two)):
-        p = OnnxPolicy(path, safety_filter=False)
+        p = OnnxPolicy(path)
         n = 0
         orig = p._run
 

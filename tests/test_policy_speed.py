@@ -28,6 +28,7 @@ import pytest
 
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotState
+from casadi_gpc.safety import Shield
 from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
 from nn_export.runtime.features import compute_features
 from nn_export.runtime.layouts import layout_for
@@ -110,13 +111,14 @@ def observations_from(d) -> list[Observation]:
 
 def replay(preset_name: str, observations, two_pass: bool, safety: bool) -> dict:
     """Every decision of a fresh policy on ``observations`` (open loop), as arrays."""
-    pol = OnnxPolicy(preset=preset_name, two_pass=two_pass, safety_filter=safety)
-    H = pol.horizon
+    net = OnnxPolicy(preset=preset_name, two_pass=two_pass)
+    pol = Shield(net) if safety else net  # the check layer, manoeuvres only (no planner on standby)
+    H = net.horizon
     n = len(observations)
     out = {"wheels": np.empty((n, 2)), "fallback": np.zeros(n, bool), "reason": np.zeros(n, int),
            "planned_wheels": np.full((n, H, 2), np.nan), "planned_poses": np.full((n, H, 3), np.nan),
            "predicted_clearance_m": np.full(n, np.nan), "safety_clearance_m": np.full(n, np.nan),
-           "net_input": np.empty((n, pol.layout.size), np.float32)}
+           "net_input": np.empty((n, net.layout.size), np.float32)}
     for k, obs in enumerate(observations):
         dec = pol.decide(obs)
         out["wheels"][k] = dec.v_right_mps, dec.v_left_mps
@@ -128,8 +130,9 @@ def replay(preset_name: str, observations, two_pass: bool, safety: bool) -> dict
             out["planned_poses"][k] = dec.planned_poses
         out["predicted_clearance_m"][k] = dec.info.get("predicted_clearance_m", np.nan)
         out["safety_clearance_m"][k] = dec.info.get("safety_clearance_m", np.nan)
-        out["net_input"][k] = pol._x[0]
-    out["counters"] = np.array([pol.counters.get(k, 0) for k in ("decisions", "second_pass", "fallbacks")])
+        out["net_input"][k] = net._x[0]
+    # decisions, second passes, and the check layer's interventions (each one a fallback)
+    out["counters"] = np.array([net.counters["decisions"], net.counters["second_pass"], int(out["fallback"].sum())])
     return out
 
 
@@ -163,7 +166,7 @@ def record(case: str) -> None:
     """Write ``tests/data/policy_decisions_{case}.npz`` with the code as it is."""
     from casadi_gpc.simulator import simulate
     preset_name, sc = _scenario(case)
-    pol = OnnxPolicy(preset=preset_name)  # the deployed policy drives the episode
+    pol = Shield(OnnxPolicy(preset=preset_name))  # the deployed policy drives the episode
     observations = []
 
     class Recorder:
@@ -265,7 +268,7 @@ def test_decision_costs_a_bounded_number_of_bare_network_calls(two_pass, at_most
     for speed, 30 and 21 bare calls of the slower call of then (172 us and 120 us / 5.7 us)."""
     with np.load(_path("paper_crossing")) as f:
         obs = observations_from(dict(f))
-    pol = OnnxPolicy(preset="paper", two_pass=two_pass, safety_filter=False)
+    pol = OnnxPolicy(preset="paper", two_pass=two_pass)
     t_decide, t_bare = [], []
     for _ in range(15):
         pol.reset()

@@ -23,7 +23,7 @@ from casadi_gpc.types import ObstacleForecast, ObstacleMeasurement, Observation,
 from nn_export.runtime.features import compute_features
 from nn_export.runtime.layouts import layout_for
 from nn_export.runtime.situation import Situation, TrackEstimate, reference_poses
-from casadi_gpc.safety import SafetyFilter
+from casadi_gpc.safety import SafetyFilter, Shield
 
 ROBOT = RobotParams()
 VMAX = ROBOT.max_wheel_speed_mps
@@ -280,7 +280,8 @@ def policies(tmp_path_factory):
             paths["shipped"] = shipped_model_path(name)
         for kind, path in paths.items():
             for safety in (True, False):
-                out[(name, kind, safety)] = OnnxPolicy(path, preset=name, safety_filter=safety)
+                net = OnnxPolicy(path, preset=name)
+                out[(name, kind, safety)] = Shield(net) if safety else net
     return out
 
 

@@ -15,7 +15,7 @@ import pytest
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
-from casadi_gpc.safety import MANOEUVRES, SafetyFilter, StandbyPlanner
+from casadi_gpc.safety import MANOEUVRES, SafetyFilter, Shield, StandbyPlanner
 
 from conftest import PAPER_DIR, check_run_document
 from synthetic_models import tracker_model
@@ -404,7 +404,9 @@ def test_standby_planner_replays_what_it_missed_exactly():
     from casadi_gpc.config import preset
     from casadi_gpc.gpc import GPCController
 
-    cfg = preset("improved")
+    # the full multi-start at every step: the same answer whatever the planner solved before
+    # (persistent candidates carry their history, which the standby planner does not have)
+    cfg = preset("improved").with_overrides(candidates="multistart")
     ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
     obs = []
     for k in range(10):
@@ -461,17 +463,17 @@ def test_obstacle_blind_network_collides_without_the_filter_and_not_with_it(trac
     from scenarios import load_scenario
 
     head_on = load_scenario(HEAD_ON)
-    bare = _run(OnnxPolicy(tracker_path, preset="improved", safety_filter=False), head_on)
+    bare = _run(OnnxPolicy(tracker_path, preset="improved"), head_on)
     assert bare.outcome == "collided" and bare.fallbacks == 0
-    pol = OnnxPolicy(tracker_path, preset="improved")
+    pol = Shield(OnnxPolicy(tracker_path, preset="improved"))
     log = _run(pol, head_on)
     assert log.outcome != "collided" and log.min_clearance_m > 0.0
-    n = pol.counters["safety_interventions"]
-    assert n > 0 and log.fallbacks == n == pol.counters["fallbacks"]
-    assert pol.counters["safety_checks"] == len(log.decisions)
+    n = pol.counters["interventions"]
+    assert n > 0 and log.fallbacks == n
+    assert pol.counters["shield_checks"] == len(log.decisions)
     doc = run_document(log)
     check_run_document(doc)
-    assert doc["fallbacks"] == n and doc["events"]["safety_interventions"] == n
+    assert doc["fallbacks"] == n == doc["interventions"] and doc["events"]["interventions"] == n
     for d in log.decisions:
         assert np.isfinite([d.v_right_mps, d.v_left_mps]).all()
         if d.fallback:
@@ -492,12 +494,12 @@ def test_the_gpc_on_standby_takes_over(tracker_path):
     from scenarios import load_scenario
 
     head_on = load_scenario(HEAD_ON)
-    pol = OnnxPolicy(tracker_path, preset="improved",
-                     fallback=StandbyPlanner(GPCController(preset_config("improved"), head_on.robot)))
+    pol = Shield(OnnxPolicy(tracker_path, preset="improved"),
+                 fallback=StandbyPlanner(GPCController(preset_config("improved"), head_on.robot)))
     log = _run(pol, head_on)
     assert log.outcome == "reached_goal" and log.min_clearance_m > 0.0
-    assert pol.counters["safety_fallback_used"] > 0
-    assert log.fallbacks == pol.counters["safety_interventions"]
+    assert pol.counters["shield_fallback_used"] > 0
+    assert log.fallbacks == pol.counters["interventions"]
     sources = {d.info.get("safety_source") for d in log.decisions if d.fallback}
     assert "fallback" in sources
 
@@ -523,8 +525,8 @@ def test_cli_safety_options_reach_run_json(tracker_path, tmp_path):
     on, off = json.loads(out_on.read_text()), json.loads(out_off.read_text())
     check_run_document(on)
     check_run_document(off)
-    assert off["outcome"] == "collided" and off["fallbacks"] == 0
-    assert on["outcome"] != "collided" and on["fallbacks"] == on["events"]["safety_interventions"] > 0
+    assert off["outcome"] == "collided" and off["fallbacks"] == 0 and off["shield"] == "off"
+    assert on["outcome"] != "collided" and on["fallbacks"] == on["interventions"] > 0 and on["shield"] == "on"
 
 
 def _shipped(preset_name="improved"):
@@ -545,13 +547,13 @@ def test_shipped_network_with_faults_does_not_collide_behind_the_filter():
     from nn_export import OnnxPolicy
     from scenarios import Faults, random_suite
 
-    pol = OnnxPolicy(_shipped(), preset="improved")
+    pol = Shield(OnnxPolicy(_shipped(), preset="improved"))
     faults = Faults(dropout_prob=0.1, outlier_prob=0.02)
     n_interventions = 0
     for s in random_suite("random", 16, 2):
         log = simulate(replace(s, faults=faults), pol, "nn")
         assert log.outcome != "collided", s.name
-        assert log.fallbacks == pol.counters["safety_interventions"]
+        assert log.fallbacks == pol.counters["interventions"]
         n_interventions += log.fallbacks
     assert n_interventions > 0  # the filter had work to do
 
@@ -571,7 +573,7 @@ def test_filter_costs_at_most_30_percent_of_the_decision(tmp_path, preset_name):
     path = shipped_model_path(preset_name)
     if not path.is_file():
         path = tracker_model(tmp_path / "tracker.onnx", preset_name)
-    pol = OnnxPolicy(path, preset=preset_name)
+    pol = Shield(OnnxPolicy(path, preset=preset_name))
     filt, rest = [], []
     for name in ("fig7_2_crossing.toml", "fig7_3_crossing_off_path.toml"):
         log = simulate(load_scenario(PAPER_DIR / name), pol, "nn")
@@ -581,3 +583,92 @@ def test_filter_costs_at_most_30_percent_of_the_decision(tmp_path, preset_name):
                 rest.append(t - d.info["safety_time_s"])
     share = np.median(filt) / np.median(rest)
     assert share <= 0.30, share
+
+
+# --- the check layer around any controller (Shield) ---------------------------------------------
+T, H = 0.5, 12  # the improved planner's sample time and horizon
+
+
+class _Scripted:
+    """A controller without forecasts: plays ``plan`` (H, 2) every sample, with
+    ``alternatives``."""
+
+    def __init__(self, plan, alternatives=(), sample_time_s=T, horizon=H):
+        self.plan, self.alternatives, self.sample_time_s, self.horizon = plan, alternatives, sample_time_s, horizon
+        self.resets = 0
+
+    def reset(self):
+        self.resets += 1
+
+    def decide(self, obs):
+        p = np.asarray(self.plan, dtype=float)
+        return ControlDecision(float(p[0, 0]), float(p[0, 1]), False, "scripted", p, None,
+                               alternatives=tuple(np.asarray(a, float) for a in self.alternatives))
+
+
+def _obs_with_static(xy, radius=0.3, v=0.0):
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
+    return Observation(0.0, RobotState(0.0, 0.0, 0.0, v, v), ref, (), (StaticObstacle(xy, radius),))
+
+
+BRAKE = np.array([[0.4, 0.4]] + [[0.0, 0.0]] * (H - 1))  # from 0.8 m/s at the acceleration limit
+
+
+def test_shield_refuses_a_plan_into_a_disc_and_accepts_one_that_keeps_clear():
+    """The robot at 0.8 m/s, a static disc (r 0.3 m) 1.2 m ahead: contact when it has
+    covered 0.55 m. Holding 0.8 m/s for one interval covers 0.4 m, after which braking
+    (0.4 m/s, then 0) covers 0.2 m more, past contact, and nothing else gets round: no way
+    out, refused. Braking now covers 0.2 m in all and keeps 0.35 m: accepted."""
+    obs = _obs_with_static((1.2, 0.0), v=0.8)
+    sh = Shield(_Scripted(np.full((H, 2), 0.8)))
+    d = sh.decide(obs)
+    assert d.fallback and d.info["safety_source"].startswith("manoeuvre:")
+    assert sh.counters["interventions"] == 1 and sh.counters["shield_checks"] == 1
+    # the replacement keeps clear where the planned motion did not
+    assert sh.filter.check(obs.robot.as_array(), d.planned_wheels_mps, (), obs.static).min_clearance_m >= 0.05
+    sh2 = Shield(_Scripted(BRAKE))
+    d2 = sh2.decide(obs)
+    assert not d2.fallback and (d2.v_right_mps, d2.v_left_mps) == (0.4, 0.4)
+    assert sh2.counters["interventions"] == 0
+    assert d2.info["safety_clearance_m"] == pytest.approx(1.2 - 0.2 - 0.65, abs=1e-9)
+
+
+def test_shield_takes_the_controllers_first_safe_alternative():
+    into, also_into = np.full((H, 2), 0.8), np.full((H, 2), 0.78)  # 0.39 m, then 0.19 m braking: no way out
+    sh = Shield(_Scripted(into, alternatives=(also_into, BRAKE)))
+    d = sh.decide(_obs_with_static((1.2, 0.0), v=0.8))
+    assert not d.fallback and d.info["safety_source"] == "alternative:2"
+    np.testing.assert_array_equal(d.planned_wheels_mps, BRAKE)
+    assert sh.counters["interventions"] == 1 and sh.counters["shield_alternative_used"] == 1
+
+
+def test_shield_runs_its_own_filters_for_a_controller_without_forecasts():
+    """A mover 3 m ahead coming at 0.5 m/s: the shield's own EKF bank predicts it (two
+    samples give it a velocity), so straight on at 0.4 m/s is refused at the second sample,
+    not the first (a track seen once is checked standing, with its next step's uncertainty)."""
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
+    sh = Shield(_Scripted(np.full((H, 2), 0.4)))
+    sh.reset()
+    assert sh.policy.resets == 2 and not sh.uses_policy_forecasts  # at construction and here
+    verdicts = []
+    for k in range(2):
+        t = k * T
+        obs = Observation(t, RobotState(0.4 * t, 0.0, 0.0, 0.4, 0.4), ref,
+                          (ObstacleMeasurement(7, (6.0 - 0.5 * t, 0.0), 0.3),))
+        verdicts.append(sh.decide(obs).fallback)
+    # seen once: standing 6 m ahead, reached by the robot after (6 - 0.65) / 0.4 = 13 s > 6 s
+    # seen twice: closing at 0.9 m/s, contact after (5.55 - 0.65 - 0.2) / 0.9 ~ 5.2 s < 6 s
+    assert verdicts == [False, True]
+    assert sh.counters["shield_unestimated_tracks"] == 1
+
+
+def test_shield_refuses_what_is_not_a_controller():
+    class NoDecide:
+        sample_time_s = 0.5
+
+        def reset(self):
+            pass
+    with pytest.raises(TypeError, match="decide"):
+        Shield(NoDecide())
+    with pytest.raises(TypeError, match="sample_time_s"):
+        Shield(_Scripted(np.zeros((H, 2)), sample_time_s=None))

@@ -57,7 +57,7 @@ def suite_rows(suite, count, seed, preset, model, workers) -> dict:
     for name, kind, safety in (("gpc", "gpc", None), ("nn+filter", "nn", "gpc"), ("nn bare", "nn", "off")):
         t0 = time.perf_counter()
         metrics, times, _ = evaluate(scs, kind, config, model if kind == "nn" else None, workers, desc=name,
-                                     safety=safety or "gpc")
+                                     shield=safety)
         rows[name] = _rates(metrics) | {"decision_median_s": float(np.median(times)),
                                         "wall_s": time.perf_counter() - t0}
         print(f"{suite} {preset} {name}: {rows[name]}", flush=True)
@@ -198,7 +198,7 @@ def main(argv=None) -> int:
     all_paths = {}
     for preset in ("paper", "improved"):
         model = shipped_model_path(preset)
-        p = OnnxPolicy(model, preset=preset, safety_filter=False)
+        p = OnnxPolicy(model, preset=preset)
         info = p.model_info
         res["models"][preset] = {"path": str(model.relative_to(ROOT)), "bytes": info["bytes"],
                                  "hidden": info["hidden"], "layers": info["layers"],
@@ -212,7 +212,7 @@ def main(argv=None) -> int:
         res["encounters"][preset] = encounter_rows(preset, model, args.encounters, 1)
         print(preset, res["encounters"][preset], flush=True)
     if args.multi_model is not None:
-        meta = OnnxPolicy(args.multi_model, safety_filter=False)
+        meta = OnnxPolicy(args.multi_model)
         preset = meta.config.name
         res["multi_model"] = {"path": str(args.multi_model), "preset": preset, "layout": meta.layout.name,
                               "passes": 2 if meta.two_pass else 1}

@@ -1,7 +1,10 @@
 """The safety check layer: check a controller's wheel speeds against the predicted
 obstacles and replace them when they come too close (numpy only: imports without CasADi).
 
-A network that imitates an optimiser has no guarantee. Each sample, :class:`SafetyFilter`
+:class:`Shield` puts any controller behind it (the GPC, the network, the peers, a user's
+own): ``Shield(policy)`` answers the same Policy protocol. Neither a network that imitates an
+optimiser nor an optimiser whose obstacle terms are soft penalties has a guarantee of its
+own. Each sample, :class:`SafetyFilter`
 rolls the candidate wheel-speed sequence out over the horizon with the one robot model
 (:func:`casadi_gpc.robot.robot_step`, sub-sampled inside every interval like the
 simulator's collision check), and measures the clearance to every obstacle disc:
@@ -53,13 +56,20 @@ seconds ahead; the next sample gives it a velocity and the full check.
 Every check and every intervention is counted in :attr:`SafetyFilter.counters`.
 ``docs/faults.md`` documents the settings and the measured cost.
 
+Before the fallback planner and the manoeuvres, a controller's own alternatives
+(``ControlDecision.alternatives``: the planner's other solved candidates, best first) are
+tried: the first that passes is taken (counted ``alternative_used``), and the best of them
+competes with the candidate where nothing passes.
+
 Rooms: ``check`` (the roll-out, the clearances and the verdict on a sequence, the
 manoeuvres), ``screen`` (the quick screen in plain floats in front of the check),
-``filter`` (:class:`SafetyFilter`: the interventions and their counters) and ``standby``
-(:class:`StandbyPlanner`, the planner kept in step behind the filter).
+``filter`` (:class:`SafetyFilter`: the interventions and their counters), ``shield``
+(:class:`Shield`: any controller behind the filter, its forecasts or the shield's own) and
+``standby`` (:class:`StandbyPlanner`, the planner kept in step behind the filter).
 """
 from .check import MANOEUVRES, SafetyCheck, TrajectoryCheck
 from .filter import SafetyFilter, SafetyVerdict
+from .shield import Shield
 from .standby import StandbyPlanner
 
-__all__ = ["MANOEUVRES", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "StandbyPlanner", "TrajectoryCheck"]
+__all__ = ["MANOEUVRES", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "Shield", "StandbyPlanner", "TrajectoryCheck"]

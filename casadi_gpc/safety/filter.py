@@ -26,7 +26,8 @@ class SafetyVerdict:
     reason: str
     """Why it intervened and what replaced the candidate (empty when accepted)."""
     source: str
-    """``"candidate"``, ``"fallback"`` or ``"manoeuvre:<name>"``."""
+    """``"candidate"``, ``"alternative:<i>"`` (the controller's i-th alternative),
+    ``"fallback"`` or ``"manoeuvre:<name>"``."""
     check: SafetyCheck
     """The check of the candidate."""
     planned_wheels_mps: np.ndarray | None = None
@@ -65,12 +66,13 @@ class SafetyFilter(QuickScreen):
     def reset(self) -> None:
         self.counters = {"checks": 0, "interventions": 0, "fallback_used": 0, "fallback_failed": 0,
                          "fallback_overruled": 0,
-                         "manoeuvres": 0, "no_safer_option": 0, "candidate_limited": 0,
+                         "alternative_used": 0, "manoeuvres": 0, "no_safer_option": 0, "candidate_limited": 0,
                          "non_finite_candidate": 0, "unestimated_tracks": 0}
         if self.fallback is not None and hasattr(self.fallback, "reset"):
             self.fallback.reset()
     # --- the filter ----------------------------------------------------------------------
-    def filter(self, observation: Observation, wheels, forecasts=(), statics=None, poses=None) -> SafetyVerdict:
+    def filter(self, observation: Observation, wheels, forecasts=(), statics=None, poses=None,
+               alternatives=(), trust_s: float | None = None) -> SafetyVerdict:
         """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
         replace it (see :meth:`check`).
 
@@ -82,6 +84,11 @@ class SafetyFilter(QuickScreen):
         observed state, as :func:`~casadi_gpc.robot.robot_step_float` gives them (the
         network's own roll-out), so that a plan the limits leave unchanged is not rolled
         out a second time. The fallback planner, if any, sees ``observation`` either way.
+        ``alternatives``: other ``(H, 2)`` plans of the controller, best first, tried before
+        the fallback planner and the manoeuvres when the candidate fails. ``trust_s``: for a
+        planner that replans at every sample, a candidate (or alternative) whose check keeps
+        the margin at least this long passes, as the fallback planner's answer does with
+        ``trust_planner_s`` (None: the whole horizon, the rule for anything else).
         """
         statics = observation.static if statics is None else statics
         r = observation.robot
@@ -103,24 +110,40 @@ class SafetyFilter(QuickScreen):
         if cmd is None:
             self.counters["non_finite_candidate"] += 1
             check = SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
-            return self._intervene(observation, state, obstacles, check, None)
+            return self._intervene(observation, state, obstacles, check, None, alternatives, trust_s)
         if limited:
             # the simulator (and the robot) would clip it: what is checked is what would happen
             self.counters["candidate_limited"] += 1
-        check = self._assess(state, cmd, plan, obstacles)
-        if check.safe:
+        check = self._assess(state, cmd, plan, obstacles, trust_s)
+        if _passes(check, trust_s):
             if self.fallback is not None and hasattr(self.fallback, "observe"):
                 self.fallback.observe(observation)
             return SafetyVerdict(float(cmd[0]), float(cmd[1]), False, "", "candidate", check, plan)
-        return self._intervene(observation, state, obstacles, check, cmd)
+        return self._intervene(observation, state, obstacles, check, cmd, alternatives, trust_s)
 
-    def _intervene(self, observation, state, obstacles, check: SafetyCheck, cmd) -> SafetyVerdict:
+    def _intervene(self, observation, state, obstacles, check: SafetyCheck, cmd, alternatives=(),
+                   trust_s: float | None = None) -> SafetyVerdict:
         self.counters["interventions"] += 1
         if math.isfinite(check.min_clearance_m):
             why = (f"safety: {check.obstacle} predicted clearance {check.min_clearance_m:.2f} m at "
                    f"+{check.time_s:.1f} s (margin {self.margin_m:.2f} m)")
         else:
             why = f"safety: {check.continuation}"
+        # 1. the controller's own alternatives, best first: the first that passes the check;
+        # else the best of them competes with the candidate below
+        keep_cmd, keep_plan, keep_check, keep_source = cmd, None, check, "candidate"
+        for i, w in enumerate(alternatives, 1):
+            acmd, aplan, _ = self._as_candidate(state, np.asarray(w, dtype=float))
+            if acmd is None:
+                continue
+            achk = self._assess(state, acmd, aplan, obstacles, trust_s)
+            if _passes(achk, trust_s):
+                self.counters["alternative_used"] += 1
+                return SafetyVerdict(float(acmd[0]), float(acmd[1]), True, why + f"; the controller's alternative {i}",
+                                     f"alternative:{i}", check, aplan)
+            if keep_cmd is None or self._better(achk, keep_check):
+                keep_cmd, keep_plan, keep_check, keep_source = acmd, aplan, achk, f"alternative:{i}"
+        kept = "candidate kept" if keep_source == "candidate" else f"the controller's {keep_source.replace(':', ' ')} kept"
         if self.fallback is not None:
             dec: ControlDecision = self.fallback.decide(observation)
             fcmd = np.array([dec.v_right_mps, dec.v_left_mps], dtype=float)
@@ -137,19 +160,19 @@ class SafetyFilter(QuickScreen):
                 # candidate itself does better
                 name, mw, mc = self.best_manoeuvre(state, obstacles)
                 if pcheck is not None and not self._better(mc, pcheck) and (
-                        cmd is None or not self._better(check, pcheck)):
+                        keep_cmd is None or not self._better(keep_check, pcheck)):
                     self.counters["fallback_used"] += 1
                     return SafetyVerdict(float(pcmd[0]), float(pcmd[1]), True,
                                          why + "; fallback planner (no manoeuvre does better)", "fallback", check,
                                          pplan)
                 self.counters["fallback_overruled"] += 1
-                if cmd is not None and not self._better(mc, check):
+                if keep_cmd is not None and not self._better(mc, keep_check):
                     # e.g. a track seen once, whose unknown motion makes every option fail far
                     # ahead: the candidate keeps the margin longest, so it stays
                     self.counters["no_safer_option"] += 1
-                    return SafetyVerdict(float(cmd[0]), float(cmd[1]), True,
-                                         why + "; fallback planner's answer fails the check, no manoeuvre does "
-                                         "better: candidate kept", "candidate", check, None)
+                    return SafetyVerdict(float(keep_cmd[0]), float(keep_cmd[1]), True,
+                                         why + f"; fallback planner's answer fails the check, no manoeuvre does "
+                                         f"better: {kept}", keep_source, check, keep_plan)
                 self.counters["manoeuvres"] += 1
                 return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
                                      why + f"; fallback planner's answer fails the check, manoeuvre {name} "
@@ -158,12 +181,17 @@ class SafetyFilter(QuickScreen):
             self.counters["fallback_failed"] += 1
             why += f"; fallback planner failed ({dec.reason})"
         name, mw, mc = self.best_manoeuvre(state, obstacles)
-        if cmd is not None and not self._better(mc, check):
+        if keep_cmd is not None and not self._better(mc, keep_check):
             # nothing in the set does better than the candidate: keep it, and say so
             self.counters["no_safer_option"] += 1
-            return SafetyVerdict(float(cmd[0]), float(cmd[1]), True, why + "; no safer manoeuvre, candidate kept",
-                                 "candidate", check, None)
+            return SafetyVerdict(float(keep_cmd[0]), float(keep_cmd[1]), True, why + f"; no safer manoeuvre, {kept}",
+                                 keep_source, check, keep_plan)
         self.counters["manoeuvres"] += 1
         return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
                              why + f"; manoeuvre {name} (clearance {mc.min_clearance_m:.2f} m, margin kept "
                              f"{mc.kept_s:.1f} s)", f"manoeuvre:{name}", check, mw)
+
+
+def _passes(check: SafetyCheck, trust_s: float | None) -> bool:
+    """Safe over the whole horizon, or, with ``trust_s``, for at least that long."""
+    return check.safe or (trust_s is not None and check.kept_s >= trust_s - 1e-9)

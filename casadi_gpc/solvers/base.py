@@ -69,6 +69,17 @@ class Backend:
         return SolveResult(np.asarray(u0, float), float("nan"), False, status, -1, None, None,
                            time.perf_counter() - t0)
 
+    def _dm_of(self, p: np.ndarray, append: float | None = None) -> ca.DM:
+        """``ca.DM(p)`` (with ``append`` added at the end), converted once for the same array
+        object: a planner solves one tick's parameters from several starts, and converting
+        its few hundred numbers costs about as much as a warm solve's first iteration. The
+        caller must not change ``p`` in place between solves."""
+        cache = getattr(self, "_dm_cache", None)
+        if cache is None or cache[0] is not p or cache[1] != (append is None):
+            dm = ca.DM(p if append is None else np.append(p, append))
+            self._dm_cache = cache = (p, append is None, dm)
+        return cache[2]
+
 
 class CasadiBackend(Backend):
     """Shared call path: constant bounds converted once, the rest per call."""
@@ -89,7 +100,7 @@ class CasadiBackend(Backend):
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         t0 = time.perf_counter()
         warm = self.uses_multipliers and lam_x is not None and lam_g is not None
-        args = [ca.DM(u0), ca.DM(p), *self._bounds,
+        args = [ca.DM(u0), self._dm_of(p), *self._bounds,
                 ca.DM(lam_x) if warm else self._none, ca.DM(lam_g) if warm else self._none]
         try:
             out = self.solver.call(args)

@@ -210,12 +210,12 @@ class SqpBackend(CasadiBackend):
 
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         t0 = time.perf_counter()
-        du0, dp = ca.DM(u0), ca.DM(np.append(p, 1.0))
+        du0, dp = ca.DM(u0), self._dm_of(p, 1.0)
         try:
+            dp[-1] = 1.0
             g = float(self._grad_inf.call([du0, dp])[0])
             scale = min(1.0, SCALE_MAX_GRADIENT / g) if g > 0 and math.isfinite(g) else 1.0
-            if scale != 1.0:
-                dp[-1] = scale
+            dp[-1] = scale
             out = self.solver.call([du0, dp, *self._bounds, self._none, self._none])
             ok, status, iters = self._status()
         except RuntimeError as exc:  # evaluation errors, or no status after a failed QP

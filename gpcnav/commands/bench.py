@@ -26,7 +26,29 @@ def add_arguments(p):
     p.add_argument("--model", type=Path, default=None,
                    help="ONNX network for the network rows (default: the one shipped for --preset)")
     p.add_argument("--no-nn-rows", action="store_true", help="leave out the network rows")
+    p.add_argument("--controller", action="append", default=[], metavar="NAME",
+                   help="also time this controller's full decision on the same recorded observations (repeatable; "
+                        "gpc, nn, orca, hrvo, social_force, mppi or MODULE:CLASS; docs/peers.md)")
+    p.add_argument("--shield", action="store_true",
+                   help="the --controller rows behind the safety check layer (casadi_gpc.safety.Shield)")
+    p.add_argument("--crowd-movers", type=int, default=10, metavar="N",
+                   help="the planner's decision is also measured on a crowd scene: circle-crossing, N orca "
+                        "movers, seed 1, its first episode (default 10; 0: none)")
     add_preset_arguments(p)
+
+
+def controller_policies(args, config, robot) -> list:
+    """The ``--controller`` rows: ``(label, make_policy)`` pairs from the controller registry,
+    each refused in one line before any work if it cannot be made. A controller whose
+    sample time is not the planner's is given the recorded observations all the same (its
+    decision time is what the row is for; its obstacle filter then steps at its own T)."""
+    from ..controllers import ControllerSpec, check, make
+    entries = []
+    for name in dict.fromkeys(getattr(args, "controller", []) or []):
+        spec = ControllerSpec(name, shield="on" if args.shield else None)
+        check(spec, config, robot)
+        entries.append((spec.label, lambda spec=spec: make(spec, config, robot)))
+    return entries
 
 
 def extra_policies(args, config, robot) -> list:
@@ -34,13 +56,13 @@ def extra_policies(args, config, robot) -> list:
     :func:`casadi_gpc.bench.policy_rows`. The network policies (numpy, torch, onnxruntime)
     are timed on the features the ``onnxpolicy`` row recorded (:func:`network_rows`)."""
     if getattr(args, "no_nn_rows", False):
-        return []
+        return controller_policies(args, config, robot)
     try:
         from nn_export.training.bench_rows import policy_entries
         entries, args._nn_recorder = policy_entries(config, robot, args.model)
     except (ImportError, FileNotFoundError, ValueError) as exc:
         raise UsageError(f"network rows: {exc} (use --no-nn-rows to leave them out)") from None
-    return entries
+    return entries + controller_policies(args, config, robot)
 
 
 def network_rows(args, doc) -> None:
@@ -68,7 +90,7 @@ def parse_solvers(text: str) -> list[str]:
 
 def run(args) -> int:
     from casadi_gpc.bench import bench_figure, format_table, run_bench
-    from scenarios import PAPER_DIR, load_scenario
+    from scenarios import PAPER_DIR, Suite, load_scenario
 
     from casadi_gpc.io import save_figure, write_json
     solvers = parse_solvers(args.solvers)
@@ -79,9 +101,13 @@ def run(args) -> int:
     def say(msg):
         print(msg, file=sys.stderr, flush=True)
 
+    if args.crowd_movers < 0:
+        raise UsageError(f"--crowd-movers must be 0 or more, got {args.crowd_movers}")
+    crowd = [] if not args.crowd_movers else [Suite("circle-crossing", 1, 1, args.crowd_movers, "orca").scenario(0)]
     doc = run_bench(scenario, config, solvers, policies=extra_policies(args, config, scenario.robot),
                     gpc_rows=not args.no_gpc_rows,
-                    progress=lambda it: progress(it, desc="problems", unit="problem"), say=say)
+                    progress=lambda it: progress(it, desc="problems", unit="problem"), say=say,
+                    decision_scenarios=crowd)
     network_rows(args, doc)
     if args.out:
         write_json(args.out, doc)
@@ -95,6 +121,15 @@ def run(args) -> int:
           f"{doc['problems']} step problems (+{doc['multistart_problems']} multistart solves, "
           f"reported under 'multistart' in BENCH.json)")
     print(format_table(doc))
+    for d in doc["decisions"]:
+        t, cv = d["time_s"], d["candidates_vs_multistart"]
+        print(f"decision on {d['scenario']} ({d['movers']} movers, closed loop, behind the check layer): median "
+              f"{t['median'] * 1e3:.3f} ms (p95 {t['p95'] * 1e3:.2f}, max {t['max'] * 1e3:.2f}) = "
+              f"{d['decision_over_warm_solve']:.1f} warm solves of the chosen solver; {d['solves_per_decision']:.2f} "
+              f"solves per decision, the fixed guesses at {d['full_multistart_share']:.0%} of them; persistent "
+              f"candidates as good as the full multi-start at {cv['as_good_rate']:.1%} of {cv['steps']} steps "
+              f"({cv['solves_per_step']['persistent']:.2f} against {cv['solves_per_step']['multistart']:.2f} solves "
+              f"a step)")
     print(f"chosen: {ch['name']}  median {ch['median_time_s'] * 1e3:.3f} ms  "
           f"{ch['speedup_vs_reference']:.1f}x faster than {doc['reference']}  success {ch['success_rate']:.1%}  "
           f"as good as {doc['reference']} on {ch['as_good_as_reference_rate']:.1%} of the problems")

@@ -62,15 +62,34 @@ def suite_from_args(args):
         raise UsageError(str(exc)) from None
 
 
-def add_controller_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--controller", choices=("gpc", "nn"), default="gpc", help="the GPC planner or the network")
+SHIELD_MODES = ("off", "on", "gpc")
+"""``off``: the bare controller; ``on``: behind the safety check layer, which falls back on
+the controller's alternatives and its own manoeuvres; ``gpc``: the same with the GPC on
+standby as the first fallback (the network's default)."""
+DEFAULT_SHIELD = {"gpc": "on", "nn": "gpc"}
+"""The planner and the network run behind the check layer unless told not to; other
+controllers (the peers, a user's own) run as their users run them unless ``--shield``."""
+
+
+def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> None:
+    """``--controller NAME`` (``--controllers LIST`` with ``many``), the check layer's and the
+    network's options, and the preset's. Names are those of :mod:`gpcnav.controllers`."""
+    names = "gpc, nn, orca, hrvo, social_force, mppi, or MODULE:CLASS (a class of yours, README)"
+    if many:
+        p.add_argument("--controllers", default="gpc,nn", metavar="LIST",
+                       help=f"comma-separated controllers: {names}; default gpc,nn")
+    else:
+        p.add_argument("--controller", default="gpc", metavar="NAME", help=f"{names}; default gpc")
     p.add_argument("--model", type=Path, default=None,
                    help="ONNX model for --controller nn (default: the one shipped for --preset)")
-    p.add_argument("--no-safety-filter", action="store_true",
-                   help="--controller nn: run the bare network, without the safety filter (docs/faults.md)")
-    p.add_argument("--safety-fallback", choices=("gpc", "brake"), default="gpc",
-                   help="--controller nn: what the safety filter hands over to: the GPC on standby (default) "
-                        "or the best braking/turning manoeuvre")
+    p.add_argument("--shield", dest="shield", action="store_const", const="on", default=None,
+                   help="put the controller behind the safety check layer (the default for gpc and nn; "
+                        "docs/faults.md)")
+    p.add_argument("--no-shield", "--no-safety-filter", dest="shield", action="store_const", const="off",
+                   help="run the bare controller, without the safety check layer")
+    p.add_argument("--shield-fallback", "--safety-fallback", choices=("gpc", "brake"), default=None,
+                   help="what the check layer hands over to when the controller's answer fails: the GPC on "
+                        "standby (the default for nn) or only its braking/turning manoeuvres (brake)")
     p.add_argument("--passes", type=int, choices=(1, 2), default=None,
                    help="--controller nn: one pass or the paper's two passes (default: what the model file "
                         "says, docs/nn.md)")
@@ -79,43 +98,53 @@ def add_controller_arguments(p: argparse.ArgumentParser) -> None:
     add_preset_arguments(p)
 
 
-def safety_mode(args) -> str:
-    """``"off"``, ``"gpc"`` or ``"brake"`` from the controller options."""
-    return "off" if getattr(args, "no_safety_filter", False) else getattr(args, "safety_fallback", "gpc")
+def shield_mode(args, kind: str | None = None) -> str:
+    """The check layer's mode (:data:`SHIELD_MODES`) from the controller options."""
+    kind = kind or getattr(args, "controller", "gpc")
+    mode = getattr(args, "shield", None) or DEFAULT_SHIELD.get(kind, "off")
+    fallback = getattr(args, "shield_fallback", None)
+    if mode != "off" and fallback is not None:
+        mode = "gpc" if fallback == "gpc" else "on"
+    return mode
 
 
-def make_controller(kind: str, config, robot, model=None, safety: str = "gpc", passes: int | None = None):
-    """The controller object for ``kind`` (both answer ``decide(observation)``).
-
-    ``safety`` (network only): ``"gpc"`` the safety filter with the GPC on standby as its
-    fallback, ``"brake"`` the filter with its braking/turning manoeuvres only, ``"off"`` none.
-    ``passes`` (network only): 1 or 2, or None for what the model file says.
+def make_controller(kind: str, config, robot, model=None, shield: str | None = None, passes: int | None = None):
+    """The controller object for ``kind``, behind the check layer as ``shield`` says
+    (:data:`SHIELD_MODES`; None: :data:`DEFAULT_SHIELD`). Everything answers
+    ``decide(observation)``. ``passes`` (network only): 1 or 2, or None for what the model
+    file says.
     """
+    shield = shield or DEFAULT_SHIELD.get(kind, "off")
+    if shield == "brake":  # the older name of a check layer without the planner on standby
+        shield = "on"
+    if shield not in SHIELD_MODES:
+        raise UsageError(f"unknown shield mode {shield!r} (choose from {', '.join(SHIELD_MODES)})")
     if kind == "gpc":
         from casadi_gpc.gpc import GPCController
-        return GPCController(config, robot)
-    if kind == "nn":
+        base = GPCController(config, robot)
+        shield = "on" if shield == "gpc" else shield  # the planner's own alternatives come first
+    elif kind == "nn":
         try:
             from nn_export import OnnxPolicy
+            base = OnnxPolicy(model, preset=config.name, robot=robot, two_pass=None if passes is None else passes == 2)
         except ImportError as exc:
             raise UsageError(f"--controller nn is not available: {exc}") from None
-        if safety not in ("gpc", "brake", "off"):
-            raise UsageError(f"unknown safety mode {safety!r} (gpc, brake or off)")
-        fallback = None
-        if safety == "gpc":
-            try:
-                from casadi_gpc.gpc import GPCController
-                from casadi_gpc.safety import StandbyPlanner
-            except ImportError as exc:
-                raise UsageError(f"--safety-fallback gpc needs the planner ({exc}); use --safety-fallback brake") \
-                    from None
-            fallback = StandbyPlanner(GPCController(config, robot))
-        try:
-            return OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=safety != "off",
-                              fallback=fallback, two_pass=None if passes is None else passes == 2)
         except (FileNotFoundError, ValueError) as exc:
             raise UsageError(str(exc)) from None
-    raise UsageError(f"unknown controller {kind!r}")
+    else:
+        raise UsageError(f"unknown controller {kind!r}")
+    if shield == "off":
+        return base
+    from casadi_gpc.safety import Shield, StandbyPlanner
+    fallback = None
+    if shield == "gpc":
+        try:
+            from casadi_gpc.gpc import GPCController
+        except ImportError as exc:
+            raise UsageError(f"--shield-fallback gpc needs the planner ({exc}); use --shield-fallback brake") from None
+        fallback = StandbyPlanner(GPCController(config, robot))
+    # the planner replans at every sample: its plans are trusted for the filter's trust time
+    return Shield(base, robot, fallback=fallback, trust_plans=kind == "gpc")
 
 
 def check_seed(seed: int | None) -> None:

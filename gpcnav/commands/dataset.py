@@ -50,7 +50,8 @@ def add_arguments(p):
                         "the GPC itself) to the dataset at --out")
     p.add_argument("--dagger-safety", choices=("off", "gpc", "brake"), default="off",
                    help="--dagger MODEL: run the network bare (off, default: its own failure states get "
-                        "labelled) or behind the safety filter with the GPC (gpc) or braking (brake) fallback")
+                        "labelled) or behind the safety check layer with the GPC (gpc) or only its manoeuvres "
+                        "(brake) as fallback; --dagger gpc: the planner drives behind its check layer")
     p.add_argument("--episodes", type=int, default=100, help="episodes of the random suite for --dagger")
     p.add_argument("--round", type=int, default=1, help="DAgger round number (names the part: dagger<R>)")
     p.add_argument("--dagger-noise", type=float, default=0.0, metavar="SIGMA",

@@ -4,7 +4,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import add_controller_arguments, check_output_files, check_seed, make_controller, planner_config, safety_mode
+from ..controllers import ControllerSpec, check, describe, make, spec_from_args
+from .common import add_controller_arguments, check_output_files, check_seed, planner_config
 
 
 def add_arguments(p):
@@ -16,21 +17,26 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=None, help="override the scenario's sensing seed")
 
 
-def run_one(scenario, controller_kind, config, model=None, safety="gpc", passes=None):
-    """Simulate ``scenario`` and return its RUN document."""
+def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=None, passes=None):
+    """Simulate ``scenario`` with the controller ``spec`` names (or ``spec``, ``model``,
+    ``shield``, ``passes`` as the controller's name and options) and return its RUN document."""
     from casadi_gpc.metrics import run_document
     from casadi_gpc.simulator import simulate
-    controller = make_controller(controller_kind, config, scenario.robot, model, safety, passes)
-    log = simulate(scenario, controller, controller_kind)
+    if isinstance(spec, str):
+        spec = ControllerSpec(spec, model, shield, passes)
+    controller = make(spec, config, scenario.robot)
+    log = simulate(scenario, controller, spec.label)
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
-             "robot_radius_m": scenario.robot.radius_m}
-    model_info = getattr(controller, "model_info", None)
+             "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode}  # docs/faults.md
+    inner = getattr(controller, "policy", controller)  # the controller behind a Shield
+    model_info = getattr(inner, "model_info", None)
     if model_info:
         extra["model"] = model_info
-        extra["safety_filter"] = safety  # gpc, brake or off (docs/faults.md)
-    solver_info = getattr(controller, "solver_info", None)
+    solver_info = getattr(inner, "solver_info", None)
     if solver_info:
         extra["solver"] = solver_info  # the GPC's NLP solver (docs/solvers.md)
+    if spec.name not in ("gpc", "nn"):
+        extra["controller_settings"] = describe(controller)
     return run_document(log, extra)
 
 
@@ -43,7 +49,9 @@ def run(args) -> int:
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
     config = planner_config(args)
-    doc = run_one(scenario, args.controller, config, args.model, safety_mode(args), args.passes)
+    spec = spec_from_args(args)
+    check(spec, config, scenario.robot)
+    doc = run_one(scenario, spec, config)
     if args.out:
         write_json(args.out, doc)
     if args.plot:
@@ -56,7 +64,7 @@ def run(args) -> int:
         from casadi_gpc.plots import animate_run
         animate_run(doc, args.animate, scenario.robot.radius_m)
     ct = doc["compute_time_s"]
-    print(f"{doc['scenario']} [{args.controller}, preset {config.name}, T={config.sample_time_s} s]: "
+    print(f"{doc['scenario']} [{spec.label}, preset {config.name}, T={doc['sample_time_s']} s]: "
           f"{doc['outcome']}  min clearance {doc['min_clearance_m']:.3f} m  tracking RMSE "
           f"{doc['tracking_rmse_m']:.3f} m  steps {doc['steps']}  decision median {ct['median'] * 1e3:.2f} ms "
           f"(p95 {ct['p95'] * 1e3:.2f})  fallbacks {doc['fallbacks']}", file=sys.stdout)

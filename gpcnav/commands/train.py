@@ -44,7 +44,10 @@ _NOT_THE_PROBLEM = {"solver", "time_budget_s"}  # how the NLP is solved, not whi
 
 def _config_differences(a: dict, b: dict) -> list[str]:
     """Fields that define the GPC problem and differ (a field one side lacks counts only
-    when the other side sets it, so a config field added later with default None is fine)."""
+    when the other side sets it, so a config field added later with default None is fine).
+    Compared as JSON holds them (a tuple read back is a list)."""
+    import json
+    a, b = (json.loads(json.dumps(d, default=str)) for d in (a, b))
     return sorted(k for k in set(a) | set(b) if k not in _NOT_THE_PROBLEM and a.get(k) != b.get(k))
 
 

@@ -47,7 +47,6 @@ from .features import RolloutFeatures, feature_values, feature_values_from
 from .layouts import FeatureLayout, layout_from_dict
 from .situation import Situation
 from .tracker import SituationTracker
-from casadi_gpc.safety import SafetyFilter
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadata", "POLICY_FORMAT",
            "DEFAULT_SAFETY_DISTANCE_M"]
@@ -179,17 +178,19 @@ class OnnxPolicy:
         :data:`DEFAULT_SAFETY_DISTANCE_M`).
     ekf_settings : EKFSettings, optional
         The obstacle filter's noise levels (default as the GPC's).
-    safety_filter : bool or SafetyFilter
-        Check every command with :class:`casadi_gpc.safety.SafetyFilter` (default on); a
-        filter object to use one with other settings; False to run the bare network.
-    fallback : object with ``decide(observation)``, optional
-        The planner the safety filter hands over to (e.g. the GPC in a
-        :class:`~casadi_gpc.safety.StandbyPlanner`); without one it brakes or swerves.
+
+    This is the bare network: deployed, it runs behind the safety check layer,
+    ``casadi_gpc.safety.Shield(OnnxPolicy())`` (numpy only as well), which checks every
+    command against the same forecasts (each decision hands over its track estimates,
+    ``provides_forecasts``) and hands over to a fallback planner or a manoeuvre when it fails.
     """
+
+    provides_forecasts = True
+    """Each decision carries the track estimates it was made with (``forecasts``)."""
 
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
                  two_pass: bool | None = None, safety_distance_m: float | None = None,
-                 ekf_settings: EKFSettings | None = None, safety_filter=True, fallback=None):
+                 ekf_settings: EKFSettings | None = None):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
@@ -234,37 +235,18 @@ class OnnxPolicy:
             "validation_rmse_mps": float(meta["validation_rmse_mps"]), "two_pass": self.two_pass,
             "safety_distance_m": self.safety_distance_m,
         }
-        if isinstance(safety_filter, SafetyFilter):
-            self.safety = safety_filter
-        elif safety_filter:
-            self.safety = SafetyFilter(self.robot, self.sample_time_s, self.horizon, fallback=fallback)
-        else:
-            self.safety = None
-        self.model_info["safety_filter"] = self.safety is not None
-        self._safety_names: dict[str, str] = {}
         self.load_time_s = time.perf_counter() - t0
         self.reset()
 
     # --- state -----------------------------------------------------------------------
     def reset(self) -> None:
         self.tracker.reset()
-        self._counters = {"decisions": 0, "second_pass": 0, "fallbacks": 0, "feature_report": {}}
-        if self.safety is not None:
-            self.safety.reset()
+        self._counters = {"decisions": 0, "second_pass": 0, "feature_report": {}}
 
     @property
     def counters(self) -> dict:
-        """Decisions, second passes, fallbacks, the feature report, the tracker's events and
-        the safety filter's counters (prefixed ``safety_``), current when read."""
-        c = self._counters
-        if self.safety is not None:
-            names = self._safety_names
-            for k, n in self.safety.counters.items():
-                name = names.get(k)
-                if name is None:  # the names made once
-                    name = names[k] = "safety_" + k
-                c[name] = n
-        return c
+        """Decisions, second passes, the feature report and the tracker's events."""
+        return self._counters
 
     # --- the network -----------------------------------------------------------------
     @property
@@ -343,50 +325,26 @@ class OnnxPolicy:
     def decide(self, obs: Observation) -> ControlDecision:
         situation = self.tracker.update(obs)
         # missed measurements and gated outliers (a track seen once is counted by the safety
-        # filter, as safety_unestimated_tracks)
+        # check layer, as shield_unestimated_tracks)
         tracked, counters = self.tracker.counters, self._counters
         counters["missed_measurements"] = tracked["missed_measurements"]
         counters["outliers"] = tracked["outliers"]
-        dec = self._decide(obs, situation)
-        return dec if self.safety is None else self._checked(obs, situation, dec)
-
-    def _checked(self, obs: Observation, situation: Situation, dec: ControlDecision) -> ControlDecision:
-        """The decision through the safety filter; an intervention is a counted fallback."""
-        t0 = time.perf_counter()
-        # the pass-1 plan is the candidate's own continuation only when its first step is applied
-        plan = dec.planned_wheels_mps
-        own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
-        cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
-        # the track estimates carry the forecasts' fields (no ObstacleForecast copies), and the
-        # pass-1 plan comes with the poses the roll-out already computed
-        v = self.safety.filter(obs, cand, situation.tracks, situation.statics, dec.planned_poses if own else None)
-        info = dec.info  # the decision is new each step: annotate it in place
-        info["safety_time_s"] = time.perf_counter() - t0
-        info["safety_clearance_m"] = v.check.min_clearance_m
-        if not v.intervened:
-            return dec
-        self._counters["fallbacks"] += 1
-        for k in ("solves", "failed_solves", "fallbacks"):  # the standby planner's own failures
-            n = getattr(self.safety.fallback, "counters", {}).get(k)
-            if n is not None:
-                self._counters["safety_fallback_" + k] = n
-        return ControlDecision(v.v_right_mps, v.v_left_mps, True, v.reason, v.planned_wheels_mps, None,
-                               info={**info, "network_wheels_mps": (dec.v_right_mps, dec.v_left_mps),
-                                     "safety_source": v.source})
+        return self._decide(obs, situation)
 
     def _decide(self, obs: Observation, situation: Situation) -> ControlDecision:
-        """The network's own decision (one or two passes), before the safety filter."""
+        """The network's own decision (one or two passes), with the track estimates it used."""
         self._counters["decisions"] += 1
+        tracks = situation.tracks
         if not self.two_pass:
             vr, vl = self._net(situation)
-            return ControlDecision(vr, vl, False, "one pass")
+            return ControlDecision(vr, vl, False, "one pass", forecasts=tracks)
         H = self.horizon
         pose_list, wheel_list = self._free_path(situation.robot, self.tracker.reference_ahead_)
         clearance = self._clearance(situation, pose_list)
         poses, wheels = np.array(pose_list).reshape(H, 3), np.array(wheel_list).reshape(H, 2)
         if clearance >= self.safety_distance_m:
             return ControlDecision(wheel_list[0], wheel_list[1], False, "pass 1: path clear",
-                                   wheels, poses, info={"predicted_clearance_m": clearance})
+                                   wheels, poses, info={"predicted_clearance_m": clearance}, forecasts=tracks)
         self._counters["second_pass"] += 1
         r = obs.robot
         # the features of situation.with_reference(desired), from its pieces
@@ -395,4 +353,4 @@ class OnnxPolicy:
                                                       situation.tracks, situation.statics,
                                                       self._counters["feature_report"]))
         return ControlDecision(vr, vl, False, "pass 2: avoiding", wheels, poses,
-                               info={"predicted_clearance_m": clearance})
+                               info={"predicted_clearance_m": clearance}, forecasts=tracks)

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from casadi_gpc.safety import Shield
+
 from ..runtime.policy import OnnxPolicy
 
 __all__ = ["policy_entries", "FeatureRecorder", "graph_forward", "forward_rows", "network_speedups"]
@@ -41,15 +43,14 @@ class FeatureRecorder:
 def policy_entries(config, robot, model=None) -> tuple[list, FeatureRecorder]:
     """``(name, make_policy)`` pairs for :func:`casadi_gpc.bench.policy_rows`: the full
     decision as deployed (the model's own number of passes, metadata ``decision_passes``),
-    without and with the safety filter, and with one and with two passes."""
-    recorder = FeatureRecorder(OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=False))
+    bare and behind the check layer (:class:`casadi_gpc.safety.Shield`, manoeuvres only), and
+    with one and with two passes."""
+    recorder = FeatureRecorder(OnnxPolicy(model, preset=config.name, robot=robot))
     entries = [
         ("onnxpolicy", lambda: recorder),
-        ("onnxpolicy[one-pass]", lambda: OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=False,
-                                                    two_pass=False)),
-        ("onnxpolicy[two-pass]", lambda: OnnxPolicy(model, preset=config.name, robot=robot, safety_filter=False,
-                                                    two_pass=True)),
-        ("onnxpolicy[+safety-brake]", lambda: OnnxPolicy(model, preset=config.name, robot=robot)),
+        ("onnxpolicy[one-pass]", lambda: OnnxPolicy(model, preset=config.name, robot=robot, two_pass=False)),
+        ("onnxpolicy[two-pass]", lambda: OnnxPolicy(model, preset=config.name, robot=robot, two_pass=True)),
+        ("onnxpolicy[+safety-brake]", lambda: Shield(OnnxPolicy(model, preset=config.name, robot=robot), robot)),
     ]
     return entries, recorder
 
@@ -139,7 +140,7 @@ def forward_rows(model_path, features: np.ndarray) -> list[dict]:
     import onnx
     model_path = Path(model_path)
     proto = onnx.load(model_path)
-    policy = OnnxPolicy(model_path, safety_filter=False)
+    policy = OnnxPolicy(model_path)
     X = np.ascontiguousarray(features, dtype=np.float32)
     ref = policy.network(X)
     x_buf = policy._x

@@ -229,16 +229,18 @@ class Labeller:
         return GPCController(cfg, self.robot, **kw)
 
     def parameters(self, situation: Situation) -> np.ndarray:
-        """The NLP parameter vector the planner would use, slots filled as ``decide`` fills them."""
+        """The NLP parameter vector the planner would use, slots filled as ``decide`` fills them
+        for a robot without a previous plan (the desired poses as its predicted path)."""
         cfg = self.config
         if situation.horizon != cfg.horizon:
             raise ValueError(f"situation horizon {situation.horizon} != planner horizon {cfg.horizon}")
         return self._parameters(situation)[0]
 
     def _parameters(self, situation: Situation):
-        cfg = self.config
-        return planner_parameters(self.controller.problem.layout, situation.robot.as_array(),
-                                  situation.ref_poses[1:], situation.forecasts(), situation.statics, cfg)
+        """The parameter vector and the selected forecasts and statics (what fills the slots)."""
+        p, sel = planner_parameters(self.controller.problem.layout, situation.robot.as_array(), situation.ref_poses,
+                                    situation.forecasts(), situation.statics, self.config)
+        return p, sel.forecasts, sel.statics
 
     def label(self, situation: Situation) -> Label:
         """Solve from every initial guess and keep the planner's choice (with the fallback

@@ -1,0 +1,101 @@
+"""The planner's whole decision: its time in closed loop, and its persistent candidates
+against the full multi-start on the same recorded problems (``gpcnav bench``'s decision rows).
+
+:func:`decision_run` runs a scenario closed loop with the planner as shipped (the GPC behind
+its check layer) and reports its decision times, solves per decision and how often the
+fixed guesses were solved.
+
+:func:`record_ticks` runs a scenario closed loop with the full multi-start
+(``PlannerConfig.candidates = "multistart"``: every fixed guess and the previous plan at every
+step near obstacles) and keeps each step's NLP (:class:`casadi_gpc.gpc.Tick`) and the cost
+of the plan it chose. :func:`compare_candidates` solves the same sequence of NLPs with the
+persistent candidates (:mod:`casadi_gpc.candidates`), which carry their own solutions from
+step to step, and compares the chosen costs step by step: the same (within
+:data:`SAME_COST_RELATIVE`) or lower counts as as good.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import PlannerConfig
+from .gpc import GPCController, Tick
+from .metrics import time_stats
+from .robot import RobotParams
+from .safety import Shield
+from .simulator import simulate
+
+__all__ = ["SAME_COST_RELATIVE", "RecordedTick", "record_ticks", "compare_candidates", "decision_run"]
+
+SAME_COST_RELATIVE = 1e-6
+"""A chosen cost within this relative distance of the full multi-start's (or lower) is as good."""
+
+
+@dataclass(frozen=True)
+class RecordedTick:
+    """One step of the full multi-start's closed loop."""
+
+    tick: Tick
+    cost: float
+    """The chosen plan's cost (NaN when every solve failed)."""
+    solves: int
+
+
+class _Recorder(GPCController):
+    def __post_init__(self):
+        super().__post_init__()
+        self.ticks: list[RecordedTick] = []
+
+    def solve_tick(self, tick: Tick):
+        best, solved = super().solve_tick(tick)
+        self.ticks.append(RecordedTick(tick, float("nan") if best is None else best.cost, len(solved)))
+        return best, solved
+
+
+def record_ticks(scenario, config: PlannerConfig) -> list[RecordedTick]:
+    """Every step's NLP and chosen cost of ``scenario`` run closed loop by the GPC with the
+    full multi-start (the rest of ``config`` as given)."""
+    ctl = _Recorder(config.with_overrides(candidates="multistart"), scenario.robot)
+    simulate(scenario, ctl, "gpc")
+    return ctl.ticks
+
+
+def compare_candidates(ticks: list[RecordedTick], config: PlannerConfig, robot: RobotParams | None = None) -> dict:
+    """The persistent candidates on the recorded sequence ``ticks``: how often their chosen
+    cost is as good as the full multi-start's, the largest excess, and the solves per step
+    of each. Steps where the multi-start found no plan are not compared."""
+    per = GPCController(config.with_overrides(candidates="persistent"), robot or RobotParams())
+    compared = as_good = 0
+    excess, solves_ms, solves_pc = [], [], []
+    for r in ticks:
+        best, solved = per.solve_tick(r.tick)
+        if not np.isfinite(r.cost):
+            continue
+        compared += 1
+        solves_ms.append(r.solves)
+        solves_pc.append(len(solved))
+        cost = np.inf if best is None else best.cost
+        rel = (cost - r.cost) / max(abs(r.cost), 1e-12)
+        excess.append(rel)
+        as_good += bool(rel <= SAME_COST_RELATIVE)
+    return {"steps": compared, "as_good": as_good, "as_good_rate": as_good / max(compared, 1),
+            "worse": compared - as_good, "max_relative_excess": float(max(excess, default=0.0)),
+            "solves_per_step": {"multistart": float(np.mean(solves_ms)) if solves_ms else 0.0,
+                                "persistent": float(np.mean(solves_pc)) if solves_pc else 0.0}}
+
+
+def decision_run(scenario, config: PlannerConfig) -> dict:
+    """``scenario`` closed loop with the GPC behind its check layer (as ``gpcnav --controller
+    gpc`` runs it): the decision's time (median, p95, max), solves per decision, the share of
+    decisions that solved the fixed guesses, interventions, the outcome. Each decision is
+    timed as the simulator times it (estimation, parameters, solves, the check)."""
+    gpc = GPCController(config, scenario.robot)
+    log = simulate(scenario, Shield(gpc, scenario.robot, trust_plans=True), "gpc")
+    n = max(len(log.decisions), 1)
+    return {"scenario": scenario.name, "preset": config.name, "outcome": log.outcome, "decisions": len(log.decisions),
+            "movers": len(scenario.moving), "time_s": time_stats(log.compute_time_s),
+            "solves_per_decision": gpc.counters["solves"] / n,
+            "full_multistart_share": gpc.counters["full_multistarts"] / n,
+            "interventions": int(log.events.get("interventions", 0)), "min_clearance_m": float(log.min_clearance_m),
+            "time_samples_s": list(log.compute_time_s)}

@@ -1,0 +1,156 @@
+"""Any controller behind the safety check: the one controller-agnostic layer (numpy only).
+
+:class:`Shield` wraps an object that answers the Policy protocol (``sample_time_s``,
+``reset()``, ``decide(observation) -> ControlDecision``) and answers it too. Each sample it
+asks the controller, then lets its answer through :class:`~casadi_gpc.safety.SafetyFilter`:
+the controller's own plan (or its command, with a way out) checked against the predicted
+obstacle discs inflated by their uncertainty over the horizon; when that fails, the
+controller's alternatives (best first), the fallback planner (if one was given) and the
+filter's manoeuvres take over, in that order (the package text has the rules). Every
+intervention is counted, in ``counters["interventions"]``; one that takes the fallback
+planner's answer or a manoeuvre marks the decision as a fallback.
+
+Forecasts: a controller that tracks the obstacles with the one EKF bank
+(:class:`~casadi_gpc.tracking.TrackBank`, the GPC and the network do) says so with a true
+``provides_forecasts`` and hands its forecasts over in every decision
+(``ControlDecision.forecasts``); the shield checks against those, so the estimation is not
+done twice. For any other controller the shield runs its own bank on the observations.
+
+The check's horizon is the controller's own (``horizon`` or ``config.horizon``: the
+forecasts cover it) or, for a controller without one, :data:`DEFAULT_HORIZON_S` worth of its
+samples.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..ekf import EKFSettings
+from ..robot import RobotParams
+from ..tracking import TrackBank
+from ..types import ControlDecision, Observation
+from .filter import SafetyFilter
+
+__all__ = ["Shield", "DEFAULT_HORIZON_S"]
+
+DEFAULT_HORIZON_S = 6.0
+"""The look-ahead of the check for a controller without a horizon of its own (the
+``improved`` planner's: 12 samples of 0.5 s)."""
+
+
+def _policy_horizon(policy, sample_time_s: float) -> int:
+    for h in (getattr(policy, "horizon", None), getattr(getattr(policy, "config", None), "horizon", None)):
+        if isinstance(h, int) and h >= 1:
+            return h
+    return max(1, int(round(DEFAULT_HORIZON_S / sample_time_s)))
+
+
+class Shield:
+    """``policy`` behind the safety check (see the module text).
+
+    Parameters
+    ----------
+    policy : object answering the Policy protocol
+        The controller whose answers are checked.
+    robot : RobotParams, optional
+        The robot's geometry and limits (default: the contract's robot).
+    fallback : object with ``decide(observation)``, optional
+        The planner the check hands over to when the controller's answer fails (e.g. the
+        GPC in a :class:`~casadi_gpc.safety.StandbyPlanner` behind a network).
+    margin_m, sigmas, substeps, trust_planner_s
+        As :class:`~casadi_gpc.safety.SafetyFilter`.
+    horizon : int, optional
+        Intervals checked (default: the controller's horizon, see the module text).
+    trust_plans : bool
+        The controller is a planner that replans at every sample (the GPC): its plan, or
+        one of its alternatives, passes when it keeps the margin for the filter's
+        ``trust_planner_s`` (default 3 s), as the fallback planner's answer does; a
+        violation later in the horizon, where the forecast's uncertainty has grown, is left
+        to its next plans. Otherwise (a network, a reactive peer) the whole horizon counts.
+    ekf_settings : EKFSettings, optional
+        The shield's own obstacle filters, for a controller that provides no forecasts.
+    """
+
+    def __init__(self, policy, robot: RobotParams | None = None, fallback=None, margin_m: float = 0.05,
+                 sigmas: float = 2.0, substeps: int = 4, trust_planner_s: float | None = None,
+                 horizon: int | None = None, ekf_settings: EKFSettings | None = None, trust_plans: bool = False):
+        for attr in ("decide", "reset"):
+            if not callable(getattr(policy, attr, None)):
+                raise TypeError(f"the shielded controller must have a {attr}() method")
+        T = getattr(policy, "sample_time_s", None)
+        if not isinstance(T, (int, float)) or not (math.isfinite(T) and T > 0):
+            raise TypeError(f"the shielded controller's sample_time_s must be a positive number, got {T!r}")
+        self.policy = policy
+        self.sample_time_s = float(T)
+        self.robot = robot or getattr(policy, "robot", None) or RobotParams()
+        self.horizon = int(horizon) if horizon is not None else _policy_horizon(policy, self.sample_time_s)
+        self.filter = SafetyFilter(self.robot, self.sample_time_s, self.horizon, margin_m, sigmas, substeps,
+                                   fallback=fallback, trust_planner_s=trust_planner_s)
+        self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
+        self.trust_plans = bool(trust_plans)
+        self.ekf_settings = ekf_settings or EKFSettings()
+        self._names: dict[str, str] = {}
+        self.reset()
+
+    @property
+    def config(self):
+        """The shielded controller's planner settings, when it has them."""
+        return getattr(self.policy, "config", None)
+
+    def reset(self) -> None:
+        self.policy.reset()
+        self.filter.reset()
+        self._bank = None if self.uses_policy_forecasts else TrackBank(self.sample_time_s, self.ekf_settings)
+
+    @property
+    def counters(self) -> dict:
+        """The controller's counters, ``interventions``, and the check's other counters
+        (prefixed ``shield_``; with its own obstacle filters, theirs too), current when read."""
+        c = dict(getattr(self.policy, "counters", {}))
+        names = self._names
+        for k, n in self.filter.counters.items():
+            name = names.get(k)
+            if name is None:
+                name = names[k] = k if k == "interventions" else "shield_" + k
+            c[name] = n
+        if self._bank is not None:  # the shield's own filters: missed, outliers, tracks seen once
+            for k, n in self._bank.counters.items():
+                c["shield_" + k] = c.get("shield_" + k, 0) + n
+        fallback = self.filter.fallback
+        if fallback is not None:
+            for k in ("solves", "failed_solves", "fallbacks"):  # the standby planner's own work
+                n = getattr(fallback, "counters", {}).get(k)
+                if n is not None:
+                    c["shield_fallback_" + k] = n
+        return c
+
+    def _forecasts(self, obs: Observation, dec: ControlDecision):
+        if self._bank is None:
+            if dec.forecasts is None:
+                raise ValueError("the shielded controller says it provides forecasts but its decision has none")
+            return dec.forecasts
+        H = self.horizon
+        return [self._bank.forecast(m, ekf, H) for m, ekf in self._bank.step(obs.moving)]
+
+    def decide(self, obs: Observation) -> ControlDecision:
+        dec = self.policy.decide(obs)
+        t0 = time.perf_counter()
+        forecasts = self._forecasts(obs, dec)
+        # the plan is the candidate's own continuation only when its first step is the command
+        plan = dec.planned_wheels_mps
+        own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
+        cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
+        v = self.filter.filter(obs, cand, forecasts, obs.static, dec.planned_poses if own else None,
+                               dec.alternatives, self.filter.trust_planner_s if self.trust_plans else None)
+        info = dec.info  # the decision is new each step: annotate it in place
+        info["safety_time_s"] = time.perf_counter() - t0
+        info["safety_clearance_m"] = v.check.min_clearance_m
+        if not v.intervened:
+            return dec
+        # the controller's own alternative is its answer, not a fallback; the rest are
+        fallback = not v.source.startswith("alternative")
+        return ControlDecision(v.v_right_mps, v.v_left_mps, fallback, v.reason, v.planned_wheels_mps, None,
+                               info={**info, "controller_wheels_mps": (dec.v_right_mps, dec.v_left_mps),
+                                     "safety_source": v.source}, forecasts=dec.forecasts)

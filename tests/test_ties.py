@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from casadi_gpc.metrics import passing_sides
-from nn_export.training.labels import Label
+from nn_export.training.labels import GUESS_NAMES, Label
 from nn_export.training.ties import LEFT, RIGHT, choose, passing_side, prefers_right
 
 H = 6
@@ -46,14 +46,14 @@ def test_passing_side_crossing_and_frame():
 def test_the_rule():
     assert prefers_right(10.05, 10.0, 0.01) and not prefers_right(10.2, 10.0, 0.01)
     assert prefers_right(10.0, 10.0, 0.0) and not prefers_right(10.0 + 1e-6, 10.0, 0.0)
-    r, left = Label(True, np.zeros(2), np.zeros((H, 2)), 10.05, "", "", 1, np.zeros(5), 0.0), None
+    r, left = Label(True, np.zeros(2), np.zeros((H, 2)), 10.05, "", "", 1, np.zeros(len(GUESS_NAMES)), 0.0), None
     assert choose(r, left, 0.01) is r and choose(None, r, 0.01) is r
 
 
 def _label(cost, wheels, side):
     plan = np.tile(np.asarray(wheels, dtype=float), (H, 1))
     return Label(True, plan[0].copy(), plan, cost, "ok", "swerve_right" if side == RIGHT else "swerve_left", 3,
-                 np.arange(5.0), 0.0, side=side)
+                 np.arange(float(len(GUESS_NAMES))), 0.0, side=side)
 
 
 @pytest.mark.parametrize("margin, side", [(0.01, RIGHT), (0.001, LEFT)])

@@ -2,10 +2,12 @@
 today's, against networks of other sizes, with one and two passes (docs/nn.md, "The paper's
 network as the paper trained it").
 
-    python tools/paper_nn_study.py --data NAME=DIR[:PART,PART] ... [--nets 35,64,64x2]
+    python tools/paper_nn_study.py --data NAME=DIR[:PART,PART][@SAMPLES] ... [--nets 35,64,64x2]
         [--passes 1,2] [--random 100] [--encounters 100] [--workers 2] [--out DIR]
         [--oracle] [--tie-margin REL]
 
+``@SAMPLES`` trains on the dataset's first shards holding that many samples (a subset folder
+of links under OUT/subsets: datasets labelled in one run compare on the same situations).
 For every dataset and network: train (``gpcnav train --preset paper``, L-BFGS, seed 0,
 skipped when the model folder exists), export once per number of passes, and measure:
 
@@ -127,6 +129,35 @@ def gpc_runs(args, cache: Path) -> dict:
     return runs
 
 
+def subset(data: str, samples: int, out: Path, restamp: bool = False) -> str:
+    """A dataset folder of links to the first shards of ``data`` that hold ``samples``
+    samples (every part in order), with its manifest cut to match. ``restamp``: write
+    today's `paper` configuration into the manifest (for labels made before a change of
+    planner settings that do not enter a label; the caller checks that they agree)."""
+    src = Path(data).resolve()
+    man = json.loads((src / "manifest.json").read_text())
+    dst = out / f"{src.name}@{samples}"
+    dst.mkdir(parents=True, exist_ok=True)
+    left, total = samples, 0
+    for part in man.get("parts", {}).values():
+        kept = []
+        for shard in part["shards"]:
+            if left <= 0:
+                break
+            n = int(np.load(src / shard)["labels"].shape[0])
+            kept.append(shard)
+            left -= n
+            total += n
+            if not (dst / shard).exists():
+                (dst / shard).symlink_to(src / shard)
+        part["shards"], part["samples"] = kept, sum(int(np.load(src / s)["labels"].shape[0]) for s in kept)
+    if restamp:
+        man["planner_config_labelled"], man["planner_config"] = man.get("planner_config"), CONFIG.to_dict()
+    man["samples"], man["shards"] = total, [s for part in man.get("parts", {}).values() for s in part["shards"]]
+    write_json(dst / "manifest.json", man)
+    return str(dst)
+
+
 def train(data: str, parts: str | None, net: str, models: Path) -> Path:
     """Train (unless done) and return the model folder."""
     hidden, _, layers = net.partition("x")
@@ -157,6 +188,8 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "paper_nn_study")
     ap.add_argument("--oracle", action="store_true")
+    ap.add_argument("--restamp", action="store_true",
+                    help="train datasets labelled under an earlier `paper` configuration (see subset())")
     ap.add_argument("--tie-margin", type=float, default=None, help="the oracle's labels' near-tie margin")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -169,7 +202,10 @@ def main(argv=None) -> int:
             todo.append((f"oracle-{mode}-m{args.tie_margin}", f"oracle-{mode}", None, 2, args.tie_margin))
     for spec in args.data:
         name, _, rest = spec.partition("=")
+        rest, _, samples = rest.partition("@")
         data, _, parts = rest.partition(":")
+        if samples or args.restamp:
+            data = subset(data, int(samples or 10 ** 9), args.out / "subsets", args.restamp)
         for net in args.nets.split(","):
             folder = train(data, parts or None, net, args.out / "models")
             for passes in (int(p) for p in args.passes.split(",")):

@@ -57,6 +57,8 @@ FULL = Sizes(scheme="two-pass", samples=100000, tie_margin=0.01, dart_random_epi
              epochs=400, suite_count=100, improved=True)
 PASSES = 2
 """The paper's two passes."""
+LIMIT_MODES = ("rollout", "plan")
+"""The first pass of the two-pass GPC rows (:class:`nn_export.training.two_pass.TwoPassGPC`)."""
 
 
 def add_arguments(p):
@@ -187,9 +189,13 @@ def _scenario_runs(st: _Stages, runs: Path, onnx: Path, model_key: str, presets)
 def _scheme_limit(st: _Stages, runs: Path, sizes: Sizes) -> dict:
     """6. the paper's two-pass scheme with the GPC in place of the network on the Fig. 7
     scenarios (:class:`nn_export.training.two_pass.TwoPassGPC`, labels as the dataset's):
-    how close a network that imitated its labels exactly would come."""
+    how close a network that imitated its labels exactly would come, with the first pass
+    rolled out step by step as the deployed policy does (``rollout``) and, for comparison,
+    the GPC's obstacle-free open-loop plan as the prediction (``plan``, which no network
+    with two outputs can give). Keys ``(scenario, mode)``."""
     from scenarios import PAPER_NAMES
-    files = {name: runs / f"{name}_paper_two-pass-gpc.json" for name in PAPER_NAMES}
+    files = {(name, mode): runs / f"{name}_paper_two-pass-gpc-{mode}.json" for name in PAPER_NAMES
+             for mode in LIMIT_MODES}
 
     def limit():
         from casadi_gpc.config import preset
@@ -201,9 +207,11 @@ def _scheme_limit(st: _Stages, runs: Path, sizes: Sizes) -> dict:
         from scenarios import paper_scenarios
         config = preset("paper")
         for sc in paper_scenarios():
-            oracle = TwoPassGPC(Labeller(config, sc.robot, tie_margin=sizes.tie_margin))
-            write_json(files[sc.name], run_document(simulate(sc, oracle, "two-pass-gpc"), {"preset": "paper"}))
-    st.run("scheme_limit", {"tie_margin": sizes.tie_margin}, list(files.values()), limit)
+            for mode in LIMIT_MODES:
+                oracle = TwoPassGPC(Labeller(config, sc.robot, tie_margin=sizes.tie_margin), mode)
+                write_json(files[(sc.name, mode)],
+                           run_document(simulate(sc, oracle, f"two-pass-gpc-{mode}"), {"preset": "paper"}))
+    st.run("scheme_limit", {"tie_margin": sizes.tie_margin, "modes": LIMIT_MODES}, list(files.values()), limit)
     return files
 
 

@@ -82,7 +82,8 @@ def test_comparison_says_it_plainly(run_files):
                    "dart_random_episodes": 0, "dart_encounter_episodes": 0}}
     text = comparison(r)
     assert "The paper's claim does not hold here (2 of 3 situations)" in text
-    dev73 = next(r["path_deviation_from_gpc_m"] for r in rows if r["controller"] == "nn" and r["scenario"] == PAPER_NAMES[2])
+    dev73 = next(r["path_deviation_from_gpc_m"] for r in rows
+                 if r["controller"] == "nn" and r["scenario"] == PAPER_NAMES[2])
     assert f"7.3: reached, {dev73:.2f} m, **other side**" in text and 1.0 < dev73 < 2.0
     assert "100 GPC labels of the paper's training distribution" in text and "within 1 % of the cost" in text
     assert "even a network that imitated" not in text  # the scheme's own rows hold (they are the GPC's path)

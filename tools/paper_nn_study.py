@@ -158,13 +158,18 @@ def subset(data: str, samples: int, out: Path, restamp: bool = False) -> str:
     return str(dst)
 
 
-def train(data: str, parts: str | None, net: str, models: Path) -> Path:
-    """Train (unless done) and return the model folder."""
-    hidden, _, layers = net.partition("x")
-    folder = models / f"{Path(data).name}{'-' + parts.replace(',', '+') if parts else ''}-{net}"
+def train(data: str, parts: str | None, net: str, models: Path, seed: int = 0) -> Path:
+    """Train (unless done) and return the model folder. ``net``: ``HIDDEN[xLAYERS][+adam]``
+    (default full-batch L-BFGS)."""
+    net_shape, _, optimizer = net.partition("+")
+    hidden, _, layers = net_shape.partition("x")
+    folder = models / (f"{Path(data).name}{'-' + parts.replace(',', '+') if parts else ''}-{net}"
+                       f"{f'-s{seed}' if seed else ''}")
     if not (folder / "model.json").is_file():
-        cmd = [sys.executable, "-m", "gpcnav", "train", data, "--out", str(folder), "--preset", "paper", "--seed", "0",
-               "--hidden", hidden, "--layers", layers or "1", "--epochs", "400"]
+        cmd = [sys.executable, "-m", "gpcnav", "train", data, "--out", str(folder), "--preset", "paper",
+               "--seed", str(seed),
+               "--hidden", hidden, "--layers", layers or "1", "--epochs", "400",
+               "--optimizer", optimizer or "lbfgs"]
         if parts:
             cmd += ["--parts", parts]
         subprocess.run(cmd, check=True, cwd=ROOT)
@@ -187,6 +192,7 @@ def main(argv=None) -> int:
     ap.add_argument("--encounters", type=int, default=100)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "paper_nn_study")
+    ap.add_argument("--train-seed", type=int, default=0, help="seed of the training (split, weights)")
     ap.add_argument("--oracle", action="store_true")
     ap.add_argument("--restamp", action="store_true",
                     help="train datasets labelled under an earlier `paper` configuration (see subset())")
@@ -207,9 +213,10 @@ def main(argv=None) -> int:
         if samples or args.restamp:
             data = subset(data, int(samples or 10 ** 9), args.out / "subsets", args.restamp)
         for net in args.nets.split(","):
-            folder = train(data, parts or None, net, args.out / "models")
+            folder = train(data, parts or None, net, args.out / "models", args.train_seed)
             for passes in (int(p) for p in args.passes.split(",")):
-                todo.append((f"{name}-{net}-p{passes}", "nn", folder.with_name(folder.name + f"-p{passes}.onnx"),
+                seed = f"-s{args.train_seed}" if args.train_seed else ""
+                todo.append((f"{name}-{net}{seed}-p{passes}", "nn", folder.with_name(folder.name + f"-p{passes}.onnx"),
                              passes, None))
     for spec in args.models:
         name, _, path = spec.partition("=")
@@ -221,7 +228,7 @@ def main(argv=None) -> int:
         row = measure(kind, model, passes, gpc, args, margin)
         if model is not None:
             from nn_export.runtime.policy import OnnxPolicy
-            info = OnnxPolicy(model, preset="paper", safety_filter=False).model_info
+            info = OnnxPolicy(model, preset="paper").model_info
             row["validation_rmse_mps"] = info["validation_rmse_mps"]
             row["samples"] = info["dataset"].get("samples")
             row["network"] = f"17-{'-'.join([str(info['hidden'])] * info['layers'])}-2"

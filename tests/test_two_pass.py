@@ -135,3 +135,48 @@ def test_cli_two_pass_dataset_records_the_passes(tmp_path):
     np.testing.assert_array_equal(mirror, np.tile([False, True], 8))
     f = np.concatenate([x["features"] for x in a])
     assert np.all(f[passes == 1, 2] == -12.0) and np.all(f[passes == 2, 2] > -12.0)
+
+
+@pytest.mark.parametrize("mode", [pytest.param("plan", marks=pytest.mark.slow), "rollout"])
+def test_oracle_second_pass_plans_against_the_prediction(labeller, mode):
+    """With an obstacle 3 m ahead on the path, TwoPassGPC runs its second pass: the GPC's
+    label of the same situation with the first pass's prediction as the desired poses (an
+    independent replay: the prediction rebuilt here from the obstacle-free labels)."""
+    from dataclasses import replace
+
+    from casadi_gpc.reference import ReferencePath, Segment
+    from casadi_gpc.types import ObstacleMeasurement, Observation
+    from nn_export.runtime.tracker import SituationTracker
+    from nn_export.training.two_pass import predicted_poses
+    path = ReferencePath((0.0, 0.0), 0.0, (Segment(20.0, 0.0),), 0.4)
+    obs = Observation(0.0, RobotState(0.0, 0.3, 0.0, 0.4, 0.4), path, (ObstacleMeasurement(0, (3.0, 0.0), 0.3),), ())
+    oracle = TwoPassGPC(labeller, mode)
+    dec = oracle.decide(obs)
+    assert dec.reason == "pass 2: avoiding" and oracle.counters["second_pass"] == 1
+    tracker = SituationTracker(PAPER, reference_steps=2 * PAPER.horizon - 1)
+    sit = tracker.update(obs)
+    free, T, W = sit.without_obstacles(), PAPER.sample_time_s, labeller.robot.wheel_base_m
+    if mode == "plan":
+        wheels = labeller.label(free).plan_wheels_mps
+        poses = predicted_poses(free, wheels, labeller.robot)
+    else:
+        state, poses, wheels = sit.robot, [sit.robot.as_array()[:3]], []
+        for j in range(PAPER.horizon):
+            vr, vl = labeller.label(replace(free, robot=state, ref_poses=tracker.reference_ahead_[j:j + 7])).wheels_mps
+            x, y, h = (float(a) for a in robot_step(np, state.x_m, state.y_m, state.heading_rad, vr, vl, T, W))
+            state = RobotState(x, y, h, float(vr), float(vl))
+            poses.append((x, y, h))
+            wheels.append((vr, vl))
+        poses, wheels = np.array(poses), np.array(wheels)
+    np.testing.assert_allclose(poses[0], sit.robot.as_array()[:3])
+    expected = labeller.label(replace(sit.with_reference(poses), ref_speed_mps=float(np.mean(wheels)))).wheels_mps
+    np.testing.assert_allclose((dec.v_right_mps, dec.v_left_mps), expected, atol=1e-9)
+    # the obstacle stands in the way: the answer turns left, away from it (the robot is 0.3 m
+    # to its left), where the first pass alone would steer back right onto the path
+    first = labeller.label(free).wheels_mps
+    assert dec.v_right_mps - dec.v_left_mps > 0.02 and first[0] - first[1] < 0.0
+
+
+def test_oracle_refuses_an_unknown_first_pass(labeller):
+    with pytest.raises(ValueError, match="first_pass"):
+        TwoPassGPC(labeller, "guess")

@@ -9,7 +9,8 @@ network as the paper trained it").
 ``@SAMPLES`` trains on the dataset's first shards holding that many samples (a subset folder
 of links under OUT/subsets: datasets labelled in one run compare on the same situations).
 For every dataset and network: train (``gpcnav train --preset paper``, L-BFGS, seed 0,
-skipped when the model folder exists), export once per number of passes, and measure:
+skipped when the model folder exists; ``--nets 35+adam`` trains with Adam, ``--train-seed``
+another seed), export once per number of passes, and measure:
 
 * the paper's three Fig. 7 situations, bare network and behind the safety filter (GPC on
   standby): outcome, the largest distance from the GPC's path (as curves, and at the same

@@ -251,8 +251,10 @@ def _markdown(r: dict, manifest: dict) -> str:
     L.append("## Fig. 7: the three situations, GPC beside the network\n\n![Fig. 7](fig7_scenarios.png)\n")
     L.append("The figure uses the `paper` preset; its right column is the bare network, as the paper ran it. In "
              "the table, `nn` is the bare network, `nn+filter` the same behind the safety filter (the GPC on "
-             "standby), and `two-pass GPC` the paper's two-pass scheme with the GPC in place of the network (what a "
-             "network that imitated its labels exactly would do)"
+             "standby), `two-pass GPC` the paper's two-pass scheme with the GPC in place of the network (what a "
+             "network that imitated its labels exactly would do; its first pass rolled out step by step, as the "
+             "deployed policy predicts), and `two-pass GPC, planned prediction` the same with the GPC's open-loop "
+             "obstacle-free plan as the first pass's prediction"
              + (", and the `improved` rows its GPC and the network shipped for it" if any(
                  x["preset"] == "improved" for x in r["scenarios"]) else "")
              + ". Deviation from the GPC, two ways: *path*, the largest distance from a sample of "

@@ -74,10 +74,11 @@ def test_claim_needs_the_goal(run_files, tmp_path):
 
 def test_comparison_says_it_plainly(run_files):
     rows = fig7_rows(run_files, {(n, m): run_files[("paper", n, "gpc")] for n in PAPER_NAMES for m in LIMIT_ROWS})
-    assert {r["controller"] for r in rows} == {"gpc", "nn", "nn+filter", *LIMIT_ROWS.values()}
+    assert {r["controller"] for r in rows} == {"gpc", "nn", "nn+filter", *LIMIT_ROWS.values()}  # no shipped runs given
     r = {"scenarios": rows, "suite": [], "claim": claim(rows, True), "seed": 0,
          "claim_two_pass_gpc": claim(rows, True, LIMIT_ROWS["rollout"]),
          "claim_two_pass_gpc_planned": claim(rows, True, LIMIT_ROWS["plan"]),
+         "claim_shipped": claim(rows, True, "nn+filter"),  # a network on the GPC's path: it holds
          "sizes": {"scheme": "two-pass", "samples": 100, "tie_margin": 0.01, "epochs": 5,
                    "dart_random_episodes": 0, "dart_encounter_episodes": 0}}
     text = comparison(r)
@@ -87,3 +88,4 @@ def test_comparison_says_it_plainly(run_files):
     assert f"7.3: reached, {dev73:.2f} m, **other side**" in text and 1.0 < dev73 < 2.0
     assert "100 GPC labels of the paper's training distribution" in text and "within 1 % of the cost" in text
     assert "even a network that imitated" not in text  # the scheme's own rows hold (they are the GPC's path)
+    assert "7.3: reached, 0.00 m, same side; the claim holds for it at 0.5 m." in text

@@ -170,21 +170,22 @@ def _label_train_export(st: _Stages, out: Path, sizes: Sizes, seed: int, workers
 def _scenario_runs(st: _Stages, runs: Path, onnx: Path, model_key: str, presets) -> dict:
     """5. the Fig. 7 scenarios: the GPC, and the network bare (``nn``, as the paper ran it)
     and behind the safety filter (``nn+filter``); the `paper` network is the one just
-    trained, the `improved` one the shipped."""
+    trained, the `improved` one the shipped. Under `paper` also the network shipped for it,
+    bare (``shipped``: the smallest network the study found to meet the claim)."""
     from scenarios import PAPER_DIR, PAPER_NAMES
     run_files = {}
     for preset_name in presets:
         for name in PAPER_NAMES:
-            for ctrl in ("gpc", "nn", "nn+filter"):
+            for ctrl in ("gpc", "nn", "nn+filter") + (("shipped",) if preset_name == "paper" else ()):
                 run_files[(preset_name, name, ctrl)] = runs / f"{name}_{preset_name}_{ctrl}.json"
 
     def scenario_runs():
         for (preset_name, name, ctrl), path in run_files.items():
-            argv = ["simulate", PAPER_DIR / f"{name}.toml", "--controller", ctrl.split("+")[0], "--preset",
-                    preset_name, "--out", path]
-            if ctrl == "nn":
+            argv = ["simulate", PAPER_DIR / f"{name}.toml", "--controller", "gpc" if ctrl == "gpc" else "nn",
+                    "--preset", preset_name, "--out", path]
+            if ctrl in ("nn", "shipped"):
                 argv.append("--no-safety-filter")
-            if ctrl != "gpc" and preset_name == "paper":
+            if ctrl in ("nn", "nn+filter") and preset_name == "paper":
                 argv += ["--model", onnx]
             _cli(argv)
     st.run("scenarios", {"model": model_key, "presets": presets}, list(run_files.values()), scenario_runs)

@@ -138,7 +138,8 @@ def fig7_rows(run_files: dict, limit_files: dict | None) -> list[dict]:
     for preset_name in presets:
         for name in PAPER_SCENARIOS:
             g = _load(run_files[(preset_name, name, "gpc")])
-            docs = [(c, _load(run_files[(preset_name, name, c)])) for c in ("gpc", "nn", "nn+filter")]
+            docs = [(c, _load(run_files[(preset_name, name, c)])) for c in ("gpc", "nn", "nn+filter", "shipped")
+                    if (preset_name, name, c) in run_files]
             if preset_name == "paper" and limit_files:
                 docs += [(LIMIT_ROWS[mode], _load(f)) for (n, mode), f in limit_files.items() if n == name]
             for ctrl, d in docs:
@@ -150,7 +151,7 @@ def fig7_rows(run_files: dict, limit_files: dict | None) -> list[dict]:
                     "fallbacks": d["fallbacks"], "path_deviation_from_gpc_m": dev_path,
                     "deviation_from_gpc_m": dev_t,
                     "same_side_as_gpc": passing_sides(_xy(d), _obstacles(d)) == passing_sides(_xy(g), _obstacles(g)),
-                    "model": (d.get("model") or {}).get("path") if ctrl.startswith("nn") else None})
+                    "model": (d.get("model") or {}).get("path") if ctrl.startswith(("nn", "shipped")) else None})
     return rows
 
 
@@ -217,6 +218,7 @@ def write_report(out: Path, sizes, args, run_files: dict, eval_files: dict, benc
         "decision_speedup_gpc_over_nn": decision_speedup, "paper_scenarios_all_reached": all_reached,
         "claim": claim(scen_rows, args.quick), "claim_two_pass_gpc": claim(scen_rows, args.quick, LIMIT_ROWS["rollout"]),
         "claim_two_pass_gpc_planned": claim(scen_rows, args.quick, LIMIT_ROWS["plan"]),
+        "claim_shipped": claim(scen_rows, args.quick, "shipped"),
     }
     write_json(out / "results.json", results)
     write_text(out / "report.md", _markdown(results, manifest))
@@ -251,7 +253,8 @@ def _markdown(r: dict, manifest: dict) -> str:
     L.append("## Fig. 7: the three situations, GPC beside the network\n\n![Fig. 7](fig7_scenarios.png)\n")
     L.append("The figure uses the `paper` preset; its right column is the bare network, as the paper ran it. In "
              "the table, `nn` is the bare network, `nn+filter` the same behind the safety filter (the GPC on "
-             "standby), `two-pass GPC` the paper's two-pass scheme with the GPC in place of the network (what a "
+             "standby), `shipped` the network shipped for `paper` (17-64-64-64-2, one pass), bare, `two-pass GPC` "
+             "the paper's two-pass scheme with the GPC in place of the network (what a "
              "network that imitated its labels exactly would do; its first pass rolled out step by step, as the "
              "deployed policy predicts), and `two-pass GPC, planned prediction` the same with the GPC's open-loop "
              "obstacle-free plan as the first pass's prediction"
@@ -365,6 +368,12 @@ def comparison(r: dict) -> str:
                     "second pass plans against the first pass's prediction, not the reference, and where the two "
                     "sides cost nearly the same that changes the choice.")
         out.append(txt)
+    shipped = r.get("claim_shipped")
+    if shipped and shipped["scenarios"]:
+        out.append("* **The smallest network that meets it** in the study (docs/nn.md) is the one shipped for `paper`: "
+                   "three hidden layers of 64, one pass, trained on 226k GPC labels of the GPC's own closed-loop states "
+                   "(DART). In this run, bare (`shipped` rows): " + _per_situation(shipped) + "; the claim "
+                   + ("holds" if shipped["holds"] else "does not hold") + f" for it at {crit}.")
     if ("paper", "gpc") in suite and ("paper", "nn") in suite:
         g, n = suite[("paper", "gpc")], suite[("paper", "nn")]
         out.append(f"* **Beyond the three figures.** On {g['episodes']} random conflicts the GPC reaches the goal in "

@@ -8,8 +8,8 @@ import numpy as np
 
 from .simulator import RunLog
 
-__all__ = ["EpisodeMetrics", "episode_metrics", "path_deviation_m", "same_instant_deviation_m", "run_document",
-           "eval_document", "time_stats", "longest_stop_s", "clopper_pearson_upper", "path_length_m",
+__all__ = ["EpisodeMetrics", "episode_metrics", "path_deviation_m", "same_instant_deviation_m", "passing_sides",
+           "run_document", "eval_document", "time_stats", "longest_stop_s", "clopper_pearson_upper", "path_length_m",
            "DANGER_CLEARANCE_M", "intervention_count"]
 
 STOP_SPEED_MPS = 0.05
@@ -63,6 +63,22 @@ def path_deviation_m(xy_a, xy_b) -> float:
     curve later or earlier has deviation 0."""
     a, b = np.asarray(xy_a, float)[:, :2], np.asarray(xy_b, float)[:, :2]
     return float(max(_point_to_polyline_m(a, b).max(), _point_to_polyline_m(b, a).max()))
+
+
+def passing_sides(robot_xy, obstacle_xy) -> tuple[int, ...]:
+    """The side the robot passed each obstacle on over a run: +1 on the right (the obstacle
+    went by on the robot's left), -1 on the left, from the sign of the net turn of the
+    bearing from the robot to the obstacle (unwrapped over the samples). Two runs passed an
+    obstacle on the same side when their signs agree.
+
+    ``robot_xy``: (n, 2) positions; ``obstacle_xy``: (n, k, 2) the k obstacles' positions
+    at the same samples."""
+    r = np.asarray(robot_xy, float)[:, None, :2]
+    o = np.asarray(obstacle_xy, float).reshape(len(r), -1, 2)
+    n = min(len(r), len(o))
+    d = o[:n] - r[:n]
+    turn = np.diff(np.unwrap(np.arctan2(d[..., 1], d[..., 0]), axis=0), axis=0).sum(axis=0)
+    return tuple(1 if t >= 0 else -1 for t in np.atleast_1d(turn))
 
 
 def same_instant_deviation_m(xy_a, xy_b) -> float:

@@ -128,6 +128,9 @@ def test_other_arguments_are_refused(reference_dataset):
     (["--dagger", "gpc", "--dagger-noise", "-0.1"], "--dagger-noise"),
     (["--dagger", "gpc", "--start-offset", "9"], "--start-offset"),
     (["--samples", "10", "--dagger-noise", "0.05"], "--dagger-noise"),
+    (["--samples", "10", "--scheme", "two-pass", "--layout", "multi"], "--scheme"),
+    (["--samples", "10", "--tie-margin", "1.5"], "--tie-margin"),
+    (["--dagger", "gpc", "--scheme", "two-pass"], "--scheme"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, argv, words):
     proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(tmp_path / "d"), *argv],

@@ -34,6 +34,14 @@ def add_arguments(p):
     p.add_argument("--no-mirror", action="store_true", help="do not add the mirror image of each situation")
     p.add_argument("--mirror-check-every", type=int, default=25, metavar="K",
                    help="solve the mirrored situation for every K-th situation as a check of the labels (0: never)")
+    p.add_argument("--scheme", choices=("sampled", "two-pass"), default="sampled",
+                   help="sampled situations (default), or the paper's two passes: tracking situations without "
+                        "obstacles (pass 1) and the robot on its predicted path with an obstacle (pass 2); "
+                        "nn_export/training/two_pass.py")
+    p.add_argument("--tie-margin", type=float, default=None, metavar="REL",
+                   help="near ties: label the pass on the right where it costs at most REL (relative) more "
+                        "than the pass on the left (default: the planner's own choice; "
+                        "nn_export/training/ties.py)")
     p.add_argument("--solver", default=None,
                    help="the planner's NLP solver for labelling (default: the one measured fastest for "
                         "labels under the preset, nn_export.training.labels.LABEL_SOLVERS)")
@@ -76,6 +84,10 @@ def run(args) -> int:
         raise UsageError(f"--dagger-noise must be in [0, 0.8] m/s, got {args.dagger_noise}")
     if not (0.0 <= args.start_offset <= 3.0):
         raise UsageError(f"--start-offset must be in [0, 3] m, got {args.start_offset}")
+    if args.tie_margin is not None and not 0.0 <= args.tie_margin < 1.0:
+        raise UsageError(f"--tie-margin must be in [0, 1), got {args.tie_margin}")
+    if args.dagger is not None and args.scheme != "sampled":
+        raise UsageError("--scheme applies to sampled situations, not to --dagger rounds")
     if args.dagger is None and (args.dagger_noise or args.start_offset or args.dagger_suite):
         raise UsageError("--dagger-noise, --dagger-suite and --start-offset apply to on-policy rounds: "
                          "they need --dagger")
@@ -97,9 +109,12 @@ def run(args) -> int:
         except ImportError:
             raise UsageError("--backend ray needs Ray: pip install 'gpcnav[distributed]'") from None
     config, layout = _layout_and_config(args)
+    if args.scheme == "two-pass" and layout.name != "paper":
+        raise UsageError("--scheme two-pass needs --layout paper (one moving obstacle)")
     spec = DatasetSpec(samples=args.samples, config=config, layout=layout, seed=args.seed,
                        solver=args.solver or label_solver(config), shard_size=args.shard_size,
-                       mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every)
+                       mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
+                       scheme=args.scheme, tie_margin=args.tie_margin, **_sampler(args.scheme))
     _check_solver(spec)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
@@ -128,6 +143,14 @@ def run(args) -> int:
           f"{st['mirror_checked']} checked, max diff {st['mirror_max_diff_mps']:.1e} m/s, "
           f"{st['mirror_over_tolerance']} over {st['mirror_tolerance_mps']:.0e}")
     return 0
+
+
+def _sampler(scheme: str) -> dict:
+    """The sampler's settings of a scheme (the two-pass scheme has its own)."""
+    if scheme == "two-pass":
+        from nn_export.training.two_pass import SETTINGS
+        return {"sampler": SETTINGS}
+    return {}
 
 
 def _check_solver(spec) -> None:
@@ -167,13 +190,14 @@ def _dagger(args) -> int:
     scenarios = _dagger_scenarios(suite, args.episodes, suite_seed, args.start_offset)
     options = OnPolicyOptions(config, layout, solver, robot,
                               mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
-                              noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE)
+                              noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE,
+                              tie_margin=args.tie_margin)
     arrays, stats = collect_on_policy_parallel(factory, scenarios, options,
                                                WorkerPool(args.workers, args.backend, args.address),
                                                progress=lambda **kw: progress(desc=f"{part}", **kw))
     info = {"round": args.round, "model": str(args.dagger), "suite": suite, "episodes": args.episodes,
             "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety,
-            "driving_noise_mps": args.dagger_noise, "start_offset_m": args.start_offset,
+            "driving_noise_mps": args.dagger_noise, "start_offset_m": args.start_offset, "tie_margin": args.tie_margin,
             "noise_applied": int(sum(e.get("noise_applied", 0) for e in stats["episodes"]))}
     try:
         doc = append_part(args.out, part, arrays, stats, info)

@@ -1,10 +1,12 @@
-"""The paper end to end: label a dataset with the GPC (sampled situations, then the GPC's
-own closed-loop states with perturbed wheel speeds: DART rounds on the random and the
-encounters suites), train the paper's network (17-35-2),
-export it to ONNX, run the three Fig. 7 scenarios with the GPC and the network, run the
-random suite with both, run the solver benchmark, and write figures, tables, report.md and
-results.json into --out. The figures use the `paper` preset; the tables add the `improved`
-preset's rows (GPC, and the network shipped for it) on the same scenarios and suite.
+"""The paper end to end: label the paper's training distribution with the GPC (its two
+passes: tracking situations without obstacles, and the robot on its predicted path with an
+obstacle; ``Sizes`` holds the recipe), train the paper's network (17-35-2) and export it to
+run the paper's two passes, run the three Fig. 7 scenarios with the GPC and the network
+(bare, as the paper ran it, and behind the safety filter), run the two-pass scheme with the
+GPC in place of the network (the scheme's own limit), run the random suite with both, run
+the solver benchmark, and write figures, tables, report.md and results.json into --out.
+The figures use the `paper` preset; the full run's tables add the `improved` preset's rows
+(GPC, and the network shipped for it) on the same scenarios and suite.
 
 Each stage records a key of its inputs in DIR/stages.json; a stage whose outputs exist with
 the same key is not redone, so a stopped run picks up where it was."""
@@ -28,25 +30,46 @@ from .reproduce_report import write_report
 
 @dataclass(frozen=True)
 class Sizes:
-    """How much work each stage does."""
+    """How much work each stage does, and the recipe of the paper's network (the study behind
+    the choice: docs/nn.md, "The paper's network as the paper trained it")."""
 
+    scheme: str
+    """The labelled situations: ``two-pass`` (the paper's distribution: first-pass tracking
+    situations and second-pass situations on the predicted path, ``gpcnav dataset --scheme
+    two-pass``) or ``sampled`` (sampled situations, then the DART rounds below)."""
     samples: int
+    tie_margin: float | None
+    """The labels' near-tie margin (``gpcnav dataset --tie-margin``); None: the planner's choice."""
     dart_random_episodes: int
     """GPC-driven episodes of the random suite, wheel speeds perturbed by N(0, 0.05) m/s,
-    starts up to 1.2 m beside the path."""
+    starts up to 1.2 m beside the path (``sampled`` only)."""
     dart_encounter_episodes: int
-    """GPC-driven episodes of the encounters suite, perturbed by N(0, 0.03) m/s."""
+    """GPC-driven episodes of the encounters suite, perturbed by N(0, 0.03) m/s (``sampled`` only)."""
     epochs: int
     suite_count: int
+    improved: bool
+    """Add the `improved` preset's rows (its GPC and shipped network) to the tables."""
 
 
-QUICK = Sizes(samples=6000, dart_random_episodes=100, dart_encounter_episodes=100, epochs=400, suite_count=16)
-FULL = Sizes(samples=20000, dart_random_episodes=600, dart_encounter_episodes=600, epochs=2000, suite_count=100)
+QUICK = Sizes(scheme="two-pass", samples=6000, tie_margin=None, dart_random_episodes=0, dart_encounter_episodes=0,
+              epochs=400, suite_count=16, improved=False)
+FULL = Sizes(scheme="two-pass", samples=21000, tie_margin=None, dart_random_episodes=0, dart_encounter_episodes=0,
+             epochs=400, suite_count=100, improved=True)
+"""The recipe from the study (docs/nn.md, "The paper's network as the paper trained it"): the
+paper's two-pass distribution, two passes, the planner's own choice at near ties (with the
+1 % margin the 17-35-2 passed Fig. 7.1's obstacle on the other side in both training seeds,
+without it on the GPC's), 21000 samples (100000 brought it no closer to the GPC, and L-BFGS
+on them took 7 min); ``--quick`` labels 6000 to stay under 3 minutes."""
+PASSES = 2
+"""The paper's two passes."""
+LIMIT_MODES = ("rollout", "plan")
+"""The first pass of the two-pass GPC rows (:class:`nn_export.training.two_pass.TwoPassGPC`)."""
 
 
 def add_arguments(p):
     p.add_argument("--out", type=Path, required=True, help="output folder (created; a stopped run resumes)")
-    p.add_argument("--quick", action="store_true", help="a smaller dataset, suite and benchmark (< 5 min)")
+    p.add_argument("--quick", action="store_true",
+                   help="a smaller dataset and suite, the paper preset only (< 3 min on 2 cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of the dataset, the training and the suite")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
 
@@ -100,24 +123,29 @@ def run(args) -> int:
     make_output_folder(out, "--out")
     st = _Stages(out)
     t_start = time.perf_counter()
+    presets = ("paper", "improved") if sizes.improved else ("paper",)
     onnx = _label_train_export(st, out, sizes, args.seed, args.workers)
     model_key = _file_digest(onnx)
-    run_files = _scenario_runs(st, out / "runs", onnx, model_key)
-    eval_files = _suite_runs(st, out / "eval", onnx, model_key, sizes.suite_count, args.seed, args.workers)
+    run_files = _scenario_runs(st, out / "runs", onnx, model_key, presets)
+    limit_files = _scheme_limit(st, out / "runs", sizes)
+    eval_files = _suite_runs(st, out / "eval", onnx, model_key, sizes.suite_count, args.seed, args.workers, presets)
     bench = _bench(st, out, onnx, model_key)
     # total work: the stages' own times (a resumed run reuses finished stages and their times)
-    write_report(out, sizes, args, run_files, eval_files, bench, st.timing, sum(st.timing.values()), environment())
+    write_report(out, sizes, args, run_files, eval_files, bench, st.timing, sum(st.timing.values()), environment(),
+                 limit_files)
     print(f"[reproduce] wrote {out / 'report.md'} in {time.perf_counter() - t_start:.0f} s", file=sys.stderr)
     return 0
 
 
 def _label_train_export(st: _Stages, out: Path, sizes: Sizes, seed: int, workers: int) -> Path:
-    """1. the labels (resumable by themselves), 2. the GPC's own states (DART rounds),
-    3. training and export; returns the model file."""
+    """1. the labels (resumable by themselves), 2. the GPC's own states (DART rounds, the
+    ``sampled`` scheme), 3. training and export; returns the model file."""
     data, model_dir, onnx = out / "dataset", out / "model", out / "model.onnx"
-    st.run("dataset", {"samples": sizes.samples, "seed": seed}, [data / "manifest.json"], lambda: _cli(
-        ["dataset", "--out", data, "--samples", sizes.samples, "--preset", "paper", "--seed", seed,
-         "--workers", workers]))
+    tie = [] if sizes.tie_margin is None else ["--tie-margin", sizes.tie_margin]
+    st.run("dataset", {"samples": sizes.samples, "seed": seed, "scheme": sizes.scheme, "tie_margin": sizes.tie_margin},
+           [data / "manifest.json"], lambda: _cli(
+               ["dataset", "--out", data, "--samples", sizes.samples, "--preset", "paper", "--seed", seed,
+                "--workers", workers, "--scheme", sizes.scheme, *tie]))
     rounds = ((1, "random", sizes.dart_random_episodes, ["--dagger-noise", 0.05, "--start-offset", 1.2]),
               (2, "encounters", sizes.dart_encounter_episodes, ["--dagger-noise", 0.03]))
 
@@ -126,40 +154,77 @@ def _label_train_export(st: _Stages, out: Path, sizes: Sizes, seed: int, workers
             man = json.loads((data / "manifest.json").read_text())
             if episodes and f"gpc{r}" not in man.get("parts", {}):
                 _cli(["dataset", "--out", data, "--dagger", "gpc", "--dagger-suite", suite, "--round", r,
-                      "--episodes", episodes, "--preset", "paper", "--seed", seed, "--workers", workers, *extra])
-    st.run("onpolicy", {"dataset": st.key("dataset"), "rounds": [r[:3] for r in rounds]}, [data / "manifest.json"],
-           onpolicy)
+                      "--episodes", episodes, "--preset", "paper", "--seed", seed, "--workers", workers, *extra, *tie])
+    if any(r[2] for r in rounds):
+        st.run("onpolicy", {"dataset": st.key("dataset"), "rounds": [r[:3] for r in rounds]},
+               [data / "manifest.json"], onpolicy)
 
     def train():
         _cli(["train", data, "--out", model_dir, "--preset", "paper", "--seed", seed, "--epochs", sizes.epochs])
-        _cli(["export", model_dir, "--out", onnx])
-    st.run("train", {"data": st.key("onpolicy"), "epochs": sizes.epochs, "seed": seed}, [onnx], train)
+        _cli(["export", model_dir, "--out", onnx, "--passes", PASSES])
+    st.run("train", {"data": st.key("onpolicy") or st.key("dataset"), "epochs": sizes.epochs, "seed": seed,
+                     "passes": PASSES}, [onnx], train)
     return onnx
 
 
-def _scenario_runs(st: _Stages, runs: Path, onnx: Path, model_key: str) -> dict:
-    """5. the Fig. 7 scenarios, both controllers, both presets (the `paper` network is the
-    one just trained, the `improved` one the shipped)."""
+def _scenario_runs(st: _Stages, runs: Path, onnx: Path, model_key: str, presets) -> dict:
+    """5. the Fig. 7 scenarios: the GPC, and the network bare (``nn``, as the paper ran it)
+    and behind the safety filter (``nn+filter``); the `paper` network is the one just
+    trained, the `improved` one the shipped. Under `paper` also the network shipped for it,
+    bare (``shipped``: the smallest network the study found to meet the claim)."""
     from scenarios import PAPER_DIR, PAPER_NAMES
     run_files = {}
-    for preset_name in ("paper", "improved"):
+    for preset_name in presets:
         for name in PAPER_NAMES:
-            for ctrl in ("gpc", "nn"):
+            for ctrl in ("gpc", "nn", "nn+filter") + (("shipped",) if preset_name == "paper" else ()):
                 run_files[(preset_name, name, ctrl)] = runs / f"{name}_{preset_name}_{ctrl}.json"
 
     def scenario_runs():
         for (preset_name, name, ctrl), path in run_files.items():
-            argv = ["simulate", PAPER_DIR / f"{name}.toml", "--controller", ctrl, "--preset", preset_name, "--out", path]
-            if ctrl == "nn" and preset_name == "paper":
+            argv = ["simulate", PAPER_DIR / f"{name}.toml", "--controller", "gpc" if ctrl == "gpc" else "nn",
+                    "--preset", preset_name, "--out", path]
+            if ctrl in ("nn", "shipped"):
+                argv.append("--no-safety-filter")
+            if ctrl in ("nn", "nn+filter") and preset_name == "paper":
                 argv += ["--model", onnx]
             _cli(argv)
-    st.run("scenarios", {"model": model_key}, list(run_files.values()), scenario_runs)
+    st.run("scenarios", {"model": model_key, "presets": presets}, list(run_files.values()), scenario_runs)
     return run_files
 
 
-def _suite_runs(st: _Stages, evals: Path, onnx: Path, model_key: str, count: int, seed: int, workers: int) -> dict:
-    """6. the random suite, both controllers, both presets."""
-    eval_files = {(p, c): evals / f"random_{p}_{c}.json" for p in ("paper", "improved") for c in ("gpc", "nn")}
+def _scheme_limit(st: _Stages, runs: Path, sizes: Sizes) -> dict:
+    """6. the paper's two-pass scheme with the GPC in place of the network on the Fig. 7
+    scenarios (:class:`nn_export.training.two_pass.TwoPassGPC`, labels as the dataset's):
+    how close a network that imitated its labels exactly would come, with the first pass
+    rolled out step by step as the deployed policy does (``rollout``) and, for comparison,
+    the GPC's obstacle-free open-loop plan as the prediction (``plan``, which no network
+    with two outputs can give). Keys ``(scenario, mode)``."""
+    from scenarios import PAPER_NAMES
+    files = {(name, mode): runs / f"{name}_paper_two-pass-gpc-{mode}.json" for name in PAPER_NAMES
+             for mode in LIMIT_MODES}
+
+    def limit():
+        from casadi_gpc.config import preset
+        from casadi_gpc.io import write_json
+        from casadi_gpc.metrics import run_document
+        from casadi_gpc.simulator import simulate
+        from nn_export.training.labels import Labeller
+        from nn_export.training.two_pass import TwoPassGPC
+        from scenarios import paper_scenarios
+        config = preset("paper")
+        for sc in paper_scenarios():
+            for mode in LIMIT_MODES:
+                oracle = TwoPassGPC(Labeller(config, sc.robot, tie_margin=sizes.tie_margin), mode)
+                write_json(files[(sc.name, mode)],
+                           run_document(simulate(sc, oracle, f"two-pass-gpc-{mode}"), {"preset": "paper"}))
+    st.run("scheme_limit", {"tie_margin": sizes.tie_margin, "modes": LIMIT_MODES}, list(files.values()), limit)
+    return files
+
+
+def _suite_runs(st: _Stages, evals: Path, onnx: Path, model_key: str, count: int, seed: int, workers: int,
+                presets) -> dict:
+    """7. the random suite, both controllers (the network behind the safety filter)."""
+    eval_files = {(p, c): evals / f"random_{p}_{c}.json" for p in presets for c in ("gpc", "nn")}
 
     def suite_runs():
         for (preset_name, ctrl), path in eval_files.items():
@@ -168,12 +233,13 @@ def _suite_runs(st: _Stages, evals: Path, onnx: Path, model_key: str, count: int
             if ctrl == "nn" and preset_name == "paper":
                 argv += ["--model", onnx]
             _cli(argv)
-    st.run("suite", {"model": model_key, "count": count, "seed": seed}, list(eval_files.values()), suite_runs)
+    st.run("suite", {"model": model_key, "count": count, "seed": seed, "presets": presets}, list(eval_files.values()),
+           suite_runs)
     return eval_files
 
 
 def _bench(st: _Stages, out: Path, onnx: Path, model_key: str) -> Path:
-    """7. the benchmark: the GPC solvers and the network paths on the same recorded problems."""
+    """8. the benchmark: the GPC solvers and the network paths on the same recorded problems."""
     from scenarios import PAPER_DIR
     bench = out / "bench.json"
     st.run("bench", {"model": model_key}, [bench], lambda: _cli(

@@ -22,6 +22,13 @@ tie), and the writer then keeps the cheaper answer for both. (An exact tie betwe
 and a right swerve is the one place where the answer cannot be equivariant: the tie-break
 picks the right swerve both times.)
 
+Near ties (``tie_margin``, :mod:`nn_export.training.ties`): with a margin set, where the
+NLP holds one obstacle and the starts found both a pass on the right and a pass on the left,
+the label is the pass on the right unless it costs more than ``tie_margin`` (relative) above
+the pass on the left; the label keeps the other side's answer (``alternative``) so that the
+mirror sample is labelled by the same rule (:meth:`Label.mirrored`). ``None`` (the default)
+is the planner's own choice, bit for bit.
+
 This module needs CasADi (it runs the planner); the features it uses are numpy only.
 """
 from __future__ import annotations
@@ -37,6 +44,7 @@ from casadi_gpc.selection import planner_parameters
 from ..runtime.features import compute_features, mirror_features
 from ..runtime.layouts import FeatureLayout
 from ..runtime.situation import Situation
+from .ties import LEFT, RIGHT, choose, passing_side
 
 __all__ = ["LABEL_NAMES", "GUESS_NAMES", "MIRROR_GUESS_ORDER", "Label", "Labeller", "fastest_solver", "label_solver",
            "available_solvers", "mirror_label", "mirror_guess"]
@@ -76,16 +84,35 @@ class Label:
     solves: int = 0
     solver: str = ""
     """The solver that produced the answer (the fallback solver's name if it had to step in)."""
+    side: int = 0
+    """The side it passes the obstacle on (+1 right, -1 left; 0: not classified, see
+    :mod:`nn_export.training.ties`)."""
+    alternative: "Label | None" = None
+    """The best answer on the other side, where the starts found both and a tie margin is set."""
+    tie_margin: float | None = None
+    """The near-tie margin the answer was chosen with (None: the planner's own choice)."""
 
     @property
     def n_converged(self) -> int:
         return int(np.count_nonzero(np.isfinite(self.candidate_costs)))
 
     def mirrored(self) -> "Label":
-        """The same answer for the mirrored situation (wheels and guesses swapped)."""
+        """The answer for the mirrored situation: this one with wheels, guesses and side
+        swapped, or, where a near-tie margin chose between two sides, the same rule applied
+        to the mirrored candidates (the mirror's pass on the right is this one's pass on
+        the left)."""
+        own = self._reflected()
+        if self.alternative is None:
+            return own
+        alt = self.alternative._reflected()
+        right, left = (own, alt) if own.side == RIGHT else (alt, own)
+        pick = choose(right, left, self.tie_margin or 0.0)
+        return replace(pick, alternative=alt if pick is own else own, tie_margin=self.tie_margin)
+
+    def _reflected(self) -> "Label":
         return replace(self, wheels_mps=mirror_label(self.wheels_mps),
                        plan_wheels_mps=mirror_label(self.plan_wheels_mps), guess=mirror_guess(self.guess),
-                       candidate_costs=self.candidate_costs[MIRROR_GUESS_ORDER])
+                       candidate_costs=self.candidate_costs[MIRROR_GUESS_ORDER], side=-self.side, alternative=None)
 
 
 def mirror_guess(name: str) -> str:
@@ -173,7 +200,10 @@ class Labeller:
     """
 
     def __init__(self, config: PlannerConfig, robot: RobotParams | None = None, solver: str | None = None,
-                 fallback_solver: str | None = FALLBACK_SOLVER):
+                 fallback_solver: str | None = FALLBACK_SOLVER, tie_margin: float | None = None):
+        if tie_margin is not None and not (0.0 <= tie_margin < 1.0 and np.isfinite(tie_margin)):
+            raise ValueError(f"tie_margin must be in [0, 1), got {tie_margin}")
+        self.tie_margin = tie_margin
         self.solver = solver or label_solver(config)
         for name in (self.solver, fallback_solver):
             if name is not None and name not in available_solvers():
@@ -204,21 +234,32 @@ class Labeller:
         cfg = self.config
         if situation.horizon != cfg.horizon:
             raise ValueError(f"situation horizon {situation.horizon} != planner horizon {cfg.horizon}")
-        p, _ = planner_parameters(self.controller.problem.layout, situation.robot.as_array(), situation.ref_poses,
-                                  situation.forecasts(), situation.statics, cfg)
-        return p
+        return self._parameters(situation)[0]
+
+    def _parameters(self, situation: Situation):
+        """The parameter vector and the selected forecasts and statics (what fills the slots)."""
+        p, sel = planner_parameters(self.controller.problem.layout, situation.robot.as_array(), situation.ref_poses,
+                                    situation.forecasts(), situation.statics, self.config)
+        return p, sel.forecasts, sel.statics
 
     def label(self, situation: Situation) -> Label:
         """Solve from every initial guess and keep the planner's choice (with the fallback
         solver if no guess converged)."""
-        p = self.parameters(situation)
+        if situation.horizon != self.config.horizon:
+            raise ValueError(f"situation horizon {situation.horizon} != planner horizon {self.config.horizon}")
+        p, forecasts, statics = self._parameters(situation)
+        obstacle = None  # the one obstacle whose side the near-tie rule looks at
+        if self.tie_margin is not None and len(forecasts) + len(statics) == 1:
+            H = self.config.horizon
+            obstacle = (np.asarray(forecasts[0].means_m, dtype=float) if forecasts
+                        else np.tile(np.asarray(statics[0].position_m, dtype=float), (H, 1)))
         self.counters["situations"] += 1
-        label = self._label(self.controller, self.solver, situation, p)
+        label = self._label(self.controller, self.solver, situation, p, obstacle)
         if not label.converged and self.fallback_solver is not None:
             if self._fallback is None:
                 self._fallback = self._controller(self.fallback_solver)
             self.counters["fallback_used"] += 1
-            again = self._label(self._fallback, self.fallback_solver, situation, p)
+            again = self._label(self._fallback, self.fallback_solver, situation, p, obstacle)
             again = replace(again, solves=again.solves + label.solves,
                             solve_time_s=again.solve_time_s + label.solve_time_s)
             if again.converged:
@@ -230,10 +271,13 @@ class Labeller:
             self.counters["not_converged"] += 1
         return label
 
-    def _label(self, ctl, solver: str, situation: Situation, p: np.ndarray) -> Label:
+    def _label(self, ctl, solver: str, situation: Situation, p: np.ndarray, obstacle: np.ndarray | None = None
+               ) -> Label:
         x0 = situation.robot.as_array()
         best, candidates = ctl.plan(p, x0, situation.ref_speed_mps, True, None)
         self.counters["solves"] += len(candidates)
+        if best is not None and obstacle is not None:
+            return self._near_tie_label(ctl, solver, situation, p, obstacle, candidates)
         costs = np.full(len(GUESS_NAMES), np.nan)
         for c in candidates:
             if c.success and c.guess in GUESS_NAMES:
@@ -244,12 +288,42 @@ class Labeller:
             status = candidates[0].status if candidates else "no candidates"
             return Label(False, np.full(2, np.nan), np.full((H, 2), np.nan), float("nan"), status, "", -1, costs, t,
                          len(candidates), solver)
+        return self._answer(best, candidates, x0, costs, t, solver)
+
+    def _answer(self, best, candidates, x0: np.ndarray, costs: np.ndarray, t: float, solver: str, side: int = 0
+                ) -> Label:
+        """The label of candidate ``best`` (merged with the starts that reached it)."""
+        H = self.config.horizon
         u = _merge_duplicates(best, candidates)
         # the planned wheel speeds: the previous ones plus the cumulated increments (the
         # decision variables of casadi_gpc.cost)
         wheels = x0[3:5] + np.cumsum(u.reshape(H, 2), axis=0)
         return Label(True, wheels[0].copy(), wheels, float(best.cost), best.status, best.guess, best.iterations,
-                     costs, t, len(candidates), solver)
+                     costs, t, len(candidates), solver, side, None, self.tie_margin)
+
+    def _near_tie_label(self, ctl, solver: str, situation: Situation, p: np.ndarray, obstacle: np.ndarray,
+                        candidates) -> Label:
+        """The label under the near-tie convention: the best start on each side, then
+        :func:`~nn_export.training.ties.choose` (the other side's kept as ``alternative``)."""
+        x0 = situation.robot.as_array()
+        costs = np.full(len(GUESS_NAMES), np.nan)
+        for c in candidates:
+            if c.success and c.guess in GUESS_NAMES:
+                costs[GUESS_NAMES.index(c.guess)] = c.cost
+        t = float(sum(c.solve_time_s for c in candidates))
+        headings = situation.ref_poses[1:, 2]
+        best = {}
+        for c in candidates:
+            if not c.success:
+                continue
+            poses = np.asarray(ctl.problem.rollout_fn(c.u, p)[0])
+            side = passing_side(poses, obstacle, headings)
+            if side not in best or c.cost < best[side].cost:
+                best[side] = c
+        answers = {s: self._answer(c, candidates, x0, costs, t, solver, s) for s, c in best.items()}
+        pick = choose(answers.get(RIGHT), answers.get(LEFT), self.tie_margin)
+        other = answers.get(-pick.side)
+        return replace(pick, alternative=other) if other is not None else pick
 
     def mirror_check(self, situation: Situation, label: Label) -> float:
         """Largest difference (m/s) between the mirrored label and the GPC's answer on the
@@ -257,7 +331,7 @@ class Labeller:
         other = self.label(situation.mirrored())
         if not (label.converged and other.converged):
             return float("nan")
-        return float(np.max(np.abs(mirror_label(label.plan_wheels_mps) - other.plan_wheels_mps)))
+        return float(np.max(np.abs(label.mirrored().plan_wheels_mps - other.plan_wheels_mps)))
 
     def sample(self, layout: FeatureLayout, situation: Situation, report: dict | None = None):
         """``(features, label)`` of one situation (label may be unconverged)."""
@@ -266,4 +340,4 @@ class Labeller:
 
 def mirrored_sample(layout: FeatureLayout, features: np.ndarray, label: Label) -> tuple[np.ndarray, np.ndarray]:
     """Features and plan of the mirror sample."""
-    return mirror_features(layout, features), mirror_label(label.plan_wheels_mps)
+    return mirror_features(layout, features), label.mirrored().plan_wheels_mps

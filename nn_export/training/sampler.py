@@ -47,6 +47,13 @@ path ahead (60 %: U(0, 1) horizon ahead, offset +-U(0, 1.5) m) or anywhere U(1, 
 the robot; radius U(0.15, 0.35) m.
 Rejected and redrawn: any obstacle whose disc is within 0.1 m of the robot's now, or
 farther than 11 m (inside the features' 12 m range).
+
+The paper's two passes (``first_pass``, :mod:`nn_export.training.two_pass`): the path and
+the robot are drawn as above, then the desired trajectory is the first pass's prediction
+(given by the caller for the obstacle-free tail), and one moving obstacle (``paper``) is
+drawn against it as above but within U(-1.6, 1.6) m of the desired point, kept only if it
+comes within 1.25 m (clearance) of the desired path at the same step within the horizon:
+the situations in which the deployed policy runs its second pass (1.0 m, with a margin).
 """
 from __future__ import annotations
 
@@ -163,6 +170,15 @@ class SamplerSettings:
     """Std of each measured coordinate, m (the scenario default)."""
     p_missing: float = 0.03
     """Probability that a measurement is missing."""
+    # --- the paper's second pass (``first_pass`` given)
+    moving_counts_second_pass: tuple[float, ...] = (0.0, 1.0)
+    """Probabilities of 0, 1 moving obstacles."""
+    second_pass_lateral_m: float = 1.6
+    """A conflict passes within +-this of the desired point, laterally, m."""
+    second_pass_max_clearance_m: float = 1.25
+    """Kept only if it comes within this clearance of the desired path at some step 1..H, m."""
+    second_pass_reference: str = "rollout"
+    """The first pass's prediction: ``rollout`` (as the deployed policy) or ``plan`` (the GPC's open-loop plan)."""
     # --- static obstacles (``multi`` only)
     static_counts_multi: tuple[float, ...] = (0.4, 0.2, 0.2, 0.2)
     """Probabilities of 0..3 static obstacles."""
@@ -241,37 +257,49 @@ def _rollout(rng, st: SamplerSettings, robot: RobotParams, state: np.ndarray, H:
 
 
 def episode_tail(rng: np.random.Generator, config: PlannerConfig, layout_name: str = "paper",
-                 robot: RobotParams | None = None, settings: SamplerSettings | None = None) -> EpisodeTail:
+                 robot: RobotParams | None = None, settings: SamplerSettings | None = None,
+                 first_pass=None) -> EpisodeTail:
     """Draw the history of one situation (see the module docstring for the distributions).
 
     The steps draw from ``rng`` in this order, which fixes every situation of a seed: the
     obstacle counts and history lengths, the reference path, the robot now, the rollout
-    reference, the moving obstacles, the static ones, the measurements."""
+    reference, the moving obstacles, the static ones, the measurements.
+
+    ``first_pass``: the paper's second pass. A callable given the obstacle-free tail (same
+    path, robot, history) and ``second_pass_reference`` that returns the first pass's
+    prediction: the desired poses at steps 0..H, shape (H+1, 3), step 0 the robot's pose,
+    and their mean speed. The obstacle is drawn against that path; no rollout reference."""
     st = settings or SamplerSettings()
     robot = robot or RobotParams()
     H, T = config.horizon, config.sample_time_s
-    n_moving, n_static, n_past, n_now = _counts(rng, st, layout_name)
+    counts = st.moving_counts_second_pass if first_pass is not None else None
+    n_moving, n_static, n_past, n_now = _counts(rng, st, layout_name, counts)
     v_ref = float(rng.uniform(*st.ref_speed_mps))
     s_nom = v_ref * (n_now * T)
     path = _reference_path(rng, st, v_ref, s_nom, v_ref * H * T)
     robot_now = _robot_now(rng, st, robot, path, s_nom)
     rollout_ref, rollout_speed = None, float("nan")
-    if rng.random() < st.p_rollout_reference:
+    lateral, near = st.conflict_lateral_m, None
+    if first_pass is not None:
+        free = EpisodeTail(_history(rng, st, path, T, n_now, [], robot_now, (), ()), (), None)
+        rollout_ref, rollout_speed = first_pass(free, st.second_pass_reference)
+        lateral, near = st.second_pass_lateral_m, _near_path(rollout_ref, robot, st.second_pass_max_clearance_m, T)
+    elif rng.random() < st.p_rollout_reference:
         rollout_ref, rollout_speed = _rollout(rng, st, robot, robot_now.as_array(), H, T)
     desired = _Desired(path, s_nom, rollout_ref, H, T)
-    movers = tuple(_place(rng, st, robot, robot_now, lambda: _draw_mover(rng, st, desired, robot_now), "a moving")
-                   for _ in range(n_moving))
+    movers = tuple(_place(rng, st, robot, robot_now, lambda: _draw_mover(rng, st, desired, robot_now, lateral),
+                          "a moving", near) for _ in range(n_moving))
     statics = tuple(_place(rng, st, robot, robot_now, lambda: _draw_static(rng, st, desired, robot_now), "a static")
                     for _ in range(n_static))
     observations = _history(rng, st, path, T, n_now, n_past, robot_now, movers, statics)
     return EpisodeTail(observations, movers, rollout_ref, rollout_speed)
 
 
-def _counts(rng, st: SamplerSettings, layout_name: str) -> tuple[int, int, list[int], int]:
+def _counts(rng, st: SamplerSettings, layout_name: str, moving_counts=None) -> tuple[int, int, list[int], int]:
     """How many moving and static obstacles, each moving one's history length, and the
     sample of now: the obstacles' histories fix how long the tail is."""
     if layout_name == "paper":
-        n_moving, n_static = _choice(rng, st.moving_counts_paper), 0
+        n_moving, n_static = _choice(rng, moving_counts or st.moving_counts_paper), 0
     else:
         n_moving, n_static = _choice(rng, st.moving_counts_multi), _choice(rng, st.static_counts_multi)
     n_past = [1 if rng.random() < st.p_new_track else int(rng.integers(st.min_history, st.max_history + 1))
@@ -346,19 +374,32 @@ class _Desired:
         return tuple(float(v) for v in self.path.pose_at_arclength(self.s_nom + self.path.speed_mps * t_ahead))
 
 
-def _place(rng, st: SamplerSettings, robot: RobotParams, robot_now: RobotState, draw, what: str):
-    """``draw()`` until the obstacle it gives is clear of the robot now and within range."""
+def _near_path(poses: np.ndarray, robot: RobotParams, clearance_m: float, T: float):
+    """Whether a mover comes within ``clearance_m`` of the desired poses (steps 1..H) at the same step."""
+    def near(m: _Mover) -> bool:
+        x, y, _ = arc_step(np, m.position_m[0], m.position_m[1], m.heading_rad, m.speed_mps, m.turn_rate_rad_s,
+                           T * np.arange(1, len(poses)))
+        d = np.hypot(x - poses[1:, 0], y - poses[1:, 1]) - robot.radius_m - m.radius_m
+        return bool(np.min(d) <= clearance_m)
+    return near
+
+
+def _place(rng, st: SamplerSettings, robot: RobotParams, robot_now: RobotState, draw, what: str, accept=None):
+    """``draw()`` until the obstacle it gives is clear of the robot now, within range, and
+    ``accept``-ed (if given)."""
     for _attempt in range(1000):
         obstacle = draw()
         (x, y), radius = obstacle.position_m, obstacle.radius_m
         d = math.hypot(x - robot_now.x_m, y - robot_now.y_m)
-        if d - radius - robot.radius_m >= st.min_clearance_m and d <= st.max_distance_m:
+        if (d - radius - robot.radius_m >= st.min_clearance_m and d <= st.max_distance_m
+                and (accept is None or accept(obstacle))):
             return obstacle
     raise RuntimeError(f"could not place {what} obstacle")  # pragma: no cover - the region is never empty
 
 
-def _draw_mover(rng, st: SamplerSettings, desired: _Desired, robot_now: RobotState) -> _Mover:
-    """A moving obstacle: on a conflict course within the horizon, or anywhere around."""
+def _draw_mover(rng, st: SamplerSettings, desired: _Desired, robot_now: RobotState, lateral_m: float) -> _Mover:
+    """A moving obstacle: on a conflict course within the horizon (within +-``lateral_m`` of
+    the desired point), or anywhere around."""
     speed = 0.0 if rng.random() < st.p_standing else float(rng.uniform(*st.obstacle_speed_mps))
     turn = float(rng.uniform(-st.turn_rate_rad_s, st.turn_rate_rad_s)) if rng.random() < st.p_turning else 0.0
     radius = float(rng.uniform(*st.obstacle_radius_m))
@@ -366,7 +407,7 @@ def _draw_mover(rng, st: SamplerSettings, desired: _Desired, robot_now: RobotSta
         T = desired.sample_time_s
         t_c = float(rng.uniform(st.conflict_first_step * T, desired.horizon * T))
         cx, cy, ch = desired.at(t_c)
-        off = float(rng.uniform(-st.conflict_lateral_m, st.conflict_lateral_m))
+        off = float(rng.uniform(-lateral_m, lateral_m))
         cx, cy = cx - off * math.sin(ch), cy + off * math.cos(ch)
         cone = st.same_direction_deg
         if rng.random() < st.p_same_direction:
@@ -441,9 +482,10 @@ def situation_from_tail(tail: EpisodeTail, config: PlannerConfig, ekf_settings: 
 
 def sample_situation(rng: np.random.Generator, config: PlannerConfig, layout_name: str = "paper",
                      robot: RobotParams | None = None, settings: SamplerSettings | None = None,
-                     tracker: SituationTracker | None = None) -> Situation:
-    """One random situation as the planner would see it (``info`` holds the tail)."""
-    tail = episode_tail(rng, config, layout_name, robot, settings)
+                     tracker: SituationTracker | None = None, first_pass=None) -> Situation:
+    """One random situation as the planner would see it (``info`` holds the tail);
+    ``first_pass``: see :func:`episode_tail`."""
+    tail = episode_tail(rng, config, layout_name, robot, settings, first_pass)
     sit = situation_from_tail(tail, config, tracker=tracker)
     sit.info["tail"] = tail
     return sit

@@ -13,8 +13,9 @@ from casadi_gpc.robot import RobotParams
 from ...runtime.features import compute_features, mirror_features
 from ...runtime.layouts import FeatureLayout
 from ...runtime.tracker import SituationTracker
-from ..labels import GUESS_NAMES, MIRROR_GUESS_ORDER, Labeller, mirror_guess, mirror_label
+from ..labels import GUESS_NAMES, Labeller
 from ..sampler import sample_situation
+from ..two_pass import two_pass_stream
 from .spec import MIRROR_TOLERANCE_MPS, SHARD_STRIDE, DatasetSpec
 
 __all__ = ["prepare_labeller", "labeller_for", "ShardBuilder", "new_stats", "label_situations", "label_shard",
@@ -27,14 +28,15 @@ _LABELLERS: dict = {}
 def prepare_labeller(spec: DatasetSpec) -> Labeller:
     """Build (once per process) the labeller ``spec`` needs; raises ValueError for an
     unknown solver. Local workers are forked after this, so they inherit it built."""
-    return labeller_for(spec.config, spec.robot, spec.solver)
+    return labeller_for(spec.config, spec.robot, spec.solver, spec.tie_margin)
 
 
-def labeller_for(config: PlannerConfig, robot: RobotParams, solver: str | None) -> Labeller:
-    """The labeller of this process for ``(config, robot, solver)``, built on first use."""
-    key = (config, robot, solver)
+def labeller_for(config: PlannerConfig, robot: RobotParams, solver: str | None,
+                 tie_margin: float | None = None) -> Labeller:
+    """The labeller of this process for ``(config, robot, solver, tie_margin)``, built on first use."""
+    key = (config, robot, solver, tie_margin)
     if key not in _LABELLERS:
-        _LABELLERS[key] = Labeller(config, robot, solver)
+        _LABELLERS[key] = Labeller(config, robot, solver, tie_margin=tie_margin)
     return _LABELLERS[key]
 
 
@@ -48,14 +50,17 @@ class ShardBuilder:
             "cost": np.empty(n), "status": [], "guess": [], "solver": [], "iterations": np.empty(n, dtype=np.int32),
             "candidate_costs": np.empty((n, len(GUESS_NAMES))), "mirror": np.zeros(n, dtype=bool),
             "situation_id": np.empty(n, dtype=np.int64), "sample_id": np.empty(n, dtype=np.int64),
-            "mirror_check_mps": np.full(n, np.nan),
+            "mirror_check_mps": np.full(n, np.nan), "decision_pass": np.zeros(n, dtype=np.int8),
         }
 
     @property
     def full(self) -> bool:
         return self.k >= self.n
 
-    def add(self, features, plan, label, situation_id: int, mirror: bool, check=float("nan")) -> None:
+    def add(self, features, plan, label, situation_id: int, mirror: bool, check=float("nan"),
+            decision_pass: int = 0) -> None:
+        """One sample; ``label``: the answer of this sample's situation (for a mirror sample,
+        the mirrored label: its guess and candidate costs are stored as they are)."""
         a, k = self.a, self.k
         a["features"][k] = features
         a["labels"][k] = plan[0]
@@ -63,13 +68,14 @@ class ShardBuilder:
         a["cost"][k] = label.cost
         a["status"].append(label.status)
         a["solver"].append(label.solver)
-        a["guess"].append(mirror_guess(label.guess) if mirror else label.guess)
+        a["guess"].append(label.guess)
         a["iterations"][k] = label.iterations
-        a["candidate_costs"][k] = label.candidate_costs[MIRROR_GUESS_ORDER] if mirror else label.candidate_costs
+        a["candidate_costs"][k] = label.candidate_costs
         a["mirror"][k] = mirror
         a["situation_id"][k] = situation_id
         a["sample_id"][k] = 2 * situation_id + int(mirror)
         a["mirror_check_mps"][k] = check
+        a["decision_pass"][k] = decision_pass
         self.k += 1
 
     def arrays(self) -> dict:
@@ -89,12 +95,14 @@ def new_stats() -> dict:
 
 def label_situations(builder: ShardBuilder, stats: dict, situations, layout: FeatureLayout, labeller: Labeller,
                       mirror: bool, check_every: int, id_base: int) -> None:
-    """Label situations from an iterator into ``builder`` until it is full."""
+    """Label situations from an iterator into ``builder`` until it is full. Items are
+    situations, or ``(situation, label)`` pairs already labelled by ``labeller``."""
     j = 0
-    for sit in situations:
+    for item in situations:
         if builder.full:
             break
-        label = labeller.label(sit)
+        sit, label = item if isinstance(item, tuple) else (item, None)
+        label = label or labeller.label(sit)
         stats["situations"] += 1
         if label.converged and label.solver != labeller.solver:
             stats["answered_by_fallback_solver"] += 1
@@ -111,29 +119,31 @@ def label_situations(builder: ShardBuilder, stats: dict, situations, layout: Fea
             other = labeller.label(sit.mirrored())
             stats["solves"] += other.solves
             if other.converged:
-                check = float(np.max(np.abs(mirror_label(label.wheels_mps) - other.wheels_mps)))
+                check = float(np.max(np.abs(label.mirrored().wheels_mps - other.wheels_mps)))
                 stats["mirror_checked"] += 1
                 stats["mirror_max_diff_mps"] = max(stats["mirror_max_diff_mps"], check)
                 if check > MIRROR_TOLERANCE_MPS:
                     stats["mirror_over_tolerance"] += 1
                     # the two sides' multi-starts reached different optima: the cheaper one is
                     # the GPC's answer for both (the other side's starts missed it)
-                    if other.cost < label.cost:
+                    if other.cost < label.mirrored().cost:
                         label = other.mirrored()
                         stats["mirror_check_replaced"] += 1
             else:
                 stats["mirror_check_failed"] += 1
         sid = id_base + j
-        builder.add(f, label.plan_wheels_mps, label, sid, False, check)
+        which = int(sit.info.get("decision_pass", 0))
+        builder.add(f, label.plan_wheels_mps, label, sid, False, check, which)
         if mirror and not builder.full:
-            builder.add(mirror_features(layout, f), mirror_label(label.plan_wheels_mps), label, sid, True)
+            m = label.mirrored()
+            builder.add(mirror_features(layout, f), m.plan_wheels_mps, m, sid, True, decision_pass=which)
         j += 1
 
 
 def label_shard(spec: DatasetSpec, index: int) -> tuple[int, dict, dict]:
     """Compute shard ``index`` of ``spec``: ``(index, arrays, stats)``. Deterministic."""
     t0, c0 = time.perf_counter(), time.process_time()
-    labeller = labeller_for(spec.config, spec.robot, spec.solver)
+    labeller = labeller_for(spec.config, spec.robot, spec.solver, spec.tie_margin)
     n = spec.shard_samples(index)
     builder = ShardBuilder(n, spec.layout.size, spec.config.horizon)
     stats = new_stats()
@@ -141,6 +151,8 @@ def label_shard(spec: DatasetSpec, index: int) -> tuple[int, dict, dict]:
     tracker = SituationTracker(spec.config)
 
     def stream():
+        if spec.scheme == "two-pass":
+            yield from two_pass_stream(rng, spec.config, labeller, spec.robot, spec.sampler)
         while True:
             yield sample_situation(rng, spec.config, spec.layout.name, spec.robot, spec.sampler, tracker)
 

@@ -102,6 +102,8 @@ class OnPolicyOptions:
     """Seed of that noise."""
     id_base: int = 0
     """The first situation id (a part's ids: ``round * PART_STRIDE`` and up)."""
+    tie_margin: float | None = None
+    """The labels' near-tie margin (:mod:`nn_export.training.ties`); None: the planner's choice."""
 
 
 def collect_on_policy(policy, scenarios, options: OnPolicyOptions, labeller: Labeller | None = None
@@ -113,7 +115,7 @@ def collect_on_policy(policy, scenarios, options: OnPolicyOptions, labeller: Lab
     config, layout = options.config, options.layout
     if abs(policy.sample_time_s - config.sample_time_s) > 1e-12:
         raise ValueError(f"policy sample time {policy.sample_time_s} s != planner's {config.sample_time_s} s")
-    labeller = labeller or Labeller(config, options.robot, options.solver)
+    labeller = labeller or Labeller(config, options.robot, options.solver, tie_margin=options.tie_margin)
     situations, episodes = _drive(policy, scenarios, options)
     n = len(situations) * (2 if options.mirror else 1)
     builder = ShardBuilder(n, layout.size, config.horizon)
@@ -152,7 +154,7 @@ def _on_policy_chunk(policy_factory, scenarios, options: OnPolicyOptions, chunk:
         _POLICIES[key] = policy_factory()
     chunk_options = replace(options, id_base=options.id_base + chunk * SHARD_STRIDE,
                             noise_seed=options.id_base + chunk)
-    labeller = labeller_for(options.config, options.robot, options.solver)
+    labeller = labeller_for(options.config, options.robot, options.solver, options.tie_margin)
     return (chunk, *collect_on_policy(_POLICIES[key], scenarios, chunk_options, labeller))
 
 

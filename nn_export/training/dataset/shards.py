@@ -35,6 +35,10 @@ key                    shape         meaning
                                      the two sides found different optima, and the
                                      cheaper one is kept for both samples (counted in
                                      ``mirror_check_replaced``)
+``decision_pass``      (n,)          0: the planner's own situation (real reference,
+                                     obstacles); 1, 2: the paper's first (no obstacle)
+                                     or second pass (the predicted path as reference);
+                                     absent from shards written before it existed
 =====================  ============  ==================================================
 
 plus ``spec_id`` (which request made it) and ``stats_json`` (the shard's counters).
@@ -74,7 +78,8 @@ def write_shard(path: Path, arrays: dict, spec_id: str, stats: dict) -> None:
 def read_shard(path, keys=None) -> dict:
     """The arrays of one shard (all, or ``keys``), plus ``spec_id`` and ``stats``."""
     with np.load(path, allow_pickle=False) as z:
-        names = list(ARRAY_KEYS) if keys is None else list(keys)
+        # all: every key this code writes that the shard has (older shards lack decision_pass)
+        names = [k for k in ARRAY_KEYS if k in z.files] if keys is None else list(keys)
         out = {k: z[k] for k in names}
         out["spec_id"] = str(z["spec_id"])
         out["stats"] = json.loads(str(z["stats_json"]))

@@ -12,12 +12,15 @@ from casadi_gpc.robot import RobotParams
 from ...runtime.layouts import FeatureLayout
 from ..sampler import SamplerSettings
 
-__all__ = ["DATASET_FORMAT", "ARRAY_KEYS", "PART_STRIDE", "SHARD_STRIDE", "MIRROR_TOLERANCE_MPS", "DatasetMismatch",
+__all__ = ["DATASET_FORMAT", "ARRAY_KEYS", "SCHEMES", "PART_STRIDE", "SHARD_STRIDE", "MIRROR_TOLERANCE_MPS", "DatasetMismatch",
            "DatasetSpec", "digest"]
 
 DATASET_FORMAT = "gpcnav-dataset/1"
 ARRAY_KEYS = ("features", "labels", "plan_wheels_mps", "cost", "status", "guess", "iterations", "candidate_costs",
-              "solver", "mirror", "situation_id", "sample_id", "mirror_check_mps")
+              "solver", "mirror", "situation_id", "sample_id", "mirror_check_mps", "decision_pass")
+SCHEMES = ("sampled", "two-pass")
+"""How situations are drawn: ``sampled`` (:func:`~nn_export.training.sampler.sample_situation`)
+or ``two-pass`` (the paper's two passes, :mod:`nn_export.training.two_pass`)."""
 PART_STRIDE = 10 ** 12   # situation ids: part * stride + shard * shard stride + index
 SHARD_STRIDE = 10 ** 6
 MIRROR_TOLERANCE_MPS = 1e-6
@@ -45,8 +48,16 @@ class DatasetSpec:
     mirror_check_every: int = 25
     """Solve the mirrored situation for real for every this-many-th situation (0: never)."""
     sampler: SamplerSettings = field(default_factory=SamplerSettings)
+    scheme: str = "sampled"
+    """How situations are drawn (:data:`SCHEMES`)."""
+    tie_margin: float | None = None
+    """The near-tie convention's margin (:mod:`nn_export.training.ties`); None: the planner's choice."""
 
     def __post_init__(self):
+        if self.scheme not in SCHEMES:
+            raise ValueError(f"scheme must be one of {', '.join(SCHEMES)}, got {self.scheme!r}")
+        if self.scheme == "two-pass" and self.layout.name != "paper":
+            raise ValueError("the two-pass scheme draws one moving obstacle: it needs the paper layout")
         if self.samples < 1:
             raise ValueError(f"samples must be at least 1, got {self.samples}")
         if self.shard_size < 2 or self.shard_size % 2 or self.shard_size > SHARD_STRIDE:
@@ -68,6 +79,9 @@ class DatasetSpec:
             "planner_config": self.config.to_dict(), "feature_layout": self.layout.to_dict(),
             "robot": self.robot.to_dict(), "solver": self.solver, "shard_size": self.shard_size,
             "mirror": self.mirror, "mirror_check_every": self.mirror_check_every, "sampler": asdict(self.sampler),
+            # new fields enter only when set, so datasets made before them keep their spec_id
+            **({"scheme": self.scheme} if self.scheme != "sampled" else {}),
+            **({"tie_margin": self.tie_margin} if self.tie_margin is not None else {}),
         }
 
     @property

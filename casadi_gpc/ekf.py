@@ -22,10 +22,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from operator import itemgetter
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["EKFSettings", "ObstacleEKF", "obstacle_model_step", "planning_covariances", "worst_std_m",
+__all__ = ["EKFSettings", "ObstacleEKF", "FilterState", "obstacle_model_step", "planning_covariances", "worst_std_m",
            "GATE_CHI2_2DOF"]
 
 GATE_CHI2_2DOF = 18.42  # chi-square(2) 0.9999 quantile: an innovation beyond it is an outlier
@@ -198,26 +199,152 @@ class EKFSettings:
     """After this many outliers in a row the track restarts at the new measurement."""
 
 
+def _q_diagonal(settings: EKFSettings, sample_time_s: float) -> tuple[float, float, float, float, float]:
+    """The diagonal of the process noise Q."""
+    st, T = settings, sample_time_s
+    return (st.position_noise_m ** 2, st.position_noise_m ** 2, (st.speed_noise_mps2 * T) ** 2,
+            st.heading_noise_rad ** 2, st.turn_noise_rad ** 2)
+
+
+def _readonly(values, shape: tuple) -> np.ndarray:
+    a = np.array(values).reshape(shape)
+    a.flags.writeable = False
+    return a
+
+
+class FilterState(NamedTuple):
+    """A filter's estimate at one sample, frozen, in plain floats: what
+    :meth:`ObstacleEKF.snapshot` hands out, so that a forecast can be made from it later
+    (:meth:`predict` gives :meth:`ObstacleEKF.predict`'s numbers at the time of the
+    snapshot)."""
+
+    state: tuple
+    """``(x, y, V, theta, dtheta)``."""
+    cov_upper: tuple
+    """The covariance's upper triangle, 15 floats row by row."""
+    measurements_seen: int
+    sample_time_s: float
+    settings: EKFSettings
+
+    @property
+    def initialised(self) -> bool:
+        return self.measurements_seen >= 2
+
+    def state_array(self) -> np.ndarray:
+        return np.array(self.state)
+
+    def cov_array(self) -> np.ndarray:
+        return _cov_array(self.cov_upper)
+
+    def predict(self, horizon: int, q: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H
+        (``q``: the diagonal of Q when the caller has it)."""
+        T = self.sample_time_s
+        if self.measurements_seen == 1:
+            # standing where it was seen, the uncertainty growing with the unknown speed
+            means = np.empty((horizon, 2))
+            covs = np.empty((horizon, 2, 2))
+            s, P = self.state_array(), self.cov_array()
+            grow = (self.settings.initial_speed_std_mps * T) ** 2
+            for j in range(horizon):
+                means[j] = s[:2]
+                covs[j] = P[:2, :2] + np.eye(2) * grow * (j + 1) ** 2
+            return means, covs
+        x, y, v, th, dth = self.state
+        means, covs = [], []  # flat: one array call each at the end
+        _propagate(x, y, v, th, dth, self.cov_upper, T, q or _q_diagonal(self.settings, T), horizon, means, covs)
+        return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)
+
+
 @dataclass
 class ObstacleEKF:
-    """Track of one moving obstacle. ``update`` once per sample, then ``predict``."""
+    """Track of one moving obstacle. ``step`` once per sample, then ``predict``.
+
+    The filter computes in plain floats (the deployed policy runs it every sample, and
+    numpy's per-call cost on 5-vectors was most of that time); :attr:`state_` and
+    :attr:`cov_` are read-only arrays made from them when read. Assigning either replaces
+    the estimate (only the covariance's upper triangle is used, as the filter always did).
+    """
 
     sample_time_s: float
     settings: EKFSettings = field(default_factory=EKFSettings)
-    state_: np.ndarray | None = None
-    cov_: np.ndarray | None = None
     measurements_seen_: int = 0
     missed_: int = 0
     outliers_: int = 0
     maneuvers_: int = 0
-    _last_z: np.ndarray | None = None
+    _last_z: tuple | np.ndarray | None = None
+    """The last fused position ``(x, y)``."""
     _rejections_in_row: int = 0
     _since_z: int = 0  # samples since the last fused measurement (_last_z)
     pending_z_: np.ndarray | None = None
     """A plausible measurement gated out at the last step, waiting for the next one to tell a
     glitch from a manoeuvre (:meth:`ghost`)."""
     _steps_since_first: int = 1  # samples between the first and the second measurement
+    _s: tuple | None = field(default=None, repr=False)
+    """The state ``(x, y, V, theta, dtheta)`` in plain floats; None before the first measurement."""
+    _U: tuple | None = field(default=None, repr=False)
+    """The covariance's upper triangle in plain floats (:data:`_upper`)."""
+    _arrays: list = field(default_factory=lambda: [None, None], init=False, repr=False, compare=False)
+    """``[state_, cov_]`` once made from ``_s`` and ``_U`` (reset whenever they change)."""
 
+    def __post_init__(self):
+        self._q_key = self._q_value = None
+
+    # --- the estimate as arrays ------------------------------------------------------
+    @property
+    def state_(self) -> np.ndarray | None:
+        """State ``[x, y, V, theta, dtheta]``, shape (5,), read-only; None before the first
+        measurement."""
+        if self._s is None:
+            return None
+        a = self._arrays[0]
+        if a is None:
+            a = self._arrays[0] = _readonly(self._s, (5,))
+        return a
+
+    @state_.setter
+    def state_(self, value) -> None:
+        if value is None:
+            self._s = None
+        else:
+            a = np.asarray(value, dtype=float)
+            if a.shape != (5,):
+                raise ValueError(f"an obstacle state has 5 entries, got shape {a.shape}")
+            self._s = tuple(a.tolist())
+        self._arrays = [None, None]
+
+    @property
+    def cov_(self) -> np.ndarray | None:
+        """Its covariance, shape (5, 5), read-only (None before the first measurement)."""
+        if self._U is None:
+            return None
+        a = self._arrays[1]
+        if a is None:
+            a = self._arrays[1] = _readonly(_full(self._U), (5, 5))
+        return a
+
+    @cov_.setter
+    def cov_(self, value) -> None:
+        if value is None:
+            self._U = None
+        else:
+            a = np.asarray(value, dtype=float)
+            if a.shape != (5, 5):
+                raise ValueError(f"an obstacle covariance is 5x5, got shape {a.shape}")
+            self._U = _upper(a.ravel().tolist())
+        self._arrays = [None, None]
+
+    def _set(self, s: tuple, U: tuple) -> None:
+        self._s, self._U = s, U
+        self._arrays = [None, None]
+
+    def snapshot(self) -> FilterState:
+        """The estimate now, frozen (its forecast can be made later: :meth:`FilterState.predict`)."""
+        if self._s is None:
+            raise RuntimeError("snapshot() before any measurement")
+        return FilterState(self._s, self._U, self.measurements_seen_, self.sample_time_s, self.settings)
+
+    # --- settings --------------------------------------------------------------------
     def _R(self) -> np.ndarray:
         return np.eye(2) * self._r()
 
@@ -227,14 +354,11 @@ class ObstacleEKF:
 
     def _q(self) -> tuple[float, float, float, float, float]:
         """The diagonal of Q (cached: the settings and T are fixed for a filter's life)."""
-        key = (self.settings, self.sample_time_s)
-        cached = getattr(self, "_q_cache", None)
-        if cached is None or cached[0] != key:
-            st, T = self.settings, self.sample_time_s
-            cached = (key, (st.position_noise_m ** 2, st.position_noise_m ** 2, (st.speed_noise_mps2 * T) ** 2,
-                            st.heading_noise_rad ** 2, st.turn_noise_rad ** 2))
-            self._q_cache = cached
-        return cached[1]
+        key = self._q_key
+        if key is None or key[0] is not self.settings or key[1] != self.sample_time_s:
+            self._q_key, self._q_value = (self.settings, self.sample_time_s), _q_diagonal(self.settings,
+                                                                                          self.sample_time_s)
+        return self._q_value
 
     def _Q(self) -> np.ndarray:
         return np.diag(self._q())
@@ -243,11 +367,19 @@ class ObstacleEKF:
     def initialised(self) -> bool:
         return self.measurements_seen_ >= 2
 
-    def _start(self, z: np.ndarray) -> None:
+    @property
+    def started(self) -> bool:
+        """Whether the filter has an estimate (it has fused a first measurement)."""
+        return self._s is not None
+
+    # --- the filter ------------------------------------------------------------------
+    def _start(self, z) -> None:
         st = self.settings
-        self.state_ = np.array([z[0], z[1], 0.0, 0.0, 0.0])
         r = max(st.measurement_std_m, 1e-3) ** 2
-        self.cov_ = np.diag([r, r, st.initial_speed_std_mps ** 2, np.pi ** 2, st.initial_turn_std_rad ** 2])
+        # np.diag([r, r, sv^2, pi^2, st^2]) as an upper triangle
+        self._set((float(z[0]), float(z[1]), 0.0, 0.0, 0.0),
+                  (r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, st.initial_speed_std_mps ** 2, 0.0, 0.0, np.pi ** 2, 0.0,
+                   st.initial_turn_std_rad ** 2))
         self.measurements_seen_ = 1
         self._last_z = z
         self._since_z = 0
@@ -259,20 +391,20 @@ class ObstacleEKF:
         """Two positions give speed and heading by finite difference."""
         st = self.settings
         T = self.sample_time_s * self._steps_since_first  # missed samples in between lengthen the baseline
-        d = z - self._last_z
+        d = z - np.asarray(self._last_z, dtype=float)
         v = float(np.hypot(*d)) / T
         r = max(st.measurement_std_m, 1e-3) ** 2
         var_v = 2.0 * r / T ** 2
         var_th = min(np.pi ** 2, 2.0 * r / max(v * T, 1e-6) ** 2)
-        self.state_ = np.array([z[0], z[1], v, np.arctan2(d[1], d[0]), 0.0])
-        self.cov_ = np.diag([r, r, var_v, var_th, st.initial_turn_std_rad ** 2])
+        self._set((float(z[0]), float(z[1]), v, float(np.arctan2(d[1], d[0])), 0.0),
+                  (r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, var_v, 0.0, 0.0, var_th, 0.0, st.initial_turn_std_rad ** 2))
         self.measurements_seen_ = 2
 
     def step(self, z) -> str:
         """Advance one sample and fuse measurement ``z`` (``None`` or non-finite = missing).
 
-        Returns what happened: ``"start"``, ``"update"``, ``"missed"`` or ``"outlier"``.
-        Raises ``ValueError`` when ``z`` is not a position (two numbers).
+        Returns what happened: ``"start"``, ``"update"``, ``"missed"``, ``"outlier"`` or
+        ``"manoeuvre"``. Raises ``ValueError`` when ``z`` is not a position (two numbers).
         """
         if type(z) is tuple and len(z) == 2 and type(z[0]) is float and type(z[1]) is float:
             zx, zy = z  # the sensor's own form: no array needed
@@ -285,7 +417,7 @@ class ObstacleEKF:
             zx, zy = float(z[0]), float(z[1])
             if not (math.isfinite(zx) and math.isfinite(zy)):
                 z = None
-        if self.state_ is None:
+        if self._s is None:
             if z is None:
                 self.missed_ += 1
                 return "missed"
@@ -295,20 +427,21 @@ class ObstacleEKF:
             if z is None:
                 self.missed_ += 1
                 self._steps_since_first += 1
-                # a stationary guess whose uncertainty grows with the unknown speed
-                self.cov_[:2, :2] += np.eye(2) * (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
+                # a stationary guess whose uncertainty grows with the unknown speed: P[:2, :2] +=
+                # g I (numpy's numbers: the off-diagonal gets + 0.0)
+                g = (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
+                U = self._U
+                self._set(self._s, (U[0] + g, U[1] + 0.0, *U[2:5], U[5] + g, *U[6:]))
                 return "missed"
             z = np.array((zx, zy))
             self._second(z)
             self._last_z, self._since_z = z, 0
             return "update"
         # propagation (plain floats: see _propagate)
-        x, y, v, th, dth = self.state_.tolist()
-        x, y, th, U = _propagate(x, y, v, th, dth, _upper(self.cov_.ravel().tolist()), self.sample_time_s,
-                                 self._q(), 1)
+        x, y, v, th, dth = self._s
+        x, y, th, U = _propagate(x, y, v, th, dth, self._U, self.sample_time_s, self._q(), 1)
         if z is None:
-            self.state_ = np.array((x, y, v, th, dth))
-            self.cov_ = _cov_array(U)
+            self._set((x, y, v, th, dth), U)
             self.missed_ += 1
             self._since_z += 1
             self.pending_z_ = None
@@ -340,8 +473,7 @@ class ObstacleEKF:
             # the next sample decides, a plausible one is kept as pending: :meth:`ghost` is
             # the obstacle standing there, for planners to keep clear of as well.
             self.pending_z_ = z if plausible else None
-            self.state_ = np.array((x, y, v, th, dth))
-            self.cov_ = _cov_array(U)
+            self._set((x, y, v, th, dth), U)
             self.outliers_ += 1
             self._rejections_in_row += 1
             self._since_z += 1
@@ -355,10 +487,9 @@ class ObstacleEKF:
         K, N = _joseph(U, s11 / det, -s01 / det, s00 / det, r)
         k00, k01, k10, k11, k20, k21, k30, k31, k40, k41 = K
         th = th + k30 * i0 + k31 * i1
-        self.state_ = np.array((x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
-                                (th + math.pi) % (2 * math.pi) - math.pi, dth + k40 * i0 + k41 * i1))
-        self.cov_ = _cov_array(N)
-        self._last_z, self._since_z = np.array((zx, zy)), 0
+        self._set((x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
+                   (th + math.pi) % (2 * math.pi) - math.pi, dth + k40 * i0 + k41 * i1), N)
+        self._last_z, self._since_z = (zx, zy), 0
         return "update"
 
     def ghost(self) -> "ObstacleEKF | None":
@@ -375,19 +506,7 @@ class ObstacleEKF:
 
     def predict(self, horizon: int) -> tuple[np.ndarray, np.ndarray]:
         """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H."""
-        if self.state_ is None:
+        if self._s is None:
             raise RuntimeError("predict() before any measurement")
-        if self.measurements_seen_ == 1:
-            means = np.empty((horizon, 2))
-            covs = np.empty((horizon, 2, 2))
-            s, P = self.state_, self.cov_
-            grow = (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
-            for j in range(horizon):
-                means[j] = s[:2]
-                covs[j] = P[:2, :2] + np.eye(2) * grow * (j + 1) ** 2
-            return means, covs
-        x, y, v, th, dth = self.state_.tolist()
-        means, covs = [], []  # flat: one array call each at the end
-        _propagate(x, y, v, th, dth, _upper(self.cov_.ravel().tolist()), self.sample_time_s, self._q(), horizon,
-                   means, covs)
-        return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)
+        return FilterState(self._s, self._U, self.measurements_seen_, self.sample_time_s,
+                           self.settings).predict(horizon, self._q())

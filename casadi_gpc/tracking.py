@@ -63,11 +63,11 @@ class TrackBank:
                 counters["outliers"] += 1
             elif event == "manoeuvre":
                 counters["manoeuvres"] += 1
-            if ekf.state_ is not None:
+            if ekf.started:
                 if not ekf.initialised:
                     counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
                 seen.append((m, ekf))
-        ghosts = [(m, g) for m, g in ((m, ekf.ghost()) for m, ekf in seen) if g is not None]
+        ghosts = [(m, ekf.ghost()) for m, ekf in seen if ekf.pending_z_ is not None]
         counters["ghosts"] += len(ghosts)
         return seen + ghosts
 

@@ -72,7 +72,7 @@ def order_by_distance(robot_xy, tracks=(), statics=()) -> tuple[list, list]:
     hypot = math.hypot
 
     def key_track(t: TrackEstimate):
-        x, y = t.state[:2].tolist()
+        x, y = t.state_values[:2]
         d = hypot(x - rx, y - ry)
         for mx, my in t.means_m.tolist():
             d = min(d, hypot(mx - rx, my - ry))
@@ -153,13 +153,14 @@ def _reference_values(x: float, y: float, heading: float, p1, window: tuple[list
     return [c * dx + s * dy, -s * dx + c * dy, _wrap(p1[2] - heading), *tail]
 
 
-def _moving_values(layout: FeatureLayout, robot: RobotState | None, tr: TrackEstimate | None) -> list:
+def _moving_values(layout: FeatureLayout, rx: float, ry: float, heading: float, c: float, s: float,
+                   tr: TrackEstimate | None) -> list:
+    """The slot of a moving obstacle for the robot at ``(rx, ry, heading)``, ``c, s`` the
+    cosine and sine of its heading."""
     if tr is None:
         return list(layout.absent_moving)
-    heading = robot.heading_rad
-    c, s = math.cos(heading), math.sin(heading)
-    x, y, v, th, dth = tr.state.tolist()
-    dx, dy = x - robot.x_m, y - robot.y_m
+    x, y, v, th, dth = tr.state_values
+    dx, dy = x - rx, y - ry
     if tr.initialised:
         vals = [c * dx + s * dy, -s * dx + c * dy, v, (th + dth - heading) % _TWO_PI, dth]
     else:  # one position seen: standing still as far as anyone knows, heading unknown
@@ -170,11 +171,11 @@ def _moving_values(layout: FeatureLayout, robot: RobotState | None, tr: TrackEst
     return vals
 
 
-def _static_values(layout: FeatureLayout, robot: RobotState | None, st: StaticObstacle | None) -> list:
+def _static_values(layout: FeatureLayout, rx: float, ry: float, c: float, s: float,
+                   st: StaticObstacle | None) -> list:
     if st is None:
         return list(layout.absent_static)
-    c, s = math.cos(robot.heading_rad), math.sin(robot.heading_rad)
-    dx, dy = st.position_m[0] - robot.x_m, st.position_m[1] - robot.y_m
+    dx, dy = st.position_m[0] - rx, st.position_m[1] - ry
     return [1.0, c * dx + s * dy, -s * dx + c * dy, st.radius_m]
 
 
@@ -196,25 +197,29 @@ def feature_values_from(layout: FeatureLayout, robot: RobotState, ref_rows: list
     poses given as rows ``(x, y, heading)`` (unchecked: the caller's; the deployed policy's
     second pass builds no :class:`Situation` for them)."""
     r = robot
-    rx, ry = r.x_m, r.y_m
+    # plain floats (a simulator's state may hold numpy scalars, whose arithmetic costs more;
+    # the numbers are the same)
+    rx, ry, heading = float(r.x_m), float(r.y_m), float(r.heading_rad)
     f = [r.v_right_mps, r.v_left_mps]
     if tracks or statics:
         tracks, statics = order_by_distance((rx, ry), tracks, statics)
         rng, hypot = layout.range_m, math.hypot
-        in_range = [t for t in tracks if hypot(float(t.state[0]) - rx, float(t.state[1]) - ry) <= rng]
+        in_range = [t for t in tracks if hypot(t.state_values[0] - rx, t.state_values[1] - ry) <= rng]
         st_in = [s for s in statics if hypot(s.position_m[0] - rx, s.position_m[1] - ry) <= rng]
         if report is not None:
             _bump(report, "out_of_range", (len(tracks) - len(in_range)) + (len(statics) - len(st_in)))
             _bump(report, "dropped_moving", max(len(in_range) - layout.k_moving, 0))
             _bump(report, "dropped_static", max(len(st_in) - layout.k_static, 0))
+        c, s = math.cos(heading), math.sin(heading)
         for j in range(layout.k_moving):
-            f += _moving_values(layout, r, in_range[j] if j < len(in_range) else None)
+            f += _moving_values(layout, rx, ry, heading, c, s, in_range[j] if j < len(in_range) else None)
         for j in range(layout.k_static):
-            f += _static_values(layout, r, st_in[j] if j < len(st_in) else None)
+            f += _static_values(layout, rx, ry, c, s, st_in[j] if j < len(st_in) else None)
     else:
         f += layout._absent_obstacles
-    f += _reference_values(rx, ry, r.heading_rad, ref_rows[1], _window_tails(layout, ref_rows, sample_time_s)[0],
-                           report)
+    H = layout.horizon
+    window = _window_tails(layout, ref_rows if len(ref_rows) == H + 1 else ref_rows[:H + 1], sample_time_s)[0]
+    f += _reference_values(rx, ry, heading, ref_rows[1], window, report)
     return f
 
 

@@ -308,14 +308,17 @@ class OnnxPolicy:
 
     def _clearance(self, situation: Situation, poses: list) -> float:
         """:meth:`closest_clearance` of the flat pose list ``[x1, y1, th1, x2, ...]``."""
+        return self._clearance_of(situation.tracks, situation.statics, poses)
+
+    def _clearance_of(self, tracks, statics, poses: list) -> float:
         best = math.inf
         rr, hypot = self.robot.radius_m, math.hypot
         xs, ys = poses[0::3], poses[1::3]
-        for tr in situation.tracks:
+        for tr in tracks:
             m = tr.means_m.ravel().tolist()
             d = min(map(hypot, map(sub, xs, m[0::2]), map(sub, ys, m[1::2])))
             best = min(best, d - rr - tr.radius_m)
-        for st in situation.statics:
+        for st in statics:
             sx, sy = st.position_m
             d = min(map(hypot, map(sub, xs, repeat(sx)), map(sub, ys, repeat(sy))))
             best = min(best, d - rr - st.radius_m)
@@ -323,34 +326,34 @@ class OnnxPolicy:
 
     # --- the step --------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:
-        situation = self.tracker.update(obs)
+        tracks, ref_rows = self.tracker.track(obs)
         # missed measurements and gated outliers (a track seen once is counted by the safety
         # check layer, as shield_unestimated_tracks)
         tracked, counters = self.tracker.counters, self._counters
         counters["missed_measurements"] = tracked["missed_measurements"]
         counters["outliers"] = tracked["outliers"]
-        return self._decide(obs, situation)
-
-    def _decide(self, obs: Observation, situation: Situation) -> ControlDecision:
-        """The network's own decision (one or two passes), with the track estimates it used."""
-        self._counters["decisions"] += 1
-        tracks = situation.tracks
+        counters["decisions"] += 1
         if not self.two_pass:
-            vr, vl = self._net(situation)
+            vr, vl = self._net_values(feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks,
+                                                          obs.static, counters["feature_report"]))
             return ControlDecision(vr, vl, False, "one pass", forecasts=tracks)
-        H = self.horizon
-        pose_list, wheel_list = self._free_path(situation.robot, self.tracker.reference_ahead_)
-        clearance = self._clearance(situation, pose_list)
+        return self._two_passes(obs, tracks, ref_rows)
+
+    def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list) -> ControlDecision:
+        """The paper's scheme (module docstring), from the sample's track estimates and the
+        desired poses at steps 0..2H-1."""
+        H, r = self.horizon, obs.robot
+        pose_list, wheel_list = self._free_path(r, ref_rows)
+        statics = obs.static
+        clearance = self._clearance_of(tracks, statics, pose_list)
         poses, wheels = np.array(pose_list).reshape(H, 3), np.array(wheel_list).reshape(H, 2)
         if clearance >= self.safety_distance_m:
             return ControlDecision(wheel_list[0], wheel_list[1], False, "pass 1: path clear",
                                    wheels, poses, info={"predicted_clearance_m": clearance}, forecasts=tracks)
         self._counters["second_pass"] += 1
-        r = obs.robot
-        # the features of situation.with_reference(desired), from its pieces
+        # the features of the situation with the predicted poses as its reference, from its pieces
         desired = [(r.x_m, r.y_m, r.heading_rad), *zip(pose_list[0::3], pose_list[1::3], pose_list[2::3])]
-        vr, vl = self._net_values(feature_values_from(self.layout, situation.robot, desired, situation.sample_time_s,
-                                                      situation.tracks, situation.statics,
+        vr, vl = self._net_values(feature_values_from(self.layout, r, desired, self.sample_time_s, tracks, statics,
                                                       self._counters["feature_report"]))
         return ControlDecision(vr, vl, False, "pass 2: avoiding", wheels, poses,
                                info={"predicted_clearance_m": clearance}, forecasts=tracks)

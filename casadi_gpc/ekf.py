@@ -284,11 +284,10 @@ class ObstacleEKF:
     """The state ``(x, y, V, theta, dtheta)`` in plain floats; None before the first measurement."""
     _U: tuple | None = field(default=None, repr=False)
     """The covariance's upper triangle in plain floats (:data:`_upper`)."""
-    _arrays: list = field(default_factory=lambda: [None, None], init=False, repr=False, compare=False)
-    """``[state_, cov_]`` once made from ``_s`` and ``_U`` (reset whenever they change)."""
 
     def __post_init__(self):
-        self._q_key = self._q_value = None
+        self._consts = (None, None, None, None)
+        self._state_a = self._cov_a = None  # state_ and cov_, once made from _s and _U
 
     # --- the estimate as arrays ------------------------------------------------------
     @property
@@ -297,9 +296,9 @@ class ObstacleEKF:
         measurement."""
         if self._s is None:
             return None
-        a = self._arrays[0]
+        a = self._state_a
         if a is None:
-            a = self._arrays[0] = _readonly(self._s, (5,))
+            a = self._state_a = _readonly(self._s, (5,))
         return a
 
     @state_.setter
@@ -311,16 +310,16 @@ class ObstacleEKF:
             if a.shape != (5,):
                 raise ValueError(f"an obstacle state has 5 entries, got shape {a.shape}")
             self._s = tuple(a.tolist())
-        self._arrays = [None, None]
+        self._state_a = self._cov_a = None
 
     @property
     def cov_(self) -> np.ndarray | None:
         """Its covariance, shape (5, 5), read-only (None before the first measurement)."""
         if self._U is None:
             return None
-        a = self._arrays[1]
+        a = self._cov_a
         if a is None:
-            a = self._arrays[1] = _readonly(_full(self._U), (5, 5))
+            a = self._cov_a = _readonly(_full(self._U), (5, 5))
         return a
 
     @cov_.setter
@@ -332,17 +331,19 @@ class ObstacleEKF:
             if a.shape != (5, 5):
                 raise ValueError(f"an obstacle covariance is 5x5, got shape {a.shape}")
             self._U = _upper(a.ravel().tolist())
-        self._arrays = [None, None]
+        self._state_a = self._cov_a = None
 
     def _set(self, s: tuple, U: tuple) -> None:
         self._s, self._U = s, U
-        self._arrays = [None, None]
+        self._state_a = self._cov_a = None
 
     def snapshot(self) -> FilterState:
         """The estimate now, frozen (its forecast can be made later: :meth:`FilterState.predict`)."""
         if self._s is None:
             raise RuntimeError("snapshot() before any measurement")
-        return FilterState(self._s, self._U, self.measurements_seen_, self.sample_time_s, self.settings)
+        # FilterState(...) without its Python-level __new__ (the deployed policy takes one a sample)
+        return tuple.__new__(FilterState, (self._s, self._U, self.measurements_seen_, self.sample_time_s,
+                                           self.settings))
 
     # --- settings --------------------------------------------------------------------
     def _R(self) -> np.ndarray:
@@ -350,15 +351,20 @@ class ObstacleEKF:
 
     def _r(self) -> float:
         """Variance of each measured coordinate."""
-        return max(self.settings.measurement_std_m, 1e-3) ** 2
+        return self._constants()[3]
 
     def _q(self) -> tuple[float, float, float, float, float]:
-        """The diagonal of Q (cached: the settings and T are fixed for a filter's life)."""
-        key = self._q_key
-        if key is None or key[0] is not self.settings or key[1] != self.sample_time_s:
-            self._q_key, self._q_value = (self.settings, self.sample_time_s), _q_diagonal(self.settings,
-                                                                                          self.sample_time_s)
-        return self._q_value
+        """The diagonal of Q."""
+        return self._constants()[2]
+
+    def _constants(self) -> tuple:
+        """``(settings, T, diagonal of Q, r)``, made again only when the settings or T
+        change (they are fixed for a filter's life, as a rule)."""
+        c = self._consts
+        if c[0] is not self.settings or c[1] != self.sample_time_s:
+            st, T = self.settings, self.sample_time_s
+            c = self._consts = (st, T, _q_diagonal(st, T), max(st.measurement_std_m, 1e-3) ** 2)
+        return c
 
     def _Q(self) -> np.ndarray:
         return np.diag(self._q())
@@ -438,8 +444,11 @@ class ObstacleEKF:
             self._last_z, self._since_z = z, 0
             return "update"
         # propagation (plain floats: see _propagate)
+        c = self._consts
+        if c[0] is not self.settings or c[1] != self.sample_time_s:
+            c = self._constants()
         x, y, v, th, dth = self._s
-        x, y, th, U = _propagate(x, y, v, th, dth, self._U, self.sample_time_s, self._q(), 1)
+        x, y, th, U = _propagate(x, y, v, th, dth, self._U, c[1], c[2], 1)
         if z is None:
             self._set((x, y, v, th, dth), U)
             self.missed_ += 1
@@ -447,7 +456,7 @@ class ObstacleEKF:
             self.pending_z_ = None
             return "missed"
         # correction, with an innovation gate against outliers; S = P[:2, :2] + R is 2x2
-        r = self._r()
+        r = c[3]
         i0, i1 = zx - x, zy - y
         s00, s01, s11 = U[0] + r, U[1], U[5] + r
         det = s00 * s11 - s01 * s01
@@ -487,8 +496,9 @@ class ObstacleEKF:
         K, N = _joseph(U, s11 / det, -s01 / det, s00 / det, r)
         k00, k01, k10, k11, k20, k21, k30, k31, k40, k41 = K
         th = th + k30 * i0 + k31 * i1
-        self._set((x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
-                   (th + math.pi) % (2 * math.pi) - math.pi, dth + k40 * i0 + k41 * i1), N)
+        self._s = (x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
+                   (th + math.pi) % (2 * math.pi) - math.pi, dth + k40 * i0 + k41 * i1)
+        self._U, self._state_a, self._cov_a = N, None, None  # _set, written out (every sample)
         self._last_z, self._since_z = (zx, zy), 0
         return "update"
 

@@ -105,30 +105,33 @@ def _window_tails(layout: FeatureLayout, P: list, T: float) -> list[tuple[list, 
     total length over H T), and how many curvatures were clipped. Overlapping windows
     share the arcs."""
     H, lim = layout.horizon, layout.curvature_limit_1pm
-    kappas, lengths, clipped = [], [], [0]  # clipped: running count, from 0
+    kappas, lengths, clipped = [], [], []  # clipped: the arcs whose curvature was clipped
     cos, sin, pi, short = math.cos, math.sin, math.pi, _SHORT_ARC_M
     x0, y0, h0 = P[0]
+    straight, cs, sn = None, 1.0, 0.0  # the heading of the last straight piece, its cosine and sine
     for x1, y1, h1 in P[1:]:
         # the exact arc through consecutive poses: chord = L sinc(dth/2) along the mid heading
-        if h1 == h0:  # a straight piece: dth = 0 and sinc(0) = 1 exactly, so the same numbers
-            dth = 0.0
-            mid = h0 + 0.0
-            length = (x1 - x0) * cos(mid) + (y1 - y0) * sin(mid)
+        if h1 == h0:
+            # a straight piece: dth = 0 and sinc(0) = 1 exactly, so the same numbers as below
+            # with the cosine and sine of h0 + 0.0 (not -0.0) kept while the heading stays
+            if h0 != straight:
+                straight = h0
+                cs, sn = cos(h0 + 0.0), sin(h0 + 0.0)
+            length = (x1 - x0) * cs + (y1 - y0) * sn
+            kappa = 0.0 / length if length > short or length < -short else 0.0
         else:
             dth = pi - (pi - (h1 - h0)) % _TWO_PI  # _wrap(h1 - h0), inline
             half = 0.5 * dth
             mid = h0 + half
             # the robot model's own sinc, on plain floats
             length = ((x1 - x0) * cos(mid) + (y1 - y0) * sin(mid)) / sinc(math, half)
-        if length > short or length < -short:  # abs(length) > short
-            kappa = dth / length
-        else:  # one point: no curvature, unless it turns on the spot (infinite)
-            kappa = math.copysign(math.inf, dth) if abs(dth) > 1e-9 else 0.0
+            if length > short or length < -short:  # abs(length) > short
+                kappa = dth / length
+            else:  # one point: no curvature, unless it turns on the spot (infinite)
+                kappa = math.copysign(math.inf, dth) if abs(dth) > 1e-9 else 0.0
         if kappa > lim or kappa < -lim:  # abs(kappa) > lim
             kappa = math.copysign(lim, kappa)
-            clipped.append(clipped[-1] + 1)
-        else:
-            clipped.append(clipped[-1])
+            clipped.append(len(kappas))
         kappas.append(kappa)
         lengths.append(length)
         x0, y0, h0 = x1, y1, h1
@@ -138,7 +141,7 @@ def _window_tails(layout: FeatureLayout, P: list, T: float) -> list[tuple[list, 
         tail = kappas[j:j + H]
         # the lengths added in order from 0.0 (sum() may compensate, depending on the version)
         tail.append(reduce(add, lengths[j:j + H], 0.0) / HT)
-        out.append((tail, clipped[j + H] - clipped[j]))
+        out.append((tail, sum(j <= i < j + H for i in clipped) if clipped else 0))
     return out
 
 
@@ -150,7 +153,8 @@ def _reference_values(x: float, y: float, heading: float, p1, window: tuple[list
     tail, n_clipped = window
     if n_clipped and report is not None:
         report["curvature_clipped"] = report.get("curvature_clipped", 0) + n_clipped
-    return [c * dx + s * dy, -s * dx + c * dy, _wrap(p1[2] - heading), *tail]
+    # the heading: _wrap(p1[2] - heading), written out
+    return [c * dx + s * dy, -s * dx + c * dy, math.pi - (math.pi - (p1[2] - heading)) % _TWO_PI, *tail]
 
 
 def _moving_values(layout: FeatureLayout, rx: float, ry: float, heading: float, c: float, s: float,
@@ -202,14 +206,19 @@ def feature_values_from(layout: FeatureLayout, robot: RobotState, ref_rows: list
     rx, ry, heading = float(r.x_m), float(r.y_m), float(r.heading_rad)
     f = [r.v_right_mps, r.v_left_mps]
     if tracks or statics:
-        tracks, statics = order_by_distance((rx, ry), tracks, statics)
+        if len(tracks) > 1 or len(statics) > 1:
+            tracks, statics = order_by_distance((rx, ry), tracks, statics)
         rng, hypot = layout.range_m, math.hypot
         in_range = [t for t in tracks if hypot(t.state_values[0] - rx, t.state_values[1] - ry) <= rng]
-        st_in = [s for s in statics if hypot(s.position_m[0] - rx, s.position_m[1] - ry) <= rng]
+        st_in = [s for s in statics if hypot(s.position_m[0] - rx, s.position_m[1] - ry) <= rng] if statics else []
         if report is not None:
-            _bump(report, "out_of_range", (len(tracks) - len(in_range)) + (len(statics) - len(st_in)))
-            _bump(report, "dropped_moving", max(len(in_range) - layout.k_moving, 0))
-            _bump(report, "dropped_static", max(len(st_in) - layout.k_static, 0))
+            out = (len(tracks) - len(in_range)) + (len(statics) - len(st_in))
+            if out:
+                _bump(report, "out_of_range", out)
+            if len(in_range) > layout.k_moving:
+                _bump(report, "dropped_moving", len(in_range) - layout.k_moving)
+            if len(st_in) > layout.k_static:
+                _bump(report, "dropped_static", len(st_in) - layout.k_static)
         c, s = math.cos(heading), math.sin(heading)
         for j in range(layout.k_moving):
             f += _moving_values(layout, rx, ry, heading, c, s, in_range[j] if j < len(in_range) else None)

@@ -20,7 +20,7 @@ track at the last one. Numpy only (the deployed policy uses it).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from operator import itemgetter
 from typing import NamedTuple
 
@@ -197,6 +197,26 @@ class EKFSettings:
     swerve), which the next measurement confirms; a farther one is a sensor glitch."""
     max_rejections: int = 3
     """After this many outliers in a row the track restarts at the new measurement."""
+
+    def for_sample_time(self, sample_time_s: float, reference_sample_time_s: float = 0.5) -> "EKFSettings":
+        """These settings, meant per step of ``reference_sample_time_s`` (the ``improved``
+        planner's 0.5 s), for a filter stepped every ``sample_time_s`` with the same noise
+        per second: the random walks of position and heading keep their variance per second
+        (std x sqrt(T / T0)), the speed's too (std x sqrt(T0 / T), as its std per step is
+        this times T), and the turn increment, a turn rate times T, keeps its turn rate's
+        (std x (T / T0)^1.5; its initial std x T / T0). Without this a filter stepped every
+        0.1 s forecasts 6 s ahead with a heading lost entirely (the turn increment's random
+        walk summed over 60 steps instead of 12)."""
+        r = float(sample_time_s) / float(reference_sample_time_s)
+        if not (math.isfinite(r) and r > 0):
+            raise ValueError(f"sample times must be positive, got {sample_time_s} and {reference_sample_time_s}")
+        if r == 1.0:
+            return self
+        return replace(self, speed_noise_mps2=self.speed_noise_mps2 / math.sqrt(r),
+                       turn_noise_rad=self.turn_noise_rad * r ** 1.5,
+                       heading_noise_rad=self.heading_noise_rad * math.sqrt(r),
+                       position_noise_m=self.position_noise_m * math.sqrt(r),
+                       initial_turn_std_rad=self.initial_turn_std_rad * r)
 
 
 def _q_diagonal(settings: EKFSettings, sample_time_s: float) -> tuple[float, float, float, float, float]:

@@ -9,9 +9,11 @@ ties are broken in (``TIE_ORDER``): swerve right first, so an exact tie passes o
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .robot import robot_step
+from .robot import robot_step_float
 
 __all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "brake_guess", "initial_guesses"]
 
@@ -19,16 +21,22 @@ TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
 
 
+def _follow(v: float, target: float, dv_max: float, v_max: float) -> float:
+    """One wheel's increment towards ``target`` within the rate and speed limits."""
+    step = min(max(target - v, -dv_max), dv_max)
+    return min(max(v + step, -v_max), v_max) - v
+
+
 def wheels_to_increments(v0, wheels, dv_max: float, v_max: float) -> np.ndarray:
-    """Increments that follow target wheel speeds as closely as the limits allow."""
-    v = np.array(v0, dtype=float)
-    u = np.empty((len(wheels), 2))
-    for i, target in enumerate(wheels):
-        step = np.clip(np.asarray(target) - v, -dv_max, dv_max)
-        step = np.clip(v + step, -v_max, v_max) - v
-        u[i] = step
-        v = v + step
-    return u.reshape(-1)
+    """Increments that follow target wheel speeds as closely as the limits allow (plain
+    floats: a full multi-start makes a few hundred of these steps)."""
+    vr, vl = float(v0[0]), float(v0[1])
+    u = []
+    for tr, tl in np.asarray(wheels, dtype=float).tolist():
+        a, b = _follow(vr, tr, dv_max, v_max), _follow(vl, tl, dv_max, v_max)
+        u += (a, b)
+        vr, vl = vr + a, vl + b
+    return np.array(u)
 
 
 def swerve_guesses(cfg, robot, x0, ref_speed_mps: float) -> dict[str, np.ndarray]:
@@ -50,25 +58,24 @@ def detour_guesses(cfg, robot, x0, ref_poses, ref_speed_mps: float, gain: float 
     a simple pursuit of the shifted points, rolled out with the robot model."""
     H, W, T = cfg.horizon, robot.wheel_base_m, cfg.sample_time_s
     dv_max, v_max = robot.max_step_change_mps(T), robot.max_wheel_speed_mps
-    ref_poses = np.asarray(ref_poses, dtype=float)
-    normal = np.stack([-np.sin(ref_poses[:, 2]), np.cos(ref_poses[:, 2])], axis=1)
+    ref = np.asarray(ref_poses, dtype=float).tolist()
     out = {}
     for name, offset in zip(("detour_right", "detour_left"), DETOUR_OFFSETS_M):
-        targets = ref_poses[:, :2] + offset * normal
-        x, y, th = x0[0], x0[1], x0[2]
-        v = np.array(x0[3:5], dtype=float)
-        u = np.empty((H, 2))
-        for i in range(H):
-            dx, dy = targets[i] - (x, y)
-            err = np.arctan2(dy, dx) - th
-            err = np.arctan2(np.sin(err), np.cos(err))
-            speed = min(max(ref_speed_mps, 0.1), np.hypot(dx, dy) / T) * max(np.cos(err), 0.0)
+        x, y, th = float(x0[0]), float(x0[1]), float(x0[2])
+        vr, vl = float(x0[3]), float(x0[4])
+        u = []
+        for rx, ry, rh in ref[:H]:
+            dx, dy = rx - offset * math.sin(rh) - x, ry + offset * math.cos(rh) - y  # the shifted point
+            err = math.atan2(dy, dx) - th
+            err = math.atan2(math.sin(err), math.cos(err))
+            speed = min(max(ref_speed_mps, 0.1), math.hypot(dx, dy) / T) * max(math.cos(err), 0.0)
             w = gain * err
-            target = np.array([speed + 0.5 * w * W, speed - 0.5 * w * W])
-            u[i] = wheels_to_increments(v, [target], dv_max, v_max)
-            v = v + u[i]
-            x, y, th = robot_step(np, x, y, th, v[0], v[1], T, W)
-        out[name] = u.reshape(-1)
+            a = _follow(vr, speed + 0.5 * w * W, dv_max, v_max)
+            b = _follow(vl, speed - 0.5 * w * W, dv_max, v_max)
+            u += (a, b)
+            vr, vl = vr + a, vl + b
+            x, y, th = robot_step_float(x, y, th, vr, vl, T, W)
+        out[name] = np.array(u)
     return out
 
 

@@ -13,6 +13,7 @@ from .errors import UsageError
 COMMANDS = {
     "simulate": "Run one closed-loop episode.",
     "evaluate": "Run many episodes and write aggregate metrics.",
+    "compare": "Run several controllers on the same episodes; table and figure.",
     "dataset": "Label situations with the GPC (resumable).",
     "train": "Train the network on a dataset.",
     "export": "Export a trained network to ONNX.",

@@ -317,9 +317,11 @@ class TrajectoryCheck:
         return a.kept_s > b.kept_s + 1e-12 or (abs(a.kept_s - b.kept_s) <= 1e-12
                                                and a.min_clearance_m > b.min_clearance_m + _TIE_M)
 
-    def _assess(self, state, cmd, plan, obstacles) -> SafetyCheck:
+    def _assess(self, state, cmd, plan, obstacles, enough_s: float | None = None) -> SafetyCheck:
         """The check of a command (and its own plan, if any): its plan first; if that fails
-        or there is none, the command followed by each manoeuvre (the best of them)."""
+        or there is none, the command followed by each manoeuvre (the best of them).
+        ``enough_s``: a plan that keeps the margin this long is answer enough (a trusted
+        planner's, :meth:`SafetyFilter.filter`'s ``trust_s``): the manoeuvres are not rolled out."""
         horizon_s = self.horizon * self.sample_time_s
         if not len(obstacles.q):
             return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", horizon_s)
@@ -330,7 +332,7 @@ class TrajectoryCheck:
                                horizon_s)
         if plan is not None:
             plan_check = self._check_best(state, plan[None], obstacles, ["plan"])
-            if plan_check.safe:
+            if plan_check.safe or (enough_s is not None and plan_check.kept_s >= enough_s - 1e-9):
                 return plan_check
         way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names)
         if plan is not None and self._better(plan_check, way_out):

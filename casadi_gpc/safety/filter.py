@@ -114,7 +114,7 @@ class SafetyFilter(QuickScreen):
         if limited:
             # the simulator (and the robot) would clip it: what is checked is what would happen
             self.counters["candidate_limited"] += 1
-        check = self._assess(state, cmd, plan, obstacles)
+        check = self._assess(state, cmd, plan, obstacles, trust_s)
         if _passes(check, trust_s):
             if self.fallback is not None and hasattr(self.fallback, "observe"):
                 self.fallback.observe(observation)
@@ -136,7 +136,7 @@ class SafetyFilter(QuickScreen):
             acmd, aplan, _ = self._as_candidate(state, np.asarray(w, dtype=float))
             if acmd is None:
                 continue
-            achk = self._assess(state, acmd, aplan, obstacles)
+            achk = self._assess(state, acmd, aplan, obstacles, trust_s)
             if _passes(achk, trust_s):
                 self.counters["alternative_used"] += 1
                 return SafetyVerdict(float(acmd[0]), float(acmd[1]), True, why + f"; the controller's alternative {i}",

@@ -26,10 +26,29 @@ def add_arguments(p):
     p.add_argument("--model", type=Path, default=None,
                    help="ONNX network for the network rows (default: the one shipped for --preset)")
     p.add_argument("--no-nn-rows", action="store_true", help="leave out the network rows")
+    p.add_argument("--controller", action="append", default=[], metavar="NAME",
+                   help="also time this controller's full decision on the same recorded observations (repeatable; "
+                        "gpc, nn, orca, hrvo, social_force, mppi or MODULE:CLASS; docs/peers.md)")
+    p.add_argument("--shield", action="store_true",
+                   help="the --controller rows behind the safety check layer (casadi_gpc.safety.Shield)")
     p.add_argument("--crowd-movers", type=int, default=10, metavar="N",
                    help="the planner's decision is also measured on a crowd scene: circle-crossing, N orca "
                         "movers, seed 1, its first episode (default 10; 0: none)")
     add_preset_arguments(p)
+
+
+def controller_policies(args, config, robot) -> list:
+    """The ``--controller`` rows: ``(label, make_policy)`` pairs from the controller registry,
+    each refused in one line before any work if it cannot be made. A controller whose
+    sample time is not the planner's is given the recorded observations all the same (its
+    decision time is what the row is for; its obstacle filter then steps at its own T)."""
+    from ..controllers import ControllerSpec, check, make
+    entries = []
+    for name in dict.fromkeys(getattr(args, "controller", []) or []):
+        spec = ControllerSpec(name, shield="on" if args.shield else None)
+        check(spec, config, robot)
+        entries.append((spec.label, lambda spec=spec: make(spec, config, robot)))
+    return entries
 
 
 def extra_policies(args, config, robot) -> list:
@@ -37,13 +56,13 @@ def extra_policies(args, config, robot) -> list:
     :func:`casadi_gpc.bench.policy_rows`. The network policies (numpy, torch, onnxruntime)
     are timed on the features the ``onnxpolicy`` row recorded (:func:`network_rows`)."""
     if getattr(args, "no_nn_rows", False):
-        return []
+        return controller_policies(args, config, robot)
     try:
         from nn_export.training.bench_rows import policy_entries
         entries, args._nn_recorder = policy_entries(config, robot, args.model)
     except (ImportError, FileNotFoundError, ValueError) as exc:
         raise UsageError(f"network rows: {exc} (use --no-nn-rows to leave them out)") from None
-    return entries
+    return entries + controller_policies(args, config, robot)
 
 
 def network_rows(args, doc) -> None:

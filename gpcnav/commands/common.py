@@ -71,8 +71,15 @@ DEFAULT_SHIELD = {"gpc": "on", "nn": "gpc"}
 controllers (the peers, a user's own) run as their users run them unless ``--shield``."""
 
 
-def add_controller_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--controller", choices=("gpc", "nn"), default="gpc", help="the GPC planner or the network")
+def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> None:
+    """``--controller NAME`` (``--controllers LIST`` with ``many``), the check layer's and the
+    network's options, and the preset's. Names are those of :mod:`gpcnav.controllers`."""
+    names = "gpc, nn, orca, hrvo, social_force, mppi, or MODULE:CLASS (a class of yours, README)"
+    if many:
+        p.add_argument("--controllers", default="gpc,nn", metavar="LIST",
+                       help=f"comma-separated controllers: {names}; default gpc,nn")
+    else:
+        p.add_argument("--controller", default="gpc", metavar="NAME", help=f"{names}; default gpc")
     p.add_argument("--model", type=Path, default=None,
                    help="ONNX model for --controller nn (default: the one shipped for --preset)")
     p.add_argument("--shield", dest="shield", action="store_const", const="on", default=None,

@@ -1,14 +1,14 @@
-"""Run many episodes (scenario files or a seeded random suite) in parallel worker
-processes and write aggregate metrics (EVAL.json)."""
+"""Run many episodes (scenario files or a seeded suite) in parallel worker processes, or on
+a Ray cluster, and write aggregate metrics (EVAL.json)."""
 from __future__ import annotations
 
 import os
 import sys
 from pathlib import Path
 
+from ..controllers import ControllerSpec, check, spec_from_args
 from ..errors import UsageError
-from .common import (add_controller_arguments, add_suite_arguments, check_seed, make_controller, planner_config,
-                     progress, shield_mode, suite_from_args)
+from .common import add_controller_arguments, add_suite_arguments, check_seed, planner_config, progress, suite_from_args
 
 _WORKER = {}
 
@@ -17,23 +17,82 @@ def add_arguments(p):
     p.add_argument("scenarios", type=Path, nargs="*", help="scenario files")
     add_suite_arguments(p)
     add_controller_arguments(p)
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
+    add_pool_arguments(p)
     p.add_argument("--out", type=Path, default=None, help="write EVAL.json here")
     p.add_argument("--faults", default=None, metavar="SPEC",
                    help="inject faults into every episode, e.g. 'dropout_prob=0.1,outlier_prob=0.02'")
 
 
+def add_pool_arguments(p) -> None:
+    """``--workers``, ``--backend local|ray`` and ``--address``."""
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                   help="worker processes, or the CPUs of a Ray instance started here (default: all cores)")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local worker processes (default) or Ray (pip install 'gpcnav[distributed]')")
+    p.add_argument("--address", default=None,
+                   help="address of an existing Ray cluster (--backend ray; default: start a local one)")
+
+
+def pool_from_args(args):
+    """The :class:`casadi_gpc.pool.WorkerPool` the options give; bad values are one line."""
+    from casadi_gpc.pool import WorkerPool
+    if args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.address and args.backend != "ray":
+        raise UsageError("--address needs --backend ray")
+    if args.backend == "ray":
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise UsageError("--backend ray needs Ray: pip install 'gpcnav[distributed]'") from None
+    return WorkerPool(args.workers, args.backend, args.address)
+
+
 def _episode(index, job):
-    """Worker: episode ``index``; the controller is built once per worker and robot."""
+    """Worker: one episode; each controller is made once per worker and robot."""
     from casadi_gpc.metrics import episode_metrics
     from casadi_gpc.simulator import simulate
-    scenario, kind, config, model, shield, passes = job
-    key = (kind, config, scenario.robot, str(model), shield, passes)
+
+    from .. import controllers
+    scenario, spec, config = job
+    key = (spec, config, scenario.robot)
     if key not in _WORKER:
-        _WORKER[key] = make_controller(kind, config, scenario.robot, model, shield, passes)
-    controller = _WORKER[key]
-    log = simulate(scenario, controller, kind)
+        _WORKER[key] = controllers.make(spec, config, scenario.robot)
+    log = simulate(scenario, _WORKER[key], spec.label)
     return index, (episode_metrics(log), log.compute_time_s, dict(log.events))
+
+
+def run_episodes(scenarios, specs, config, pool, desc: str = "episodes") -> list[tuple]:
+    """Every controller of ``specs`` on every scenario, all episodes in one pool (episode by
+    episode, each controller in turn, so that the controllers finish together).
+
+    Returns one ``(metrics, compute times, summed events)`` per spec, the metrics in the
+    scenarios' order."""
+    from dataclasses import replace
+    pool = replace(pool, workers=max(1, min(pool.workers, len(scenarios) * len(specs))))
+    jobs = [((k, i), (s, spec, config)) for i, s in enumerate(scenarios) for k, spec in enumerate(specs)]
+    results = [[None] * len(scenarios) for _ in specs]
+    for (k, i), result in progress(pool.imap_unordered(_episode, jobs), total=len(jobs), desc=desc, unit="ep"):
+        results[k][i] = result
+    out = []
+    for per_spec in results:
+        metrics, times, events = [], [], {}
+        for m, t, ev in per_spec:
+            metrics.append(m)
+            times.extend(t)
+            for key, v in ev.items():
+                events[key] = events.get(key, 0) + v
+        out.append((metrics, times, events))
+    return out
+
+
+def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", shield=None, passes=None,
+             backend="local", address=None):
+    """Run every scenario with one controller (a name or a :class:`ControllerSpec`); returns
+    (metrics, all compute times, summed events)."""
+    from casadi_gpc.pool import WorkerPool
+    spec = kind if isinstance(kind, ControllerSpec) else ControllerSpec(kind, model, shield, passes)
+    return run_episodes(scenarios, [spec], config, WorkerPool(workers, backend, address), desc)[0]
 
 
 def parse_faults(spec: str | None):
@@ -54,62 +113,65 @@ def parse_faults(spec: str | None):
     return Faults(**values)
 
 
-def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", shield=None, passes=None):
-    """Run every scenario; returns (metrics, all compute times, summed events)."""
-    from casadi_gpc.pool import WorkerPool
-    jobs = [(i, (s, kind, config, model, shield, passes)) for i, s in enumerate(scenarios)]
-    # the episodes come back as they finish; the metrics keep the scenarios' order
-    pool = WorkerPool(min(workers, len(jobs)))
-    results = [None] * len(jobs)
-    for i, result in progress(pool.imap_unordered(_episode, jobs), total=len(jobs), desc=desc, unit="ep"):
-        results[i] = result
-    metrics, times, events = [], [], {}
-    for m, t, ev in results:
-        metrics.append(m)
-        times.extend(t)
-        for k, v in ev.items():
-            events[k] = events.get(k, 0) + v
-    return metrics, times, events
-
-
-def run(args) -> int:
+def scenarios_from_args(args) -> tuple[list, object]:
+    """The scenarios the options name (files or a suite, faults applied) and the suite (or
+    None); every bad value is a one-line error, before any work."""
     from dataclasses import replace
 
-    from casadi_gpc.metrics import eval_document
     from scenarios import load_scenario
-    from casadi_gpc.io import write_json
     if bool(args.scenarios) == bool(args.suite):
         raise UsageError("give scenario files or --suite, not both and not neither")
     suite = suite_from_args(args)
-    if args.workers < 1:
-        raise UsageError(f"--workers must be at least 1, got {args.workers}")
     check_seed(args.seed)
-    config = planner_config(args)
-    faults = parse_faults(args.faults)
-    if suite is not None:
-        scenarios = suite.scenarios()
-    else:
-        scenarios = [load_scenario(p) for p in args.scenarios]
+    faults = parse_faults(getattr(args, "faults", None))
+    scenarios = suite.scenarios() if suite is not None else [load_scenario(p) for p in args.scenarios]
     if faults is not None:
         scenarios = [replace(s, faults=faults) for s in scenarios]
-    passes = None
-    if args.controller == "nn":
-        # refuse a bad model before any work; the passes it runs with
-        passes = 2 if make_controller("nn", config, scenarios[0].robot, args.model, "off", args.passes).two_pass else 1
-    shield = shield_mode(args)
-    metrics, times, events = evaluate(scenarios, args.controller, config, args.model, args.workers, shield=shield,
-                                      passes=passes)
-    doc = eval_document(args.controller, metrics, times, {
-        "preset": config.name, "sample_time_s": config.sample_time_s, "suite": args.suite,
-        "seed": args.seed if args.suite else None, **({"suite_spec": suite.describe()} if suite else {}),
-        "events": events,
-        "faults": None if faults is None else faults.__dict__, "shield": shield, "decision_passes": passes,
-        "solver": config.solver if args.controller == "gpc" else None,
+    return scenarios, suite
+
+
+def controller_extra(spec: ControllerSpec, config, robot) -> dict:
+    """What an EVAL document records of how a controller was made."""
+    from .. import controllers
+    extra = {"shield": spec.mode, "decision_passes": None, "solver": None}
+    if spec.name == "nn":
+        controller = controllers.make(ControllerSpec("nn", spec.model, "off", spec.passes), config, robot)
+        extra["decision_passes"] = 2 if controller.two_pass else 1
+    elif spec.name == "gpc":
+        extra["solver"] = config.solver
+    else:
+        bare = controllers.make(ControllerSpec(spec.name, shield="off"), config, robot)
+        extra["controller_settings"] = controllers.describe(bare)
+    return extra
+
+
+def eval_doc(spec: ControllerSpec, result, config, suite, seed, extra: dict | None = None) -> dict:
+    """The EVAL document of one controller's ``(metrics, times, events)``."""
+    from casadi_gpc.metrics import eval_document
+    metrics, times, events = result
+    return eval_document(spec.label, metrics, times, {
+        "preset": config.name, "sample_time_s": config.sample_time_s, "suite": suite.name if suite else None,
+        "seed": seed if suite else None, **({"suite_spec": suite.describe()} if suite else {}),
+        "events": events, **(extra or {}),
     })
+
+
+def run(args) -> int:
+    from casadi_gpc.io import write_json
+    scenarios, suite = scenarios_from_args(args)
+    pool = pool_from_args(args)
+    config = planner_config(args)
+    spec = spec_from_args(args)
+    check(spec, config, scenarios[0].robot)
+    extra = controller_extra(spec, config, scenarios[0].robot)
+    faults = scenarios[0].faults if args.faults else None
+    result = run_episodes(scenarios, [spec], config, pool)[0]
+    doc = eval_doc(spec, result, config, suite, args.seed, {
+        **extra, "faults": None if faults is None else faults.__dict__, "backend": args.backend})
     if args.out:
         write_json(args.out, doc)
     ct = doc["compute_time_s"]
-    print(f"{args.controller} [preset {config.name}] on {doc['episodes']} episodes: success "
+    print(f"{spec.label} [preset {config.name}] on {doc['episodes']} episodes: success "
           f"{doc['success_rate']:.3f}  collision {doc['collision_rate']:.3f}  timeout {doc['timeout_rate']:.3f}  "
           f"min clearance {doc['min_clearance_m']['min']:.3f} m (median {doc['min_clearance_m']['median']:.3f})  "
           f"decision median {ct['median'] * 1e3:.2f} ms  fallbacks {doc['fallbacks']}", file=sys.stdout)

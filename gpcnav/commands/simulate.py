@@ -4,7 +4,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import DEFAULT_SHIELD, add_controller_arguments, check_output_files, check_seed, make_controller, planner_config, shield_mode
+from ..controllers import ControllerSpec, check, describe, make, spec_from_args
+from .common import add_controller_arguments, check_output_files, check_seed, planner_config
 
 
 def add_arguments(p):
@@ -16,22 +17,26 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=None, help="override the scenario's sensing seed")
 
 
-def run_one(scenario, controller_kind, config, model=None, shield=None, passes=None):
-    """Simulate ``scenario`` and return its RUN document."""
+def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=None, passes=None):
+    """Simulate ``scenario`` with the controller ``spec`` names (or ``spec``, ``model``,
+    ``shield``, ``passes`` as the controller's name and options) and return its RUN document."""
     from casadi_gpc.metrics import run_document
     from casadi_gpc.simulator import simulate
-    controller = make_controller(controller_kind, config, scenario.robot, model, shield, passes)
-    log = simulate(scenario, controller, controller_kind)
+    if isinstance(spec, str):
+        spec = ControllerSpec(spec, model, shield, passes)
+    controller = make(spec, config, scenario.robot)
+    log = simulate(scenario, controller, spec.label)
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
-             "robot_radius_m": scenario.robot.radius_m}
+             "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode}  # docs/faults.md
     inner = getattr(controller, "policy", controller)  # the controller behind a Shield
-    extra["shield"] = shield or DEFAULT_SHIELD.get(controller_kind, "off")  # docs/faults.md
     model_info = getattr(inner, "model_info", None)
     if model_info:
         extra["model"] = model_info
     solver_info = getattr(inner, "solver_info", None)
     if solver_info:
         extra["solver"] = solver_info  # the GPC's NLP solver (docs/solvers.md)
+    if spec.name not in ("gpc", "nn"):
+        extra["controller_settings"] = describe(controller)
     return run_document(log, extra)
 
 
@@ -44,7 +49,9 @@ def run(args) -> int:
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
     config = planner_config(args)
-    doc = run_one(scenario, args.controller, config, args.model, shield_mode(args), args.passes)
+    spec = spec_from_args(args)
+    check(spec, config, scenario.robot)
+    doc = run_one(scenario, spec, config)
     if args.out:
         write_json(args.out, doc)
     if args.plot:
@@ -57,7 +64,7 @@ def run(args) -> int:
         from casadi_gpc.plots import animate_run
         animate_run(doc, args.animate, scenario.robot.radius_m)
     ct = doc["compute_time_s"]
-    print(f"{doc['scenario']} [{args.controller}, preset {config.name}, T={config.sample_time_s} s]: "
+    print(f"{doc['scenario']} [{spec.label}, preset {config.name}, T={doc['sample_time_s']} s]: "
           f"{doc['outcome']}  min clearance {doc['min_clearance_m']:.3f} m  tracking RMSE "
           f"{doc['tracking_rmse_m']:.3f} m  steps {doc['steps']}  decision median {ct['median'] * 1e3:.2f} ms "
           f"(p95 {ct['p95'] * 1e3:.2f})  fallbacks {doc['fallbacks']}", file=sys.stdout)

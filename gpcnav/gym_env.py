@@ -1,0 +1,298 @@
+"""``gpcnav/Navigation-v0``: gpcnav's episodes as a Gymnasium environment (the ``gym`` extra).
+
+Built on :class:`casadi_gpc.simulator.Episode`, so an agent drives exactly the robot, the
+movers, the sensor and the outcome rules the controllers are evaluated with.
+
+Making it::
+
+    import gymnasium
+    env = gymnasium.make("gpcnav/Navigation-v0", suite="circle-crossing", movers=5)
+
+The id is registered by :func:`register_envs`, which the package declares as its
+``gymnasium.envs`` entry point (honoured by Gymnasium 0.26 to 0.29 at ``import gymnasium``).
+Gymnasium 1.0 removed that plugin loading; there, ``gymnasium.make("gpcnav:gpcnav/Navigation-v0")``
+(Gymnasium imports ``gpcnav``, which registers the id when Gymnasium is loaded) or
+``import gpcnav.gym_env`` first does the same (docs/peers.md).
+
+Keyword arguments (one of ``scenario`` and ``suite``):
+
+- ``scenario=PATH``: a scenario file; every reset runs it, with the sensing noise seeded from
+  the environment's generator (``reset(seed=...)`` reproduces it);
+- ``suite=NAME`` (``random``, ``random-multi``, ``encounters``, ``circle-crossing``,
+  ``square-crossing``) with ``movers`` (default 5) and ``behaviour`` (default ``orca``) for the
+  crowd suites, ``suite_seed`` (default 0: which suite) and ``count`` (None: each reset draws
+  an episode index from [0, 2^31); N: from [0, N), a fixed set of N episodes);
+  ``reset(options={"index": i})`` runs episode ``i`` of the suite;
+- ``preset`` (default ``improved``): its sample time is the environment's step, unless
+  ``sample_time_s`` is given;
+- ``expert=NAME``: a controller of the registry (``gpc``, ``orca``, ...) whose answer to every
+  observation is put in ``info["expert_action"]`` (for imitation); None by default.
+
+Action: the two wheel speeds ``[v_right, v_left]`` (m/s, within the wheel limit); the robot
+applies them as the simulator does, within its acceleration limit. ``terminated``: the goal
+reached or a collision; ``truncated``: the scenario's time limit. ``info``: ``outcome``
+(``running``, ``reached_goal``, ``collided``, ``timed_out``), ``clearance_m`` (the smallest
+disc-to-disc gap to any obstacle now, true positions), ``min_clearance_m`` (the smallest over
+the episode so far, sub-sampled like the collision check), ``t_s``, ``scenario``.
+``env.unwrapped.observation`` is what a controller of the Policy protocol is told at the same
+instant (a :class:`casadi_gpc.types.Observation`), so any of them can drive the environment.
+
+The observation vector and the reward are :class:`ObservationLayout` and
+:class:`RewardSettings` (documented field by field).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.core import Env
+# registration's own names, not gymnasium's: Gymnasium 0.26-0.29 import this module (the
+# entry point) while ``import gymnasium`` is still running
+from gymnasium.envs.registration import register, registry
+
+from casadi_gpc.config import preset as preset_config
+from casadi_gpc.ekf import EKFSettings
+from casadi_gpc.simulator import Episode
+from casadi_gpc.tracking import TrackBank
+from casadi_gpc.types import ControlDecision, Observation
+
+__all__ = ["ENV_ID", "NavigationEnv", "ObservationLayout", "RewardSettings", "register_envs"]
+
+ENV_ID = "gpcnav/Navigation-v0"
+
+
+@dataclass(frozen=True)
+class ObservationLayout:
+    """The observation: a fixed-size float32 vector, positions and velocities in the robot's
+    frame (x forward, y to the left; m, m/s), in this order:
+
+    1. ``v_right, v_left``: the wheel speeds driven now;
+    2. the reference point now and ``reference_points - 1`` steps ahead (the nominal
+       reference, at ``t + k T``): ``dx, dy`` each;
+    3. ``heading_error``: the reference's heading minus the robot's, wrapped (rad);
+    4. the goal (end of the path): ``dx, dy``; ``time_left_s``: until the reference point
+       reaches it (0 after);
+    5. the ``movers`` nearest moving obstacles, nearest first, as the EKF bank estimates them:
+       ``dx, dy, vx, vy, radius, present`` each (an empty slot is all zero);
+    6. the ``statics`` nearest static obstacles: ``dx, dy, radius, present`` each.
+    """
+
+    reference_points: int = 5
+    """Reference points, now and ahead."""
+    movers: int = 5
+    """Moving-obstacle slots (the crowd suites' default count)."""
+    statics: int = 3
+    """Static-obstacle slots (random-multi has up to three)."""
+
+    def names(self) -> list[str]:
+        out = ["v_right", "v_left"]
+        out += [f"ref{k}_{c}" for k in range(self.reference_points) for c in ("dx", "dy")]
+        out += ["heading_error", "goal_dx", "goal_dy", "time_left_s"]
+        out += [f"mover{j}_{c}" for j in range(self.movers) for c in ("dx", "dy", "vx", "vy", "radius", "present")]
+        out += [f"static{j}_{c}" for j in range(self.statics) for c in ("dx", "dy", "radius", "present")]
+        return out
+
+    @property
+    def size(self) -> int:
+        return 6 + 2 * self.reference_points + 6 * self.movers + 4 * self.statics
+
+    def bounds(self, max_wheel_speed_mps: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(low, high)`` of every entry: the wheel limit, +-pi for the heading error, 0..1
+        for ``present``, and loose physical bounds elsewhere (1 km, 10 m/s, 10 m radii,
+        100000 s)."""
+        v = max_wheel_speed_mps
+        whole = {"v_right": (-v, v), "v_left": (-v, v), "heading_error": (-math.pi, math.pi),
+                 "time_left_s": (0.0, 1.0e5)}
+        suffix = {"dx": (-1.0e3, 1.0e3), "dy": (-1.0e3, 1.0e3), "vx": (-10.0, 10.0), "vy": (-10.0, 10.0),
+                  "radius": (0.0, 10.0), "present": (0.0, 1.0)}
+        pairs = [whole[n] if n in whole else suffix[n.rpartition("_")[2]] for n in self.names()]
+        low, high = zip(*pairs)
+        return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class RewardSettings:
+    """CrowdNav's reward (goal, collision, discomfort) and a progress term along the path."""
+
+    goal: float = 1.0
+    """On reaching the goal (CrowdNav: 1)."""
+    collision: float = -0.25
+    """On a collision (CrowdNav: -0.25)."""
+    discomfort_distance_m: float = 0.2
+    """Clearance to a mover below which each step is penalised (CrowdNav: 0.2 m)."""
+    discomfort_weight: float = 0.5
+    """The penalty per step: ``weight x (clearance - distance) x T`` (CrowdNav: 0.5)."""
+    progress_per_m: float = 0.1
+    """Reward per metre gained along the path (projection of the robot on it); 0 for
+    CrowdNav's reward alone, which is sparse."""
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def observation_vector(obs: Observation, tracks: list, layout: ObservationLayout, sample_time_s: float) -> np.ndarray:
+    """The :class:`ObservationLayout` vector of ``obs``; ``tracks`` are ``(x, y, vx, vy,
+    radius)`` of the moving obstacles' estimates (world frame)."""
+    r = obs.robot
+    c, s = math.cos(r.heading_rad), math.sin(r.heading_rad)
+
+    def rel(x, y):
+        dx, dy = x - r.x_m, y - r.y_m
+        return c * dx + s * dy, -s * dx + c * dy
+
+    out = [r.v_right_mps, r.v_left_mps]
+    ref = obs.reference
+    poses = ref.pose_at_time(obs.t_s + sample_time_s * np.arange(layout.reference_points))
+    for x, y, _ in poses:
+        out += rel(x, y)
+    out.append(_wrap(float(poses[0][2]) - r.heading_rad))
+    end = ref.end_pose
+    out += rel(end[0], end[1])
+    out.append(max(0.0, ref.duration_s - obs.t_s))
+    near = sorted(tracks, key=lambda t: math.hypot(t[0] - r.x_m, t[1] - r.y_m))[: layout.movers]
+    for x, y, vx, vy, radius in near:
+        out += [*rel(x, y), c * vx + s * vy, -s * vx + c * vy, radius, 1.0]
+    out += [0.0] * (6 * (layout.movers - len(near)))
+    statics = sorted(obs.static, key=lambda o: math.hypot(o.position_m[0] - r.x_m, o.position_m[1] - r.y_m))
+    for o in statics[: layout.statics]:
+        out += [*rel(*o.position_m), o.radius_m, 1.0]
+    out += [0.0] * (4 * (layout.statics - min(len(statics), layout.statics)))
+    return np.asarray(out, dtype=np.float32)
+
+
+class NavigationEnv(Env):
+    """gpcnav's episodes as a Gymnasium environment (see the module's documentation)."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, scenario: str | Path | None = None, suite: str | None = None, movers: int = 5,
+                 behaviour: str = "orca", suite_seed: int = 0, count: int | None = None, preset: str = "improved",
+                 sample_time_s: float | None = None, expert: str | None = None,
+                 layout: ObservationLayout = ObservationLayout(), reward: RewardSettings = RewardSettings()):
+        if (scenario is None) == (suite is None):
+            raise ValueError("give scenario=PATH or suite=NAME, not both and not neither")
+        self.config = preset_config(preset)
+        self.sample_time_s = float(sample_time_s or self.config.sample_time_s)
+        if not self.sample_time_s > 0:
+            raise ValueError(f"sample_time_s must be positive, got {sample_time_s}")
+        self._file_scenario = None
+        self.suite = None
+        if scenario is not None:
+            from scenarios import load_scenario
+            self._file_scenario = load_scenario(scenario)
+        else:
+            from scenarios import Suite
+            if count is not None and count < 1:
+                raise ValueError(f"count must be at least 1, got {count}")
+            self.suite = Suite(suite, count or 1, suite_seed, movers, behaviour)
+        self.count = count
+        self.layout, self.reward_settings = layout, reward
+        self.expert_name = expert
+        self._experts: dict = {}
+        example = self._file_scenario or self.suite.scenario(0)
+        vmax = example.robot.max_wheel_speed_mps
+        self.action_space = spaces.Box(-vmax, vmax, shape=(2,), dtype=np.float32)
+        low, high = layout.bounds(vmax)
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.episode: Episode | None = None
+        self.observation: Observation | None = None
+        """What a controller is told now (the Policy protocol's observation)."""
+
+    # --- episodes ----------------------------------------------------------------------
+    def _next_scenario(self, options: dict | None):
+        if self._file_scenario is not None:
+            return self._file_scenario.with_seed(int(self.np_random.integers(0, 2 ** 31 - 1)))
+        index = (options or {}).get("index")
+        if index is None:
+            index = int(self.np_random.integers(0, self.count if self.count else 2 ** 31 - 1))
+        return self.suite.scenario(int(index))
+
+    def _expert(self, robot):
+        if self.expert_name is None:
+            return None
+        if robot not in self._experts:
+            from .controllers import ControllerSpec, make
+            expert = make(ControllerSpec(self.expert_name), self.config, robot)
+            if not math.isclose(expert.sample_time_s, self.sample_time_s):
+                raise ValueError(f"expert {self.expert_name!r} decides every {expert.sample_time_s} s, the "
+                                 f"environment steps every {self.sample_time_s} s")
+            self._experts[robot] = expert
+        return self._experts[robot]
+
+    def _observe(self) -> tuple[np.ndarray, dict]:
+        ep = self.episode
+        self.observation = obs = ep.observation()
+        tracks = []
+        for m, ekf in self._bank.step(obs.moving):
+            x, y, v, heading, _ = ekf.state_
+            vel = (v * math.cos(heading), v * math.sin(heading)) if ekf.initialised else (0.0, 0.0)
+            tracks.append((x, y, *vel, m.radius_m))
+        vec = observation_vector(obs, tracks, self.layout, self.sample_time_s)
+        info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.t_s,
+                "clearance_m": self._clearance_now(), "min_clearance_m": float(ep.log.min_clearance_m),
+                "scenario": ep.scenario.name}
+        expert = self._expert(ep.scenario.robot)
+        if expert is not None and not ep.done:
+            d = expert.decide(obs)
+            info["expert_action"] = np.array([d.v_right_mps, d.v_left_mps], dtype=np.float32)
+        return vec, info
+
+    def _clearance_now(self) -> float:
+        ep = self.episode
+        sc = ep.scenario
+        xy = np.asarray(ep.log.obstacle_xy[-1]).reshape(-1, 2)
+        if not len(xy):
+            return math.inf
+        radii = np.array([m.radius_m for m in sc.moving] + [s.radius_m for s in sc.static])
+        gaps = np.hypot(*(xy - ep.state[:2]).T) - radii - sc.robot.radius_m
+        return float(gaps.min())
+
+    def _progress_m(self) -> float:
+        ep = self.episode
+        self._s_m = ep.scenario.reference.project(ep.state[:2], self._s_m, window_m=1.0)
+        return self._s_m
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        scenario = self._next_scenario(options)
+        self.episode = Episode(scenario, self.sample_time_s, self.expert_name or "gym")
+        self._bank = TrackBank(self.sample_time_s, EKFSettings().for_sample_time(self.sample_time_s))
+        self._s_m = 0.0
+        self._progress_m()
+        expert = self._expert(scenario.robot)
+        if expert is not None:
+            expert.reset()
+        return self._observe()
+
+    def step(self, action):
+        if self.episode is None or self.episode.done:
+            raise RuntimeError("call reset() first: the episode has ended")
+        a = np.asarray(action, dtype=float).reshape(2)
+        vmax = self.episode.scenario.robot.max_wheel_speed_mps
+        a = np.clip(a, -vmax, vmax)
+        before = self._s_m
+        outcome = self.episode.step(ControlDecision(float(a[0]), float(a[1])))
+        rs = self.reward_settings
+        reward = rs.progress_per_m * (self._progress_m() - before)
+        mover_gap = self.episode.log.mover_clearance_m[-1]
+        if mover_gap < rs.discomfort_distance_m and outcome != "collided":
+            reward += rs.discomfort_weight * (mover_gap - rs.discomfort_distance_m) * self.sample_time_s
+        if outcome == "reached_goal":
+            reward += rs.goal
+        elif outcome == "collided":
+            reward += rs.collision
+        vec, info = self._observe()
+        return vec, float(reward), outcome in ("reached_goal", "collided"), outcome == "timed_out", info
+
+
+def register_envs() -> None:
+    """Register ``gpcnav/Navigation-v0`` (the package's ``gymnasium.envs`` entry point)."""
+    if ENV_ID not in registry:
+        register(id=ENV_ID, entry_point="gpcnav.gym_env:NavigationEnv")
+
+
+register_envs()

@@ -1,0 +1,126 @@
+"""``gpcnav compare``: every controller on the very same episodes, one EVAL document each
+(the same as ``evaluate`` gives), the table and the figure beside the JSON."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from conftest import REPO
+
+LINE = """
+name = "{name}"
+duration_s = 30.0
+[robot]
+position = [0.0, 0.0]
+heading_deg = 0.0
+[reference]
+position = [0.0, 0.0]
+heading_deg = 0.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 4.0
+{extra}
+"""
+CROSSING = """[[moving_obstacles]]
+position = [2.0, -2.0]
+heading_deg = 90.0
+speed_mps = 0.35
+radius_m = 0.3
+"""
+
+STRAIGHT = '''
+from casadi_gpc import ControlDecision
+
+class Straight:
+    sample_time_s = 0.5
+    def reset(self):
+        pass
+    def decide(self, observation):
+        return ControlDecision(0.4, 0.4)
+'''
+
+EVAL_KEYS = ("controller", "episodes", "success_rate", "collision_rate", "timeout_rate", "min_clearance_m",
+             "tracking_rmse_m", "compute_time_s", "episodes_detail", "time_to_goal_s", "danger_rate",
+             "min_clearance_in_danger_m", "path_length_m", "collision_rate_upper_95", "failure_rate_upper_95",
+             "interventions")
+
+
+def _cli(cwd, *args):
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    return subprocess.run([sys.executable, "-m", "gpcnav", *map(str, args)], capture_output=True, text=True,
+                          timeout=600, cwd=cwd, env=env)
+
+
+@pytest.fixture(scope="module")
+def compared(tmp_path_factory):
+    d = tmp_path_factory.mktemp("compare")
+    (d / "straight.py").write_text(STRAIGHT, encoding="utf-8")
+    files = []
+    for name, extra in (("free", ""), ("crossing", CROSSING)):
+        files.append(d / f"{name}.toml")
+        files[-1].write_text(LINE.format(name=name, extra=extra), encoding="utf-8")
+    r = _cli(d, "compare", *files, "--controllers", "orca,straight:Straight,hrvo", "--workers", "2",
+             "--out", d / "out" / "C.json")
+    assert r.returncode == 0, r.stderr
+    return d, files, json.loads((d / "out" / "C.json").read_text()), r.stdout
+
+
+def test_compare_writes_one_eval_per_controller_on_the_same_episodes(compared):
+    d, files, doc, stdout = compared
+    assert [e["controller"] for e in doc["controllers"]] == ["orca", "straight:Straight", "hrvo"]
+    assert doc["scenarios"] == ["free", "crossing"]
+    for e in doc["controllers"]:
+        assert all(k in e for k in EVAL_KEYS)
+        assert [x["scenario"] for x in e["episodes_detail"]] == ["free", "crossing"]
+    # known answers: driving straight at the reference speed reaches the free goal at 10 s
+    # and runs into the mover crossing at x = 2 m; the peers avoid it
+    straight = doc["controllers"][1]["episodes_detail"]
+    assert [x["outcome"] for x in straight] == ["reached_goal", "collided"]
+    assert straight[0]["time_to_goal_s"] == pytest.approx(10.0)
+    for e in (doc["controllers"][0], doc["controllers"][2]):
+        assert e["success_rate"] == 1.0 and e["controller_settings"]["sample_time_s"] == 0.1
+    # the table beside the JSON (and on stdout), a row per controller, and the figure
+    table = (d / "out" / "C.md").read_text()
+    assert table.strip() == stdout.strip()
+    rows = [line for line in table.splitlines() if line.startswith("| ") and "controller" not in line]
+    assert [r.split("|")[1].strip() for r in rows] == ["orca", "straight:Straight", "hrvo"]
+    assert "| 50.0 (>= " in rows[1]
+    assert (d / "out" / "C.png").stat().st_size > 10_000
+
+
+def test_compare_gives_what_evaluate_gives(compared):
+    d, files, doc, _ = compared
+    r = _cli(d, "evaluate", *files, "--controller", "hrvo", "--workers", "1", "--out", d / "hrvo.json")
+    assert r.returncode == 0, r.stderr
+    alone = json.loads((d / "hrvo.json").read_text())
+    together = doc["controllers"][2]
+    for a, b in zip(alone["episodes_detail"], together["episodes_detail"]):
+        assert (a["outcome"], a["min_clearance_m"], a["time_to_goal_s"], a["steps"]) == \
+               (b["outcome"], b["min_clearance_m"], b["time_to_goal_s"], b["steps"])
+
+
+def test_compare_refuses_a_bad_controller_before_any_work(compared):
+    d, files, _, _ = compared
+    r = _cli(d, "compare", files[0], "--controllers", "orca,nosuch:Thing", "--out", d / "bad.json")
+    assert r.returncode == 2 and "nosuch" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not (d / "bad.json").exists()
+
+
+def test_the_figure_has_a_row_per_controller_on_each_panel():
+    from gpcnav.commands.compare_report import compare_figure, compare_table
+    detail = [{"time_to_goal_s": 20.0}, {"time_to_goal_s": None}]
+    evals = [{"controller": n, "episodes": 2, "success_rate": s, "collision_rate": c, "timeout_rate": 0.0,
+              "failure_rate_upper_95": 0.9, "collision_rate_upper_95": 0.8, "episodes_detail": detail,
+              "compute_time_s": {"median": m, "p95": 2 * m, "max": 3 * m}, "time_to_goal_s": None,
+              "min_clearance_m": {"min": 0.1, "median": 0.2}, "danger_rate": 0.0, "path_length_m": {"median": 8.0},
+              "fallbacks": 0} for n, s, c, m in (("a", 0.5, 0.5, 1e-4), ("b", 1.0, 0.0, 1e-2))]
+    doc = {"controllers": evals, "preset": "improved", "suite_spec": None}
+    fig = compare_figure(doc)
+    assert len(fig.axes) == 4
+    assert [t.get_text() for t in fig.axes[0].get_yticklabels()] == ["a", "b"]
+    assert fig.axes[3].get_xscale() == "log"
+    assert compare_table(doc).count("\n| ") == 3  # header and two rows

@@ -1,0 +1,150 @@
+"""The controller registry: every name makes what it says, a user's own class runs from a
+module outside the project (simulate and evaluate, in worker processes too), and the three
+ways a ``MODULE:CLASS`` can be wrong exit 2 with one line."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from casadi_gpc.config import preset
+from casadi_gpc.robot import RobotParams
+from conftest import REPO, check_run_document
+from gpcnav.controllers import BUILTIN, ControllerSpec, check, make
+from gpcnav.errors import UsageError
+
+CONFIG = preset("improved")
+
+# a straight 4 m path at 0.4 m/s and nothing in the way (10 s to the end)
+EMPTY = """
+name = "empty_line"
+duration_s = 20.0
+[robot]
+position = [0.0, 0.0]
+heading_deg = 0.0
+[reference]
+position = [0.0, 0.0]
+heading_deg = 0.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 4.0
+"""
+
+# the README's example, as a user would write it (outside the project)
+USER_MODULE = textwrap.dedent('''
+    from casadi_gpc import ControlDecision
+
+    class MyPolicy:
+        """Drive straight at the reference speed."""
+        sample_time_s = 0.5
+
+        def reset(self):
+            self.decisions = 0
+
+        def decide(self, observation):
+            self.decisions += 1
+            v = observation.reference.speed_mps
+            return ControlDecision(v_right_mps=v, v_left_mps=v)
+
+    class NoDecide:
+        sample_time_s = 0.5
+
+        def reset(self):
+            pass
+
+    class NeedsArguments:
+        def __init__(self, gain):
+            self.gain = gain
+''')
+
+
+def _cli(cwd, *args, timeout=300):
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    return subprocess.run([sys.executable, "-m", "gpcnav", *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout, cwd=cwd, env=env)
+
+
+@pytest.fixture
+def outside(tmp_path):
+    """A folder outside the project with the user's module and a scenario file in it."""
+    (tmp_path / "mymod.py").write_text(USER_MODULE, encoding="utf-8")
+    (tmp_path / "empty.toml").write_text(EMPTY, encoding="utf-8")
+    assert REPO not in tmp_path.parents
+    return tmp_path
+
+
+def test_every_builtin_name_makes_its_controller():
+    robot = RobotParams()
+    made = {name: make(ControllerSpec(name), CONFIG, robot) for name in BUILTIN}
+    assert type(made["gpc"]).__name__ == "Shield" and type(made["gpc"].policy).__name__ == "GPCController"
+    assert type(made["nn"]).__name__ == "Shield" and type(made["nn"].policy).__name__ == "OnnxPolicy"
+    for name, behaviour in (("orca", "ORCA"), ("hrvo", "HRVO"), ("social_force", "SocialForce")):
+        peer = made[name]
+        assert type(peer).__name__ == "NavgroundPeer" and peer.settings.behaviour == behaviour
+        assert peer.sample_time_s == 0.1 and peer.settings.safety_margin_m == 0.15
+    assert type(made["mppi"]).__name__ == "MPPIPeer" and made["mppi"].sample_time_s == CONFIG.sample_time_s
+    # the shield modes: a peer goes behind the same Shield, gpc can run bare
+    assert type(make(ControllerSpec("orca", shield="on"), CONFIG, robot)).__name__ == "Shield"
+    assert type(make(ControllerSpec("gpc", shield="off"), CONFIG, robot)).__name__ == "GPCController"
+    assert ControllerSpec("orca", shield="on").label == "orca[shield=on]"
+    assert ControllerSpec("gpc", shield="on").label == "gpc"
+
+
+def test_options_of_the_network_are_refused_for_another_controller(tmp_path):
+    with pytest.raises(UsageError, match="options of --controller nn"):
+        check(ControllerSpec("orca", model=tmp_path / "m.onnx"), CONFIG, RobotParams())
+
+
+def test_a_user_class_from_outside_the_project_runs_in_simulate_and_evaluate(outside):
+    r = _cli(outside, "simulate", "empty.toml", "--controller", "mymod:MyPolicy", "--out", "run.json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((outside / "run.json").read_text())
+    check_run_document(doc)
+    # known answer: 0.4 m/s is reached in the first interval (0.8 m/s^2 x 0.5 s), so the
+    # robot is on the reference point all the way and reaches the end at 10 s
+    assert doc["controller"] == "mymod:MyPolicy" and doc["outcome"] == "reached_goal"
+    assert doc["time_to_goal_s"] == pytest.approx(10.0) and doc["tracking_rmse_m"] < 1e-9
+    assert doc["controller_settings"]["class"] == "mymod.MyPolicy"
+    # two worker processes, each making the class itself
+    r = _cli(outside, "evaluate", "empty.toml", "empty.toml", "--controller", "mymod:MyPolicy", "--workers", "2",
+             "--out", "eval.json")
+    assert r.returncode == 0, r.stderr
+    ev = json.loads((outside / "eval.json").read_text())
+    assert ev["controller"] == "mymod:MyPolicy" and ev["success_rate"] == 1.0 and ev["episodes"] == 2
+
+
+@pytest.mark.parametrize("name, message", [
+    ("nosuchmodule:MyPolicy", "cannot import module 'nosuchmodule'"),
+    ("mymod:Missing", "module 'mymod' has no class 'Missing'"),
+    ("mymod:NoDecide", "does not answer the Policy protocol (no decide method"),
+    ("mymod:NeedsArguments", "cannot be made with no arguments"),
+    ("nonsense", "not a controller"),
+])
+def test_a_controller_that_cannot_be_loaded_exits_2_with_one_line(outside, name, message):
+    r = _cli(outside, "simulate", "empty.toml", "--controller", name, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert message in r.stderr and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and r.stdout == ""
+
+
+def test_the_readme_s_example_policy_runs_bare_and_behind_the_shield(tmp_path):
+    """The README's example, copied out of the README into a module outside the project:
+    alone it follows the path into the crossing obstacle of Fig. 7.2; behind the shield it
+    reaches the goal."""
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    i = readme.index("class MyPolicy")
+    start, end = readme.rindex("```python", 0, i) + len("```python"), readme.index("```", i)
+    assert len(readme[start:end].strip().splitlines()) <= 20
+    (tmp_path / "mymod.py").write_text(readme[start:end], encoding="utf-8")
+    fig = REPO / "scenarios" / "paper" / "fig7_2_crossing.toml"
+    outcomes = []
+    for shield in ([], ["--shield"]):
+        r = _cli(tmp_path, "simulate", fig, "--controller", "mymod:MyPolicy", *shield, "--out", "run.json")
+        assert r.returncode == 0, r.stderr
+        doc = json.loads((tmp_path / "run.json").read_text())
+        outcomes.append((doc["outcome"], doc["shield"], doc["interventions"] > 0))
+    assert outcomes == [("collided", "off", False), ("reached_goal", "on", True)]

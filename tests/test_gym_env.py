@@ -1,0 +1,165 @@
+"""``gpcnav/Navigation-v0``: Gymnasium's own checker, seeded resets, terminated apart from
+truncated, the observation's known values, an episode driven by the GPC to the goal, and
+the registration (the ``gymnasium.envs`` entry point and the ``gpcnav:`` module form)."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import tomllib
+import warnings
+
+import numpy as np
+import pytest
+
+gymnasium = pytest.importorskip("gymnasium")
+
+from conftest import PAPER_DIR, REPO  # noqa: E402
+from gpcnav.gym_env import ENV_ID, NavigationEnv, ObservationLayout, register_envs  # noqa: E402
+
+LINE = """
+name = "line"
+duration_s = {duration}
+[robot]
+position = [1.0, 2.0]
+heading_deg = 90.0
+[reference]
+position = [1.0, 2.0]
+heading_deg = 90.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 4.0
+{extra}
+"""
+
+
+def _file(tmp_path, duration=20.0, extra=""):
+    path = tmp_path / "line.toml"
+    path.write_text(LINE.format(duration=duration, extra=extra), encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("kwargs", [{"suite": "circle-crossing", "movers": 3}, {"suite": "random-multi"},
+                                    {"scenario": PAPER_DIR / "fig7_2_crossing.toml"}])
+def test_gymnasium_s_checker_passes_without_a_warning(kwargs):
+    from gymnasium.utils.env_checker import check_env
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(NavigationEnv(**kwargs), skip_render_check=True)
+
+
+def test_reset_with_a_seed_is_reproducible():
+    env = NavigationEnv(suite="circle-crossing", movers=4)
+    runs = []
+    for seed in (7, 7, 8):
+        obs, info = env.reset(seed=seed)
+        trace = [obs]
+        for _ in range(5):
+            trace.append(env.step(np.array([0.3, 0.35], dtype=np.float32))[0])
+        runs.append((info["scenario"], np.stack(trace)))
+    assert runs[0][0] == runs[1][0] and np.array_equal(runs[0][1], runs[1][1])
+    assert runs[2][0] != runs[0][0]
+    # count: a fixed set of episodes; options: one of them by index
+    env = NavigationEnv(suite="circle-crossing", count=2, suite_seed=3)
+    names = {env.reset(seed=s)[1]["scenario"] for s in range(12)}
+    assert names == {"circle-crossing-orca-5-3-0000", "circle-crossing-orca-5-3-0001"}
+    assert env.reset(options={"index": 5})[1]["scenario"] == "circle-crossing-orca-5-3-0005"
+
+
+def test_the_observation_has_its_known_values(tmp_path):
+    static = "[[static_obstacles]]\nposition = [0.0, 4.0]\nradius_m = 0.25\n"
+    env = NavigationEnv(scenario=_file(tmp_path, extra=static))
+    obs, info = env.reset(seed=0)
+    v = dict(zip(env.layout.names(), obs.tolist()))
+    assert len(obs) == ObservationLayout().size == env.observation_space.shape[0] == 58
+    # the robot at (1, 2) facing +y: the reference point ahead is along x (forward)
+    assert (v["ref0_dx"], v["ref0_dy"]) == pytest.approx((0.0, 0.0), abs=1e-6)
+    assert (v["ref2_dx"], v["ref2_dy"]) == pytest.approx((0.4, 0.0), abs=1e-6)   # 2 steps of 0.5 s at 0.4 m/s
+    assert (v["goal_dx"], v["goal_dy"], v["time_left_s"]) == pytest.approx((4.0, 0.0, 10.0), abs=1e-5)
+    # the disc at (0, 4): 2 m ahead, 1 m to the right
+    assert (v["static0_dx"], v["static0_dy"], v["static0_radius"], v["static0_present"]) == \
+        pytest.approx((2.0, 1.0, 0.25, 1.0), abs=1e-6)
+    assert v["static1_present"] == 0.0 and v["mover0_present"] == 0.0
+    assert info["clearance_m"] == pytest.approx(math.hypot(1.0, 2.0) - 0.25 - 0.35, abs=1e-6)
+
+
+def test_terminated_is_the_goal_or_a_collision_truncated_the_time_limit(tmp_path):
+    env = NavigationEnv(scenario=_file(tmp_path, duration=12.0))
+    env.reset(seed=0)
+    while True:
+        _, reward, terminated, truncated, info = env.step([0.4, 0.4])
+        if terminated or truncated:
+            break
+    assert (terminated, truncated, info["outcome"]) == (True, False, "reached_goal")
+    assert info["t_s"] == pytest.approx(10.0) and reward == pytest.approx(1.0 + 0.1 * 0.2, abs=1e-6)  # the goal and 0.2 m of progress
+    env.reset(seed=0)
+    steps = 0
+    while True:
+        _, _, terminated, truncated, info = env.step([0.0, 0.0])
+        steps += 1
+        if terminated or truncated:
+            break
+    assert (terminated, truncated, info["outcome"], steps) == (False, True, "timed_out", 24)
+    wall = "[[static_obstacles]]\nposition = [1.0, 3.5]\nradius_m = 0.3\n"
+    env = NavigationEnv(scenario=_file(tmp_path, extra=wall))
+    env.reset(seed=0)
+    while True:
+        _, reward, terminated, truncated, info = env.step([0.4, 0.4])
+        if terminated or truncated:
+            break
+    assert (terminated, truncated, info["outcome"]) == (True, False, "collided") and reward < 0
+    with pytest.raises(RuntimeError):
+        env.step([0.0, 0.0])
+
+
+def test_an_episode_driven_by_the_gpc_reaches_the_goal():
+    env = NavigationEnv(scenario=PAPER_DIR / "fig7_1_head_on.toml", expert="gpc")
+    obs, info = env.reset(seed=1)
+    while True:
+        obs, _, terminated, truncated, info = env.step(info["expert_action"])
+        if terminated or truncated:
+            break
+    assert info["outcome"] == "reached_goal" and info["min_clearance_m"] > 0.2
+
+
+def test_any_controller_of_the_protocol_drives_it_through_the_observation():
+    """A peer that decides every 0.1 s drives an environment made with that step."""
+    from casadi_gpc.config import preset
+    from gpcnav.controllers import ControllerSpec, make
+    env = NavigationEnv(scenario=PAPER_DIR / "fig7_2_crossing.toml", sample_time_s=0.1)
+    _, info = env.reset(seed=2)
+    orca = make(ControllerSpec("orca"), preset("improved"), env.episode.scenario.robot)
+    assert orca.sample_time_s == env.sample_time_s
+    orca.reset()
+    while True:
+        d = orca.decide(env.observation)
+        _, _, terminated, truncated, info = env.step([d.v_right_mps, d.v_left_mps])
+        if terminated or truncated:
+            break
+    assert info["outcome"] == "reached_goal" and 40.0 <= info["t_s"] < 45.0  # 16 m at 0.4 m/s, a detour
+
+
+def test_the_entry_point_registers_the_id_in_its_namespace():
+    """What Gymnasium 0.26-0.29 does with the package's ``gymnasium.envs`` entry point at
+    ``import gymnasium`` (Gymnasium >= 1.0 no longer loads it), done by hand."""
+    meta = tomllib.loads((REPO / "pyproject.toml").read_text())
+    target = meta["project"]["entry-points"]["gymnasium.envs"]["gpcnav"]
+    assert target == "gpcnav.gym_env:register_envs"
+    gymnasium.registry.pop(ENV_ID, None)
+    from gymnasium.envs.registration import namespace
+    with namespace("gpcnav"):
+        register_envs()
+    env = gymnasium.make("gpcnav/Navigation-v0", suite="random")
+    assert isinstance(env.unwrapped, NavigationEnv)
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+
+
+def test_gymnasium_make_needs_no_import_of_gpcnav():
+    code = ("import gymnasium\n"
+            "env = gymnasium.make('gpcnav:gpcnav/Navigation-v0', suite='circle-crossing', movers=2)\n"
+            "obs, info = env.reset(seed=0)\n"
+            "print(type(env.unwrapped).__name__, obs.shape, info['outcome'])\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.split() == ["NavigationEnv", "(58,)", "running"]

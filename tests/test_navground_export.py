@@ -1,0 +1,54 @@
+"""tools/export_navground_scenario.py: navground's Antipodal scenario in our scenario format,
+checked against navground's own world (places, goals, radii, speeds) and our loader."""
+from __future__ import annotations
+
+import importlib.util
+import math
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+from scenarios import load_scenario
+
+spec = importlib.util.spec_from_file_location("export_navground_scenario",
+                                              REPO / "tools" / "export_navground_scenario.py")
+tool = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(tool)
+
+
+def test_the_files_hold_navground_s_world_and_load(tmp_path):
+    paths = tool.export(tmp_path, count=3, seed=4, agents=7, radius_m=4.0, position_noise_m=0.1)
+    assert [p.name for p in paths] == [f"navground-antipodal-7-{s:05d}.toml" for s in (4, 5, 6)]
+    for seed, path in zip((4, 5, 6), paths):
+        sc = load_scenario(path)
+        robot, *others = tool.antipodal_world(7, 4.0, 0.3, 0.4, 0.1, seed).agents
+        # the robot: where agent 0 starts and faces, its reference the line to agent 0's goal
+        assert (sc.robot_start.x_m, sc.robot_start.y_m) == pytest.approx(tuple(robot.position), abs=1e-6)
+        assert sc.robot_start.heading_rad == pytest.approx(robot.orientation, abs=1e-6)
+        assert sc.reference.end_pose[:2] == pytest.approx(np.asarray(robot.task.waypoints[0]), abs=1e-5)
+        assert sc.reference.speed_mps == pytest.approx(0.4)
+        assert sc.duration_s == pytest.approx(3.0 * sc.reference.duration_s, abs=1e-2)
+        assert sc.sensing.seed == seed and sc.robot.radius_m == 0.35  # our robot
+        # the walkers: navground's other agents, ORCA, seeing the robot
+        assert len(sc.moving) == 6
+        for walker, agent in zip(sc.moving, others):
+            assert walker.position_m == pytest.approx(tuple(agent.position), abs=1e-6)
+            assert walker.goal_m == pytest.approx(tuple(agent.task.waypoints[0]), abs=1e-6)
+            assert walker.radius_m == pytest.approx(agent.radius, abs=1e-6) == 0.3
+            assert walker.preferred_speed_mps == pytest.approx(agent.behavior.optimal_speed, abs=1e-6)
+            assert walker.behaviour == "orca" and walker.sees_robot
+
+
+def test_without_noise_every_goal_is_the_antipode_at_regular_intervals(tmp_path):
+    (path,) = tool.export(tmp_path, count=1, seed=0, agents=8, radius_m=4.0, position_noise_m=0.0,
+                          behaviour="social_force", sees_robot=False)
+    sc = load_scenario(path)
+    starts = [(sc.robot_start.x_m, sc.robot_start.y_m)] + [w.position_m for w in sc.moving]
+    goals = [tuple(sc.reference.end_pose[:2])] + [w.goal_m for w in sc.moving]
+    for s, g in zip(starts, goals):
+        assert math.hypot(*s) == pytest.approx(4.0, abs=1e-5) and g == pytest.approx((-s[0], -s[1]), abs=1e-5)
+    angles = sorted(math.atan2(y, x) % (2 * math.pi) for x, y in starts)
+    assert np.diff(angles) == pytest.approx(np.full(7, 2 * math.pi / 8), abs=1e-5)
+    assert sc.reference.length_m == pytest.approx(8.0, abs=1e-5)
+    assert all(w.behaviour == "social_force" and not w.sees_robot for w in sc.moving)

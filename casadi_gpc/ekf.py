@@ -31,6 +31,7 @@ from .ekf_floats import (cov_array as _cov_array, full as _full, joseph as _jose
 __all__ = ["EKFSettings", "ObstacleEKF", "FilterState", "obstacle_model_step", "planning_covariances", "worst_std_m",
            "GATE_CHI2_2DOF"]
 
+_PI, _TWO_PI = math.pi, 2 * math.pi
 GATE_CHI2_2DOF = 18.42  # chi-square(2) 0.9999 quantile: an innovation beyond it is an outlier
 
 
@@ -423,7 +424,7 @@ class ObstacleEKF:
         k00, k01, k10, k11, k20, k21, k30, k31, k40, k41 = K
         th = th + k30 * i0 + k31 * i1
         self._s = (x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
-                   (th + math.pi) % (2 * math.pi) - math.pi, dth + k40 * i0 + k41 * i1)
+                   (th + _PI) % _TWO_PI - _PI, dth + k40 * i0 + k41 * i1)
         self._U, self._state_a, self._cov_a = N, None, None  # _set, written out (every sample)
         self._last_z, self._since_z = (zx, zy), 0
         return "update"

@@ -97,6 +97,7 @@ class ReferencePath:
         L, cum, table = self._length, self._cum_list, self._table
         last = len(cum) - 1
         out = []
+        append = out.append
         lo, hi = 1.0, 0.0  # the arc lengths [lo, hi) of the last pose's segment (none yet)
         for k in range(n):
             s = s0_m + step_m * k
@@ -114,9 +115,9 @@ class ReferencePath:
             if curv == 0.0:
                 # arc_step with turn rate 0: half-angle 0, sinc 1, so the chord is ds along h0
                 # (bit for bit the same numbers)
-                out.append((x0 + ds * cos0, y0 + ds * sin0, h0))
+                append((x0 + ds * cos0, y0 + ds * sin0, h0))
             else:
-                out.append(arc_step(math, x0, y0, h0, 1.0, curv, ds))
+                append(arc_step(math, x0, y0, h0, 1.0, curv, ds))
         return out
 
     def curvature_at_arclength(self, s) -> np.ndarray:

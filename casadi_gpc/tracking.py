@@ -52,6 +52,7 @@ class TrackBank:
         :meth:`~casadi_gpc.ekf.ObstacleEKF.ghost`), which every planner avoids as well."""
         seen = []
         counters, filters = self.counters, self.filters
+        pending = False  # a ghost to add (checked in the loop: a comprehension costs more)
         for m in moving:
             ekf = filters.get(m.obstacle_id)
             if ekf is None:
@@ -69,11 +70,13 @@ class TrackBank:
                 if not ekf.initialised:
                     counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
             seen.append((m, ekf))
+            if ekf.pending_z_ is not None:
+                pending = True
+        if not pending:
+            return seen
         ghosts = [(m, ekf.ghost()) for m, ekf in seen if ekf.pending_z_ is not None]
-        if ghosts:
-            counters["ghosts"] += len(ghosts)
-            return seen + ghosts
-        return seen
+        counters["ghosts"] += len(ghosts)
+        return seen + ghosts
 
     @staticmethod
     def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int) -> ObstacleForecast:

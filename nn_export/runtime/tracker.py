@@ -64,14 +64,16 @@ class SituationTracker:
         sample): the track estimates and the desired poses at steps 0..``reference_steps``
         as rows ``(x, y, heading)`` (the deployed policy's decision, where making the
         situation's arrays cost more than using them)."""
-        H = self.config.horizon
-        seen = self.bank.step(obs.moving)
-        tracks = tuple([track_estimate(ekf, m.obstacle_id, m.radius_m, H) for m, ekf in seen])
-        r = obs.robot
-        self.clock.update(obs.reference, obs.t_s, (r.x_m, r.y_m))
-        self._rows = reference_rows(obs.reference, self.clock.s_m, self.config.sample_time_s, self.reference_steps)
+        cfg = self.config
+        H = cfg.horizon
+        tracks = []  # a loop: a comprehension is a function call, for one or two tracks
+        for m, ekf in self.bank.step(obs.moving):
+            tracks.append(track_estimate(ekf, m.obstacle_id, m.radius_m, H))
+        r, ref = obs.robot, obs.reference
+        s_m = self.clock.update(ref, obs.t_s, (r.x_m, r.y_m))
+        self._rows = rows = reference_rows(ref, s_m, cfg.sample_time_s, self.reference_steps)
         self._ahead = None
-        return tracks, self._rows
+        return tuple(tracks), rows
 
     def update(self, obs: Observation) -> Situation:
         """Fuse one sample and return the situation at it (call once per sample).

@@ -355,20 +355,25 @@ def test_the_one_pass_decision_is_what_the_constructor_makes(paper_model):
 
 
 def test_bench_network_rows_time_the_calls_the_policy_makes(paper_model):
-    """forward_rows replays the observations through the policy and times its own network
-    calls: one per one-pass decision and round, for each backend, the numpy and torch
-    forward passes swapped in; their outputs match onnxruntime's."""
-    from nn_export.training.bench_rows import FeatureRecorder, forward_rows
+    """forward_rows replays the recorded observations through the policy and times its own
+    network calls: one per one-pass decision and round, for each backend, the numpy and
+    torch forward passes swapped in; their outputs match onnxruntime's; the recorder keeps
+    the observations only (nothing else inside the timed decision)."""
+    from nn_export.training.bench_rows import ObservationRecorder, forward_rows, network_inputs, network_summary
     model = _edit_metadata(paper_model, paper_model.with_name("one_pass.onnx"), decision_passes="1")
-    rec = FeatureRecorder(OnnxPolicy(model))
+    rec = ObservationRecorder(OnnxPolicy(model))
     rec.reset()
+    last = []
     for k in range(4):
         rec.decide(_obs(1.5 * k, RobotState(0.5 + 0.5 * k, -0.1, 0.0, 0.2, 0.2), obstacle_xy=(5.0 - 0.4 * k, 0.5)))
-    assert rec.features.shape == (4, rec.policy.layout.size) and len(rec.observations) == 4
-    np.testing.assert_array_equal(rec.features[-1], rec.policy._x[0])
-    rows = {r["name"]: r for r in forward_rows(model, rec.features, rec.observations, rounds=3)}
-    assert set(rows) == {"onnxruntime", "nn-numpy", "nn-torch"}
-    for r in rows.values():
+        last.append(rec.policy._x[0].copy())
+    assert len(rec.observations) == 4 and vars(rec).keys() == {"policy", "sample_time_s", "observations"}
+    np.testing.assert_array_equal(network_inputs(OnnxPolicy(model), rec.observations), np.array(last))
+    rows = forward_rows(model, rec.observations, rounds=3)
+    by_name = {r["name"]: r for r in rows}
+    assert set(by_name) == {"onnxruntime", "nn-numpy", "nn-torch"}
+    for r in rows:
         assert r["problems"] == 4 * 3 and r["time_s"]["median"] > 0.0
         assert r["max_abs_diff_to_onnxruntime_mps"] <= 1e-6
-    assert rows["onnxruntime"]["back_to_back_time_s"]["count"] == 4 * 3
+    assert by_name["onnxruntime"]["back_to_back_time_s"]["count"] == 4 * 3
+    assert network_summary(rows).startswith("network: the onnxruntime call inside the policy's decisions")

@@ -5,18 +5,25 @@ The network rows time the call as the deployed policy makes it, inside its decis
 recorded observations are replayed through an :class:`OnnxPolicy` whose network call
 (``_run``: the features already packed into the bound input row, the two outputs read
 after it) is wrapped in a timer, and the numpy and torch rows swap their forward pass in
-for onnxruntime's in the same replay. Timed apart, back to back or interleaved with the
-other backends' calls, the call measures something the policy never pays: back to back
-it is warm (4.8 us against 8-11 us inside one-pass decisions on the loaded 2-core machine),
-right after a torch call it is twice as slow (13 us), which is what the row read before
-(docs/nn.md). The replays are repeated in rounds, the backends' order rotating, so that a
-burst of load hits them alike.
+for onnxruntime's in the same replay. The replays are repeated in rounds, the backends'
+order rotating, so that a burst of load hits them alike.
+
+Timed apart, the same call measures what the policy never pays. The row used to time it
+interleaved, input by input, with the numpy and torch forward passes: each onnxruntime call
+then came right after a torch one, whose code and data had pushed onnxruntime's out of the
+caches. Measured on the 2-core machine under load (medians, /tmp scripts of the nnspeed
+branch, onnxruntime 1.31.1 and 1.32.0 alternating in separate processes, the same numbers
+within 0.3 us): back to back 5.1-5.8 us, right after a numpy forward pass 15 us, right
+after a torch one 21 us (the old row: 22 us), inside the policy's one-pass decisions
+7.6-7.9 us. The onnxruntime version changed nothing; the 15 us against 6 us of issue 12 is
+the old row's order of calls and the load of the moment, and 6 us was the warm call. The
+back-to-back figure is kept in the onnxruntime row (``back_to_back_time_s``) for comparison.
 
 The forward passes evaluate the exported ONNX graph itself, so the three rows compute the
 same function: :func:`graph_forward` runs its few node types (Sub, Div, Gemm, MatMul, Tanh,
 Mul, Add, Clip, ...) with numpy or with torch, and each row reports its largest difference
-from onnxruntime on the recorded network inputs. Needs onnx (and torch for the torch row);
-the deployed policy does not import this module.
+from onnxruntime on the network inputs of the replay. Needs onnx (and torch for the torch
+row); the deployed policy does not import this module.
 """
 from __future__ import annotations
 
@@ -29,42 +36,45 @@ from casadi_gpc.safety import Shield
 
 from ..runtime.policy import OnnxPolicy
 
-__all__ = ["policy_entries", "FeatureRecorder", "graph_forward", "forward_rows", "network_speedups"]
+__all__ = ["policy_entries", "ObservationRecorder", "network_inputs", "graph_forward", "forward_rows",
+           "network_speedups", "network_summary"]
 
 
-class FeatureRecorder:
-    """An :class:`OnnxPolicy` that keeps the observations it was given and a copy of the last
-    network input of every decision, for the network rows."""
+class ObservationRecorder:
+    """An :class:`OnnxPolicy` that keeps the observations it is given (one list append
+    inside the timed decision), for the network rows, which replay them."""
 
     def __init__(self, policy: OnnxPolicy):
         self.policy = policy
         self.sample_time_s = policy.sample_time_s
-        self._inputs: list[bytes] = []
         self.observations: list = []
 
     def reset(self) -> None:
         self.policy.reset()
-        self._inputs = []
         self.observations = []
 
     def decide(self, obs):
-        dec = self.policy.decide(obs)
         self.observations.append(obs)
-        self._inputs.append(self.policy._x.tobytes())  # the last network input (a copy: the row is reused)
-        return dec
-
-    @property
-    def features(self) -> np.ndarray:
-        """The last network input of every decision, shape (decisions, n_features), float32."""
-        return np.frombuffer(b"".join(self._inputs), dtype=np.float32).reshape(len(self._inputs), -1)
+        return self.policy.decide(obs)
 
 
-def policy_entries(config, robot, model=None) -> tuple[list, FeatureRecorder]:
+def network_inputs(policy: OnnxPolicy, observations) -> np.ndarray:
+    """The last network input of each of ``policy``'s decisions on ``observations`` (reset
+    first, open loop), shape (decisions, n_features), float32."""
+    policy.reset()
+    rows = []
+    for obs in observations:
+        policy.decide(obs)
+        rows.append(policy._x[0].copy())
+    return np.array(rows, dtype=np.float32).reshape(len(rows), policy.layout.size)
+
+
+def policy_entries(config, robot, model=None) -> tuple[list, ObservationRecorder]:
     """``(name, make_policy)`` pairs for :func:`casadi_gpc.bench.policy_rows`: the full
     decision as deployed (the model's own number of passes, metadata ``decision_passes``),
     bare and behind the check layer (:class:`casadi_gpc.safety.Shield`, manoeuvres only), and
     with one and with two passes."""
-    recorder = FeatureRecorder(OnnxPolicy(model, preset=config.name, robot=robot))
+    recorder = ObservationRecorder(OnnxPolicy(model, preset=config.name, robot=robot))
     entries = [
         ("onnxpolicy", lambda: recorder),
         ("onnxpolicy[one-pass]", lambda: OnnxPolicy(model, preset=config.name, robot=robot, two_pass=False)),
@@ -155,18 +165,18 @@ ROUNDS = 5
 """Replays of the recorded observations per network row."""
 
 
-def forward_rows(model_path, features: np.ndarray, observations, rounds: int = ROUNDS) -> list[dict]:
+def forward_rows(model_path, observations, rounds: int = ROUNDS) -> list[dict]:
     """Rows ``onnxruntime``, ``nn-numpy`` and ``nn-torch``: every network call of an
     :class:`OnnxPolicy` (the model's own number of passes) deciding on ``observations``,
     timed inside its decisions (module docstring), ``rounds`` replays each; with each row's
-    largest output difference from onnxruntime on ``features`` (the recorded inputs), and for
+    largest output difference from onnxruntime on the network inputs of a replay, and for
     onnxruntime the same call timed back to back (``back_to_back_time_s``), for comparison."""
     import onnx
     from casadi_gpc.metrics import time_stats
     model_path = Path(model_path)
     proto = onnx.load(model_path)
     policy = OnnxPolicy(model_path)
-    X = np.array(features, dtype=np.float32)  # a writable copy (torch wants one)
+    X = network_inputs(policy, observations)
     ref = policy.network(X)
     x_in, y_out = policy._x, policy._y  # the bound buffers the policy packs and reads
     ort_run = policy._run
@@ -228,3 +238,19 @@ def network_speedups(rows: list[dict], chosen: str, reference: str) -> dict:
         if name in med and med.get("onnxruntime"):
             out[f"{name}/onnxruntime"] = med[name] / med["onnxruntime"]
     return out
+
+
+def network_summary(rows: list[dict]) -> str | None:
+    """One line of the network's medians in microseconds (None without an onnxruntime row)."""
+    med = {r["name"]: r["time_s"]["median"] * 1e6 for r in rows if r.get("kind") == "policy"}
+    ort_row = next((r for r in rows if r["name"] == "onnxruntime"), None)
+    if ort_row is None:
+        return None
+    b2b = ort_row.get("back_to_back_time_s", {}).get("median")
+    parts = [f"network: the onnxruntime call inside the policy's decisions {med['onnxruntime']:.1f} us"
+             + (f" (back to back {b2b * 1e6:.1f} us)" if b2b else "")]
+    for name, label in (("onnxpolicy[one-pass]", "one-pass decision"), ("onnxpolicy[two-pass]", "two passes"),
+                        ("onnxpolicy[+safety-brake]", "behind the check layer")):
+        if name in med:
+            parts.append(f"{label} {med[name]:.1f} us")
+    return "; ".join(parts) + " (medians)"

@@ -99,6 +99,8 @@ def _decision_maker(reason: str):
     class's defaults, taken from an instance the constructor made, and every default factory
     is called afresh for each decision (a field added to the class is covered alike; a test
     compares the two)."""
+    if hasattr(ControlDecision, "__post_init__"):  # checks of its own: the constructor, always
+        return lambda vr, vl, forecasts: ControlDecision(vr, vl, False, reason, forecasts=forecasts)
     proto = ControlDecision(0.0, 0.0, False, reason).__dict__
     factories = tuple((f.name, f.default_factory) for f in fields(ControlDecision) if f.default_factory is not MISSING)
     new = object.__new__

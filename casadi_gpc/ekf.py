@@ -21,13 +21,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from operator import itemgetter
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["EKFSettings", "ObstacleEKF", "obstacle_model_step", "planning_covariances", "worst_std_m",
+from .ekf_floats import (cov_array as _cov_array, full as _full, joseph as _joseph, propagate as _propagate,
+                         upper as _upper)
+
+__all__ = ["EKFSettings", "ObstacleEKF", "FilterState", "obstacle_model_step", "planning_covariances", "worst_std_m",
            "GATE_CHI2_2DOF"]
 
+_PI, _TWO_PI = math.pi, 2 * math.pi
 GATE_CHI2_2DOF = 18.42  # chi-square(2) 0.9999 quantile: an innovation beyond it is an outlier
 
 
@@ -63,7 +67,7 @@ def obstacle_model_step(s: np.ndarray, sample_time_s: float) -> np.ndarray:
 
 def _jacobian(s: np.ndarray, T: float) -> np.ndarray:
     """The model's Jacobian at state ``s`` (the filter uses its closed form,
-    :func:`_propagate`; this matrix form is kept for tests and readers)."""
+    :func:`casadi_gpc.ekf_floats.propagate`; this matrix form is kept for tests and readers)."""
     _, _, v, th, dth = s
     th1 = th + dth
     c, si = np.cos(th1), np.sin(th1)
@@ -72,102 +76,6 @@ def _jacobian(s: np.ndarray, T: float) -> np.ndarray:
     F[1, 2], F[1, 3], F[1, 4] = T * si, v * T * c, v * T * c
     F[3, 4] = 1.0
     return F
-
-
-def _propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: float, q: tuple, steps: int,
-               means: list | None = None, covs: list | None = None) -> tuple[float, float, float, tuple]:
-    """``steps`` steps of the model and of the covariance, ``P' = F P F^T + Q``, on plain
-    floats: returns the new ``(x, y, heading)`` and P's upper triangle ``U`` (15 entries row
-    by row, :data:`_upper`); speed and turn increment do not change. With ``means`` and
-    ``covs`` (lists), each step's position and its covariance (xx, xy, xy, yy) are appended.
-
-    Written out because numpy's per-call overhead on 5x5 matrices, not the arithmetic, was
-    half of the deployed policy's decision time. F (the Jacobian at the new heading) is the
-    identity but for ``F[0, 2:] = (a, b, b)``, ``F[1, 2:] = (e, g, g)``, ``F[3, 4] = 1``, so
-    with ``w_j = P f_j`` (``f_j`` the rows of F) the result is ``P'_ij = f_i . w_j`` and only
-    the first two columns of P change shape; the rest are sums of its entries."""
-    vT = v * T  # v * T * c evaluates (v * T) * c
-    q0, q1, q2, q3, q4 = q
-    cos, sin = math.cos, math.sin
-    for _ in range(steps):
-        th += dth
-        c, si = cos(th), sin(th)
-        a, b, e, g = T * c, -v * T * si, T * si, v * T * c
-        p00, p01, p02, p03, p04, p11, p12, p13, p14, p22, p23, p24, p33, p34, p44 = U
-        # s_k = P[k, 3] + P[k, 4]: the column of the heading, which absorbs the turn increment
-        s0, s1, s2, s3, s4 = p03 + p04, p13 + p14, p23 + p24, p33 + p34, p34 + p44
-        # w0 = P f_0 (entries 0, 2, 3, 4) and w1 = P f_1
-        w00, w02, w03, w04 = (p00 + a * p02 + b * s0, p02 + a * p22 + b * s2, p03 + a * p23 + b * s3,
-                              p04 + a * p24 + b * s4)
-        w10, w11, w12, w13, w14 = (p01 + e * p02 + g * s0, p11 + e * p12 + g * s1, p12 + e * p22 + g * s2,
-                                   p13 + e * p23 + g * s3, p14 + e * p24 + g * s4)
-        w0h, w1h = w03 + w04, w13 + w14
-        U = (w00 + a * w02 + b * w0h + q0, w10 + a * w12 + b * w1h, w02, w0h, w04,
-             w11 + e * w12 + g * w1h + q1, w12, w1h, w14,
-             p22 + q2, s2, p24,
-             s3 + s4 + q3, s4,
-             p44 + q4)
-        x, y = x + vT * c, y + vT * si  # obstacle_model_step, written for one state
-        if means is not None:
-            means += (x, y)
-            covs += (U[0], U[1], U[1], U[5])
-    return x, y, th, U
-
-
-_upper = itemgetter(0, 1, 2, 3, 4, 6, 7, 8, 9, 12, 13, 14, 18, 19, 24)
-"""The upper triangle (15 floats, row by row) of a flat symmetric 5x5."""
-_full = itemgetter(0, 1, 2, 3, 4, 1, 5, 6, 7, 8, 2, 6, 9, 10, 11, 3, 7, 10, 12, 13, 4, 8, 11, 13, 14)
-"""The flat symmetric 5x5 (25 floats) of an upper triangle."""
-
-
-def _joseph(U: tuple, g00: float, g01: float, g11: float, r: float) -> tuple[tuple, tuple]:
-    """The EKF's correction of a position measurement (H = [I 0], R = r I) on plain floats:
-    the gain ``K = P[:, :2] S^-1`` (rows ``(k_i0, k_i1)``, flat) and the Joseph form
-    ``(I - K H) P (I - K H)^T + K R K^T``, computed as ``A = P - K P[:2, :]``, then
-    ``N = A - A[:, :2] K^T + r K K^T`` on the upper triangle (so exactly symmetric).
-
-    ``U``: P's upper triangle (:data:`_upper`); ``g``: S^-1 (symmetric 2x2). Written out
-    entry by entry: loops over rows cost more than the sums (the deployed policy runs this
-    every sample)."""
-    p00, p01, p02, p03, p04, p11, p12, p13, p14, p22, p23, p24, p33, p34, p44 = U
-    # K rows: P[i, :2] S^-1
-    k00, k01 = p00 * g00 + p01 * g01, p00 * g01 + p01 * g11
-    k10, k11 = p01 * g00 + p11 * g01, p01 * g01 + p11 * g11
-    k20, k21 = p02 * g00 + p12 * g01, p02 * g01 + p12 * g11
-    k30, k31 = p03 * g00 + p13 * g01, p03 * g01 + p13 * g11
-    k40, k41 = p04 * g00 + p14 * g01, p04 * g01 + p14 * g11
-    # A = P - K P[:2, :]: the entries N needs (its row's first two and the upper triangle)
-    a00, a01, a02, a03, a04 = (p00 - k00 * p00 - k01 * p01, p01 - k00 * p01 - k01 * p11, p02 - k00 * p02 - k01 * p12,
-                               p03 - k00 * p03 - k01 * p13, p04 - k00 * p04 - k01 * p14)
-    a10, a11, a12, a13, a14 = (p01 - k10 * p00 - k11 * p01, p11 - k10 * p01 - k11 * p11, p12 - k10 * p02 - k11 * p12,
-                               p13 - k10 * p03 - k11 * p13, p14 - k10 * p04 - k11 * p14)
-    a20, a21, a22, a23, a24 = (p02 - k20 * p00 - k21 * p01, p12 - k20 * p01 - k21 * p11, p22 - k20 * p02 - k21 * p12,
-                               p23 - k20 * p03 - k21 * p13, p24 - k20 * p04 - k21 * p14)
-    a30, a31, a33, a34 = (p03 - k30 * p00 - k31 * p01, p13 - k30 * p01 - k31 * p11, p33 - k30 * p03 - k31 * p13,
-                          p34 - k30 * p04 - k31 * p14)
-    a40, a41, a44 = p04 - k40 * p00 - k41 * p01, p14 - k40 * p01 - k41 * p11, p44 - k40 * p04 - k41 * p14
-    # N_ij = A_ij - A_i0 K_j0 - A_i1 K_j1 + r (K_i0 K_j0 + K_i1 K_j1), j >= i
-    N = (a00 - a00 * k00 - a01 * k01 + r * (k00 * k00 + k01 * k01),
-         a01 - a00 * k10 - a01 * k11 + r * (k00 * k10 + k01 * k11),
-         a02 - a00 * k20 - a01 * k21 + r * (k00 * k20 + k01 * k21),
-         a03 - a00 * k30 - a01 * k31 + r * (k00 * k30 + k01 * k31),
-         a04 - a00 * k40 - a01 * k41 + r * (k00 * k40 + k01 * k41),
-         a11 - a10 * k10 - a11 * k11 + r * (k10 * k10 + k11 * k11),
-         a12 - a10 * k20 - a11 * k21 + r * (k10 * k20 + k11 * k21),
-         a13 - a10 * k30 - a11 * k31 + r * (k10 * k30 + k11 * k31),
-         a14 - a10 * k40 - a11 * k41 + r * (k10 * k40 + k11 * k41),
-         a22 - a20 * k20 - a21 * k21 + r * (k20 * k20 + k21 * k21),
-         a23 - a20 * k30 - a21 * k31 + r * (k20 * k30 + k21 * k31),
-         a24 - a20 * k40 - a21 * k41 + r * (k20 * k40 + k21 * k41),
-         a33 - a30 * k30 - a31 * k31 + r * (k30 * k30 + k31 * k31),
-         a34 - a30 * k40 - a31 * k41 + r * (k30 * k40 + k31 * k41),
-         a44 - a40 * k40 - a41 * k41 + r * (k40 * k40 + k41 * k41))
-    return (k00, k01, k10, k11, k20, k21, k30, k31, k40, k41), N
-
-
-def _cov_array(U: tuple) -> np.ndarray:
-    """The (5, 5) covariance array of an upper triangle."""
-    return np.array(_full(U)).reshape(5, 5)
 
 
 @dataclass(frozen=True)
@@ -218,43 +126,172 @@ class EKFSettings:
                        initial_turn_std_rad=self.initial_turn_std_rad * r)
 
 
+def _q_diagonal(settings: EKFSettings, sample_time_s: float) -> tuple[float, float, float, float, float]:
+    """The diagonal of the process noise Q."""
+    st, T = settings, sample_time_s
+    return (st.position_noise_m ** 2, st.position_noise_m ** 2, (st.speed_noise_mps2 * T) ** 2,
+            st.heading_noise_rad ** 2, st.turn_noise_rad ** 2)
+
+
+def _readonly(values, shape: tuple) -> np.ndarray:
+    a = np.array(values).reshape(shape)
+    a.flags.writeable = False
+    return a
+
+
+class FilterState(NamedTuple):
+    """A filter's estimate at one sample, frozen, in plain floats: what
+    :meth:`ObstacleEKF.snapshot` hands out, so that a forecast can be made from it later
+    (:meth:`predict` gives :meth:`ObstacleEKF.predict`'s numbers at the time of the
+    snapshot)."""
+
+    state: tuple
+    """``(x, y, V, theta, dtheta)``."""
+    cov_upper: tuple
+    """The covariance's upper triangle, 15 floats row by row."""
+    measurements_seen: int
+    sample_time_s: float
+    settings: EKFSettings
+
+    @property
+    def initialised(self) -> bool:
+        return self.measurements_seen >= 2
+
+    def state_array(self) -> np.ndarray:
+        return np.array(self.state)
+
+    def cov_array(self) -> np.ndarray:
+        return _cov_array(self.cov_upper)
+
+    def predict(self, horizon: int, q: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H
+        (``q``: the diagonal of Q when the caller has it)."""
+        T = self.sample_time_s
+        if self.measurements_seen == 1:
+            # standing where it was seen, the uncertainty growing with the unknown speed
+            means = np.empty((horizon, 2))
+            covs = np.empty((horizon, 2, 2))
+            s, P = self.state_array(), self.cov_array()
+            grow = (self.settings.initial_speed_std_mps * T) ** 2
+            for j in range(horizon):
+                means[j] = s[:2]
+                covs[j] = P[:2, :2] + np.eye(2) * grow * (j + 1) ** 2
+            return means, covs
+        x, y, v, th, dth = self.state
+        means, covs = [], []  # flat: one array call each at the end
+        _propagate(x, y, v, th, dth, self.cov_upper, T, q or _q_diagonal(self.settings, T), horizon, means, covs)
+        return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)
+
+
 @dataclass
 class ObstacleEKF:
-    """Track of one moving obstacle. ``update`` once per sample, then ``predict``."""
+    """Track of one moving obstacle. ``step`` once per sample, then ``predict``.
+
+    The filter computes in plain floats (the deployed policy runs it every sample, and
+    numpy's per-call cost on 5-vectors was most of that time); :attr:`state_` and
+    :attr:`cov_` are read-only arrays made from them when read. Assigning either replaces
+    the estimate (only the covariance's upper triangle is used, as the filter always did).
+    """
 
     sample_time_s: float
     settings: EKFSettings = field(default_factory=EKFSettings)
-    state_: np.ndarray | None = None
-    cov_: np.ndarray | None = None
     measurements_seen_: int = 0
     missed_: int = 0
     outliers_: int = 0
     maneuvers_: int = 0
-    _last_z: np.ndarray | None = None
+    _last_z: tuple | np.ndarray | None = None
+    """The last fused position ``(x, y)``."""
     _rejections_in_row: int = 0
     _since_z: int = 0  # samples since the last fused measurement (_last_z)
     pending_z_: np.ndarray | None = None
     """A plausible measurement gated out at the last step, waiting for the next one to tell a
     glitch from a manoeuvre (:meth:`ghost`)."""
     _steps_since_first: int = 1  # samples between the first and the second measurement
+    _s: tuple | None = field(default=None, repr=False)
+    """The state ``(x, y, V, theta, dtheta)`` in plain floats; None before the first measurement."""
+    _U: tuple | None = field(default=None, repr=False)
+    """The covariance's upper triangle in plain floats (:data:`casadi_gpc.ekf_floats.upper`)."""
 
+    def __post_init__(self):
+        self._consts = (None, None, None, None)
+        self._state_a = self._cov_a = None  # state_ and cov_, once made from _s and _U
+
+    # --- the estimate as arrays ------------------------------------------------------
+    @property
+    def state_(self) -> np.ndarray | None:
+        """State ``[x, y, V, theta, dtheta]``, shape (5,), read-only; None before the first
+        measurement."""
+        if self._s is None:
+            return None
+        a = self._state_a
+        if a is None:
+            a = self._state_a = _readonly(self._s, (5,))
+        return a
+
+    @state_.setter
+    def state_(self, value) -> None:
+        if value is None:
+            self._s = None
+        else:
+            a = np.asarray(value, dtype=float)
+            if a.shape != (5,):
+                raise ValueError(f"an obstacle state has 5 entries, got shape {a.shape}")
+            self._s = tuple(a.tolist())
+        self._state_a = self._cov_a = None
+
+    @property
+    def cov_(self) -> np.ndarray | None:
+        """Its covariance, shape (5, 5), read-only (None before the first measurement)."""
+        if self._U is None:
+            return None
+        a = self._cov_a
+        if a is None:
+            a = self._cov_a = _readonly(_full(self._U), (5, 5))
+        return a
+
+    @cov_.setter
+    def cov_(self, value) -> None:
+        if value is None:
+            self._U = None
+        else:
+            a = np.asarray(value, dtype=float)
+            if a.shape != (5, 5):
+                raise ValueError(f"an obstacle covariance is 5x5, got shape {a.shape}")
+            self._U = _upper(a.ravel().tolist())
+        self._state_a = self._cov_a = None
+
+    def _set(self, s: tuple, U: tuple) -> None:
+        self._s, self._U = s, U
+        self._state_a = self._cov_a = None
+
+    def snapshot(self) -> FilterState:
+        """The estimate now, frozen (its forecast can be made later: :meth:`FilterState.predict`)."""
+        if self._s is None:
+            raise RuntimeError("snapshot() before any measurement")
+        # FilterState(...) without its Python-level __new__ (the deployed policy takes one a sample)
+        return tuple.__new__(FilterState, (self._s, self._U, self.measurements_seen_, self.sample_time_s,
+                                           self.settings))
+
+    # --- settings --------------------------------------------------------------------
     def _R(self) -> np.ndarray:
         return np.eye(2) * self._r()
 
     def _r(self) -> float:
         """Variance of each measured coordinate."""
-        return max(self.settings.measurement_std_m, 1e-3) ** 2
+        return self._constants()[3]
 
     def _q(self) -> tuple[float, float, float, float, float]:
-        """The diagonal of Q (cached: the settings and T are fixed for a filter's life)."""
-        key = (self.settings, self.sample_time_s)
-        cached = getattr(self, "_q_cache", None)
-        if cached is None or cached[0] != key:
+        """The diagonal of Q."""
+        return self._constants()[2]
+
+    def _constants(self) -> tuple:
+        """``(settings, T, diagonal of Q, r)``, made again only when the settings or T
+        change (they are fixed for a filter's life, as a rule)."""
+        c = self._consts
+        if c[0] is not self.settings or c[1] != self.sample_time_s:
             st, T = self.settings, self.sample_time_s
-            cached = (key, (st.position_noise_m ** 2, st.position_noise_m ** 2, (st.speed_noise_mps2 * T) ** 2,
-                            st.heading_noise_rad ** 2, st.turn_noise_rad ** 2))
-            self._q_cache = cached
-        return cached[1]
+            c = self._consts = (st, T, _q_diagonal(st, T), max(st.measurement_std_m, 1e-3) ** 2)
+        return c
 
     def _Q(self) -> np.ndarray:
         return np.diag(self._q())
@@ -263,11 +300,19 @@ class ObstacleEKF:
     def initialised(self) -> bool:
         return self.measurements_seen_ >= 2
 
-    def _start(self, z: np.ndarray) -> None:
+    @property
+    def started(self) -> bool:
+        """Whether the filter has an estimate (it has fused a first measurement)."""
+        return self._s is not None
+
+    # --- the filter ------------------------------------------------------------------
+    def _start(self, z) -> None:
         st = self.settings
-        self.state_ = np.array([z[0], z[1], 0.0, 0.0, 0.0])
         r = max(st.measurement_std_m, 1e-3) ** 2
-        self.cov_ = np.diag([r, r, st.initial_speed_std_mps ** 2, np.pi ** 2, st.initial_turn_std_rad ** 2])
+        # np.diag([r, r, sv^2, pi^2, st^2]) as an upper triangle
+        self._set((float(z[0]), float(z[1]), 0.0, 0.0, 0.0),
+                  (r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, st.initial_speed_std_mps ** 2, 0.0, 0.0, np.pi ** 2, 0.0,
+                   st.initial_turn_std_rad ** 2))
         self.measurements_seen_ = 1
         self._last_z = z
         self._since_z = 0
@@ -279,20 +324,20 @@ class ObstacleEKF:
         """Two positions give speed and heading by finite difference."""
         st = self.settings
         T = self.sample_time_s * self._steps_since_first  # missed samples in between lengthen the baseline
-        d = z - self._last_z
+        d = z - np.asarray(self._last_z, dtype=float)
         v = float(np.hypot(*d)) / T
         r = max(st.measurement_std_m, 1e-3) ** 2
         var_v = 2.0 * r / T ** 2
         var_th = min(np.pi ** 2, 2.0 * r / max(v * T, 1e-6) ** 2)
-        self.state_ = np.array([z[0], z[1], v, np.arctan2(d[1], d[0]), 0.0])
-        self.cov_ = np.diag([r, r, var_v, var_th, st.initial_turn_std_rad ** 2])
+        self._set((float(z[0]), float(z[1]), v, float(np.arctan2(d[1], d[0])), 0.0),
+                  (r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, var_v, 0.0, 0.0, var_th, 0.0, st.initial_turn_std_rad ** 2))
         self.measurements_seen_ = 2
 
     def step(self, z) -> str:
         """Advance one sample and fuse measurement ``z`` (``None`` or non-finite = missing).
 
-        Returns what happened: ``"start"``, ``"update"``, ``"missed"`` or ``"outlier"``.
-        Raises ``ValueError`` when ``z`` is not a position (two numbers).
+        Returns what happened: ``"start"``, ``"update"``, ``"missed"``, ``"outlier"`` or
+        ``"manoeuvre"``. Raises ``ValueError`` when ``z`` is not a position (two numbers).
         """
         if type(z) is tuple and len(z) == 2 and type(z[0]) is float and type(z[1]) is float:
             zx, zy = z  # the sensor's own form: no array needed
@@ -305,7 +350,7 @@ class ObstacleEKF:
             zx, zy = float(z[0]), float(z[1])
             if not (math.isfinite(zx) and math.isfinite(zy)):
                 z = None
-        if self.state_ is None:
+        if self._s is None:
             if z is None:
                 self.missed_ += 1
                 return "missed"
@@ -315,26 +360,30 @@ class ObstacleEKF:
             if z is None:
                 self.missed_ += 1
                 self._steps_since_first += 1
-                # a stationary guess whose uncertainty grows with the unknown speed
-                self.cov_[:2, :2] += np.eye(2) * (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
+                # a stationary guess whose uncertainty grows with the unknown speed: P[:2, :2] +=
+                # g I (numpy's numbers: the off-diagonal gets + 0.0)
+                g = (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
+                U = self._U
+                self._set(self._s, (U[0] + g, U[1] + 0.0, *U[2:5], U[5] + g, *U[6:]))
                 return "missed"
             z = np.array((zx, zy))
             self._second(z)
             self._last_z, self._since_z = z, 0
             return "update"
-        # propagation (plain floats: see _propagate)
-        x, y, v, th, dth = self.state_.tolist()
-        x, y, th, U = _propagate(x, y, v, th, dth, _upper(self.cov_.ravel().tolist()), self.sample_time_s,
-                                 self._q(), 1)
+        # propagation (plain floats: see ekf_floats.propagate)
+        c = self._consts
+        if c[0] is not self.settings or c[1] != self.sample_time_s:
+            c = self._constants()
+        x, y, v, th, dth = self._s
+        x, y, th, U = _propagate(x, y, v, th, dth, self._U, c[1], c[2], 1)
         if z is None:
-            self.state_ = np.array((x, y, v, th, dth))
-            self.cov_ = _cov_array(U)
+            self._set((x, y, v, th, dth), U)
             self.missed_ += 1
             self._since_z += 1
             self.pending_z_ = None
             return "missed"
         # correction, with an innovation gate against outliers; S = P[:2, :2] + R is 2x2
-        r = self._r()
+        r = c[3]
         i0, i1 = zx - x, zy - y
         s00, s01, s11 = U[0] + r, U[1], U[5] + r
         det = s00 * s11 - s01 * s01
@@ -360,8 +409,7 @@ class ObstacleEKF:
             # the next sample decides, a plausible one is kept as pending: :meth:`ghost` is
             # the obstacle standing there, for planners to keep clear of as well.
             self.pending_z_ = z if plausible else None
-            self.state_ = np.array((x, y, v, th, dth))
-            self.cov_ = _cov_array(U)
+            self._set((x, y, v, th, dth), U)
             self.outliers_ += 1
             self._rejections_in_row += 1
             self._since_z += 1
@@ -375,10 +423,10 @@ class ObstacleEKF:
         K, N = _joseph(U, s11 / det, -s01 / det, s00 / det, r)
         k00, k01, k10, k11, k20, k21, k30, k31, k40, k41 = K
         th = th + k30 * i0 + k31 * i1
-        self.state_ = np.array((x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
-                                (th + math.pi) % (2 * math.pi) - math.pi, dth + k40 * i0 + k41 * i1))
-        self.cov_ = _cov_array(N)
-        self._last_z, self._since_z = np.array((zx, zy)), 0
+        self._s = (x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
+                   (th + _PI) % _TWO_PI - _PI, dth + k40 * i0 + k41 * i1)
+        self._U, self._state_a, self._cov_a = N, None, None  # _set, written out (every sample)
+        self._last_z, self._since_z = (zx, zy), 0
         return "update"
 
     def ghost(self) -> "ObstacleEKF | None":
@@ -395,19 +443,7 @@ class ObstacleEKF:
 
     def predict(self, horizon: int) -> tuple[np.ndarray, np.ndarray]:
         """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H."""
-        if self.state_ is None:
+        if self._s is None:
             raise RuntimeError("predict() before any measurement")
-        if self.measurements_seen_ == 1:
-            means = np.empty((horizon, 2))
-            covs = np.empty((horizon, 2, 2))
-            s, P = self.state_, self.cov_
-            grow = (self.settings.initial_speed_std_mps * self.sample_time_s) ** 2
-            for j in range(horizon):
-                means[j] = s[:2]
-                covs[j] = P[:2, :2] + np.eye(2) * grow * (j + 1) ** 2
-            return means, covs
-        x, y, v, th, dth = self.state_.tolist()
-        means, covs = [], []  # flat: one array call each at the end
-        _propagate(x, y, v, th, dth, _upper(self.cov_.ravel().tolist()), self.sample_time_s, self._q(), horizon,
-                   means, covs)
-        return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)
+        return FilterState(self._s, self._U, self.measurements_seen_, self.sample_time_s,
+                           self.settings).predict(horizon, self._q())

@@ -42,8 +42,13 @@ class ReferenceClock:
 
     def update(self, path: ReferencePath, t_s: float, robot_xy) -> float:
         """The reference arc length for the sample at ``t_s`` (call once per sample)."""
-        # path.arclength_at_time on a plain float (np.clip costs more than the rest of the update)
-        nominal = min(max(path.speed_mps * float(t_s), 0.0), path.length_m)
+        # path.arclength_at_time on a plain float (np.clip costs more than the rest of the update);
+        # min(max(., 0), L) written out (the same numbers, -0.0 and nan included)
+        nominal = path.speed_mps * float(t_s)
+        if nominal < 0.0:
+            nominal = 0.0
+        elif nominal > path.length_m:
+            nominal = path.length_m
         if self.max_lead_m is None:
             self.s_m = nominal
             return self.s_m

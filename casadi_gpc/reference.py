@@ -95,22 +95,29 @@ class ReferencePath:
         plain floats), for the few poses of a horizon, where numpy's per-call cost would be
         most of the time."""
         L, cum, table = self._length, self._cum_list, self._table
+        last = len(cum) - 1
         out = []
+        append = out.append
+        lo, hi = 1.0, 0.0  # the arc lengths [lo, hi) of the last pose's segment (none yet)
         for k in range(n):
             s = s0_m + step_m * k
             if s < 0.0:  # min(max(s, 0), L), without the two calls
                 s = 0.0
             elif s > L:
                 s = L
-            # the segment that starts at or before s (the first starts at 0 <= s)
-            c, x0, y0, h0, curv, cos0, sin0 = table[bisect_right(cum, s) - 1]
+            # the segment that starts at or before s (the first starts at 0 <= s): bisect's
+            # answer, looked up again only when s has left the last one's
+            if not lo <= s < hi:
+                i = bisect_right(cum, s) - 1
+                c, x0, y0, h0, curv, cos0, sin0 = table[i]
+                lo, hi = c, cum[i + 1] if i < last else math.inf
             ds = s - c
             if curv == 0.0:
                 # arc_step with turn rate 0: half-angle 0, sinc 1, so the chord is ds along h0
                 # (bit for bit the same numbers)
-                out.append((x0 + ds * cos0, y0 + ds * sin0, h0))
+                append((x0 + ds * cos0, y0 + ds * sin0, h0))
             else:
-                out.append(arc_step(math, x0, y0, h0, 1.0, curv, ds))
+                append(arc_step(math, x0, y0, h0, 1.0, curv, ds))
         return out
 
     def curvature_at_arclength(self, s) -> np.ndarray:

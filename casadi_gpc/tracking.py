@@ -51,23 +51,30 @@ class TrackBank:
         those of their ghosts (a gated, plausible measurement: the obstacle standing there,
         :meth:`~casadi_gpc.ekf.ObstacleEKF.ghost`), which every planner avoids as well."""
         seen = []
-        counters = self.counters
+        counters, filters = self.counters, self.filters
+        pending = False  # a ghost to add (checked in the loop: a comprehension costs more)
         for m in moving:
-            ekf = self.filters.get(m.obstacle_id)
+            ekf = filters.get(m.obstacle_id)
             if ekf is None:
-                ekf = self.filters[m.obstacle_id] = ObstacleEKF(self.sample_time_s, self.settings)
+                ekf = filters[m.obstacle_id] = ObstacleEKF(self.sample_time_s, self.settings)
             event = ekf.step(m.position_m)
-            if event == "missed":
-                counters["missed_measurements"] += 1
-            elif event == "outlier":
-                counters["outliers"] += 1
-            elif event == "manoeuvre":
-                counters["manoeuvres"] += 1
-            if ekf.state_ is not None:
+            if event != "update":  # an update leaves an initialised track (the common case)
+                if event == "missed":
+                    counters["missed_measurements"] += 1
+                elif event == "outlier":
+                    counters["outliers"] += 1
+                elif event == "manoeuvre":
+                    counters["manoeuvres"] += 1
+                if not ekf.started:
+                    continue
                 if not ekf.initialised:
                     counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
-                seen.append((m, ekf))
-        ghosts = [(m, g) for m, g in ((m, ekf.ghost()) for m, ekf in seen) if g is not None]
+            seen.append((m, ekf))
+            if ekf.pending_z_ is not None:
+                pending = True
+        if not pending:
+            return seen
+        ghosts = [(m, ekf.ghost()) for m, ekf in seen if ekf.pending_z_ is not None]
         counters["ghosts"] += len(ghosts)
         return seen + ghosts
 

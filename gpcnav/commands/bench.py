@@ -66,12 +66,13 @@ def extra_policies(args, config, robot) -> list:
 
 
 def network_rows(args, doc) -> None:
-    """Add the bare network calls (numpy, torch, onnxruntime) and the network speedups."""
+    """Add the network calls (onnxruntime, numpy, torch: inside the policy's decisions) and the
+    network speedups."""
     recorder = getattr(args, "_nn_recorder", None)
-    if recorder is None or not recorder.features:
+    if recorder is None or not recorder.observations:
         return
     from nn_export.training.bench_rows import forward_rows, network_speedups
-    rows = forward_rows(recorder.policy.model_info["path"], recorder.features)
+    rows = forward_rows(recorder.policy.model_info["path"], recorder.observations)
     doc["results"] += rows
     doc["speedup"].update(network_speedups(doc["results"], doc["chosen"]["name"], doc["reference"]))
     doc["network"] = recorder.policy.model_info
@@ -121,6 +122,9 @@ def run(args) -> int:
           f"{doc['problems']} step problems (+{doc['multistart_problems']} multistart solves, "
           f"reported under 'multistart' in BENCH.json)")
     print(format_table(doc))
+    if any(r["name"] == "onnxruntime" for r in doc["results"]):
+        from nn_export.training.bench_rows import network_summary
+        print(network_summary(doc["results"]))
     for d in doc["decisions"]:
         t, cv = d["time_s"], d["candidates_vs_multistart"]
         print(f"decision on {d['scenario']} ({d['movers']} movers, closed loop, behind the check layer): median "

@@ -72,7 +72,7 @@ def order_by_distance(robot_xy, tracks=(), statics=()) -> tuple[list, list]:
     hypot = math.hypot
 
     def key_track(t: TrackEstimate):
-        x, y = t.state[:2].tolist()
+        x, y = t.state_values[:2]
         d = hypot(x - rx, y - ry)
         for mx, my in t.means_m.tolist():
             d = min(d, hypot(mx - rx, my - ry))
@@ -105,61 +105,75 @@ def _window_tails(layout: FeatureLayout, P: list, T: float) -> list[tuple[list, 
     total length over H T), and how many curvatures were clipped. Overlapping windows
     share the arcs."""
     H, lim = layout.horizon, layout.curvature_limit_1pm
-    kappas, lengths, clipped = [], [], [0]  # clipped: running count, from 0
+    kappas, lengths, clipped = [], [], []  # clipped: the arcs whose curvature was clipped
     cos, sin, pi, short = math.cos, math.sin, math.pi, _SHORT_ARC_M
     x0, y0, h0 = P[0]
+    straight, cs, sn = None, 1.0, 0.0  # the heading of the last straight piece, its cosine and sine
+    total = 0.0  # the lengths added in order from 0.0 (sum() may compensate, depending on the version)
     for x1, y1, h1 in P[1:]:
         # the exact arc through consecutive poses: chord = L sinc(dth/2) along the mid heading
-        if h1 == h0:  # a straight piece: dth = 0 and sinc(0) = 1 exactly, so the same numbers
-            dth = 0.0
-            mid = h0 + 0.0
-            length = (x1 - x0) * cos(mid) + (y1 - y0) * sin(mid)
+        if h1 == h0:
+            # a straight piece: dth = 0 and sinc(0) = 1 exactly, so the same numbers as below
+            # with the cosine and sine of h0 + 0.0 (not -0.0) kept while the heading stays
+            if h0 != straight:
+                straight = h0
+                cs, sn = cos(h0 + 0.0), sin(h0 + 0.0)
+            length = (x1 - x0) * cs + (y1 - y0) * sn
+            kappa = 0.0 / length if length > short or length < -short else 0.0
+            clip = lim < 0.0  # a curvature of +-0 passes any limit that is not negative
         else:
             dth = pi - (pi - (h1 - h0)) % _TWO_PI  # _wrap(h1 - h0), inline
             half = 0.5 * dth
             mid = h0 + half
             # the robot model's own sinc, on plain floats
             length = ((x1 - x0) * cos(mid) + (y1 - y0) * sin(mid)) / sinc(math, half)
-        if length > short or length < -short:  # abs(length) > short
-            kappa = dth / length
-        else:  # one point: no curvature, unless it turns on the spot (infinite)
-            kappa = math.copysign(math.inf, dth) if abs(dth) > 1e-9 else 0.0
-        if kappa > lim or kappa < -lim:  # abs(kappa) > lim
+            if length > short or length < -short:  # abs(length) > short
+                kappa = dth / length
+            else:  # one point: no curvature, unless it turns on the spot (infinite)
+                kappa = math.copysign(math.inf, dth) if abs(dth) > 1e-9 else 0.0
+            clip = True
+        if clip and (kappa > lim or kappa < -lim):  # abs(kappa) > lim
             kappa = math.copysign(lim, kappa)
-            clipped.append(clipped[-1] + 1)
-        else:
-            clipped.append(clipped[-1])
+            clipped.append(len(kappas))
         kappas.append(kappa)
         lengths.append(length)
+        total += length
         x0, y0, h0 = x1, y1, h1
     HT = H * T
+    if len(kappas) == H:  # one window (the decision's own desired poses)
+        kappas.append(total / HT)
+        return [(kappas, len(clipped))]
     out = []
     for j in range(len(P) - H):
         tail = kappas[j:j + H]
-        # the lengths added in order from 0.0 (sum() may compensate, depending on the version)
         tail.append(reduce(add, lengths[j:j + H], 0.0) / HT)
-        out.append((tail, clipped[j + H] - clipped[j]))
+        out.append((tail, sum(j <= i < j + H for i in clipped) if clipped else 0))
     return out
 
 
-def _reference_values(x: float, y: float, heading: float, p1, window: tuple[list, int], report) -> list:
+def _reference_values(x: float, y: float, heading: float, p1, window: tuple[list, int], report,
+                      c: float | None = None, s: float | None = None) -> list:
     """The reference features for the robot at ``(x, y, heading)``: the first desired point
-    ``p1`` in its frame, then the window's tail (:func:`_window_tails`)."""
-    c, s = math.cos(heading), math.sin(heading)
+    ``p1`` in its frame, then the window's tail (:func:`_window_tails`); ``c, s``: the
+    cosine and sine of ``heading`` when the caller has them."""
+    if c is None:
+        c, s = math.cos(heading), math.sin(heading)
     dx, dy = p1[0] - x, p1[1] - y
     tail, n_clipped = window
     if n_clipped and report is not None:
         report["curvature_clipped"] = report.get("curvature_clipped", 0) + n_clipped
-    return [c * dx + s * dy, -s * dx + c * dy, _wrap(p1[2] - heading), *tail]
+    # the heading: _wrap(p1[2] - heading), written out
+    return [c * dx + s * dy, -s * dx + c * dy, math.pi - (math.pi - (p1[2] - heading)) % _TWO_PI, *tail]
 
 
-def _moving_values(layout: FeatureLayout, robot: RobotState | None, tr: TrackEstimate | None) -> list:
+def _moving_values(layout: FeatureLayout, rx: float, ry: float, heading: float, c: float, s: float,
+                   tr: TrackEstimate | None) -> list:
+    """The slot of a moving obstacle for the robot at ``(rx, ry, heading)``, ``c, s`` the
+    cosine and sine of its heading."""
     if tr is None:
         return list(layout.absent_moving)
-    heading = robot.heading_rad
-    c, s = math.cos(heading), math.sin(heading)
-    x, y, v, th, dth = tr.state.tolist()
-    dx, dy = x - robot.x_m, y - robot.y_m
+    x, y, v, th, dth = tr.state_values
+    dx, dy = x - rx, y - ry
     if tr.initialised:
         vals = [c * dx + s * dy, -s * dx + c * dy, v, (th + dth - heading) % _TWO_PI, dth]
     else:  # one position seen: standing still as far as anyone knows, heading unknown
@@ -170,11 +184,11 @@ def _moving_values(layout: FeatureLayout, robot: RobotState | None, tr: TrackEst
     return vals
 
 
-def _static_values(layout: FeatureLayout, robot: RobotState | None, st: StaticObstacle | None) -> list:
+def _static_values(layout: FeatureLayout, rx: float, ry: float, c: float, s: float,
+                   st: StaticObstacle | None) -> list:
     if st is None:
         return list(layout.absent_static)
-    c, s = math.cos(robot.heading_rad), math.sin(robot.heading_rad)
-    dx, dy = st.position_m[0] - robot.x_m, st.position_m[1] - robot.y_m
+    dx, dy = st.position_m[0] - rx, st.position_m[1] - ry
     return [1.0, c * dx + s * dy, -s * dx + c * dy, st.radius_m]
 
 
@@ -196,25 +210,45 @@ def feature_values_from(layout: FeatureLayout, robot: RobotState, ref_rows: list
     poses given as rows ``(x, y, heading)`` (unchecked: the caller's; the deployed policy's
     second pass builds no :class:`Situation` for them)."""
     r = robot
-    rx, ry = r.x_m, r.y_m
+    # plain floats (a simulator's state may hold numpy scalars, whose arithmetic costs more;
+    # the numbers are the same)
+    rx, ry, heading = float(r.x_m), float(r.y_m), float(r.heading_rad)
+    c, s = math.cos(heading), math.sin(heading)
     f = [r.v_right_mps, r.v_left_mps]
     if tracks or statics:
-        tracks, statics = order_by_distance((rx, ry), tracks, statics)
+        if len(tracks) > 1 or len(statics) > 1:
+            tracks, statics = order_by_distance((rx, ry), tracks, statics)
         rng, hypot = layout.range_m, math.hypot
-        in_range = [t for t in tracks if hypot(float(t.state[0]) - rx, float(t.state[1]) - ry) <= rng]
-        st_in = [s for s in statics if hypot(s.position_m[0] - rx, s.position_m[1] - ry) <= rng]
+        # loops, not comprehensions (each one a function call, for one or two obstacles)
+        in_range, st_in = [], []
+        for t in tracks:
+            sv = t.state_values
+            if hypot(sv[0] - rx, sv[1] - ry) <= rng:
+                in_range.append(t)
+        for st in statics:
+            p = st.position_m
+            if hypot(p[0] - rx, p[1] - ry) <= rng:
+                st_in.append(st)
+        k_moving, k_static = layout.k_moving, layout.k_static
+        n_moving, n_static = len(in_range), len(st_in)
         if report is not None:
-            _bump(report, "out_of_range", (len(tracks) - len(in_range)) + (len(statics) - len(st_in)))
-            _bump(report, "dropped_moving", max(len(in_range) - layout.k_moving, 0))
-            _bump(report, "dropped_static", max(len(st_in) - layout.k_static, 0))
-        for j in range(layout.k_moving):
-            f += _moving_values(layout, r, in_range[j] if j < len(in_range) else None)
-        for j in range(layout.k_static):
-            f += _static_values(layout, r, st_in[j] if j < len(st_in) else None)
+            out = (len(tracks) - n_moving) + (len(statics) - n_static)
+            if out:
+                _bump(report, "out_of_range", out)
+            if n_moving > k_moving:
+                _bump(report, "dropped_moving", n_moving - k_moving)
+            if n_static > k_static:
+                _bump(report, "dropped_static", n_static - k_static)
+        for j in range(k_moving):
+            f += _moving_values(layout, rx, ry, heading, c, s, in_range[j] if j < n_moving else None)
+        if k_static:
+            for j in range(k_static):
+                f += _static_values(layout, rx, ry, c, s, st_in[j] if j < n_static else None)
     else:
         f += layout._absent_obstacles
-    f += _reference_values(rx, ry, r.heading_rad, ref_rows[1], _window_tails(layout, ref_rows, sample_time_s)[0],
-                           report)
+    n = layout.horizon + 1
+    window = _window_tails(layout, ref_rows if len(ref_rows) == n else ref_rows[:n], sample_time_s)[0]
+    f += _reference_values(rx, ry, heading, ref_rows[1], window, report, c, s)
     return f
 
 

@@ -67,7 +67,7 @@ class FeatureLayout:
     range_m: float = OBSTACLE_RANGE_M
     curvature_limit_1pm: float = CURVATURE_LIMIT_1PM
 
-    @property
+    @cached_property
     def flags(self) -> bool:
         """Whether obstacle slots carry presence flags, radius and uncertainty (``multi``)."""
         return self.name == "multi"

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from itertools import chain
+from functools import cached_property
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotState
 from casadi_gpc.types import ObstacleForecast, StaticObstacle
 
-__all__ = ["TrackEstimate", "Situation", "reference_poses", "track_estimate"]
+__all__ = ["TrackEstimate", "Situation", "reference_poses", "reference_rows", "track_estimate"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,11 @@ class TrackEstimate:
     initialised: bool = True
     """False while the filter has seen a single position: speed and heading are unknown
     (the filter assumes it stands still, with a growing uncertainty)."""
+
+    @cached_property
+    def state_values(self) -> tuple[float, ...]:
+        """:attr:`state` as plain floats (what the features are computed from)."""
+        return tuple(self.state.tolist())
 
     def forecast(self) -> ObstacleForecast:
         """What the planner plans with (:func:`casadi_gpc.ekf.planning_covariances`)."""
@@ -129,16 +134,57 @@ class Situation:
         return self.transformed(2.0 * h0, t, mirror=True)
 
 
+def reference_rows(path: ReferencePath, s0_m: float, sample_time_s: float, horizon: int) -> list[tuple]:
+    """Desired poses ``(x, y, heading)`` at steps 0..H from a reference point at arc length
+    ``s0_m``: the same arc lengths as :meth:`ReferenceClock.horizon_arclengths` (steps
+    1..H) plus step 0."""
+    return path.poses_along(s0_m, path.speed_mps * sample_time_s, horizon + 1)
+
+
 def reference_poses(path: ReferencePath, s0_m: float, sample_time_s: float, horizon: int) -> np.ndarray:
-    """Desired poses at steps 0..H from a reference point at arc length ``s0_m``: the same
-    arc lengths as :meth:`ReferenceClock.horizon_arclengths` (steps 1..H) plus step 0."""
-    n = horizon + 1
-    return np.fromiter(chain.from_iterable(path.poses_along(s0_m, path.speed_mps * sample_time_s, n)), float,
-                       3 * n).reshape(n, 3)
+    """:func:`reference_rows` as an array, shape (H + 1, 3)."""
+    return np.array(reference_rows(path, s0_m, sample_time_s, horizon), dtype=float).reshape(horizon + 1, 3)
+
+
+class _FilterTrack(TrackEstimate):
+    """A :class:`TrackEstimate` made from a filter's frozen estimate
+    (:class:`~casadi_gpc.ekf.FilterState`) whose arrays (state, covariance, H-step forecast)
+    are made when first read, with :meth:`ObstacleEKF.predict <casadi_gpc.ekf.ObstacleEKF.predict>`'s
+    numbers. The deployed policy hands its track estimates over with every decision; the
+    bare network reads only the state, a check layer behind it the forecast (made once)."""
+
+    @cached_property
+    def state(self) -> np.ndarray:
+        return self._filter.state_array()
+
+    @cached_property
+    def cov(self) -> np.ndarray:
+        return self._filter.cov_array()
+
+    def _forecast(self) -> None:
+        means, covs = self._filter.predict(self._horizon)
+        self.__dict__.update(means_m=means, covs_m2=covs)  # the fields a frozen instance holds
+
+    @cached_property
+    def means_m(self) -> np.ndarray:
+        self._forecast()
+        return self.__dict__["means_m"]
+
+    @cached_property
+    def covs_m2(self) -> np.ndarray:
+        self._forecast()
+        return self.__dict__["covs_m2"]
 
 
 def track_estimate(ekf: ObstacleEKF, obstacle_id: int, radius_m: float, horizon: int) -> TrackEstimate:
-    """Snapshot of a running EKF with its H-step forecast (as the GPC's ``estimate``)."""
-    means, covs = ekf.predict(horizon)
-    return TrackEstimate(int(obstacle_id), float(radius_m), ekf.state_.copy(), ekf.cov_.copy(), means, covs,
-                         bool(ekf.initialised))
+    """Snapshot of a running EKF with its H-step forecast (as the GPC's ``estimate``); the
+    arrays are made when first read (a :class:`TrackEstimate` all the same)."""
+    snap = ekf.snapshot()
+    t = _new(_FilterTrack)  # the fields below; the arrays come from snap when read
+    d = t.__dict__  # filled entry by entry (a keyword dict and update() cost a third more)
+    d["obstacle_id"], d["radius_m"], d["initialised"] = int(obstacle_id), float(radius_m), snap[2] >= 2
+    d["state_values"], d["_filter"], d["_horizon"] = snap[0], snap, int(horizon)
+    return t
+
+
+_new = object.__new__

@@ -10,7 +10,7 @@ from casadi_gpc.progress import ReferenceClock
 from casadi_gpc.tracking import TrackBank
 from casadi_gpc.types import Observation
 
-from .situation import Situation, reference_poses, track_estimate
+from .situation import Situation, TrackEstimate, reference_rows, track_estimate
 
 __all__ = ["SituationTracker"]
 
@@ -32,11 +32,11 @@ class SituationTracker:
         # desired poses computed per update (steps 0..reference_steps, at least H): the
         # two-pass policy needs 2H - 1, and one call is cheaper than two
         self.reference_steps = max(int(reference_steps or config.horizon), config.horizon)
-        self.reference_ahead_: np.ndarray | None = None
         self.reset()
 
     def reset(self) -> None:
-        self.reference_ahead_ = None
+        self._rows: list | None = None  # the desired poses of the last update, as rows
+        self._ahead: np.ndarray | None = None  # ... as an array, once asked for
         self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings)
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
 
@@ -51,13 +51,33 @@ class SituationTracker:
         self.bank.step(obs.moving)
         self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
 
+    @property
+    def reference_ahead_(self) -> np.ndarray | None:
+        """The desired poses at steps 0..``reference_steps`` of the last update, shape
+        (reference_steps + 1, 3) (the situation's are its first H + 1)."""
+        if self._ahead is None and self._rows is not None:
+            self._ahead = np.array(self._rows, dtype=float).reshape(len(self._rows), 3)
+        return self._ahead
+
+    def track(self, obs: Observation) -> tuple[tuple[TrackEstimate, ...], list[tuple]]:
+        """:meth:`update` without building the :class:`Situation` (call one of them once per
+        sample): the track estimates and the desired poses at steps 0..``reference_steps``
+        as rows ``(x, y, heading)`` (the deployed policy's decision, where making the
+        situation's arrays cost more than using them)."""
+        cfg = self.config
+        H = cfg.horizon
+        tracks = []  # a loop: a comprehension is a function call, for one or two tracks
+        for m, ekf in self.bank.step(obs.moving):
+            tracks.append(track_estimate(ekf, m.obstacle_id, m.radius_m, H))
+        r, ref = obs.robot, obs.reference
+        s_m = self.clock.update(ref, obs.t_s, (r.x_m, r.y_m))
+        self._rows = rows = reference_rows(ref, s_m, cfg.sample_time_s, self.reference_steps)
+        self._ahead = None
+        return tuple(tracks), rows
+
     def update(self, obs: Observation) -> Situation:
         """Fuse one sample and return the situation at it (call once per sample).
-        ``reference_ahead_`` then holds the desired poses at steps 0..``reference_steps``
-        (the situation's are its first H + 1)."""
-        H, T = self.config.horizon, self.config.sample_time_s
-        seen = self.bank.step(obs.moving)
-        tracks = tuple(track_estimate(ekf, m.obstacle_id, m.radius_m, H) for m, ekf in seen)
-        self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
-        ref = self.reference_ahead_ = reference_poses(obs.reference, self.clock.s_m, T, self.reference_steps)
-        return Situation(obs.robot, ref[:H + 1], T, obs.reference.speed_mps, tracks, tuple(obs.static))
+        :attr:`reference_ahead_` then holds the desired poses at steps 0..``reference_steps``."""
+        tracks, _ = self.track(obs)
+        return Situation(obs.robot, self.reference_ahead_[:self.config.horizon + 1], self.config.sample_time_s,
+                         obs.reference.speed_mps, tracks, tuple(obs.static))

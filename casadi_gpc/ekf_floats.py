@@ -1,0 +1,111 @@
+"""The obstacle EKF's arithmetic written out on plain floats (:mod:`casadi_gpc.ekf`).
+
+The deployed policy runs the filter every sample; numpy's per-call cost on 5-vectors and
+5x5 matrices, not the arithmetic, was half of its decision time. The covariance travels as
+its upper triangle (15 floats, :data:`upper`); the tests hold these forms to the matrix
+forms of the textbook filter.
+"""
+from __future__ import annotations
+
+import math
+from operator import itemgetter
+
+import numpy as np
+
+__all__ = ["propagate", "joseph", "upper", "full", "cov_array"]
+
+
+def propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: float, q: tuple, steps: int,
+               means: list | None = None, covs: list | None = None) -> tuple[float, float, float, tuple]:
+    """``steps`` steps of the model and of the covariance, ``P' = F P F^T + Q``, on plain
+    floats: returns the new ``(x, y, heading)`` and P's upper triangle ``U`` (15 entries row
+    by row, :data:`upper`); speed and turn increment do not change. With ``means`` and
+    ``covs`` (lists), each step's position and its covariance (xx, xy, xy, yy) are appended.
+
+    Written out because numpy's per-call overhead on 5x5 matrices, not the arithmetic, was
+    half of the deployed policy's decision time. F (the Jacobian at the new heading) is the
+    identity but for ``F[0, 2:] = (a, b, b)``, ``F[1, 2:] = (e, g, g)``, ``F[3, 4] = 1``, so
+    with ``w_j = P f_j`` (``f_j`` the rows of F) the result is ``P'_ij = f_i . w_j`` and only
+    the first two columns of P change shape; the rest are sums of its entries."""
+    vT = v * T  # v * T * c evaluates (v * T) * c
+    q0, q1, q2, q3, q4 = q
+    cos, sin = math.cos, math.sin
+    for _ in range(steps):
+        th += dth
+        c, si = cos(th), sin(th)
+        a, b, e, g = T * c, -v * T * si, T * si, v * T * c
+        p00, p01, p02, p03, p04, p11, p12, p13, p14, p22, p23, p24, p33, p34, p44 = U
+        # s_k = P[k, 3] + P[k, 4]: the column of the heading, which absorbs the turn increment
+        s0, s1, s2, s3, s4 = p03 + p04, p13 + p14, p23 + p24, p33 + p34, p34 + p44
+        # w0 = P f_0 (entries 0, 2, 3, 4) and w1 = P f_1
+        w00, w02, w03, w04 = (p00 + a * p02 + b * s0, p02 + a * p22 + b * s2, p03 + a * p23 + b * s3,
+                              p04 + a * p24 + b * s4)
+        w10, w11, w12, w13, w14 = (p01 + e * p02 + g * s0, p11 + e * p12 + g * s1, p12 + e * p22 + g * s2,
+                                   p13 + e * p23 + g * s3, p14 + e * p24 + g * s4)
+        w0h, w1h = w03 + w04, w13 + w14
+        U = (w00 + a * w02 + b * w0h + q0, w10 + a * w12 + b * w1h, w02, w0h, w04,
+             w11 + e * w12 + g * w1h + q1, w12, w1h, w14,
+             p22 + q2, s2, p24,
+             s3 + s4 + q3, s4,
+             p44 + q4)
+        x, y = x + vT * c, y + vT * si  # obstacle_model_step, written for one state
+        if means is not None:
+            means += (x, y)
+            covs += (U[0], U[1], U[1], U[5])
+    return x, y, th, U
+
+
+upper = itemgetter(0, 1, 2, 3, 4, 6, 7, 8, 9, 12, 13, 14, 18, 19, 24)
+"""The upper triangle (15 floats, row by row) of a flat symmetric 5x5."""
+full = itemgetter(0, 1, 2, 3, 4, 1, 5, 6, 7, 8, 2, 6, 9, 10, 11, 3, 7, 10, 12, 13, 4, 8, 11, 13, 14)
+"""The flat symmetric 5x5 (25 floats) of an upper triangle."""
+
+
+def joseph(U: tuple, g00: float, g01: float, g11: float, r: float) -> tuple[tuple, tuple]:
+    """The EKF's correction of a position measurement (H = [I 0], R = r I) on plain floats:
+    the gain ``K = P[:, :2] S^-1`` (rows ``(k_i0, k_i1)``, flat) and the Joseph form
+    ``(I - K H) P (I - K H)^T + K R K^T``, computed as ``A = P - K P[:2, :]``, then
+    ``N = A - A[:, :2] K^T + r K K^T`` on the upper triangle (so exactly symmetric).
+
+    ``U``: P's upper triangle (:data:`upper`); ``g``: S^-1 (symmetric 2x2). Written out
+    entry by entry: loops over rows cost more than the sums (the deployed policy runs this
+    every sample)."""
+    p00, p01, p02, p03, p04, p11, p12, p13, p14, p22, p23, p24, p33, p34, p44 = U
+    # K rows: P[i, :2] S^-1
+    k00, k01 = p00 * g00 + p01 * g01, p00 * g01 + p01 * g11
+    k10, k11 = p01 * g00 + p11 * g01, p01 * g01 + p11 * g11
+    k20, k21 = p02 * g00 + p12 * g01, p02 * g01 + p12 * g11
+    k30, k31 = p03 * g00 + p13 * g01, p03 * g01 + p13 * g11
+    k40, k41 = p04 * g00 + p14 * g01, p04 * g01 + p14 * g11
+    # A = P - K P[:2, :]: the entries N needs (its row's first two and the upper triangle)
+    a00, a01, a02, a03, a04 = (p00 - k00 * p00 - k01 * p01, p01 - k00 * p01 - k01 * p11, p02 - k00 * p02 - k01 * p12,
+                               p03 - k00 * p03 - k01 * p13, p04 - k00 * p04 - k01 * p14)
+    a10, a11, a12, a13, a14 = (p01 - k10 * p00 - k11 * p01, p11 - k10 * p01 - k11 * p11, p12 - k10 * p02 - k11 * p12,
+                               p13 - k10 * p03 - k11 * p13, p14 - k10 * p04 - k11 * p14)
+    a20, a21, a22, a23, a24 = (p02 - k20 * p00 - k21 * p01, p12 - k20 * p01 - k21 * p11, p22 - k20 * p02 - k21 * p12,
+                               p23 - k20 * p03 - k21 * p13, p24 - k20 * p04 - k21 * p14)
+    a30, a31, a33, a34 = (p03 - k30 * p00 - k31 * p01, p13 - k30 * p01 - k31 * p11, p33 - k30 * p03 - k31 * p13,
+                          p34 - k30 * p04 - k31 * p14)
+    a40, a41, a44 = p04 - k40 * p00 - k41 * p01, p14 - k40 * p01 - k41 * p11, p44 - k40 * p04 - k41 * p14
+    # N_ij = A_ij - A_i0 K_j0 - A_i1 K_j1 + r (K_i0 K_j0 + K_i1 K_j1), j >= i
+    N = (a00 - a00 * k00 - a01 * k01 + r * (k00 * k00 + k01 * k01),
+         a01 - a00 * k10 - a01 * k11 + r * (k00 * k10 + k01 * k11),
+         a02 - a00 * k20 - a01 * k21 + r * (k00 * k20 + k01 * k21),
+         a03 - a00 * k30 - a01 * k31 + r * (k00 * k30 + k01 * k31),
+         a04 - a00 * k40 - a01 * k41 + r * (k00 * k40 + k01 * k41),
+         a11 - a10 * k10 - a11 * k11 + r * (k10 * k10 + k11 * k11),
+         a12 - a10 * k20 - a11 * k21 + r * (k10 * k20 + k11 * k21),
+         a13 - a10 * k30 - a11 * k31 + r * (k10 * k30 + k11 * k31),
+         a14 - a10 * k40 - a11 * k41 + r * (k10 * k40 + k11 * k41),
+         a22 - a20 * k20 - a21 * k21 + r * (k20 * k20 + k21 * k21),
+         a23 - a20 * k30 - a21 * k31 + r * (k20 * k30 + k21 * k31),
+         a24 - a20 * k40 - a21 * k41 + r * (k20 * k40 + k21 * k41),
+         a33 - a30 * k30 - a31 * k31 + r * (k30 * k30 + k31 * k31),
+         a34 - a30 * k40 - a31 * k41 + r * (k30 * k40 + k31 * k41),
+         a44 - a40 * k40 - a41 * k41 + r * (k40 * k40 + k41 * k41))
+    return (k00, k01, k10, k11, k20, k21, k30, k31, k40, k41), N
+
+
+def cov_array(U: tuple) -> np.ndarray:
+    """The (5, 5) covariance array of an upper triangle."""
+    return np.array(full(U)).reshape(5, 5)

@@ -228,22 +228,13 @@ class GPCController:
         full = cs.full_multistart_due(near, relevant)
         previous = cs.incumbent
         solved = []
-        if not full and near and relevant and len(cs.plans) == 1:
-            # one class near an obstacle that matters: the plan may sit on the ridge between
-            # passing left and right (a head-on mover), where a warm start falls to either side
-            # by round-off. The two swerves are solved first, so a tie goes to the right.
-            self.counters["opening_solves"] = self.counters.get("opening_solves", 0) + 2
-            openings = swerve_guesses(self.config, self.robot, x0, ref_speed_mps)
-            for name in ("swerve_right", "swerve_left"):
-                if self._out_of_time():
-                    self.counters["budget_skips"] += 1
-                    continue
-                solved.append(self.solve(p, openings[name], name))
         for name, (u0, lam_x, lam_g) in cs.starts(near, full):
             if self._out_of_time():
                 self.counters["budget_skips"] += 1
                 continue
             solved.append(self.solve(p, u0, name, lam_x, lam_g))
+        if not full and near and len(cs.plans) == 1 and _fell_off_a_ridge(previous, solved):
+            solved = self._opening_solves(p, x0, ref_speed_mps) + solved
         surprise = self.config.surprise_ratio
         if not full and near and surprise is not None:
             best = min((c.cost for c in solved if c.success), default=math.inf)
@@ -261,6 +252,19 @@ class GPCController:
                     continue
                 solved.append(self.solve(p, u0, name))
         return cs.update(solved, full, TIE_RELATIVE), solved
+
+    def _opening_solves(self, p, x0, ref_speed_mps: float) -> list[Plan]:
+        """The two swerves, solved when the one kept plan fell off the ridge between passing
+        left and right (:func:`_fell_off_a_ridge`); first in the list, so a tie goes right."""
+        openings = swerve_guesses(self.config, self.robot, x0, ref_speed_mps)
+        out = []
+        for name in ("swerve_right", "swerve_left"):
+            if self._out_of_time():
+                self.counters["budget_skips"] += 1
+                continue
+            self.counters["opening_solves"] = self.counters.get("opening_solves", 0) + 1
+            out.append(self.solve(p, openings[name], name))
+        return out
 
     def _out_of_time(self) -> bool:
         return self._deadline is not None and time.perf_counter() > self._deadline
@@ -360,3 +364,20 @@ class GPCController:
         self._warm = None
         vr, vl = brake_wheels(obs.robot.v_right_mps, obs.robot.v_left_mps, dv)
         return ControlDecision(vr, vl, True, "brake; " + reason, forecasts=forecasts)
+
+
+STRAIGHT_MPS = 0.01
+"""A plan whose two wheels' increments differ by at most this at every step drives straight."""
+
+
+def _fell_off_a_ridge(previous, solved) -> bool:
+    """Whether the one kept plan drove straight and its warm start now turns: a head-on mover
+    puts a straight plan on the ridge between passing left and right, and the warm start falls
+    to either side by the solver's round-off (IPOPT passed Fig. 7.1 on the left, the SQP on the
+    right). Off any such ridge a straight plan stays straight or the situation is not symmetric."""
+    if previous is None:
+        return False
+    u = np.asarray(previous.u)
+    if np.max(np.abs(u[0::2] - u[1::2])) > STRAIGHT_MPS:
+        return False
+    return any(c.success and np.max(np.abs(np.asarray(c.u)[0::2] - np.asarray(c.u)[1::2])) > STRAIGHT_MPS for c in solved)

@@ -17,10 +17,13 @@ start from last tick's optimum needs a few iterations. The fixed guesses are sol
 - ``PlannerConfig.multistart_period_s`` has passed since the last full multi-start (a new
   minimum can open without a new obstacle, as an obstacle moves).
 
-While a single candidate is kept near an obstacle that matters, the two swerves are solved
-beside it (``opening_solves``): a head-on mover puts that one plan on the ridge between passing
-left and passing right, where a warm start falls to either side by the solver's round-off; the
-swerves find both sides and the tie goes to the right, as in the full multi-start.
+When the one kept plan drove straight (its wheels' increments within 0.01 m/s of each other)
+and its warm start near an obstacle now turns, the two swerves are solved beside it
+(``opening_solves``, :meth:`casadi_gpc.gpc.GPCController.plan_persistent`): a head-on mover
+puts a straight plan on the ridge between passing left and passing right, where a warm start
+falls to either side by the solver's round-off; the swerves find both sides and a tie goes to
+the right, as in the full multi-start. (Solving them whenever a single candidate was kept
+doubled the median decision.)
 
 Candidates that reach the same optimum (increments within :data:`SAME_PLAN_MPS`) are one
 class: the first in tie order stays. A candidate whose solve fails is dropped. Far from

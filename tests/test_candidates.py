@@ -115,3 +115,15 @@ def test_a_head_on_mover_is_passed_on_the_right_whatever_the_solver():
         assert states[solver][:, 1].min() < -1.0 and states[solver][:, 1].max() < 0.1  # right of the mover
     a, b = states.values()
     np.testing.assert_allclose(a, b, atol=1e-5)
+
+
+def test_a_plan_falls_off_the_ridge_only_from_straight_to_turning():
+    from casadi_gpc.gpc import STRAIGHT_MPS, _fell_off_a_ridge
+    straight = plan("swerve_right", 1.0, np.tile([0.05, 0.05], H))
+    turning = plan("warm", 1.0, np.tile([0.05, 0.05 - 3 * STRAIGHT_MPS], H))
+    slightly = plan("warm", 1.0, np.tile([0.05, 0.05 - 0.5 * STRAIGHT_MPS], H))
+    assert _fell_off_a_ridge(straight, [turning])
+    assert not _fell_off_a_ridge(straight, [slightly])                  # still straight
+    assert not _fell_off_a_ridge(turning, [straight, turning])          # it was not on a ridge
+    assert not _fell_off_a_ridge(straight, [plan("warm", 1.0, turning.u, ok=False)])  # failed solves do not count
+    assert not _fell_off_a_ridge(None, [turning])

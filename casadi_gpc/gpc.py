@@ -374,7 +374,8 @@ def _fell_off_a_ridge(previous, solved) -> bool:
     """Whether the one kept plan drove straight and its warm start now turns: a head-on mover
     puts a straight plan on the ridge between passing left and right, and the warm start falls
     to either side by the solver's round-off (IPOPT passed Fig. 7.1 on the left, the SQP on the
-    right). Off any such ridge a straight plan stays straight or the situation is not symmetric."""
+    right). A straight plan that starts to turn for another reason (an obstacle coming
+    closer) costs two solves more at that one step."""
     if previous is None:
         return False
     u = np.asarray(previous.u)

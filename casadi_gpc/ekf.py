@@ -305,6 +305,15 @@ class ObstacleEKF:
         """Whether the filter has an estimate (it has fused a first measurement)."""
         return self._s is not None
 
+    @property
+    def velocity_mps(self) -> tuple[float, float]:
+        """The estimated velocity ``(vx, vy)`` in the world frame, m/s: speed times heading;
+        ``(0, 0)`` for a track seen once (it has no velocity yet, and is planned standing)."""
+        if self._s is None or not self.initialised:
+            return 0.0, 0.0
+        v, heading = self._s[2], self._s[3]
+        return v * math.cos(heading), v * math.sin(heading)
+
     # --- the filter ------------------------------------------------------------------
     def _start(self, z) -> None:
         st = self.settings

@@ -152,20 +152,13 @@ def _make_peer(name: str, config, robot):
 
 
 def _shielded(controller, config, robot, mode: str):
-    """``controller`` behind :class:`casadi_gpc.safety.Shield` as ``mode`` says (as
-    :func:`gpcnav.commands.common.make_controller` puts gpc and nn behind it)."""
-    if mode == "off":
-        return controller
+    """A peer or a user's controller behind the check layer (:func:`gpcnav.commands.common.behind_shield`).
+    The shield's own obstacle filters run at the controller's sample time: with the planner's
+    noise per second, or a 6 s check at 0.1 s loses every heading (docs/peers.md)."""
     from casadi_gpc.ekf import EKFSettings
-    from casadi_gpc.safety import Shield, StandbyPlanner
-    fallback = None
-    if mode == "gpc":
-        from casadi_gpc.gpc import GPCController
-        fallback = StandbyPlanner(GPCController(config, robot))
-    # the shield's own obstacle filters run at the controller's sample time: with the
-    # planner's noise per second, or a 6 s check at 0.1 s loses every heading (docs/peers.md)
-    ekf = EKFSettings().for_sample_time(controller.sample_time_s)
-    return Shield(controller, robot, fallback=fallback, ekf_settings=ekf)
+    from .commands.common import behind_shield
+    return behind_shield(controller, config, robot, mode,
+                         ekf_settings=EKFSettings().for_sample_time(controller.sample_time_s))
 
 
 def make(spec: ControllerSpec, config, robot):

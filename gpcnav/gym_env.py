@@ -58,6 +58,7 @@ from casadi_gpc.ekf import EKFSettings
 from casadi_gpc.simulator import Episode
 from casadi_gpc.tracking import TrackBank
 from casadi_gpc.types import ControlDecision, Observation
+from nn_export.runtime.features import wrap_pi
 
 __all__ = ["ENV_ID", "NavigationEnv", "ObservationLayout", "RewardSettings", "register_envs"]
 
@@ -130,10 +131,6 @@ class RewardSettings:
     CrowdNav's reward alone, which is sparse."""
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 def observation_vector(obs: Observation, tracks: list, layout: ObservationLayout, sample_time_s: float) -> np.ndarray:
     """The :class:`ObservationLayout` vector of ``obs``; ``tracks`` are ``(x, y, vx, vy,
     radius)`` of the moving obstacles' estimates (world frame)."""
@@ -149,7 +146,7 @@ def observation_vector(obs: Observation, tracks: list, layout: ObservationLayout
     poses = ref.pose_at_time(obs.t_s + sample_time_s * np.arange(layout.reference_points))
     for x, y, _ in poses:
         out += rel(x, y)
-    out.append(_wrap(float(poses[0][2]) - r.heading_rad))
+    out.append(float(wrap_pi(float(poses[0][2]) - r.heading_rad)))
     end = ref.end_pose
     out += rel(end[0], end[1])
     out.append(max(0.0, ref.duration_s - obs.t_s))
@@ -228,8 +225,8 @@ class NavigationEnv(Env):
         self.observation = obs = ep.observation()
         tracks = []
         for m, ekf in self._bank.step(obs.moving):
-            x, y, v, heading, _ = ekf.state_
-            vel = (v * math.cos(heading), v * math.sin(heading)) if ekf.initialised else (0.0, 0.0)
+            x, y = ekf.state_[:2]
+            vel = ekf.velocity_mps
             tracks.append((x, y, *vel, m.radius_m))
         vec = observation_vector(obs, tracks, self.layout, self.sample_time_s)
         info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.t_s,

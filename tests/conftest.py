@@ -14,6 +14,14 @@ REPO = Path(__file__).resolve().parents[1]
 PAPER_DIR = REPO / "scenarios" / "paper"
 
 
+def straight_line_toml(name: str, duration_s: float = 30.0, line_m: float = 4.0, extra: str = "") -> str:
+    """A scenario file's text: the robot at the origin facing +x on a straight ``line_m``
+    path at 0.4 m/s, and ``extra`` (obstacle tables) after it."""
+    return (f'name = "{name}"\nduration_s = {duration_s}\n[robot]\nposition = [0.0, 0.0]\nheading_deg = 0.0\n'
+            "[reference]\nposition = [0.0, 0.0]\nheading_deg = 0.0\nspeed_mps = 0.4\n"
+            f"[[reference.segments]]\nline_m = {line_m}\n{extra}")
+
+
 @pytest.fixture
 def write_scenario(tmp_path):
     """``write_scenario(text, name="scenario.toml") -> Path``: a scenario file in a temp dir."""

@@ -9,22 +9,8 @@ import sys
 
 import pytest
 
-from conftest import REPO
+from conftest import REPO, straight_line_toml
 
-LINE = """
-name = "{name}"
-duration_s = 30.0
-[robot]
-position = [0.0, 0.0]
-heading_deg = 0.0
-[reference]
-position = [0.0, 0.0]
-heading_deg = 0.0
-speed_mps = 0.4
-[[reference.segments]]
-line_m = 4.0
-{extra}
-"""
 CROSSING = """[[moving_obstacles]]
 position = [2.0, -2.0]
 heading_deg = 90.0
@@ -62,7 +48,7 @@ def compared(tmp_path_factory):
     files = []
     for name, extra in (("free", ""), ("crossing", CROSSING)):
         files.append(d / f"{name}.toml")
-        files[-1].write_text(LINE.format(name=name, extra=extra), encoding="utf-8")
+        files[-1].write_text(straight_line_toml(name, extra=extra), encoding="utf-8")
     r = _cli(d, "compare", *files, "--controllers", "orca,straight:Straight,hrvo", "--workers", "2",
              "--out", d / "out" / "C.json")
     assert r.returncode == 0, r.stderr

@@ -13,26 +13,14 @@ import pytest
 
 from casadi_gpc.config import preset
 from casadi_gpc.robot import RobotParams
-from conftest import REPO, check_run_document
+from conftest import REPO, check_run_document, straight_line_toml
 from gpcnav.controllers import BUILTIN, ControllerSpec, check, make
 from gpcnav.errors import UsageError
 
 CONFIG = preset("improved")
 
 # a straight 4 m path at 0.4 m/s and nothing in the way (10 s to the end)
-EMPTY = """
-name = "empty_line"
-duration_s = 20.0
-[robot]
-position = [0.0, 0.0]
-heading_deg = 0.0
-[reference]
-position = [0.0, 0.0]
-heading_deg = 0.0
-speed_mps = 0.4
-[[reference.segments]]
-line_m = 4.0
-"""
+EMPTY = straight_line_toml("empty_line", duration_s=20.0)
 
 # the README's example, as a user would write it (outside the project)
 USER_MODULE = textwrap.dedent('''

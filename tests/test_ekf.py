@@ -284,3 +284,15 @@ def test_a_track_seen_once_is_planned_with_its_next_step_uncertainty():
     assert ekf.initialised
     _, covs2 = ekf.predict(12)
     np.testing.assert_array_equal(planning_covariances(covs2, ekf.initialised), covs2)
+
+
+def test_velocity_is_speed_times_heading_and_zero_for_a_track_seen_once():
+    ekf = ObstacleEKF(0.5)
+    assert ekf.velocity_mps == (0.0, 0.0)                       # no estimate yet
+    ekf.step((1.0, 2.0))
+    assert ekf.velocity_mps == (0.0, 0.0)                       # seen once: planned standing
+    for k in range(1, 8):                                        # 0.3 m/s along +x, 0.4 along +y
+        ekf.step((1.0 + 0.15 * k, 2.0 + 0.2 * k))
+    x, y, v, heading, _ = ekf.state_
+    assert ekf.velocity_mps == (v * math.cos(heading), v * math.sin(heading))
+    np.testing.assert_allclose(ekf.velocity_mps, (0.3, 0.4), atol=0.02)

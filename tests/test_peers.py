@@ -12,6 +12,8 @@ import tomllib
 import numpy as np
 import pytest
 
+from conftest import straight_line_toml
+
 from casadi_gpc.config import preset
 from casadi_gpc.ekf import EKFSettings
 from casadi_gpc.metrics import episode_metrics
@@ -24,23 +26,8 @@ from scenarios import Suite, paper_scenarios, scenario_from_dict
 
 NAVGROUND = (OrcaSettings, HrvoSettings, SocialForceSettings)
 
-LINE = """
-name = "line"
-duration_s = {duration}
-[robot]
-position = [0.0, 0.0]
-heading_deg = 0.0
-[reference]
-position = [0.0, 0.0]
-heading_deg = 0.0
-speed_mps = 0.4
-[[reference.segments]]
-line_m = {length}
-"""
-
-
 def _line(length=4.0, duration=20.0, extra=""):
-    return scenario_from_dict(tomllib.loads(LINE.format(length=length, duration=duration) + extra), "line")
+    return scenario_from_dict(tomllib.loads(straight_line_toml("line", duration, length, extra)), "line")
 
 
 def test_limit_wheel_change_keeps_the_ratio_of_the_change():

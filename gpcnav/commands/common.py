@@ -133,18 +133,25 @@ def make_controller(kind: str, config, robot, model=None, shield: str | None = N
             raise UsageError(str(exc)) from None
     else:
         raise UsageError(f"unknown controller {kind!r}")
-    if shield == "off":
-        return base
+    # the planner replans at every sample: its plans are trusted for the filter's trust time
+    return behind_shield(base, config, robot, shield, trust_plans=kind == "gpc")
+
+
+def behind_shield(controller, config, robot, mode: str, trust_plans: bool = False, ekf_settings=None):
+    """``controller`` behind :class:`casadi_gpc.safety.Shield` as ``mode`` says (``off``:
+    as it is; ``on``: the manoeuvres only; ``gpc``: the planner of ``config`` on standby). The
+    one place every controller (gpc, nn, the peers, a user's class) is put behind it."""
+    if mode == "off":
+        return controller
     from casadi_gpc.safety import Shield, StandbyPlanner
     fallback = None
-    if shield == "gpc":
+    if mode == "gpc":
         try:
             from casadi_gpc.gpc import GPCController
         except ImportError as exc:
             raise UsageError(f"--shield-fallback gpc needs the planner ({exc}); use --shield-fallback brake") from None
         fallback = StandbyPlanner(GPCController(config, robot))
-    # the planner replans at every sample: its plans are trusted for the filter's trust time
-    return Shield(base, robot, fallback=fallback, trust_plans=kind == "gpc")
+    return Shield(controller, robot, fallback=fallback, trust_plans=trust_plans, ekf_settings=ekf_settings)
 
 
 def check_seed(seed: int | None) -> None:

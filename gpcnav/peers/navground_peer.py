@@ -232,8 +232,8 @@ class NavgroundPeer:
         from navground import core
         out = []
         for m, ekf in self.bank.step(observation.moving):
-            x, y, v, heading, _ = ekf.state_
-            vel = (v * math.cos(heading), v * math.sin(heading)) if ekf.initialised else (0.0, 0.0)
+            x, y = ekf.state_[:2]
+            vel = ekf.velocity_mps
             out.append(core.Neighbor(np.array((x, y)), m.radius_m, np.array(vel), int(m.obstacle_id)))
         return out
 

@@ -140,7 +140,8 @@ def test_multi_layout_slots_flags_and_order():
     assert f["sta2_present"] == 0 and f["sta2_x_m"] == -lay.range_m
 
 
-@pytest.mark.parametrize("preset_name, layout_name", [("paper", "paper"), ("improved", "paper"), ("improved", "multi")])
+@pytest.mark.parametrize("preset_name, layout_name", [("paper", "paper"), ("improved", "paper"), ("improved", "multi"),
+                                                      ("improved", "set")])
 def test_mirror_map_matches_the_mirrored_world(preset_name, layout_name):
     cfg = preset(preset_name)
     lay = layout_for(layout_name, cfg.horizon)
@@ -162,7 +163,8 @@ def _replay_deployed(tail, cfg):
     return sit
 
 
-@pytest.mark.parametrize("preset_name, layout_name", [("paper", "paper"), ("improved", "paper"), ("improved", "multi")])
+@pytest.mark.parametrize("preset_name, layout_name", [("paper", "paper"), ("improved", "paper"), ("improved", "multi"),
+                                                      ("improved", "set")])
 def test_dataset_and_deployed_paths_give_identical_features(preset_name, layout_name):
     cfg = preset(preset_name)
     lay = layout_for(layout_name, cfg.horizon)

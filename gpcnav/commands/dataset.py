@@ -13,6 +13,8 @@ import os
 import sys
 from pathlib import Path
 
+from scenarios import CROWD_BEHAVIOURS, CROWD_SUITES, SUITES
+
 from ..errors import UsageError
 from .common import add_preset_arguments, check_seed, planner_config, progress
 
@@ -28,8 +30,9 @@ def add_arguments(p):
                    help="address of an existing Ray cluster (--backend ray; default: start a local one)")
     p.add_argument("--seed", type=int, default=0, help="seed of the situations (default 0)")
     add_preset_arguments(p)
-    p.add_argument("--layout", choices=("paper", "multi"), default="paper",
-                   help="feature layout: the paper's (one moving obstacle) or multi (3 moving + 3 static)")
+    p.add_argument("--layout", choices=("paper", "multi", "set"), default="paper",
+                   help="feature layout: the paper's (one moving obstacle), multi (3 moving + 3 static) or set "
+                        "(12 moving + 6 static as one set, for the set network)")
     p.add_argument("--shard-size", type=int, default=1000, help="samples per shard (even; default 1000)")
     p.add_argument("--no-mirror", action="store_true", help="do not add the mirror image of each situation")
     p.add_argument("--mirror-check-every", type=int, default=25, metavar="K",
@@ -58,9 +61,13 @@ def add_arguments(p):
                    help="--dagger: add N(0, SIGMA) m/s to each wheel speed the driver applies (DART: the "
                         "GPC drives, the states spread as a learner's errors would spread them; labels "
                         "are unaffected); default 0")
-    p.add_argument("--dagger-suite", choices=("random", "random-multi", "encounters"), default=None,
-                   help="--dagger: the episodes' suite (default: random, or random-multi for the multi layout; "
-                        "encounters: the family of the paper's Fig. 7)")
+    p.add_argument("--dagger-suite", choices=SUITES, default=None,
+                   help="--dagger: the episodes' suite (default: random, or random-multi for the multi and set "
+                        "layouts; encounters: the family of the paper's Fig. 7; the crowd suites take --movers "
+                        "and --behaviour)")
+    p.add_argument("--movers", type=int, default=5, help="--dagger on a crowd suite: walkers per scene (default 5)")
+    p.add_argument("--behaviour", choices=CROWD_BEHAVIOURS, default="orca",
+                   help="--dagger on a crowd suite: how the walkers move (default orca)")
     p.add_argument("--start-offset", type=float, default=0.0, metavar="M",
                    help="--dagger: start each episode's robot U(-M, M) m beside the path, turned by "
                         "U(-M/2, M/2) rad (recovering starts, as in Fig. 7.3); default 0")
@@ -184,10 +191,12 @@ def _dagger(args) -> int:
     factory = _driver(args, config, robot, by_gpc)
     solver = args.solver or label_solver(config)
     _check_solver_for(config, layout, solver)
-    suite = args.dagger_suite or ("random-multi" if layout.name == "multi" else "random")
+    suite = args.dagger_suite or ("random-multi" if layout.name in ("multi", "set") else "random")
     # episodes never repeat the evaluation suite (seed 1) nor each other (GPC parts: +500)
     suite_seed = args.seed + 1000 * args.round + (500 if by_gpc else 0)
-    scenarios = _dagger_scenarios(suite, args.episodes, suite_seed, args.start_offset)
+    if args.movers < 0:
+        raise UsageError(f"--movers must not be negative, got {args.movers}")
+    scenarios = _dagger_scenarios(suite, args.episodes, suite_seed, args.start_offset, args.movers, args.behaviour)
     options = OnPolicyOptions(config, layout, solver, robot,
                               mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
                               noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE,
@@ -195,7 +204,8 @@ def _dagger(args) -> int:
     arrays, stats = collect_on_policy_parallel(factory, scenarios, options,
                                                WorkerPool(args.workers, args.backend, args.address),
                                                progress=lambda **kw: progress(desc=f"{part}", **kw))
-    info = {"round": args.round, "model": str(args.dagger), "suite": suite, "episodes": args.episodes,
+    crowd = {"movers": args.movers, "behaviour": args.behaviour} if suite in CROWD_SUITES else {}
+    info = {"round": args.round, "model": str(args.dagger), "suite": suite, **crowd, "episodes": args.episodes,
             "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety,
             "driving_noise_mps": args.dagger_noise, "start_offset_m": args.start_offset, "tie_margin": args.tie_margin,
             "noise_applied": int(sum(e.get("noise_applied", 0) for e in stats["episodes"]))}
@@ -251,10 +261,11 @@ def _check_solver_for(config, layout, solver: str) -> None:
     _check_solver(DatasetSpec(1, config, layout, solver=solver))
 
 
-def _dagger_scenarios(suite: str, episodes: int, suite_seed: int, start_offset_m: float) -> list:
+def _dagger_scenarios(suite: str, episodes: int, suite_seed: int, start_offset_m: float, movers: int = 5,
+                      behaviour: str = "orca") -> list:
     """The round's episodes, their starts moved up to ``start_offset_m`` beside the path."""
-    from scenarios import random_suite
-    scenarios = random_suite(suite, episodes, suite_seed)
+    from scenarios import Suite
+    scenarios = Suite(suite, episodes, suite_seed, movers, behaviour).scenarios()
     if start_offset_m > 0:
         import numpy as np
 

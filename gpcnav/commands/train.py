@@ -21,7 +21,11 @@ def add_arguments(p):
                    help="train on these parts of the dataset(s) only, comma-separated (e.g. offpolicy,gpc1; "
                         "default all): what each on-policy round adds")
     p.add_argument("--activation", choices=("tanh", "relu", "softsign"), default="tanh", help="hidden non-linearity")
-    p.add_argument("--layout", choices=("paper", "multi"), default=None,
+    p.add_argument("--architecture", choices=("mlp", "set"), default="mlp",
+                   help="mlp (default): a perceptron on the whole input row; set: the obstacles of the set layout "
+                        "encoded alike and pooled, so their order does not matter (nn_export/training/set_net.py)")
+    p.add_argument("--encoder-width", type=int, default=64, help="--architecture set: units of the obstacle encoder")
+    p.add_argument("--layout", choices=("paper", "multi", "set"), default=None,
                    help="feature layout the datasets must have (default: whatever they have)")
     p.add_argument("--output-basis", choices=("speed_turn", "wheels"), default="speed_turn",
                    help="learn (mean speed, half difference) (default) or the two wheel speeds directly")
@@ -72,6 +76,7 @@ def run(args) -> int:
     if not 1 <= args.layers <= 4:
         raise UsageError(f"--layers must be from 1 to 4, got {args.layers}")
     for name, v, lo in (("--hidden", args.hidden, 1), ("--epochs", args.epochs, 1), ("--patience", args.patience, 1),
+                        ("--encoder-width", args.encoder_width, 1),
                         ("--batch-size", args.batch_size, 1)):
         if v < lo:
             raise UsageError(f"{name} must be at least {lo}, got {v}")
@@ -107,6 +112,9 @@ def run(args) -> int:
             raise UsageError(f"{d}: dataset has feature layout {s.layout.name!r}, not --layout {args.layout}")
         if s.layout != first.layout or man.get("robot") != first.manifest.get("robot"):
             raise UsageError(f"{d}: feature layout or robot differs from {args.datasets[0]}")
+    if args.architecture == "set" and not first.layout.is_set:
+        raise UsageError(f"--architecture set needs a dataset of the set layout, not {first.layout.name!r} "
+                         f"(gpcnav dataset --layout set)")
     X = np.concatenate([s.X for s in sets])
     Y = np.concatenate([s.Y for s in sets])
     # situation ids are unique within a dataset; offset them so that datasets do not collide
@@ -115,7 +123,8 @@ def run(args) -> int:
                           optimizer=args.optimizer, max_epochs=args.epochs,
                           batch_size=args.batch_size, learning_rate=args.lr, weight_decay=args.weight_decay,
                           validation_fraction=args.validation_fraction, patience=args.patience,
-                          random_state=args.seed)
+                          random_state=args.seed, architecture=args.architecture,
+                          encoder_width=args.encoder_width)
     bar = progress(total=args.epochs, desc="training", unit="it")
 
     def tick(epoch, tr, va):
@@ -141,7 +150,10 @@ def run(args) -> int:
     }
     model.save(args.out, provenance)
     np.save(args.out / "validation_features.npy", X[model.validation_indices_])
-    print(f"trained {lay.name} layout ({X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-2) on {len(model.train_indices_)} samples, "
+    shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-2"
+    if args.architecture == "set":
+        shape = f"set encoder {args.encoder_width}-{args.encoder_width}, max+sum pool, {'-'.join([str(args.hidden)] * args.layers)}-2"
+    print(f"trained {lay.name} layout ({shape}) on {len(model.train_indices_)} samples, "
           f"validated on {len(model.validation_indices_)}: validation RMSE {np.sqrt(model.validation_mse_):.4f} m/s "
           f"(max {model.validation_max_abs_error_:.3f}), best epoch {model.best_epoch_} ({model.stop_reason_}), "
           f"wrote {args.out}", file=sys.stdout)

@@ -29,6 +29,9 @@ speed 0, heading pi and turn 0, like the absent obstacle's motion.
 
 Which obstacles fill the slots: the nearest first, by the smallest distance from the
 robot's current position to the obstacle's current or predicted positions (steps 1..H).
+The ``set`` layout's slots are one set (its network does not see their order): they are
+filled in the order given unless more obstacles are in range than there are slots, and an
+empty slot is all zeros (``present`` 0).
 
 Angles: the obstacle heading is wrapped to [0, 2 pi) because the common and critical case
 is an obstacle coming towards the robot (relative heading near pi), where a (-pi, pi] wrap
@@ -174,6 +177,13 @@ def _moving_values(layout: FeatureLayout, rx: float, ry: float, heading: float, 
         return list(layout.absent_moving)
     x, y, v, th, dth = tr.state_values
     dx, dy = x - rx, y - ry
+    if layout.is_set:
+        cov_h = tr.covs_m2[-1] if len(tr.covs_m2) else tr.cov[:2, :2]
+        std = math.sqrt(max(0.5 * float(np.trace(cov_h)), 0.0))
+        if not tr.initialised:
+            v = dth = 0.0
+        a = th + dth - heading  # the velocity's direction in the robot's frame
+        return [1.0, c * dx + s * dy, -s * dx + c * dy, v * math.cos(a), v * math.sin(a), dth, tr.radius_m, std, 1.0]
     if tr.initialised:
         vals = [c * dx + s * dy, -s * dx + c * dy, v, (th + dth - heading) % _TWO_PI, dth]
     else:  # one position seen: standing still as far as anyone knows, heading unknown
@@ -189,6 +199,8 @@ def _static_values(layout: FeatureLayout, rx: float, ry: float, c: float, s: flo
     if st is None:
         return list(layout.absent_static)
     dx, dy = st.position_m[0] - rx, st.position_m[1] - ry
+    if layout.is_set:
+        return [1.0, c * dx + s * dy, -s * dx + c * dy, 0.0, 0.0, 0.0, st.radius_m, 0.0, 0.0]
     return [1.0, c * dx + s * dy, -s * dx + c * dy, st.radius_m]
 
 
@@ -216,7 +228,10 @@ def feature_values_from(layout: FeatureLayout, robot: RobotState, ref_rows: list
     c, s = math.cos(heading), math.sin(heading)
     f = [r.v_right_mps, r.v_left_mps]
     if tracks or statics:
-        if len(tracks) > 1 or len(statics) > 1:
+        # a set's order does not matter: the nearest are sorted out only when more than
+        # its slots are in range (the forecasts the sort reads are then made)
+        if (len(tracks) > 1 or len(statics) > 1) and not (
+                layout.is_set and len(tracks) <= layout.k_moving and len(statics) <= layout.k_static):
             tracks, statics = order_by_distance((rx, ry), tracks, statics)
         rng, hypot = layout.range_m, math.hypot
         # loops, not comprehensions (each one a function call, for one or two obstacles)

@@ -34,6 +34,17 @@ planner's uncertainty weight); then for each of the K nearest static obstacles
 ``staj_present``, ``x``, ``y``, ``radius_m``; then the same reference block as ``paper``.
 The paper layout has no radius and no uncertainty input (the paper's 17 inputs); its
 network learns the average answer over the sampler's radius range.
+
+``set`` (``6 + 9 (K_moving + K_static) + H`` inputs; 180 for 12 moving and 6 static slots,
+H = 12): the obstacles as a set, for a network that encodes each one alike and pools them
+(:mod:`nn_export.training.set_net`), so that their order does not matter. The two wheel
+speeds; then K_moving moving and K_static static slots, every slot the same nine inputs
+``present`` (1 or 0), ``x_m``, ``y_m`` (position now, local), ``vx_mps``, ``vy_mps`` (the EKF
+velocity at heading theta + dtheta, in the robot's frame: no angle, so no wrap seam),
+``turn_rad`` (dtheta per sample), ``radius_m``, ``pos_std_m`` (as ``multi``) and ``moving``
+(1 for a moving obstacle, 0 for a static one, whose velocity, turn and uncertainty are 0);
+then the reference block. An empty slot is all zeros: the network masks it out by its
+``present`` input, so it holds no code at all.
 """
 from __future__ import annotations
 
@@ -43,16 +54,21 @@ from functools import cached_property
 
 import numpy as np
 
-__all__ = ["FEATURE_VERSION", "LAYOUTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM", "FeatureLayout", "layout_for",
+__all__ = ["FEATURE_VERSION", "LAYOUTS", "SET_ELEMENT", "SET_SLOTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM", "FeatureLayout", "layout_for",
            "layout_from_dict"]
 
 FEATURE_VERSION = 1
 """Bumped whenever the meaning of any feature changes; datasets and models carry it."""
-LAYOUTS = ("paper", "multi")
+LAYOUTS = ("paper", "multi", "set")
 OBSTACLE_RANGE_M = 12.0
 """Obstacles farther than this from the robot are encoded as absent (and parked here)."""
 CURVATURE_LIMIT_1PM = 5.0
 """Curvature features are clipped to +-this (a 0.2 m turning radius)."""
+SET_ELEMENT = ("present", "x_m", "y_m", "vx_mps", "vy_mps", "turn_rad", "radius_m", "pos_std_m", "moving")
+"""The inputs of one obstacle slot of the ``set`` layout, in order."""
+SET_SLOTS = (12, 6)
+"""The ``set`` layout's moving and static slots (the nearest obstacles fill them; the rest are
+counted as dropped)."""
 
 
 @dataclass(frozen=True)
@@ -73,14 +89,30 @@ class FeatureLayout:
         return self.name == "multi"
 
     @cached_property
+    def is_set(self) -> bool:
+        """Whether every obstacle slot is one element of a set (``set``: the same inputs for
+        moving and static obstacles, zeros when empty)."""
+        return self.name == "set"
+
+    @cached_property
+    def set_slots(self) -> tuple[int, int, int]:
+        """``(first input, number of slots, inputs per slot)`` of the obstacle set (``set``)."""
+        if not self.is_set:
+            raise ValueError(f"layout {self.name!r} has no obstacle set")
+        return 2, self.k_moving + self.k_static, len(SET_ELEMENT)
+
+    @cached_property
     def feature_names(self) -> tuple[str, ...]:
         names = ["v_right_prev_mps", "v_left_prev_mps"]
-        for j in range(1, self.k_moving + 1):
+        if self.is_set:
+            names += [f"mov{j}_{b}" for j in range(1, self.k_moving + 1) for b in SET_ELEMENT]
+            names += [f"sta{j}_{b}" for j in range(1, self.k_static + 1) for b in SET_ELEMENT]
+        for j in range(1, (0 if self.is_set else self.k_moving) + 1):
             block = ["x_m", "y_m", "speed_mps", "heading_rad", "turn_rad"]
             if self.flags:
                 block = ["present"] + block + ["radius_m", "pos_std_m"]
             names += [f"mov{j}_{b}" for b in block]
-        for j in range(1, self.k_static + 1):
+        for j in range(1, (0 if self.is_set else self.k_static) + 1):
             names += [f"sta{j}_{b}" for b in ("present", "x_m", "y_m", "radius_m")]
         names += ["ref_x_m", "ref_y_m", "ref_heading_rad"]
         names += [f"ref_curvature_{k}_1pm" for k in range(1, self.horizon + 1)]
@@ -93,18 +125,23 @@ class FeatureLayout:
 
     @property
     def moving_width(self) -> int:
-        return 8 if self.flags else 5
+        return len(SET_ELEMENT) if self.is_set else 8 if self.flags else 5
 
     @cached_property
     def absent_moving(self) -> tuple[float, ...]:
         """The inputs of an empty moving-obstacle slot: a standing obstacle parked at the edge
         of the range straight behind the robot (``multi``: present 0, radius 0, pos_std 0)."""
+        if self.is_set:
+            return (0.0,) * len(SET_ELEMENT)
         vals = (-self.range_m, 0.0, 0.0, math.pi, 0.0)
         return (0.0, *vals, 0.0, 0.0) if self.flags else vals
 
     @cached_property
     def absent_static(self) -> tuple[float, ...]:
-        """The inputs of an empty static-obstacle slot (present 0, parked behind, radius 0)."""
+        """The inputs of an empty static-obstacle slot (present 0, parked behind, radius 0;
+        ``set``: zeros)."""
+        if self.is_set:
+            return (0.0,) * len(SET_ELEMENT)
         return (0.0, -self.range_m, 0.0, 0.0)
 
     @cached_property
@@ -120,7 +157,7 @@ class FeatureLayout:
         perm[0], perm[1] = 1, 0
         signs = np.ones(self.size)
         for i, n in enumerate(names):
-            if n.endswith(("_y_m", "_turn_rad")) or n in ("ref_heading_rad",) or n.startswith("ref_curvature_"):
+            if n.endswith(("_y_m", "_turn_rad", "_vy_mps")) or n in ("ref_heading_rad",) or n.startswith("ref_curvature_"):
                 signs[i] = -1.0
         heading = np.array([i for i, n in enumerate(names) if n.endswith("_heading_rad") and n.startswith("mov")],
                            dtype=int)
@@ -138,13 +175,16 @@ class FeatureLayout:
 
 
 def layout_for(name: str, horizon: int, k: int = 3) -> FeatureLayout:
-    """The ``paper`` layout (one moving obstacle, no static) or ``multi`` (``k`` of each)."""
+    """The ``paper`` layout (one moving obstacle, no static), ``multi`` (``k`` of each) or
+    ``set`` (:data:`SET_SLOTS`; ``k`` unused)."""
     if name not in LAYOUTS:
         raise ValueError(f"unknown feature layout {name!r} (choose from {', '.join(LAYOUTS)})")
     if int(horizon) < 1:
         raise ValueError(f"horizon must be at least 1, got {horizon}")
     if name == "paper":
         return FeatureLayout("paper", int(horizon), 1, 0)
+    if name == "set":
+        return FeatureLayout("set", int(horizon), *SET_SLOTS)
     if int(k) < 1:
         raise ValueError(f"k must be at least 1, got {k}")
     return FeatureLayout("multi", int(horizon), int(k), int(k))

@@ -5,7 +5,8 @@ un-standardise, and clip both wheel speeds to the robot's limit, so the runtime 
 of its own. The standardisation is folded into the first layer's weights and the
 un-standardisation (and the output basis) into the last layer's, computed in float64 before
 the float32 cast: Gemm, Tanh, ..., Gemm, Clip, half the nodes of the plain form and about
-2 us less per call (each node costs onnxruntime a kernel dispatch). Input ``features`` (batch, n_features), output ``wheel_speeds_mps`` (batch, 2),
+2 us less per call (each node costs onnxruntime a kernel dispatch). The set network
+(:mod:`~nn_export.training.set_net`) is exported as it is, in float32. Input ``features`` (batch, n_features), output ``wheel_speeds_mps`` (batch, 2),
 right then left. The batch axis is dynamic.
 
 Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
@@ -18,6 +19,7 @@ the preset, the robot or the feature layout it is asked to run with. Keys: ``for
 """
 from __future__ import annotations
 
+import copy
 import io
 import json
 import warnings
@@ -100,7 +102,7 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
 def _onnx_bytes(model: WheelSpeedMLP, clip: float, meta: dict) -> bytes:
     """The deployed map (folded, clipped, float32) as a checked ONNX file with ``meta``."""
     import onnx
-    deployed = _Deployed(_folded(model.net_), clip).eval()
+    deployed = _Deployed(_deployable(model.net_), clip).eval()
     buf = io.BytesIO()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice
@@ -159,6 +161,16 @@ def _parity(model: WheelSpeedMLP, data: bytes, parity_X: np.ndarray, clip: float
     if not parity <= PARITY_TOL:
         raise RuntimeError(f"ONNX/torch parity {parity:.3g} m/s exceeds {PARITY_TOL:g}")
     return parity
+
+
+def _deployable(net) -> torch.nn.Module:
+    """The float32 map to export: the perceptron folded (:func:`_folded`); the set network
+    (:mod:`~nn_export.training.set_net`) as it is, cast (its standardisation stays a
+    subtraction and a division ahead of the slots' reshaping)."""
+    from .set_net import SetNet
+    if isinstance(net, SetNet):
+        return copy.deepcopy(net).float().eval()
+    return _folded(net)
 
 
 def _folded(net) -> torch.nn.Module:

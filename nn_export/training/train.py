@@ -28,6 +28,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from .curve import save_curve_figure
+from .set_net import SetNet, set_standardisation, slot_structure
+
 __all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure"]
 
 MODEL_FORMAT = "gpcnav-mlp/1"
@@ -101,12 +104,19 @@ class WheelSpeedMLP:
     random_state : int
         Seeds the split, the initial weights and the batch order: equal seeds give equal
         models on this machine.
+    architecture : {"mlp", "set"}
+        ``mlp`` (default): the perceptron on the whole input row; ``set``: the obstacle slots
+        of the ``set`` layout encoded alike and pooled (:mod:`nn_export.training.set_net`),
+        the perceptron on the robot's inputs and the pools (``fit`` needs ``feature_names``).
+    encoder_width : int
+        Units of the set network's obstacle encoder (``set`` only).
     """
 
     def __init__(self, hidden: int = 35, activation: str = "tanh", output_basis: str = "speed_turn",
                  optimizer: str = "lbfgs", max_epochs: int = 400, layers: int = 1,
                  batch_size: int = 1024, learning_rate: float = 3e-3, weight_decay: float = 0.0,
-                 validation_fraction: float = 0.15, patience: int = 40, random_state: int = 0):
+                 validation_fraction: float = 0.15, patience: int = 40, random_state: int = 0,
+                 architecture: str = "mlp", encoder_width: int = 64):
         self.hidden = hidden
         self.layers = layers
         self.activation = activation
@@ -119,11 +129,16 @@ class WheelSpeedMLP:
         self.validation_fraction = validation_fraction
         self.patience = patience
         self.random_state = random_state
+        self.architecture = architecture
+        self.encoder_width = encoder_width
 
     # --- hyper-parameters ------------------------------------------------------------
     def get_params(self) -> dict:
-        return {k: getattr(self, k) for k in ("hidden", "layers", "activation", "output_basis", "optimizer", "max_epochs", "batch_size", "learning_rate",
-                                              "weight_decay", "validation_fraction", "patience", "random_state")}
+        params = {k: getattr(self, k) for k in ("hidden", "layers", "activation", "output_basis", "optimizer", "max_epochs", "batch_size", "learning_rate",
+                                                "weight_decay", "validation_fraction", "patience", "random_state")}
+        if self.architecture != "mlp":  # only then: a perceptron's files stay what they were
+            params.update(architecture=self.architecture, encoder_width=self.encoder_width)
+        return params
 
     def _check_params(self) -> None:
         if not (isinstance(self.hidden, int) and self.hidden >= 1):
@@ -134,6 +149,10 @@ class WheelSpeedMLP:
             raise ValueError(f"activation must be one of {', '.join(_ACTIVATIONS)}, got {self.activation!r}")
         if self.output_basis not in ("speed_turn", "wheels"):
             raise ValueError(f"output_basis must be 'speed_turn' or 'wheels', got {self.output_basis!r}")
+        if self.architecture not in ("mlp", "set"):
+            raise ValueError(f"architecture must be 'mlp' or 'set', got {self.architecture!r}")
+        if not (isinstance(self.encoder_width, int) and self.encoder_width >= 1):
+            raise ValueError(f"encoder_width must be a positive integer, got {self.encoder_width!r}")
         if self.optimizer not in ("lbfgs", "adam"):
             raise ValueError(f"optimizer must be 'lbfgs' or 'adam', got {self.optimizer!r}")
         if not (0.0 < self.validation_fraction < 1.0):
@@ -169,7 +188,7 @@ class WheelSpeedMLP:
         torch.set_num_threads(1)  # a small net: threads only add nondeterminism and contention
         torch.manual_seed(self.random_state)
         gen = torch.Generator().manual_seed(self.random_state)
-        net, data = self._standardised(X, Y, train_idx, val_idx)
+        net, data = self._standardised(X, Y, train_idx, val_idx, feature_names)
         t0 = time.perf_counter()
         curve, best_state = self._train(net, data, gen, progress)
         net.load_state_dict(best_state)
@@ -182,16 +201,22 @@ class WheelSpeedMLP:
                        "train_time_s": time.perf_counter() - t0, "units": "(m/s)^2, mean over samples and wheels"}
         return self
 
-    def _standardised(self, X: np.ndarray, Y: np.ndarray, train_idx, val_idx) -> tuple[_Net, "_Splits"]:
+    def _standardised(self, X: np.ndarray, Y: np.ndarray, train_idx, val_idx, feature_names=None
+                      ) -> tuple[_Net, "_Splits"]:
         """The network with the training split's standardisation in its buffers, and both
         splits standardised (in the learned output basis)."""
         x_mean, x_scale = X[train_idx].mean(0), _scale(X[train_idx])
+        if self.architecture == "set":
+            if feature_names is None:
+                raise ValueError("the set architecture needs the feature names (to find the obstacle slots)")
+            structure = slot_structure(feature_names)
+            x_mean, x_scale = set_standardisation(X[train_idx], structure, x_mean, x_scale, _scale)
         if self.output_basis == "speed_turn" and Y.shape[1] != 2:
             raise ValueError(f"output_basis 'speed_turn' needs 2 outputs, Y has {Y.shape[1]}")
         mix = np.array([[1.0, 1.0], [1.0, -1.0]]) if self.output_basis == "speed_turn" else np.eye(Y.shape[1])
         U = Y @ np.linalg.inv(mix).T  # the learned basis: wheels = U @ mix^T
         y_mean, y_scale = U[train_idx].mean(0), _scale(U[train_idx])
-        net = _Net(X.shape[1], self.hidden, Y.shape[1], self.activation, self.layers).double()
+        net = self._new_net(X.shape[1], Y.shape[1], feature_names)
         with torch.no_grad():
             net.y_mix.copy_(torch.from_numpy(mix))
             net.x_mean.copy_(torch.from_numpy(x_mean))
@@ -202,6 +227,13 @@ class WheelSpeedMLP:
         Yn = torch.from_numpy((U - y_mean) / y_scale)
         return net, _Splits(Xn[train_idx], Yn[train_idx], Xn[val_idx], Yn[val_idx], torch.from_numpy(y_scale),
                             torch.from_numpy(mix))
+
+    def _new_net(self, n_in: int, n_out: int, feature_names) -> torch.nn.Module:
+        """An untrained network of this architecture, float64."""
+        if self.architecture == "set":
+            return SetNet(n_in, slot_structure(feature_names), self.hidden, n_out, _ACTIVATIONS[self.activation],
+                          self.layers, self.encoder_width).double()
+        return _Net(n_in, self.hidden, n_out, self.activation, self.layers).double()
 
     def _optimizer(self, net: _Net):
         """The optimizer and its learning-rate schedule (None for L-BFGS)."""
@@ -309,6 +341,8 @@ class WheelSpeedMLP:
         y_scale (of the learned basis) and y_mix (basis -> wheels)."""
         self._check_fitted()
         n = self.net_
+        if self.architecture == "set":  # its state, by the module's own names
+            return {k: v.detach().numpy().copy() for k, v in n.state_dict().items()}
         return {"x_mean": n.x_mean.numpy().copy(), "x_scale": n.x_scale.numpy().copy(),
                 "W1": n.hidden.weight.detach().numpy().copy(), "b1": n.hidden.bias.detach().numpy().copy(),
                 **{f"W1_{i + 2}": lin.weight.detach().numpy().copy() for i, lin in enumerate(n.deeper)},
@@ -355,21 +389,18 @@ class WheelSpeedMLP:
         self = cls(**meta["params"])
         with np.load(model_dir / "weights.npz") as w:
             arrays = {k: w[k] for k in w.files}
-        net = _Net(meta["n_features"], self.hidden, meta["n_outputs"], self.activation, self.layers).double()
-        with torch.no_grad():
-            net.hidden.weight.copy_(torch.from_numpy(arrays["W1"]))
-            net.hidden.bias.copy_(torch.from_numpy(arrays["b1"]))
-            for i, lin in enumerate(net.deeper):
-                lin.weight.copy_(torch.from_numpy(arrays[f"W1_{i + 2}"]))
-                lin.bias.copy_(torch.from_numpy(arrays[f"b1_{i + 2}"]))
-            net.out.weight.copy_(torch.from_numpy(arrays["W2"]))
-            net.out.bias.copy_(torch.from_numpy(arrays["b2"]))
-            for k in ("x_mean", "x_scale", "y_mean", "y_scale"):
-                getattr(net, k).copy_(torch.from_numpy(arrays[k]))
-            if "y_mix" in arrays:
-                net.y_mix.copy_(torch.from_numpy(arrays["y_mix"]))
+        net = self._new_net(meta["n_features"], meta["n_outputs"], meta["feature_names"])
+        if self.architecture == "set":
+            net.load_state_dict({k: torch.from_numpy(v) for k, v in arrays.items()})
+        else:
+            _load_mlp(net, arrays)
         net.eval()
         self.net_ = net
+        self._loaded(meta, model_dir)
+        return self
+
+    def _loaded(self, meta: dict, model_dir: Path) -> None:
+        """The learned attributes :meth:`load` reads from ``model.json`` and beside it."""
         self.n_features_in_, self.n_outputs_ = meta["n_features"], meta["n_outputs"]
         self.feature_names_, self.label_names_ = meta["feature_names"], meta["label_names"]
         self.train_mse_, self.validation_mse_ = meta["train_mse"], meta["validation_mse"]
@@ -380,7 +411,22 @@ class WheelSpeedMLP:
         self.validation_indices_ = np.load(vi) if vi.is_file() else None
         curve = model_dir / "training_curve.json"
         self.curve_ = json.loads(curve.read_text()) if curve.is_file() else None
-        return self
+
+
+def _load_mlp(net: _Net, arrays: dict) -> None:
+    """The perceptron's weights from the arrays of :meth:`WheelSpeedMLP.numpy_params`."""
+    with torch.no_grad():
+        net.hidden.weight.copy_(torch.from_numpy(arrays["W1"]))
+        net.hidden.bias.copy_(torch.from_numpy(arrays["b1"]))
+        for i, lin in enumerate(net.deeper):
+            lin.weight.copy_(torch.from_numpy(arrays[f"W1_{i + 2}"]))
+            lin.bias.copy_(torch.from_numpy(arrays[f"b1_{i + 2}"]))
+        net.out.weight.copy_(torch.from_numpy(arrays["W2"]))
+        net.out.bias.copy_(torch.from_numpy(arrays["b2"]))
+        for k in ("x_mean", "x_scale", "y_mean", "y_scale"):
+            getattr(net, k).copy_(torch.from_numpy(arrays[k]))
+        if "y_mix" in arrays:
+            net.y_mix.copy_(torch.from_numpy(arrays["y_mix"]))
 
 
 def _checked_arrays(X, Y, feature_names, label_names) -> tuple[np.ndarray, np.ndarray]:
@@ -449,25 +495,3 @@ def _scale(A: np.ndarray) -> np.ndarray:
 
 def _copy_state(net):
     return {k: v.detach().clone() for k, v in net.state_dict().items()}
-
-
-def save_curve_figure(curve: dict, path) -> None:
-    """The paper's Fig. 6: error against training iteration (epoch), training and validation."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from casadi_gpc.io import save_figure
-    fig, ax = plt.subplots(figsize=(6.0, 3.8))
-    ax.semilogy(curve["epoch"], curve["train_mse"], label=f"training ({curve.get('n_train', '?')} samples)")
-    ax.semilogy(curve["epoch"], curve["val_mse"], label=f"validation ({curve.get('n_validation', '?')} samples)")
-    if "best_epoch" in curve:
-        ax.axvline(curve["best_epoch"], color="0.6", ls="--", lw=0.8, label="kept (best validation)")
-    ax.set_xlabel(f"L-BFGS step ({LBFGS_ITERATIONS_PER_STEP} iterations)" if curve.get("optimizer", "lbfgs") == "lbfgs" else "epoch (Adam)")
-    ax.set_ylabel("mean squared wheel-speed error, (m/s)$^2$")
-    ax.set_title("Training error (cf. paper Fig. 6)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    save_figure(fig, path, dpi=120)
-    plt.close(fig)

@@ -85,6 +85,18 @@ def compare_candidates(ticks: list[RecordedTick], config: PlannerConfig, robot: 
                                 "persistent": float(np.mean(solves_pc)) if solves_pc else 0.0}}
 
 
+def policy_decision_run(scenario, name: str, policy) -> dict:
+    """``scenario`` closed loop with ``policy`` (any controller, e.g. the network behind its
+    check layer): its decision times as the simulator takes them (features, network, check:
+    everything ``decide`` does), interventions, fallbacks and the outcome."""
+    log = simulate(scenario, policy, name)
+    return {"scenario": scenario.name, "controller": name, "outcome": log.outcome, "decisions": len(log.decisions),
+            "movers": len(scenario.moving), "time_s": time_stats(log.compute_time_s),
+            "interventions": int(log.events.get("interventions", 0)),
+            "fallbacks": int(sum(bool(d.fallback) for d in log.decisions)),
+            "min_clearance_m": float(log.min_clearance_m), "time_samples_s": list(log.compute_time_s)}
+
+
 def decision_run(scenario, config: PlannerConfig) -> dict:
     """``scenario`` closed loop with the GPC behind its check layer (as ``gpcnav --controller
     gpc`` runs it): the decision's time (median, p95, max), solves per decision, the share of

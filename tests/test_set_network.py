@@ -178,3 +178,42 @@ def test_the_set_architecture_is_refused_without_a_set_layout():
         WheelSpeedMLP(architecture="set", max_epochs=1).fit(X, X[:, :2])
     with pytest.raises(ValueError, match="architecture"):
         WheelSpeedMLP(architecture="deep").fit(X, X[:, :2])
+
+
+def test_command_line_set_data_from_a_crowd_then_the_set_network(tmp_path):
+    """``gpcnav dataset --layout set``, an on-policy round on a crowd suite (its walkers fill
+    several slots), ``gpcnav train --architecture set`` and ``export --passes 1``; the set
+    architecture refused on a dataset of another layout (one line, exit 2)."""
+    import subprocess
+    import sys
+
+    from nn_export.training.dataset import load_dataset, read_manifest
+
+    def gpcnav(*argv, rc=0):
+        proc = subprocess.run([sys.executable, "-m", "gpcnav", *map(str, argv)], capture_output=True, text=True,
+                              timeout=400)
+        assert proc.returncode == rc, proc.stderr[-2000:]
+        return proc
+
+    d = tmp_path / "ds"
+    gpcnav("dataset", "--out", d, "--samples", "40", "--preset", "improved", "--layout", "set", "--workers", "1",
+           "--shard-size", "20")
+    gpcnav("dataset", "--out", d, "--dagger", "gpc", "--dagger-suite", "circle-crossing", "--movers", "3",
+           "--behaviour", "social_force", "--episodes", "1", "--round", "1", "--preset", "improved", "--workers", "1")
+    part = read_manifest(d)["parts"]["gpc1"]
+    assert part["info"]["suite"] == "circle-crossing" and part["info"]["movers"] == 3
+    assert part["info"]["behaviour"] == "social_force" and part["samples"] > 0
+    ds = load_dataset(d, ("gpc1",))
+    start, n, w = LAY.set_slots
+    present = ds.X[:, start:start + n * w:w]
+    # the three walkers fill three slots (the EKF may hold a second hypothesis of one: more)
+    assert present.sum(1).max() >= 3 and set(np.unique(present)) <= {0.0, 1.0}
+    gpcnav("train", d, "--out", tmp_path / "m", "--preset", "improved", "--architecture", "set", "--hidden", "8",
+           "--encoder-width", "8", "--optimizer", "adam", "--epochs", "2")
+    gpcnav("export", tmp_path / "m", "--out", tmp_path / "m.onnx", "--passes", "1")
+    from nn_export import OnnxPolicy
+    assert OnnxPolicy(tmp_path / "m.onnx", preset="improved").layout.is_set
+    p = tmp_path / "paper-ds"
+    gpcnav("dataset", "--out", p, "--samples", "20", "--preset", "paper", "--workers", "1", "--shard-size", "20")
+    err = gpcnav("train", p, "--out", tmp_path / "x", "--preset", "paper", "--architecture", "set", rc=2).stderr
+    assert len(err.strip().splitlines()) == 1 and "--architecture set" in err

@@ -78,6 +78,18 @@ def network_rows(args, doc) -> None:
     doc["network"] = recorder.policy.model_info
 
 
+def network_decisions(args, doc, config, scenarios) -> None:
+    """The network as deployed (behind its check layer, the controller registry's ``nn``) closed
+    loop on the crowd scene(s): ``doc["network_decisions"]``."""
+    if getattr(args, "no_nn_rows", False) or not scenarios:
+        return
+    from casadi_gpc.bench_decisions import policy_decision_run
+
+    from ..controllers import ControllerSpec, make
+    spec = ControllerSpec("nn", model=args.model)
+    doc["network_decisions"] = [policy_decision_run(sc, spec.label, make(spec, config, sc.robot)) for sc in scenarios]
+
+
 def parse_solvers(text: str) -> list[str]:
     from casadi_gpc.solvers import canonical_name
     names = [s.strip() for s in text.split(",") if s.strip()]
@@ -110,6 +122,7 @@ def run(args) -> int:
                     progress=lambda it: progress(it, desc="problems", unit="problem"), say=say,
                     decision_scenarios=crowd)
     network_rows(args, doc)
+    network_decisions(args, doc, config, crowd)
     if args.out:
         write_json(args.out, doc)
     if args.plot:
@@ -134,6 +147,11 @@ def run(args) -> int:
               f"candidates as good as the full multi-start at {cv['as_good_rate']:.1%} of {cv['steps']} steps "
               f"({cv['solves_per_step']['persistent']:.2f} against {cv['solves_per_step']['multistart']:.2f} solves "
               f"a step)")
+    for d in doc.get("network_decisions", []):
+        t = d["time_s"]
+        print(f"network decision on {d['scenario']} ({d['movers']} movers, closed loop, {d['controller']}): median "
+              f"{t['median'] * 1e6:.0f} us (p95 {t['p95'] * 1e6:.0f}, max {t['max'] * 1e6:.0f}); "
+              f"{d['interventions']} interventions in {d['decisions']} decisions, {d['outcome']}")
     print(f"chosen: {ch['name']}  median {ch['median_time_s'] * 1e3:.3f} ms  "
           f"{ch['speedup_vs_reference']:.1f}x faster than {doc['reference']}  success {ch['success_rate']:.1%}  "
           f"as good as {doc['reference']} on {ch['as_good_as_reference_rate']:.1%} of the problems")

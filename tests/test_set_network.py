@@ -217,3 +217,44 @@ def test_command_line_set_data_from_a_crowd_then_the_set_network(tmp_path):
     gpcnav("dataset", "--out", p, "--samples", "20", "--preset", "paper", "--workers", "1", "--shard-size", "20")
     err = gpcnav("train", p, "--out", tmp_path / "x", "--preset", "paper", "--architecture", "set", rc=2).stderr
     assert len(err.strip().splitlines()) == 1 and "--architecture set" in err
+
+
+def _walkers(n, k, T):
+    """The observation of sample ``k``: the robot driving north, ``n`` walkers ahead of it."""
+    from casadi_gpc.types import Observation, ObstacleMeasurement
+    return Observation(k * T, RobotState(0.0, 0.1 * k, math.pi / 2, 0.3, 0.3),
+                       ReferencePath((0.0, 0.0), math.pi / 2, (Segment.line(30.0),), 0.4),
+                       tuple(ObstacleMeasurement(i, (0.6 * i - 1.0, 3.0 - 0.05 * k), 0.3) for i in range(n)))
+
+
+def test_a_one_obstacle_model_hands_crowds_to_the_crowd_network(set_model, tmp_path):
+    """With a crowd network, the policy answers with it exactly when more movers are in range
+    than its main model's layout holds, and then gives what the crowd network alone gives."""
+    from nn_export import OnnxPolicy
+    from synthetic_models import tracker_model
+    path, _, _ = set_model
+    main = tracker_model(tmp_path / "main.onnx", "improved")
+    both = OnnxPolicy(main, preset="improved", crowd_model=path)
+    alone = OnnxPolicy(path, preset="improved")
+    only_main = OnnxPolicy(main, preset="improved")
+    T = CFG.sample_time_s
+    for n, crowd in ((1, False), (4, True)):
+        for p in (both, alone, only_main):
+            p.reset()
+        for k in range(5):
+            obs = _walkers(n, k, T)
+            d, a, m = both.decide(obs), alone.decide(obs), only_main.decide(obs)
+            want = a if crowd else m
+            assert (d.v_right_mps, d.v_left_mps) == (want.v_right_mps, want.v_left_mps)
+        assert both.counters["crowd_network"] == (5 if crowd else 0)
+    assert both.model_info["crowd_model"]["feature_layout"] == "set"
+    assert only_main.counters["crowd_network"] == 0 and "crowd_model" not in only_main.model_info
+
+
+def test_a_crowd_network_must_be_a_one_pass_set_model(tmp_path):
+    from nn_export import OnnxPolicy
+    from synthetic_models import tracker_model
+    main = tracker_model(tmp_path / "main.onnx", "improved")
+    with pytest.raises(ValueError, match="set layout") as exc:
+        OnnxPolicy(main, preset="improved", crowd_model=main)
+    assert "\n" not in str(exc.value) and str(main) in str(exc.value)

@@ -70,3 +70,33 @@ net "$D" paper-multi paper 3 64 2     # two passes: 87 % against one pass 75 % b
 
 cp "$OUT/models/paper-multi.onnx" nn_export/models/paper-multi.onnx
 python tools/evaluate_shipped.py --workers "$WORKERS" --multi-model nn_export/models/paper-multi.onnx
+
+# the crowd network (issue 14): the set layout (12 moving + 6 static slots as one set) and the
+# set network (a shared obstacle encoder pooled by max and sum; nn_export/training/set_net.py),
+# improved preset, one pass. Data: sampled situations, then DART rounds where the GPC drives
+# the crowd suites (ORCA, social-force and constant-velocity walkers), random-multi, random and
+# encounters, then one DAgger round where the bare network drives the crowds.
+D="$OUT/data/improved-set"
+setnet() {  # set network: setnet NAME [--parts LIST]
+  local name=$1
+  shift
+  gpcnav train "$D" --out "$OUT/models/$name" --preset improved --architecture set --encoder-width 32 \
+    --hidden 64 --layers 2 --seed 0 --optimizer adam --epochs 60 --patience 15 --batch-size 512 "$@"
+  gpcnav export "$OUT/models/$name" --out "$OUT/models/$name.onnx" --passes 1
+}
+gpcnav dataset --out "$D" --samples 6000 --preset improved --layout set --seed 0 --workers "$WORKERS"
+round "$D" gpc1 --dagger gpc --dagger-suite circle-crossing --movers 5 --behaviour orca --episodes 300 --round 1 \
+  --preset improved --dagger-noise 0.05
+round "$D" gpc2 --dagger gpc --dagger-suite circle-crossing --movers 10 --behaviour orca --episodes 120 --round 2 \
+  --preset improved --dagger-noise 0.05
+round "$D" gpc5 --dagger gpc --dagger-suite random-multi --episodes 120 --round 5 --preset improved \
+  --dagger-noise 0.05 --start-offset 0.6
+round "$D" gpc3 --dagger gpc --dagger-suite circle-crossing --movers 5 --behaviour social_force --episodes 80 \
+  --round 3 --preset improved --dagger-noise 0.05
+round "$D" gpc4 --dagger gpc --dagger-suite square-crossing --movers 5 --behaviour orca --episodes 80 --round 4 \
+  --preset improved --dagger-noise 0.05
+round "$D" gpc6 --dagger gpc --dagger-suite circle-crossing --movers 5 --behaviour constant --episodes 60 --round 6 \
+  --preset improved --dagger-noise 0.05
+round "$D" gpc7 --dagger gpc --dagger-suite random --episodes 100 --round 7 --preset improved --dagger-noise 0.05 \
+  --start-offset 1.2
+round "$D" gpc8 --dagger gpc --dagger-suite encounters --episodes 100 --round 8 --preset improved --dagger-noise 0.03

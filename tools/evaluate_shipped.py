@@ -84,7 +84,7 @@ def fig7_rows(preset, model) -> tuple[list, dict]:
                          "min_clearance_m": float(n.min_clearance_m), "fallbacks": int(n.fallbacks),
                          "path_deviation_m": path_deviation_m(xy(n), xy(g)),
                          "same_instant_deviation_m": same_instant_deviation_m(xy(n), xy(g)),
-                         "passes": 2 if ctrl.two_pass else 1})
+                         "passes": 2 if getattr(ctrl, "policy", ctrl).two_pass else 1})  # behind a Shield or bare
     return rows, paths
 
 

@@ -49,7 +49,7 @@ from .layouts import FeatureLayout, layout_from_dict
 from .situation import Situation
 from .tracker import SituationTracker
 
-__all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "read_model_metadata", "POLICY_FORMAT",
+__all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "SHIPPED", "read_model_metadata", "POLICY_FORMAT",
            "DEFAULT_SAFETY_DISTANCE_M"]
 
 MODELS_DIR = Path(__file__).parents[1] / "models"
@@ -64,6 +64,67 @@ _REQUIRED = ("format", "feature_layout", "feature_layout_version", "feature_name
 def shipped_model_path(preset: str) -> Path:
     """The model the package ships for ``preset``."""
     return MODELS_DIR / f"{preset}.onnx"
+
+
+def shipped_crowd_model_path(preset: str) -> Path:
+    """The set-layout network the package ships for ``preset``'s crowds (it may not exist)."""
+    return MODELS_DIR / f"{preset}-crowd.onnx"
+
+
+SHIPPED = "shipped"
+"""``OnnxPolicy(crowd_model=SHIPPED)``: the crowd network shipped for the preset, if any,
+when the policy runs the model shipped for it."""
+
+
+class _CrowdNetwork:
+    """A second network, of the ``set`` layout, for the situations the main model's layout
+    cannot hold: more moving obstacles in range than its moving slots, or static obstacles
+    beyond its static slots. The same checks at load as the main model, one pass, its own
+    bound buffers; the policy's tracker feeds both."""
+
+    def __init__(self, path: Path, preset: str, robot: RobotParams, main: FeatureLayout):
+        self.session, data = _load_session(path)
+        meta = read_model_metadata(self.session)
+        self.layout, _ = _validate(path, self.session, meta, preset, robot)
+        if not self.layout.is_set or self.layout.horizon != main.horizon:
+            raise ValueError(f"{path}: a crowd network must have the set layout and horizon {main.horizon} "
+                             f"(it has {self.layout.name!r}, H={self.layout.horizon})")
+        if meta.get("decision_passes", "2") != "1":
+            raise ValueError(f"{path}: a crowd network runs one pass (export it with --passes 1)")
+        self.main_slots = (main.k_moving, main.k_static, main.range_m)
+        self._x = np.zeros((1, self.layout.size), dtype=np.float32)
+        self._y = np.zeros((1, 2), dtype=np.float32)
+        self._write = partial(struct.Struct(f"={self.layout.size}f").pack_into, memoryview(self._x).cast("B"), 0)
+        binding = self.session.io_binding()
+        binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._x))
+        binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
+        self._binding, self._run = binding, _bound_run(self.session, binding)
+        self._run()
+        self.info = {"path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
+                     "feature_layout": self.layout.name, "n_features": self.layout.size,
+                     "validation_rmse_mps": float(meta["validation_rmse_mps"])}
+
+    def needed(self, x: float, y: float, tracks, statics) -> bool:
+        """Whether the main layout would drop an obstacle in range of the robot at ``(x, y)``."""
+        k_moving, k_static, rng = self.main_slots
+        hypot = math.hypot
+        if len(tracks) > k_moving:
+            n = 0
+            for t in tracks:
+                sv = t.state_values
+                n += hypot(sv[0] - x, sv[1] - y) <= rng
+            if n > k_moving:
+                return True
+        if len(statics) > k_static:
+            n = sum(hypot(st.position_m[0] - x, st.position_m[1] - y) <= rng for st in statics)
+            return n > k_static
+        return False
+
+    def answer(self, values: list[float]) -> tuple[float, float]:
+        self._write(*values)
+        self._run()
+        vr, vl = self._y[0].tolist()
+        return vr, vl
 
 
 def _one_line(exc: BaseException) -> str:
@@ -215,6 +276,12 @@ class OnnxPolicy:
         :data:`DEFAULT_SAFETY_DISTANCE_M`).
     ekf_settings : EKFSettings, optional
         The obstacle filter's noise levels (default as the GPC's).
+    crowd_model : path, None or ``"shipped"``
+        A network of the ``set`` layout (one pass) that answers, in place of ``model``,
+        whenever more obstacles are in range than ``model``'s layout has slots for (a
+        one-obstacle model among walkers). ``"shipped"`` (default): the crowd network shipped
+        for the preset (:func:`shipped_crowd_model_path`) when ``model`` is the shipped one and
+        its layout is not a set; None: never. Its decisions are counted (``crowd_network``).
 
     This is the bare network: deployed, it runs behind the safety check layer,
     ``casadi_gpc.safety.Shield(OnnxPolicy())`` (numpy only as well), which checks every
@@ -227,7 +294,7 @@ class OnnxPolicy:
 
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
                  two_pass: bool | None = None, safety_distance_m: float | None = None,
-                 ekf_settings: EKFSettings | None = None):
+                 ekf_settings: EKFSettings | None = None, crowd_model=SHIPPED):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
@@ -273,13 +340,21 @@ class OnnxPolicy:
             "safety_distance_m": self.safety_distance_m,
         }
         self._one_pass_decision = _decision_maker("one pass")
+        self._crowd_decision = _decision_maker("one pass: crowd network")
+        if isinstance(crowd_model, str) and crowd_model == SHIPPED:
+            shipped = shipped_crowd_model_path(self.config.name)
+            crowd_model = shipped if model is None and not self.layout.is_set and shipped.is_file() else None
+        self._crowd = None if crowd_model is None else _CrowdNetwork(Path(crowd_model), self.config.name, self.robot,
+                                                                      self.layout)
+        if self._crowd is not None:
+            self.model_info["crowd_model"] = self._crowd.info
         self.load_time_s = time.perf_counter() - t0
         self.reset()
 
     # --- state -----------------------------------------------------------------------
     def reset(self) -> None:
         self.tracker.reset()
-        self._counters = {"decisions": 0, "second_pass": 0, "feature_report": {}}
+        self._counters = {"decisions": 0, "second_pass": 0, "crowd_network": 0, "feature_report": {}}
 
     @property
     def counters(self) -> dict:
@@ -372,6 +447,12 @@ class OnnxPolicy:
         tracks, ref_rows = self.tracker.track(obs)
         counters = self._counters
         counters["decisions"] += 1
+        crowd = self._crowd
+        if crowd is not None and crowd.needed(obs.robot.x_m, obs.robot.y_m, tracks, obs.static):
+            counters["crowd_network"] += 1
+            vr, vl = crowd.answer(feature_values_from(crowd.layout, obs.robot, ref_rows, self.sample_time_s, tracks,
+                                                      obs.static, counters["feature_report"]))
+            return self._crowd_decision(vr, vl, tracks)
         if not self.two_pass:
             vr, vl = self._net_values(feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks,
                                                           obs.static, counters["feature_report"]))

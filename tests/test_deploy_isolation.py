@@ -68,7 +68,8 @@ def test_the_blocker_really_blocks():
 
 def test_deployment_footprint_stays_under_80_mb():
     """tools/footprint.py: a fresh process that imports only the deployed policy (torch and
-    casadi blocked), loads the shipped model and makes 1,000 decisions peaks under 80 MB
+    casadi blocked), loads the shipped models and makes 1,000 decisions (and 300 among ten
+movers, answered by the crowd network) peaks under 80 MB
     resident (measured 62 MB; importing torch alone costs about 220 MB). Memory, not time:
     the process's readiness time is reported by the tool, not asserted here."""
     import importlib.util
@@ -78,4 +79,8 @@ def test_deployment_footprint_stays_under_80_mb():
     spec.loader.exec_module(mod)
     r = mod.measure("improved", 1000)
     assert r["decisions"] == 1000 and not r["torch_loaded"] and not r["casadi_loaded"]
+    assert 20.0 < r["peak_rss_mb"] < 80.0, r
+    # among ten movers the shipped crowd network answers (a second onnxruntime session)
+    r = mod.measure("improved", 300, movers=10)
+    assert r["crowd_decisions"] >= 250 and not r["torch_loaded"] and not r["casadi_loaded"]
     assert 20.0 < r["peak_rss_mb"] < 80.0, r

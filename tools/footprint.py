@@ -1,11 +1,12 @@
 """The deployment footprint of the network controller, measured in a fresh process.
 
-    python tools/footprint.py [--preset improved] [--decisions 1000]
+    python tools/footprint.py [--preset improved] [--decisions 1000] [--movers 1]
 
 Starts a new Python process that imports only what the deployed policy needs
 (``nn_export.OnnxPolicy``: numpy and onnxruntime; torch and casadi are made unimportable),
 loads the model shipped for the preset, and makes N decisions on a straight reference with a
-head-on obstacle. Prints, as JSON: the time from the process start to the first decision's
+head-on obstacle (``--movers M``: M obstacles abreast, which hands the decisions to the
+shipped crowd network, ``crowd_decisions``). Prints, as JSON: the time from the process start to the first decision's
 readiness (interpreter start-up, imports and model load: ``ready_s``), the load time alone,
 the median decision time, and the process's peak resident set (``VmHWM``).
 """
@@ -22,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 CHILD = r"""
 import sys, time, json, resource
-t_start = float(sys.argv[1]); preset = sys.argv[2]; n = int(sys.argv[3])
+t_start = float(sys.argv[1]); preset = sys.argv[2]; n = int(sys.argv[3]); movers = int(sys.argv[4])
 def peak_rss_mb():
     # VmHWM belongs to this process's own memory map; ru_maxrss would also count the parent's
     # pages a vfork-ed child shared before exec (a pytest parent shows up as 400 MB)
@@ -54,22 +55,24 @@ times = []
 for k in range(n):
     ox = 12.0 - 0.3 * T * (k % 60)  # an obstacle coming head-on, a new one every 60 samples
     obs = Observation(k * T, RobotState(x, y, h, vr, vl), ref,
-                      (ObstacleMeasurement(k // 60, (x + ox, 0.0), 0.3),))
+                      tuple(ObstacleMeasurement(movers * (k // 60) + i, (x + ox + 0.5 * i, 0.9 * (i - (movers - 1) / 2)),
+                                                0.3) for i in range(movers)))
     a = time.perf_counter()
     d = policy.decide(obs)
     times.append(time.perf_counter() - a)
     vr, vl = d.v_right_mps, d.v_left_mps
     x, y, h = robot_step_float(x, y, h, vr, vl, T, W)
 times.sort()
-print(json.dumps({"preset": preset, "decisions": n, "ready_s": ready_s, "load_s": load_s,
+print(json.dumps({"preset": preset, "decisions": n, "movers": movers, "ready_s": ready_s, "load_s": load_s,
+                  "crowd_decisions": policy.counters["crowd_network"],
                   "decision_median_s": times[n // 2],
                   "peak_rss_mb": peak_rss_mb(),
                   "torch_loaded": "torch" in sys.modules, "casadi_loaded": "casadi" in sys.modules}))
 """
 
 
-def measure(preset: str = "improved", decisions: int = 1000) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, repr(time.time()), preset, str(decisions)],
+def measure(preset: str = "improved", decisions: int = 1000, movers: int = 1) -> dict:
+    out = subprocess.run([sys.executable, "-c", CHILD, repr(time.time()), preset, str(decisions), str(movers)],
                          capture_output=True, text=True, cwd=ROOT, timeout=300)
     if out.returncode != 0:
         raise RuntimeError(out.stderr.strip().splitlines()[-1] if out.stderr.strip() else "child failed")
@@ -80,8 +83,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--preset", default="improved", choices=("paper", "improved"))
     ap.add_argument("--decisions", type=int, default=1000)
+    ap.add_argument("--movers", type=int, default=1)
     args = ap.parse_args(argv)
-    print(json.dumps(measure(args.preset, args.decisions), indent=1))
+    print(json.dumps(measure(args.preset, args.decisions, args.movers), indent=1))
     return 0
 
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Rebuild the shipped networks nn_export/models/{paper,improved}.onnx from scratch, and the
-# multi-obstacle network for the random-multi suite (not shipped):
+# Rebuild the shipped networks nn_export/models/{paper,improved,improved-crowd}.onnx from
+# scratch, and the multi-obstacle network for the random-multi suite (not shipped):
 #
 #   tools/build_models.sh [OUT_DIR]        (default out/nn; about 2 h on 2 cores)
 #
@@ -100,3 +100,21 @@ round "$D" gpc6 --dagger gpc --dagger-suite circle-crossing --movers 5 --behavio
 round "$D" gpc7 --dagger gpc --dagger-suite random --episodes 100 --round 7 --preset improved --dagger-noise 0.05 \
   --start-offset 1.2
 round "$D" gpc8 --dagger gpc --dagger-suite encounters --episodes 100 --round 8 --preset improved --dagger-noise 0.03
+# the networks that drive the DAgger rounds: m2 on the GPC's crowd and random-multi rounds, m3
+# on everything up to its rounds (60 epochs each)
+setnet improved-crowd-m2 --parts offpolicy,gpc1,gpc2,gpc3,gpc4,gpc5,gpc6
+round "$D" dagger9 --dagger "$OUT/models/improved-crowd-m2.onnx" --dagger-suite circle-crossing --movers 10 \
+  --behaviour orca --episodes 100 --round 9 --preset improved
+round "$D" dagger10 --dagger "$OUT/models/improved-crowd-m2.onnx" --dagger-suite circle-crossing --movers 5 \
+  --behaviour orca --episodes 100 --round 10 --preset improved
+round "$D" dagger11 --dagger "$OUT/models/improved-crowd-m2.onnx" --dagger-suite random-multi --episodes 80 \
+  --round 11 --preset improved
+setnet improved-crowd-m3 --parts offpolicy,gpc1,gpc2,gpc3,gpc4,gpc5,gpc6,gpc7,gpc8,dagger9,dagger10,dagger11
+round "$D" dagger12 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite square-crossing --movers 5 \
+  --behaviour orca --episodes 120 --round 12 --preset improved
+round "$D" dagger13 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite circle-crossing --movers 10 \
+  --behaviour orca --episodes 80 --round 13 --preset improved
+round "$D" dagger14 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite circle-crossing --movers 5 \
+  --behaviour social_force --episodes 60 --round 14 --preset improved
+setnet improved-crowd --epochs 75      # the shipped crowd network (m4 in docs/nn.md), all parts
+cp "$OUT/models/improved-crowd.onnx" nn_export/models/improved-crowd.onnx

@@ -110,8 +110,9 @@ def observations_from(d) -> list[Observation]:
 
 
 def replay(preset_name: str, observations, two_pass: bool, safety: bool) -> dict:
-    """Every decision of a fresh policy on ``observations`` (open loop), as arrays."""
-    net = OnnxPolicy(preset=preset_name, two_pass=two_pass)
+    """Every decision of a fresh policy on ``observations`` (open loop), as arrays: the main
+    network alone (the crowd network's hand-over is tests/test_set_network.py's)."""
+    net = OnnxPolicy(preset=preset_name, two_pass=two_pass, crowd_model=None)
     pol = Shield(net) if safety else net  # the check layer, manoeuvres only (no planner on standby)
     H = net.horizon
     n = len(observations)
@@ -166,7 +167,7 @@ def record(case: str) -> None:
     """Write ``tests/data/policy_decisions_{case}.npz`` with the code as it is."""
     from casadi_gpc.simulator import simulate
     preset_name, sc = _scenario(case)
-    pol = Shield(OnnxPolicy(preset=preset_name))  # the deployed policy drives the episode
+    pol = Shield(OnnxPolicy(preset=preset_name, crowd_model=None))  # the main network drives
     observations = []
 
     class Recorder:

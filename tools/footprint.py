@@ -55,8 +55,9 @@ times = []
 for k in range(n):
     ox = 12.0 - 0.3 * T * (k % 60)  # an obstacle coming head-on, a new one every 60 samples
     obs = Observation(k * T, RobotState(x, y, h, vr, vl), ref,
-                      tuple(ObstacleMeasurement(movers * (k // 60) + i, (x + ox + 0.5 * i, 0.9 * (i - (movers - 1) / 2)),
-                                                0.3) for i in range(movers)))
+                      tuple(ObstacleMeasurement(movers * (k // 60) + i,
+                                                (x + ox + 0.5 * i, 0.9 * (i - (movers - 1) / 2)), 0.3)
+                            for i in range(movers)))
     a = time.perf_counter()
     d = policy.decide(obs)
     times.append(time.perf_counter() - a)

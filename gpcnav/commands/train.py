@@ -152,7 +152,8 @@ def run(args) -> int:
     np.save(args.out / "validation_features.npy", X[model.validation_indices_])
     shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-2"
     if args.architecture == "set":
-        shape = f"set encoder {args.encoder_width}-{args.encoder_width}, max+sum pool, {'-'.join([str(args.hidden)] * args.layers)}-2"
+        rho = "-".join([str(args.hidden)] * args.layers)
+        shape = f"set encoder {args.encoder_width}-{args.encoder_width}, max+sum pool, {rho}-2"
     print(f"trained {lay.name} layout ({shape}) on {len(model.train_indices_)} samples, "
           f"validated on {len(model.validation_indices_)}: validation RMSE {np.sqrt(model.validation_mse_):.4f} m/s "
           f"(max {model.validation_max_abs_error_:.3f}), best epoch {model.best_epoch_} ({model.stop_reason_}), "

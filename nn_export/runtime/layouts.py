@@ -54,8 +54,8 @@ from functools import cached_property
 
 import numpy as np
 
-__all__ = ["FEATURE_VERSION", "LAYOUTS", "SET_ELEMENT", "SET_SLOTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM", "FeatureLayout", "layout_for",
-           "layout_from_dict"]
+__all__ = ["FEATURE_VERSION", "LAYOUTS", "SET_ELEMENT", "SET_SLOTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM",
+           "FeatureLayout", "layout_for", "layout_from_dict"]
 
 FEATURE_VERSION = 1
 """Bumped whenever the meaning of any feature changes; datasets and models carry it."""
@@ -157,7 +157,8 @@ class FeatureLayout:
         perm[0], perm[1] = 1, 0
         signs = np.ones(self.size)
         for i, n in enumerate(names):
-            if n.endswith(("_y_m", "_turn_rad", "_vy_mps")) or n in ("ref_heading_rad",) or n.startswith("ref_curvature_"):
+            if (n.endswith(("_y_m", "_turn_rad", "_vy_mps")) or n in ("ref_heading_rad",)
+                    or n.startswith("ref_curvature_")):
                 signs[i] = -1.0
         heading = np.array([i for i, n in enumerate(names) if n.endswith("_heading_rad") and n.startswith("mov")],
                            dtype=int)

@@ -49,8 +49,8 @@ from .layouts import FeatureLayout, layout_from_dict
 from .situation import Situation
 from .tracker import SituationTracker
 
-__all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "SHIPPED", "read_model_metadata", "POLICY_FORMAT",
-           "DEFAULT_SAFETY_DISTANCE_M"]
+__all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "SHIPPED",
+           "read_model_metadata", "POLICY_FORMAT", "DEFAULT_SAFETY_DISTANCE_M"]
 
 MODELS_DIR = Path(__file__).parents[1] / "models"
 POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.training.export (kept equal by a test)

@@ -264,5 +264,6 @@ def network_summary(rows: list[dict]) -> str | None:
             parts.append(f"{label} {med[name]:.1f} us")
     line = "; ".join(parts) + " (medians)"
     if ort_row.get("skipped_rows"):
-        line += f"; rows not measured: {', '.join(ort_row['skipped_rows'])} ({next(iter(ort_row['skipped_rows'].values()))})"
+        skipped = ort_row["skipped_rows"]
+        line += f"; rows not measured: {', '.join(skipped)} ({next(iter(skipped.values()))})"
     return line

@@ -6,8 +6,9 @@ of its own. The standardisation is folded into the first layer's weights and the
 un-standardisation (and the output basis) into the last layer's, computed in float64 before
 the float32 cast: Gemm, Tanh, ..., Gemm, Clip, half the nodes of the plain form and about
 2 us less per call (each node costs onnxruntime a kernel dispatch). The set network
-(:mod:`~nn_export.training.set_net`) is exported as it is, in float32. Input ``features`` (batch, n_features), output ``wheel_speeds_mps`` (batch, 2),
-right then left. The batch axis is dynamic.
+(:mod:`~nn_export.training.set_net`) is exported as it is, in float32. Input ``features``
+(batch, n_features), output ``wheel_speeds_mps`` (batch, 2), right then left. The batch
+axis is dynamic.
 
 Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
 trained for; :class:`nn_export.runtime.policy.OnnxPolicy` refuses a file whose metadata do not match

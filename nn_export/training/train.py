@@ -361,7 +361,7 @@ class WheelSpeedMLP:
         with atomic_file(model_dir / "weights.npz") as tmp:
             np.savez(tmp, **self.numpy_params())
         write_json(model_dir / "training_curve.json", self.curve_)
-        save_curve_figure(self.curve_, model_dir / "training_curve.png")
+        save_curve_figure(self.curve_, model_dir / "training_curve.png", LBFGS_ITERATIONS_PER_STEP)
         write_json(model_dir / "model.json", {
             "format": MODEL_FORMAT, "params": self.get_params(), "n_features": self.n_features_in_,
             "n_outputs": self.n_outputs_, "feature_names": self.feature_names_, "label_names": self.label_names_,

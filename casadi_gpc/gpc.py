@@ -376,9 +376,13 @@ def _fell_off_a_ridge(previous, solved) -> bool:
     to either side by the solver's round-off (IPOPT passed Fig. 7.1 on the left, the SQP on the
     right). A straight plan that starts to turn for another reason (an obstacle coming
     closer) costs two solves more at that one step."""
-    if previous is None:
+    if previous is None or _turns(previous.u):
         return False
-    u = np.asarray(previous.u)
-    if np.max(np.abs(u[0::2] - u[1::2])) > STRAIGHT_MPS:
-        return False
-    return any(c.success and np.max(np.abs(np.asarray(c.u)[0::2] - np.asarray(c.u)[1::2])) > STRAIGHT_MPS for c in solved)
+    return any(c.success and _turns(c.u) for c in solved)
+
+
+def _turns(u) -> bool:
+    """Whether the plan's two wheels' increments differ by more than :data:`STRAIGHT_MPS` at
+    some step (``u``: the increments, right and left interleaved)."""
+    u = np.asarray(u)
+    return bool(np.max(np.abs(u[0::2] - u[1::2])) > STRAIGHT_MPS)

@@ -5,7 +5,6 @@ policy."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -258,3 +257,9 @@ def test_a_crowd_network_must_be_a_one_pass_set_model(tmp_path):
     with pytest.raises(ValueError, match="set layout") as exc:
         OnnxPolicy(main, preset="improved", crowd_model=main)
     assert "\n" not in str(exc.value) and str(main) in str(exc.value)
+    # a crowd network whose numbers are corrupt is refused at load, as a main model is
+    bad = tracker_model(tmp_path / "bad.onnx", "improved", layout_name="set", weight_fill=float("nan"),
+                        decision_passes="1")
+    with pytest.raises(ValueError, match="non-finite") as exc:
+        OnnxPolicy(main, preset="improved", crowd_model=bad)
+    assert "\n" not in str(exc.value) and str(bad) in str(exc.value)

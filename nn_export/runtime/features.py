@@ -177,21 +177,26 @@ def _moving_values(layout: FeatureLayout, rx: float, ry: float, heading: float, 
         return list(layout.absent_moving)
     x, y, v, th, dth = tr.state_values
     dx, dy = x - rx, y - ry
+    lx, ly = c * dx + s * dy, -s * dx + c * dy
     if layout.is_set:
-        cov_h = tr.covs_m2[-1] if len(tr.covs_m2) else tr.cov[:2, :2]
-        std = math.sqrt(max(0.5 * float(np.trace(cov_h)), 0.0))
         if not tr.initialised:
             v = dth = 0.0
         a = th + dth - heading  # the velocity's direction in the robot's frame
-        return [1.0, c * dx + s * dy, -s * dx + c * dy, v * math.cos(a), v * math.sin(a), dth, tr.radius_m, std, 1.0]
+        return [1.0, lx, ly, v * math.cos(a), v * math.sin(a), dth, tr.radius_m, _position_std(tr), 1.0]
     if tr.initialised:
-        vals = [c * dx + s * dy, -s * dx + c * dy, v, (th + dth - heading) % _TWO_PI, dth]
+        vals = [lx, ly, v, (th + dth - heading) % _TWO_PI, dth]
     else:  # one position seen: standing still as far as anyone knows, heading unknown
-        vals = [c * dx + s * dy, -s * dx + c * dy, 0.0, math.pi, 0.0]
+        vals = [lx, ly, 0.0, math.pi, 0.0]
     if layout.flags:
-        cov_h = tr.covs_m2[-1] if len(tr.covs_m2) else tr.cov[:2, :2]
-        vals = [1.0] + vals + [tr.radius_m, math.sqrt(max(0.5 * float(np.trace(cov_h)), 0.0))]
+        vals = [1.0] + vals + [tr.radius_m, _position_std(tr)]
     return vals
+
+
+def _position_std(tr: TrackEstimate) -> float:
+    """``pos_std_m``: the RMS standard deviation of the predicted position at step H,
+    sqrt(trace(cov_H) / 2) (the current one when there is no forecast)."""
+    cov_h = tr.covs_m2[-1] if len(tr.covs_m2) else tr.cov[:2, :2]
+    return math.sqrt(max(0.5 * float(np.trace(cov_h)), 0.0))
 
 
 def _static_values(layout: FeatureLayout, rx: float, ry: float, c: float, s: float,

@@ -92,14 +92,7 @@ class _CrowdNetwork:
         if meta.get("decision_passes", "2") != "1":
             raise ValueError(f"{path}: a crowd network runs one pass (export it with --passes 1)")
         self.main_slots = (main.k_moving, main.k_static, main.range_m)
-        self._x = np.zeros((1, self.layout.size), dtype=np.float32)
-        self._y = np.zeros((1, 2), dtype=np.float32)
-        self._write = partial(struct.Struct(f"={self.layout.size}f").pack_into, memoryview(self._x).cast("B"), 0)
-        binding = self.session.io_binding()
-        binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._x))
-        binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
-        self._binding, self._run = binding, _bound_run(self.session, binding)
-        self._run()
+        self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path)
         self.info = {"path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
                      "feature_layout": self.layout.name, "n_features": self.layout.size,
                      "validation_rmse_mps": float(meta["validation_rmse_mps"])}
@@ -201,6 +194,25 @@ def _bound_run(session: ort.InferenceSession, binding) -> "partial":
     if callable(getattr(sess, "run_with_iobinding", None)) and ib is not None:
         return partial(sess.run_with_iobinding, ib, ort.RunOptions())
     return partial(session.run_with_iobinding, binding)
+
+
+def _bind(session: ort.InferenceSession, size: int, path: Path) -> tuple:
+    """``(x, y, write, binding, run)``: one preallocated float32 input row ``x`` (1, size) and
+    output row ``y`` (1, 2) bound to ``session`` once, ``write(*values)`` packing a list of
+    feature values into ``x`` in one call (float64 -> float32 rounding as numpy's), and
+    ``run()`` (:func:`_bound_run`). The first call is made now (it allocates), and a file whose
+    network gives non-finite wheel speeds is refused (``ValueError``)."""
+    x = np.zeros((1, size), dtype=np.float32)
+    y = np.zeros((1, 2), dtype=np.float32)
+    write = partial(struct.Struct(f"={size}f").pack_into, memoryview(x).cast("B"), 0)
+    binding = session.io_binding()
+    binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(x))
+    binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(y))
+    run = _bound_run(session, binding)
+    run()
+    if not np.all(np.isfinite(y)):  # corrupt numbers in an otherwise valid file
+        raise ValueError(f"{path}: the network gives non-finite wheel speeds (corrupt weights?)")
+    return x, y, write, binding, run
 
 
 def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str | None,
@@ -316,20 +328,9 @@ class OnnxPolicy:
         # two passes need the desired poses at steps 0..2H-1 (the window of roll-out step j is j..j+H)
         self.tracker = SituationTracker(self.config, ekf_settings,
                                         reference_steps=2 * self.horizon - 1 if self.two_pass else None)
-        # one preallocated float32 input row bound once; ``_write`` packs a list of feature
-        # values into it in one call (float64 -> float32 rounding as numpy's)
-        self._x = np.zeros((1, self.layout.size), dtype=np.float32)
-        self._y = np.zeros((1, 2), dtype=np.float32)
+        self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path)
         self._x1, self._y1 = self._x[0], self._y[0]  # views of the bound rows
         self._last_values: list[float] = [0.0] * self.layout.size  # see _f64
-        self._write = partial(struct.Struct(f"={self.layout.size}f").pack_into, memoryview(self._x).cast("B"), 0)
-        self._binding = self.session.io_binding()
-        self._binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._x))
-        self._binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(self._y))
-        self._run = _bound_run(self.session, self._binding)
-        self._run()  # first call allocates; do it now, not in the first decision
-        if not np.all(np.isfinite(self._y)):  # corrupt numbers in an otherwise valid file
-            raise ValueError(f"{path}: the network gives non-finite wheel speeds (corrupt weights?)")
         self.model_info = {
             "path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
             "preset": meta["preset"], "feature_layout": self.layout.name, "feature_layout_version": self.layout.version,

@@ -161,6 +161,25 @@ def _timed(call, times: list):
     return run
 
 
+def _torch_call(proto, x_in: np.ndarray, y_out: np.ndarray, X: np.ndarray, ref: np.ndarray):
+    """``(call, largest difference from onnxruntime on X)`` of the graph's torch forward pass
+    on the bound buffers, or None without torch."""
+    try:
+        import torch
+    except ImportError:
+        return None
+    torch.set_num_threads(1)
+    t_f = graph_forward(proto, "torch")
+
+    def torch_call():
+        with torch.no_grad():
+            y_out[...] = t_f(x_in).numpy()
+
+    with torch.no_grad():
+        diff = float(np.max(np.abs(t_f(X).numpy() - ref)))
+    return torch_call, diff
+
+
 ROUNDS = 5
 """Replays of the recorded observations per network row."""
 
@@ -192,22 +211,9 @@ def forward_rows(model_path, observations, rounds: int = ROUNDS) -> list[dict]:
 
         calls["nn-numpy"] = np_call
         diffs["nn-numpy"] = float(np.max(np.abs(np_f(X) - ref)))
-    try:
-        if np_f is None:
-            raise ImportError
-        import torch
-        torch.set_num_threads(1)
-        t_f = graph_forward(proto, "torch")
-
-        def torch_call():
-            with torch.no_grad():
-                y_out[...] = t_f(x_in).numpy()
-
-        with torch.no_grad():
-            diffs["nn-torch"] = float(np.max(np.abs(t_f(X).numpy() - ref)))
-        calls["nn-torch"] = torch_call
-    except ImportError:
-        pass
+    torch_row = _torch_call(proto, x_in, y_out, X, ref) if np_f is not None else None
+    if torch_row is not None:
+        calls["nn-torch"], diffs["nn-torch"] = torch_row
     names = list(calls)
     times = {k: [] for k in names}
     for k in range(rounds):

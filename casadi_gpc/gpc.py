@@ -8,6 +8,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from .buffered import BufferedFunction
 from .candidates import CandidateSet
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
@@ -86,6 +87,7 @@ class GPCController:
             self.backup = make_backend(self.backup_solver, self.problem, max_wall_time_s=self.time_budget_s,
                                        compiled=self.compile_solver, ipopt_options=self.ipopt_options)
         self._ref_slice = self.problem.layout.slices()["ref"]
+        self._rollout = BufferedFunction(self.problem.rollout_fn)
         self.horizon = self.config.horizon
         unknown = sorted(set(self.config.guesses) - set(TIE_ORDER))
         if unknown:
@@ -316,7 +318,8 @@ class GPCController:
             statuses = sorted({c.status for c in candidates}) or ["no solve started within the time budget"]
             return self._fallback(obs, "all solves failed: " + ", ".join(statuses), forecasts)
         self._warm = best
-        poses, wheels = (np.asarray(a) for a in self.problem.rollout_fn(best.u, p))
+        self._rollout(best.u, p)
+        poses, wheels = self._rollout.output(0), self._rollout.output(1)
         self._last_wheels = wheels
         self._path_xy = poses[:, :2]
         return ControlDecision(

@@ -284,23 +284,25 @@ solver_failure_prob = 1.0
 
 
 class _FakeSolver:
-    """Stands in for the CasADi solver function inside the GPC's backend."""
+    """Stands in for the CasADi solver inside the GPC's backend (its buffered call,
+    ``casadi_gpc.buffered.BufferedFunction``)."""
 
     def __init__(self, real, mode, sleep_s=0.0):
         self.real, self.mode, self.sleep_s = real, mode, sleep_s
         self.calls = 0
+        self.inputs, self.outputs = real.inputs, real.outputs
 
-    def call(self, args):
+    def __call__(self, *args):
         self.calls += 1
         if self.mode == "raise":
             raise RuntimeError("Error in Function::call for 'gpc' [IpoptInterface] at .../casadi.cpp: NaN detected")
-        out = self.real.call(args)
+        ret = self.real(*args)
         if self.mode == "nan":
-            import casadi as ca
-            out = [ca.DM.nan(o.shape[0], o.shape[1]) for o in out]
+            for o in self.outputs:
+                o[:] = np.nan
         if self.mode == "slow":
             time.sleep(self.sleep_s)
-        return out
+        return ret
 
     def stats(self):
         return self.real.stats()

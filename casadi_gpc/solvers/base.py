@@ -9,9 +9,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..buffered import BufferedFunction
 from ..cost import GPCProblem
 
-__all__ = ["SolveResult", "Backend", "CasadiBackend", "all_finite", "nonzeros", "constraint_violation_mps"]
+__all__ = ["SolveResult", "Backend", "CasadiBackend", "all_finite", "constraint_violation_mps"]
 
 
 @dataclass(frozen=True)
@@ -34,11 +35,6 @@ class SolveResult:
 def all_finite(*arrays) -> bool:
     """Whether every array given (None counts as finite) holds finite numbers only."""
     return all(a is None or bool(np.all(np.isfinite(a))) for a in arrays)
-
-
-def nonzeros(dm) -> np.ndarray:
-    """A CasADi matrix's entries as a float array."""
-    return np.asarray(dm.nonzeros(), dtype=float)
 
 
 @dataclass
@@ -69,28 +65,19 @@ class Backend:
         return SolveResult(np.asarray(u0, float), float("nan"), False, status, -1, None, None,
                            time.perf_counter() - t0)
 
-    def _dm_of(self, p: np.ndarray, append: float | None = None) -> ca.DM:
-        """``ca.DM(p)`` (with ``append`` added at the end), converted once for the same array
-        object: a planner solves one tick's parameters from several starts, and converting
-        its few hundred numbers costs about as much as a warm solve's first iteration. The
-        caller must not change ``p`` in place between solves."""
-        cache = getattr(self, "_dm_cache", None)
-        if cache is None or cache[0] is not p or cache[1] != (append is None):
-            dm = ca.DM(p if append is None else np.append(p, append))
-            self._dm_cache = cache = (p, append is None, dm)
-        return cache[2]
-
 
 class CasadiBackend(Backend):
-    """Shared call path: constant bounds converted once, the rest per call."""
+    """Shared call path: the solver called through its buffer (:mod:`casadi_gpc.buffered`),
+    the constant bounds written once."""
 
     uses_multipliers = True
 
     def _setup(self, solver: ca.Function):
         pr = self.problem
-        self.solver = solver
-        self._bounds = [ca.DM(a) for a in (pr.lbx, pr.ubx, pr.lbg, pr.ubg)]
-        self._none = ca.DM()
+        # inputs x0, p, lbx, ubx, lbg, ubg, lam_x0, lam_g0; outputs x, f, g, lam_x, lam_g, lam_p
+        self.solver = BufferedFunction(solver)
+        for i, bound in enumerate((pr.lbx, pr.ubx, pr.lbg, pr.ubg), start=2):
+            self.solver.inputs[i][:] = bound
 
     def _status(self) -> tuple[bool, str, int]:
         stats = self.solver.stats()
@@ -100,18 +87,23 @@ class CasadiBackend(Backend):
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         t0 = time.perf_counter()
         warm = self.uses_multipliers and lam_x is not None and lam_g is not None
-        args = [ca.DM(u0), self._dm_of(p), *self._bounds,
-                ca.DM(lam_x) if warm else self._none, ca.DM(lam_g) if warm else self._none]
         try:
-            out = self.solver.call(args)
+            ret = self.solver(u0, p, None, None, None, None, lam_x if warm else 0.0, lam_g if warm else 0.0)
             ok, status, iters = self._status()
         except RuntimeError as exc:  # evaluation errors, or no status after a failed QP
             return self._failed(u0, f"error: {str(exc).strip().splitlines()[-1]}", t0)
-        u, cost = nonzeros(out[0]), float(out[1])
-        lx, lg = nonzeros(out[3]), nonzeros(out[4])  # outputs: x, f, g, lam_x, lam_g, lam_p
+        return self._result(ret, ok, status, iters, t0)
+
+    def _result(self, ret: int, ok: bool, status: str, iters: int, t0: float, scale: float = 1.0) -> SolveResult:
+        """The solution in the solver's outputs (the objective and multipliers divided by
+        ``scale``, the objective's scale): a copy, since the next call overwrites them."""
+        out = self.solver.outputs
+        u, cost = out[0].copy(), float(out[1][0]) / scale
+        lx, lg = out[3] / scale, out[4] / scale  # multipliers of the unscaled problem (new arrays)
+        if ret:
+            ok, status = False, f"error: the solver returned {ret} ({status})"
         ok = ok and math.isfinite(cost) and all_finite(u, lx, lg)
         return SolveResult(u, cost, ok, status, iters, lx, lg, time.perf_counter() - t0)
-
 
 
 def constraint_violation_mps(problem: GPCProblem, u: np.ndarray, p: np.ndarray) -> float:

@@ -9,7 +9,8 @@ import numpy as np
 
 from ..cost import GPCProblem, effort_cost, parameter_blocks, state_cost
 from ..robot import robot_step, robot_step_float
-from .base import Backend, SolveResult, all_finite, nonzeros
+from ..buffered import BufferedFunction
+from .base import Backend, SolveResult, all_finite
 from .compiling import build_nlpsol
 
 __all__ = ["FatropBackend"]
@@ -61,13 +62,13 @@ class FatropBackend(Backend):
             opts["expand"] = True
         solver, self.compiled, note = build_nlpsol(name, "fatrop", nlp, opts, compiled)
         self.notes.append(note)
-        self.solver = solver
-        self._lbw, self._ubw = ca.DM(lbw), ca.DM(ubw)
-        self._zero = ca.DM.zeros(G.numel())
+        # inputs w0, p, lbw, ubw, lbg, ubg (zeros: equalities), lam_x0, lam_g0 (zeros: fatrop takes none)
+        self.solver = BufferedFunction(solver)
+        self.solver.inputs[2][:] = lbw
+        self.solver.inputs[3][:] = ubw
         self._iu = np.concatenate([np.arange(7 * k + 5, 7 * k + 7) for k in range(H)])
         self._iv = np.concatenate([np.arange(7 * k + 3, 7 * k + 5) for k in range(1, H + 1)])
         self._ix = np.concatenate([np.arange(7 * k, 7 * k + 5) for k in range(1, H + 1)])
-        self._n = 7 * H + 5
 
     def _states(self, x0, u0) -> list[float]:
         """The states X_1..X_H (x, y, heading, v_right, v_left) of the increments ``u0`` rolled
@@ -86,20 +87,22 @@ class FatropBackend(Backend):
 
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         t0 = time.perf_counter()
+        w0 = self.solver.inputs[0]
+        w0[:5] = p[:5]
+        w0[self._ix] = self._states(p[:5], u0)
+        w0[self._iu] = u0
         try:
-            w0 = np.empty(self._n)
-            w0[:5] = p[:5]
-            w0[self._ix] = self._states(p[:5], u0)
-            w0[self._iu] = u0
-            out = self.solver.call([ca.DM(w0), self._dm_of(p), self._lbw, self._ubw, self._zero, self._zero,
-                                    ca.DM(), ca.DM()])
+            ret = self.solver(None, p)
             stats = self.solver.stats()
         except RuntimeError as exc:
             return self._failed(u0, f"error: {str(exc).strip().splitlines()[-1]}", t0)
-        w, lam_w = nonzeros(out[0]), nonzeros(out[3])
-        u, cost = w[self._iu], float(out[1])
+        out = self.solver.outputs
+        w, lam_w = out[0], out[3]
+        u, cost = w[self._iu], float(out[1][0])  # fancy indexing: copies
         # the single-shooting multipliers: increment bounds and wheel-speed limits
         lx, lg = lam_w[self._iu], lam_w[self._iv]
-        ok = bool(stats.get("success", False)) and math.isfinite(cost) and all_finite(w, lam_w)
-        return SolveResult(u, cost, ok, str(stats.get("return_status", "unknown")),
-                           int(stats.get("iter_count", -1)), lx, lg, time.perf_counter() - t0)
+        ok = bool(stats.get("success", False)) and not ret and math.isfinite(cost) and all_finite(w, lam_w)
+        status = str(stats.get("return_status", "unknown"))
+        if ret:
+            status = f"error: the solver returned {ret} ({status})"
+        return SolveResult(u, cost, ok, status, int(stats.get("iter_count", -1)), lx, lg, time.perf_counter() - t0)

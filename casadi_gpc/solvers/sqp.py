@@ -12,7 +12,8 @@ import casadi as ca
 import numpy as np
 
 from ..cost import GPCProblem
-from .base import CasadiBackend, SolveResult, all_finite, nonzeros
+from ..buffered import BufferedFunction
+from .base import CasadiBackend, SolveResult
 from .compiling import COMPILE_EVENTS, compiled_library
 
 __all__ = ["SqpBackend", "ConvexifiedHessian", "CONVEXIFY_C", "SCALE_MAX_GRADIENT", "lagrangian_hessian",
@@ -203,27 +204,28 @@ class SqpBackend(CasadiBackend):
         if solver is None:
             self._hessian = ConvexifiedHessian(hess)  # a Callback must outlive the solver
             solver = ca.nlpsol(tag, "sqpmethod", scaled, dict(opts, hess_lag=self._hessian))
-        self._grad_inf = grad_inf
+        self._setup(solver)
+        # |grad J(u0)|_inf reads the solver's own start and parameters (the scale is p's last entry)
+        self._grad_inf = BufferedFunction(grad_inf, share={0: self.solver.inputs[0], 1: self.solver.inputs[1]})
         self.notes.append(note + "; Hessian: exact + delta I (IPOPT-style inertia correction); "
                                  "objective scaled as IPOPT's gradient-based scaling")
-        self._setup(solver)
 
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         t0 = time.perf_counter()
-        du0, dp = ca.DM(u0), self._dm_of(p, 1.0)
+        x0, p_ext = self.solver.inputs[0], self.solver.inputs[1]
+        x0[:] = u0
+        p_ext[:-1] = p
+        p_ext[-1] = 1.0
         try:
-            dp[-1] = 1.0
-            g = float(self._grad_inf.call([du0, dp])[0])
+            self._grad_inf()
+            g = float(self._grad_inf.outputs[0][0])
             scale = min(1.0, SCALE_MAX_GRADIENT / g) if g > 0 and math.isfinite(g) else 1.0
-            dp[-1] = scale
-            out = self.solver.call([du0, dp, *self._bounds, self._none, self._none])
+            p_ext[-1] = scale
+            ret = self.solver()
             ok, status, iters = self._status()
         except RuntimeError as exc:  # evaluation errors, or no status after a failed QP
             return self._failed(u0, f"error: {str(exc).strip().splitlines()[-1]}", t0)
-        u, cost = nonzeros(out[0]), float(out[1]) / scale
-        lx, lg = nonzeros(out[3]) / scale, nonzeros(out[4]) / scale  # multipliers of the unscaled problem
-        ok = ok and math.isfinite(cost) and all_finite(u, lx, lg)
-        return SolveResult(u, cost, ok, status, iters, lx, lg, time.perf_counter() - t0)
+        return self._result(ret, ok, status, iters, t0, scale)
 
     def _status(self):
         # return_status can be stale after a failed QP (casadi 3.8); success is not.

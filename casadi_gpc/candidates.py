@@ -13,7 +13,11 @@ start from last tick's optimum needs a few iterations. The fixed guesses are sol
 - a class was lost at the last tick: two candidates reached one optimum, or a solve failed
   (a basin that closes may open again elsewhere),
 - an obstacle starts to matter: a mover comes within ``PlannerConfig.relevance_range_m`` of
-  the robot's predicted path, or a static obstacle within the multi-start range,
+  the robot's predicted path, or a static obstacle within the multi-start range, that did
+  not matter at any of the last ``period_steps`` ticks (in a crowd, walkers step out of the
+  relevance range and back; the one coming back is the one the kept candidates were solved
+  with: measured on four 10-walker circle crossings, the full multi-starts fell from 39 % to
+  34 % of the ticks, the median decision from 6.3 to 5.3 ms),
 - ``PlannerConfig.multistart_period_s`` has passed since the last full multi-start (a new
   minimum can open without a new obstacle, as an obstacle moves).
 
@@ -74,7 +78,9 @@ class CandidateSet:
     """Candidates dearer than the best by more than this fraction are let go (None: kept)."""
     plans: list = field(default_factory=list)
     """The kept candidates (``Plan``), in tie order."""
-    _near_ids: frozenset = frozenset()
+    _seen: dict = field(default_factory=dict)
+    """Each obstacle that mattered: the last tick it did."""
+    _tick: int = 0
     _since_full: int = 0
     _force_full: bool = False
     reason: str = ""
@@ -82,7 +88,8 @@ class CandidateSet:
 
     def reset(self) -> None:
         self.plans = []
-        self._near_ids = frozenset()
+        self._seen = {}
+        self._tick = 0
         self._since_full = 0
         self._force_full = False
 
@@ -99,8 +106,13 @@ class CandidateSet:
 
     def full_multistart_due(self, near: bool, near_ids: frozenset) -> bool:
         """Whether this tick solves the fixed guesses as well (module text)."""
-        appeared = bool(near_ids - self._near_ids)
-        self._near_ids = near_ids
+        # new: not among those that mattered at any of the last period_steps ticks (a walker
+        # that steps out of the relevance range and back is the one the candidates know)
+        self._tick += 1
+        seen, tick = self._seen, self._tick
+        appeared = any(tick - seen.get(k, -10 ** 9) > self.period_steps for k in near_ids)
+        for k in near_ids:
+            seen[k] = tick
         if not self.plans or self._force_full:
             self.reason = "no candidate" if not self.plans else "a class lost"
             self._force_full = False

@@ -59,6 +59,26 @@ def test_when_the_full_multistart_is_due():
     assert cs.full_multistart_due(True, frozenset({1, 2})) and cs.reason == "period"
 
 
+def test_an_obstacle_that_mattered_lately_is_not_new():
+    """A walker that leaves the relevance range and comes back within period_steps ticks is
+    the one the kept candidates know; one that was away longer (or never seen) is new."""
+    cs = CandidateSet(H, period_steps=3)
+    two = [plan("swerve_right", 3.0), plan("swerve_left", 4.0)]
+    assert cs.full_multistart_due(True, frozenset({1, 2}))  # no candidate yet
+    cs.update(two, full=True, tie_relative=1e-7)
+    assert not cs.full_multistart_due(True, frozenset({1}))  # 2 steps out
+    cs.update(two, full=False, tie_relative=1e-7)
+    assert not cs.full_multistart_due(True, frozenset({1, 2}))  # and back, 2 ticks later
+    cs.update(two, full=False, tie_relative=1e-7)
+    assert cs.full_multistart_due(True, frozenset({1, 2, 3})) and cs.reason == "an obstacle came to matter"
+    cs.update(two, full=True, tie_relative=1e-7)
+    for _ in range(4):  # 3 away for four ticks (the period held off, so only the newcomer rule speaks)
+        assert not cs.full_multistart_due(True, frozenset({1}))
+        cs.update(two, full=False, tie_relative=1e-7)
+        cs._since_full = 0
+    assert cs.full_multistart_due(True, frozenset({1, 3})) and cs.reason == "an obstacle came to matter"
+
+
 def test_starts_shift_each_kept_plan_by_one_step():
     cs = CandidateSet(H, period_steps=3)
     cs.update([plan("swerve_right", 3.0, np.arange(6.0)), plan("brake", 4.0)], full=True, tie_relative=1e-7)

@@ -92,11 +92,12 @@ class _RecordingController(GPCController):
         self.observations.append(obs)
         return super().decide(obs)
 
-    def solve(self, p, u0, guess="", lam_x=None, lam_g=None):
+    def solve_many(self, p, starts):
         copy = (lambda a: None if a is None else np.array(a, dtype=float))
-        self.recorded.append(RecordedProblem(len(self.observations) - 1, self.observations[-1].t_s, copy(p), copy(u0),
-                                             copy(lam_x), copy(lam_g), guess or "unnamed"))
-        return super().solve(p, u0, guess, lam_x, lam_g)
+        for guess, u0, lam_x, lam_g in starts:
+            self.recorded.append(RecordedProblem(len(self.observations) - 1, self.observations[-1].t_s, copy(p),
+                                                 copy(u0), copy(lam_x), copy(lam_g), guess or "unnamed"))
+        return super().solve_many(p, starts)
 
 
 def record_problems(scenario, config: PlannerConfig) -> Recording:

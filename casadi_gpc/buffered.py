@@ -58,6 +58,16 @@ class BufferedFunction:
         """A copy of output ``i`` in its shape."""
         return self.outputs[i].reshape(self.fn.size_out(i), order="F").copy()
 
+    def fork(self) -> "BufferedFunction":
+        """A second buffer of the same function: its own CasADi memory and arrays, the inputs
+        copied (the constant ones stay set). CasADi releases the GIL while a buffer
+        evaluates, so two buffers can run in two threads at once
+        (:mod:`casadi_gpc.lanes`)."""
+        twin = BufferedFunction(self.fn)
+        for a, b in zip(twin.inputs, self.inputs):
+            a[:] = b
+        return twin
+
     def stats(self) -> dict:
         """The function's statistics of the last call through this buffer (an NLP solver's
         ``success``, ``return_status``, ``iter_count``)."""

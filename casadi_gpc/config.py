@@ -100,6 +100,10 @@ class PlannerConfig:
     """NLP solver backend of the controller (``casadi_gpc.solvers.SOLVER_NAMES``; ``ipopt`` is
     ``ipopt-warm``). The presets use the one ``gpcnav bench`` measured fastest among those
     that reach IPOPT's cost (docs/solvers.md)."""
+    solve_lanes: int = 2
+    """Starts of one tick solved at once, in this many threads (:mod:`casadi_gpc.lanes`);
+    the answers are the same for any number. Solvers that cannot run in threads (IPOPT,
+    Powell, the uncompiled SQP) use one."""
     time_budget_s: float | None = None
     """Wall time one control step may spend solving; an answer later than this is not used
     and the step falls back (counted). None: the sample time."""

@@ -14,6 +14,7 @@ from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
 from .ekf import EKFSettings, ObstacleEKF
 from .guesses import TIE_ORDER, initial_guesses, swerve_guesses
+from .lanes import SolveLanes
 from .progress import ReferenceClock
 from .robot import RobotParams, brake_wheels
 from .selection import planner_parameters
@@ -24,6 +25,7 @@ from .types import ControlDecision, Observation, ObstacleForecast
 __all__ = ["Plan", "Tick", "GPCController"]
 
 TIE_RELATIVE = 1e-7  # candidates closer than this in cost are a tie; the earlier one wins
+_RESULT_FIELDS = tuple(f.name for f in fields(SolveResult))
 
 
 @dataclass(frozen=True)
@@ -82,6 +84,7 @@ class GPCController:
         self.backend: Backend = make_backend(self.config.solver, self.problem, max_wall_time_s=self.time_budget_s,
                                              compiled=self.compile_solver, ipopt_options=self.ipopt_options)
         self.solver_name = self.backend.name
+        self._lanes: SolveLanes | None = None
         self.backup: Backend | None = None
         if self.backup_solver is not None and canonical_name(self.backup_solver) != self.solver_name:
             self.backup = make_backend(self.backup_solver, self.problem, max_wall_time_s=self.time_budget_s,
@@ -158,15 +161,42 @@ class GPCController:
         Inside ``decide``, an answer that arrives after the step's time budget is marked
         failed (counted in ``over_budget``): the loop does not use late answers."""
         r = self.backend.solve(p, u0, lam_x, lam_g)
+        return self._finish(p, r, time.perf_counter(), guess, u0, lam_x, lam_g)
+
+    @property
+    def lanes(self) -> SolveLanes:
+        """The backend and its forks that solve a tick's starts at once (built on first use,
+        and again if ``backend`` is replaced)."""
+        if self._lanes is None or self._lanes.backends[0] is not self.backend:
+            self._lanes = SolveLanes(self.backend, self.config.solve_lanes)
+        return self._lanes
+
+    def solve_many(self, p: np.ndarray, starts: list[tuple]) -> list[Plan]:
+        """The starts ``(guess, u0, lam_x, lam_g)`` solved at once on the controller's lanes
+        (:mod:`casadi_gpc.lanes`), as :meth:`solve` solves one, in the order given. A start
+        not begun within the step's time budget is left out (counted in ``budget_skips``)."""
+        answers = self.lanes.solve_all([(p, u0, lx, lg) for _, u0, lx, lg in starts], self._out_of_time)
+        out = []
+        for a, (guess, u0, lx, lg) in zip(answers, starts):
+            if a is None:
+                self.counters["budget_skips"] += 1  # not started: the step's budget is spent
+                continue
+            out.append(self._finish(p, a[0], a[1], guess, u0, lx, lg))
+        return out
+
+    def _finish(self, p, r, done_s: float, guess: str, u0, lam_x, lam_g) -> Plan:
+        """A solver's answer ``r`` (there at ``done_s``) as a :class:`Plan`: the backup
+        solver's if the backend failed and time is left; failed if late; counted."""
         if not r.success and self.backup is not None and not self._out_of_time():
             first = r
             self.counters["backup_solves"] += 1
             r = self.backup.solve(p, u0, lam_x, lam_g)
+            done_s = time.perf_counter()
             self.counters["backup_successes"] += int(r.success)
             r = replace(r, status=f"{self.backup.name} after {self.solver_name}: {first.status} -> {r.status}",
                         solve_time_s=first.solve_time_s + r.solve_time_s)
-        plan = Plan(**{f.name: getattr(r, f.name) for f in fields(SolveResult)}, guess=guess)
-        if self._out_of_time():
+        plan = Plan(*(getattr(r, n) for n in _RESULT_FIELDS), guess=guess)
+        if self._deadline is not None and done_s > self._deadline:
             self.counters["over_budget"] += 1
             plan = replace(plan, success=False, status=f"over the time budget of {self.time_budget_s:g} s")
         self.counters["solves"] += 1
@@ -192,25 +222,14 @@ class GPCController:
              warm: Plan | None = None) -> tuple[Plan, list[Plan]]:
         """Solve from the warm start and, if ``multistart``, from the fixed guesses; keep the
         cheapest successful plan. Exact ties keep the earliest guess (swerve right first)."""
-        candidates: list[Plan] = []
-        ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
-        guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses) if (multistart or warm is None) else {}
         # The warm start is solved first (the likeliest answer, when the budget is short);
         # the candidates keep the guesses-then-warm order that breaks ties.
-        warm_plan = None
-        if warm is not None and self._out_of_time():
-            self.counters["budget_skips"] += 1
-        elif warm is not None:
-            H = self.config.horizon
-            u_shift = np.concatenate([warm.u[2:], np.zeros(2)])
-            warm_plan = self.solve(p, u_shift, "warm", *self._shift_multipliers(warm, H))
-        for name, u0 in guesses.items():
-            if self._out_of_time():
-                self.counters["budget_skips"] += 1  # not started: the step's budget is spent
-                continue
-            candidates.append(self.solve(p, u0, name))
-        if warm_plan is not None:
-            candidates.append(warm_plan)
+        starts = [] if warm is None else [("warm", np.concatenate([warm.u[2:], np.zeros(2)]),
+                                           *self._shift_multipliers(warm, self.config.horizon))]
+        if multistart or warm is None:
+            starts += self._guess_starts(p, x0, ref_speed_mps)
+        solved = self.solve_many(p, starts)
+        candidates = [c for c in solved if c.guess != "warm"] + [c for c in solved if c.guess == "warm"]
         best = None
         for c in candidates:
             if not c.success:
@@ -229,12 +248,10 @@ class GPCController:
         cs = self.candidates
         full = cs.full_multistart_due(near, relevant)
         previous = cs.incumbent
-        solved = []
-        for name, (u0, lam_x, lam_g) in cs.starts(near, full):
-            if self._out_of_time():
-                self.counters["budget_skips"] += 1
-                continue
-            solved.append(self.solve(p, u0, name, lam_x, lam_g))
+        starts = [(name, u0, lam_x, lam_g) for name, (u0, lam_x, lam_g) in cs.starts(near, full)]
+        if full:  # known now: the fixed guesses go with the warm starts, in one batch
+            starts += self._guess_starts(p, x0, ref_speed_mps)
+        solved = self.solve_many(p, starts)
         if not full and near and len(cs.plans) == 1 and _fell_off_a_ridge(previous, solved):
             solved = self._opening_solves(p, x0, ref_speed_mps) + solved
         surprise = self.config.surprise_ratio
@@ -243,30 +260,26 @@ class GPCController:
             if previous is not None and not best <= (1.0 + surprise) * abs(previous.cost) + 1e-9:
                 full = True  # dearer than expected: look for a minimum no kept candidate is in
                 cs.reason = "surprise"
+                solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps))
         if full:
             self.counters["full_multistarts"] += 1
             key = "multistart_" + cs.reason.replace(" ", "_")
             self.counters[key] = self.counters.get(key, 0) + 1
-            ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
-            for name, u0 in initial_guesses(self.problem, x0, ref_speed_mps, ref_poses).items():
-                if self._out_of_time():
-                    self.counters["budget_skips"] += 1
-                    continue
-                solved.append(self.solve(p, u0, name))
         return cs.update(solved, full, TIE_RELATIVE), solved
 
     def _opening_solves(self, p, x0, ref_speed_mps: float) -> list[Plan]:
         """The two swerves, solved when the one kept plan fell off the ridge between passing
         left and right (:func:`_fell_off_a_ridge`); first in the list, so a tie goes right."""
         openings = swerve_guesses(self.config, self.robot, x0, ref_speed_mps)
-        out = []
-        for name in ("swerve_right", "swerve_left"):
-            if self._out_of_time():
-                self.counters["budget_skips"] += 1
-                continue
-            self.counters["opening_solves"] = self.counters.get("opening_solves", 0) + 1
-            out.append(self.solve(p, openings[name], name))
+        out = self.solve_many(p, [(name, openings[name], None, None) for name in ("swerve_right", "swerve_left")])
+        self.counters["opening_solves"] = self.counters.get("opening_solves", 0) + len(out)
         return out
+
+    def _guess_starts(self, p, x0, ref_speed_mps: float) -> list[tuple]:
+        """The fixed guesses as starts ``(name, u0, None, None)``, in tie order."""
+        ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
+        return [(name, u0, None, None) for name, u0 in initial_guesses(self.problem, x0, ref_speed_mps,
+                                                                         ref_poses).items()]
 
     def _out_of_time(self) -> bool:
         return self._deadline is not None and time.perf_counter() > self._deadline

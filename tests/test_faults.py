@@ -313,8 +313,9 @@ def test_a_solve_that_raises_or_returns_nan_is_a_counted_fallback(mode):
     pytest.importorskip("casadi")
     from casadi_gpc.gpc import GPCController
 
-    # one CasADi solver behind the backend, and no second try by the backup solver (issue 3)
-    ctrl = GPCController(preset("improved").with_overrides(solver="sqpmethod-daqp"), backup_solver=None)
+    # one CasADi solver behind the backend (one lane: the fake stands in for that solver's
+    # buffer, a second lane would have its own), and no second try by the backup solver (issue 3)
+    ctrl = GPCController(preset("improved").with_overrides(solver="sqpmethod-daqp", solve_lanes=1), backup_solver=None)
     real = ctrl.backend.solver
     s = load_scenario(HEAD_ON)
     log_ok = simulate(replace(s, duration_s=3.0), ctrl, "gpc")
@@ -336,7 +337,7 @@ def test_a_solve_over_its_time_budget_does_not_block_the_loop():
     pytest.importorskip("casadi")
     from casadi_gpc.gpc import GPCController
 
-    ctrl = GPCController(preset("improved").with_overrides(time_budget_s=0.05, solver="sqpmethod-daqp"))
+    ctrl = GPCController(preset("improved").with_overrides(time_budget_s=0.05, solver="sqpmethod-daqp", solve_lanes=1))
     ctrl.backend.solver = _FakeSolver(ctrl.backend.solver, "slow", sleep_s=0.12)
     s = load_scenario(HEAD_ON)
     log = simulate(replace(s, duration_s=2.0), ctrl, "gpc")

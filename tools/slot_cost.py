@@ -47,14 +47,14 @@ def main(argv=None) -> int:
     for m in slots:
         ctl = GPCController(dataclasses.replace(base, max_moving=m), episodes[0].robot)
         solves, outcomes, left = [], [], 0
-        original = ctl.solve
+        original = ctl.solve_many
 
-        def solve(p, u0, guess="", lam_x=None, lam_g=None, _orig=original, _out=solves):
-            r = _orig(p, u0, guess, lam_x, lam_g)
-            _out.append((guess, r.iterations, r.solve_time_s))
-            return r
+        def solve_many(p, starts, _orig=original, _out=solves):
+            plans = _orig(p, starts)
+            _out += [(r.guess, r.iterations, r.solve_time_s) for r in plans]
+            return plans
 
-        ctl.solve = solve
+        ctl.solve_many = solve_many
         for sc in episodes:
             outcomes.append(simulate(sc, ctl, "gpc").outcome)
             left += ctl.counters["left_out"]  # the counters start afresh with every episode

@@ -1,6 +1,7 @@
 """The multiple-shooting transcription of the GPC problem, solved by fatrop."""
 from __future__ import annotations
 
+import copy
 import math
 import time
 
@@ -69,6 +70,15 @@ class FatropBackend(Backend):
         self._iu = np.concatenate([np.arange(7 * k + 5, 7 * k + 7) for k in range(H)])
         self._iv = np.concatenate([np.arange(7 * k + 3, 7 * k + 5) for k in range(1, H + 1)])
         self._ix = np.concatenate([np.arange(7 * k, 7 * k + 5) for k in range(1, H + 1)])
+
+    def fork(self) -> "FatropBackend":
+        """A twin with its own buffer, so its own fatrop memory: one fatrop solver is not
+        thread-safe, two memories of it solved in two threads gave the same numbers as one
+        after the other (``tests/test_lanes.py``)."""
+        twin = copy.copy(self)
+        twin.notes = list(self.notes)
+        twin.solver = self.solver.fork()
+        return twin
 
     def _states(self, x0, u0) -> list[float]:
         """The states X_1..X_H (x, y, heading, v_right, v_left) of the increments ``u0`` rolled

@@ -27,6 +27,10 @@ class HybridBackend(Backend):
                       f"a warm start {warm.name} fails on: {cold.name} from the same start"]
         self.retries = 0
 
+    def fork(self) -> "HybridBackend | None":
+        warm, cold = self.warm.fork(), self.cold.fork()
+        return None if warm is None or cold is None else HybridBackend(self.name, warm, cold)
+
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         if lam_x is None:
             return self.cold._solve(p, u0, lam_x, lam_g)

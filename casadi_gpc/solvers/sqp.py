@@ -210,6 +210,14 @@ class SqpBackend(CasadiBackend):
         self.notes.append(note + "; Hessian: exact + delta I (IPOPT-style inertia correction); "
                                  "objective scaled as IPOPT's gradient-based scaling")
 
+    def fork(self) -> "SqpBackend | None":
+        if not self.compiled:  # the numpy Hessian is a Python callback inside the solver
+            return None
+        twin = self._twin()
+        twin._grad_inf = BufferedFunction(self._grad_inf.fn, share={0: twin.solver.inputs[0],
+                                                                     1: twin.solver.inputs[1]})
+        return twin
+
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         t0 = time.perf_counter()
         x0, p_ext = self.solver.inputs[0], self.solver.inputs[1]

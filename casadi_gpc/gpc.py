@@ -98,7 +98,8 @@ class GPCController:
         if self.config.candidates not in ("persistent", "multistart"):
             raise ValueError(f"candidates must be 'persistent' or 'multistart', got {self.config.candidates!r}")
         period = max(1, int(round(self.config.multistart_period_s / self.config.sample_time_s)))
-        self.candidates = CandidateSet(self.config.horizon, period, self.config.prune_ratio)
+        memory = max(1, int(round(self.config.relevance_memory_s / self.config.sample_time_s)))
+        self.candidates = CandidateSet(self.config.horizon, period, self.config.prune_ratio, memory)
         self._failure_prob, self._failure_rng = 0.0, None
         self._deadline: float | None = None
         self.reset()

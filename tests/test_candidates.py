@@ -60,9 +60,9 @@ def test_when_the_full_multistart_is_due():
 
 
 def test_an_obstacle_that_mattered_lately_is_not_new():
-    """A walker that leaves the relevance range and comes back within period_steps ticks is
+    """A walker that leaves the relevance range and comes back within memory_steps ticks is
     the one the kept candidates know; one that was away longer (or never seen) is new."""
-    cs = CandidateSet(H, period_steps=3)
+    cs = CandidateSet(H, period_steps=3, memory_steps=3)
     two = [plan("swerve_right", 3.0), plan("swerve_left", 4.0)]
     assert cs.full_multistart_due(True, frozenset({1, 2}))  # no candidate yet
     cs.update(two, full=True, tie_relative=1e-7)
@@ -147,3 +147,13 @@ def test_a_plan_falls_off_the_ridge_only_from_straight_to_turning():
     assert not _fell_off_a_ridge(turning, [straight, turning])          # it was not on a ridge
     assert not _fell_off_a_ridge(straight, [plan("warm", 1.0, turning.u, ok=False)])  # failed solves do not count
     assert not _fell_off_a_ridge(None, [turning])
+
+
+def test_the_relevance_memory_in_samples_per_preset():
+    """improved remembers 3 s (six samples of 0.5 s); paper one sample of 1.5 s, the rule
+    before the memory (a walker moves 2 m between its samples)."""
+    from casadi_gpc.config import preset
+    from casadi_gpc.gpc import GPCController
+
+    assert GPCController(preset("improved")).candidates.memory_steps == 6
+    assert GPCController(preset("paper")).candidates.memory_steps == 1

@@ -178,6 +178,36 @@ def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
     assert passed > 10 and deferred > 10  # both branches exercised
 
 
+def test_quick_screen_among_many_obstacles_gives_the_few_obstacles_numbers(monkeypatch):
+    """From MANY_OBSTACLES on, the screen's two bounds are taken with numpy over all
+    obstacles at once: the same verdicts, clearances, obstacles and times, to the last bit,
+    as the plain-float loops (random crowds of 4 to 13 movers, with and without statics)."""
+    import casadi_gpc.safety.screen as screen
+
+    rng = np.random.default_rng(5)
+    cases = passed = 0
+    for T, H in ((0.5, 12), (1.5, 6)):
+        f = SafetyFilter(ROBOT, T, H)
+        for _ in range(150):
+            state = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi), *rng.uniform(-0.6, 0.6, 2)])
+            plan = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)) * rng.uniform(0.2, 1.0))
+            cand = plan if rng.random() < 0.5 else plan[0]
+            fcs = [forecast(rng.uniform(-6, 6, 2), rng.uniform(-0.6, 0.6, 2), T, H,
+                            cov=np.diag(rng.uniform(1e-4, 0.05, 2)), radius=0.2, oid=i)
+                   for i in range(rng.integers(4, 14))]
+            st = tuple(StaticObstacle(tuple(rng.uniform(-6, 6, 2)), 0.3) for _ in range(rng.integers(0, 3)))
+            many = f._quick(RobotState(*state), cand, fcs, st)
+            monkeypatch.setattr(screen, "MANY_OBSTACLES", 10 ** 9)
+            few = f._quick(RobotState(*state), cand, fcs, st)
+            monkeypatch.setattr(screen, "MANY_OBSTACLES", 4)
+            cases += 1
+            assert (many is None) == (few is None)
+            if many is not None:
+                passed += 1
+                assert many[0] == few[0] and many[1] == few[1] and many[3] == few[3]
+    assert cases == 300 and 50 < passed < 290  # both verdicts exercised
+
+
 # --- the verdicts --------------------------------------------------------------------------
 def test_safe_plan_is_accepted_unchanged():
     T, H = 0.5, 12

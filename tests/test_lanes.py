@@ -76,20 +76,24 @@ def test_a_start_is_not_begun_once_stop_says_so():
 
 
 def test_the_closed_loop_is_the_same_with_one_lane_or_two():
-    """A 10-walker crossing, the planner as shipped (behind its check): the same states,
-    bit for bit, and the same counters."""
+    """A 10-walker crossing, the planner as shipped (behind its check) but for its time
+    budget: the same states, bit for bit, and the same counters."""
     from scenarios import Suite
 
     sc = Suite("circle-crossing", 1, 1, 10, "orca").scenario(0)
     sc = replace(sc, duration_s=8.0)
     logs, counters = {}, {}
     for n in (1, 2):
-        gpc = GPCController(preset("improved").with_overrides(solve_lanes=n), sc.robot)
+        # no time budget: what is compared is the answers, not how late a loaded machine gives
+        # them (in one full-suite run a solve came back past the 0.5 s budget: over_budget 1)
+        gpc = GPCController(preset("improved").with_overrides(solve_lanes=n, time_budget_s=1e6), sc.robot)
         logs[n] = simulate(sc, Shield(gpc, sc.robot, trust_plans=True), "gpc")
         counters[n] = dict(gpc.counters)
         assert gpc.lanes.count == n
     np.testing.assert_array_equal(np.asarray(logs[1].states), np.asarray(logs[2].states))
-    assert counters[1] == counters[2] and counters[1]["full_multistarts"] > 0
+    differ = {k: (counters[1].get(k), counters[2].get(k)) for k in set(counters[1]) | set(counters[2])
+              if counters[1].get(k) != counters[2].get(k)}
+    assert not differ and counters[1]["full_multistarts"] > 0, differ
 
 
 def test_a_forked_process_solves_on_its_own_threads():

@@ -142,6 +142,15 @@ def test_bound_is_never_above_the_roll_out():
             assert f.bound(state, plan[0], None, obs)[0] <= worst
 
 
+def _screen_case(rng, f: SafetyFilter, H: int):
+    """A robot state, whether the candidate is its own plan, and a plan within the limits,
+    drawn for the quick screen's tests."""
+    state = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi), *rng.uniform(-0.6, 0.6, 2)])
+    own = rng.random() < 0.5
+    plan = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)) * rng.uniform(0.2, 1.0))
+    return state, own, plan
+
+
 def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
     """The plain-float screen that settles most checks: whenever it passes a candidate, its
     clearance is a lower bound of an independent brute force of the sequence it judged (the
@@ -152,9 +161,7 @@ def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
     for T, H in ((0.5, 12), (1.5, 6)):
         f = SafetyFilter(ROBOT, T, H)
         for _ in range(40):
-            state = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi), *rng.uniform(-0.6, 0.6, 2)])
-            own = rng.random() < 0.5
-            plan = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)) * rng.uniform(0.2, 1.0))
+            state, own, plan = _screen_case(rng, f, H)
             cand = plan if own else plan[0]
             fcs = [forecast(rng.uniform(-5, 5, 2), rng.uniform(-0.5, 0.5, 2), T, H,
                             cov=np.diag(rng.uniform(1e-4, 0.05, 2)), oid=i) for i in range(rng.integers(1, 3))]
@@ -189,9 +196,8 @@ def test_quick_screen_among_many_obstacles_gives_the_few_obstacles_numbers(monke
     for T, H in ((0.5, 12), (1.5, 6)):
         f = SafetyFilter(ROBOT, T, H)
         for _ in range(150):
-            state = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi), *rng.uniform(-0.6, 0.6, 2)])
-            plan = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)) * rng.uniform(0.2, 1.0))
-            cand = plan if rng.random() < 0.5 else plan[0]
+            state, own, plan = _screen_case(rng, f, H)
+            cand = plan if own else plan[0]
             fcs = [forecast(rng.uniform(-6, 6, 2), rng.uniform(-0.6, 0.6, 2), T, H,
                             cov=np.diag(rng.uniform(1e-4, 0.05, 2)), radius=0.2, oid=i)
                    for i in range(rng.integers(4, 14))]

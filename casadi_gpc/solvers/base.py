@@ -1,5 +1,6 @@
 """What every solver backend shares: the result of a solve, the backend interface and the
-CasADi call path (bounds converted once), and the constraint check of an answer."""
+CasADi call path (through the solver's buffer, bounds written once), and the constraint check
+of an answer."""
 from __future__ import annotations
 
 import copy
@@ -71,6 +72,15 @@ class Backend:
         back into Python (Powell, the uncompiled SQP's Hessian)."""
         return None
 
+    def _twin(self):
+        """A shallow copy with its own buffer of the solver (``self.solver``, a
+        :class:`~casadi_gpc.buffered.BufferedFunction`): what :meth:`fork` returns where it is
+        safe."""
+        twin = copy.copy(self)
+        twin.notes = list(self.notes)
+        twin.solver = self.solver.fork()
+        return twin
+
     def info(self) -> dict:
         return {"name": self.name, "compiled": self.compiled, "notes": list(self.notes)}
 
@@ -96,13 +106,6 @@ class CasadiBackend(Backend):
         stats = self.solver.stats()
         return bool(stats.get("success", False)), str(stats.get("return_status", "unknown")), int(
             stats.get("iter_count", -1))
-
-    def _twin(self) -> "CasadiBackend":
-        """A shallow copy with its own buffer of the solver (see :meth:`Backend.fork`)."""
-        twin = copy.copy(self)
-        twin.notes = list(self.notes)
-        twin.solver = self.solver.fork()
-        return twin
 
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         t0 = time.perf_counter()

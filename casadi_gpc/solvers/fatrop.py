@@ -1,7 +1,6 @@
 """The multiple-shooting transcription of the GPC problem, solved by fatrop."""
 from __future__ import annotations
 
-import copy
 import math
 import time
 
@@ -75,10 +74,7 @@ class FatropBackend(Backend):
         """A twin with its own buffer, so its own fatrop memory: one fatrop solver is not
         thread-safe, two memories of it solved in two threads gave the same numbers as one
         after the other (``tests/test_lanes.py``)."""
-        twin = copy.copy(self)
-        twin.notes = list(self.notes)
-        twin.solver = self.solver.fork()
-        return twin
+        return self._twin()
 
     def _states(self, x0, u0) -> list[float]:
         """The states X_1..X_H (x, y, heading, v_right, v_left) of the increments ``u0`` rolled

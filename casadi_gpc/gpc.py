@@ -213,8 +213,11 @@ class GPCController:
         in one horizon plus ``multistart_range_m``: the ones that make the cost non-convex."""
         cfg, robot = self.config, self.robot
         reach = robot.max_wheel_speed_mps * cfg.horizon * cfg.sample_time_s + cfg.multistart_range_m
-        near = [("moving", f.obstacle_id) for f in forecasts
-                if np.min(np.hypot(f.means_m[:, 0] - x0[0], f.means_m[:, 1] - x0[1])) < reach]
+        near = []
+        if len(forecasts):  # all at once: numpy's per-call cost, not the arithmetic, is what costs here
+            q = np.array([f.means_m for f in forecasts], dtype=float)       # (n, H, 2)
+            close = np.hypot(q[..., 0] - x0[0], q[..., 1] - x0[1]).min(axis=1) < reach
+            near = [("moving", f.obstacle_id) for f, c in zip(forecasts, close) if c]
         near += [("static", j) for j, s in enumerate(statics)
                  if math.hypot(s.position_m[0] - x0[0], s.position_m[1] - x0[1]) < reach]
         return frozenset(near)

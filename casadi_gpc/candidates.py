@@ -117,6 +117,8 @@ class CandidateSet:
         appeared = any(tick - seen.get(k, -10 ** 9) > self.memory_steps for k in near_ids)
         for k in near_ids:
             seen[k] = tick
+        if len(seen) > 2 * len(near_ids) + 32:  # forget who left long ago (a long run meets many)
+            self._seen = {k: t for k, t in seen.items() if tick - t <= self.memory_steps}
         if not self.plans or self._force_full:
             self.reason = "no candidate" if not self.plans else "a class lost"
             self._force_full = False

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 
 from .buffered import BufferedFunction
-from .candidates import CandidateSet
+from .candidates import CandidateSet, shift
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
 from .ekf import EKFSettings, ObstacleEKF
@@ -155,15 +155,6 @@ class GPCController:
         return np.array(poses)
 
     # --- solving -----------------------------------------------------------------------
-    def solve(self, p: np.ndarray, u0: np.ndarray, guess: str = "", lam_x=None, lam_g=None) -> Plan:
-        """One solve of the NLP at parameters ``p`` from ``u0`` by the controller's backend
-        (and, if that fails, by the backup solver).
-
-        Inside ``decide``, an answer that arrives after the step's time budget is marked
-        failed (counted in ``over_budget``): the loop does not use late answers."""
-        r = self.backend.solve(p, u0, lam_x, lam_g)
-        return self._finish(p, r, time.perf_counter(), guess, u0, lam_x, lam_g)
-
     @property
     def lanes(self) -> SolveLanes:
         """The backend and its forks that solve a tick's starts at once (built on first use,
@@ -174,8 +165,10 @@ class GPCController:
 
     def solve_many(self, p: np.ndarray, starts: list[tuple]) -> list[Plan]:
         """The starts ``(guess, u0, lam_x, lam_g)`` solved at once on the controller's lanes
-        (:mod:`casadi_gpc.lanes`), as :meth:`solve` solves one, in the order given. A start
-        not begun within the step's time budget is left out (counted in ``budget_skips``)."""
+        (:mod:`casadi_gpc.lanes`) by its backend (and, where that fails, by the backup solver),
+        in the order given. Inside ``decide``, a start not begun within the step's time budget
+        is left out (counted in ``budget_skips``), and an answer that arrives after it is
+        marked failed (``over_budget``): the loop does not use late answers."""
         answers = self.lanes.solve_all([(p, u0, lx, lg) for _, u0, lx, lg in starts], self._out_of_time)
         out = []
         for a, (guess, u0, lx, lg) in zip(answers, starts):
@@ -228,8 +221,7 @@ class GPCController:
         cheapest successful plan. Exact ties keep the earliest guess (swerve right first)."""
         # The warm start is solved first (the likeliest answer, when the budget is short);
         # the candidates keep the guesses-then-warm order that breaks ties.
-        starts = [] if warm is None else [("warm", np.concatenate([warm.u[2:], np.zeros(2)]),
-                                           *self._shift_multipliers(warm, self.config.horizon))]
+        starts = [] if warm is None else [("warm", *shift(warm, self.config.horizon))]
         if multistart or warm is None:
             starts += self._guess_starts(p, x0, ref_speed_mps)
         solved = self.solve_many(p, starts)
@@ -287,12 +279,6 @@ class GPCController:
 
     def _out_of_time(self) -> bool:
         return self._deadline is not None and time.perf_counter() > self._deadline
-
-    @staticmethod
-    def _shift_multipliers(warm: Plan, H: int):
-        if warm.lam_x is None:
-            return None, None
-        return (np.concatenate([warm.lam_x[2:], np.zeros(2)]), np.concatenate([warm.lam_g[2:], np.zeros(2)]))
 
     # --- the step ----------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:

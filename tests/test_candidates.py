@@ -157,3 +157,14 @@ def test_the_relevance_memory_in_samples_per_preset():
 
     assert GPCController(preset("improved")).candidates.memory_steps == 6
     assert GPCController(preset("paper")).candidates.memory_steps == 1
+
+
+def test_the_memory_forgets_obstacles_that_left_long_ago():
+    """A long run meets many walkers: the memory holds only those within reach of its window,
+    and each new one still makes a full multi-start due."""
+    cs = CandidateSet(H, period_steps=10 ** 6, memory_steps=3)
+    cs.update([plan("swerve_right", 3.0)], full=True, tie_relative=1e-7)
+    for k in range(1000):
+        assert cs.full_multistart_due(True, frozenset({k}))
+        cs.update([plan("swerve_right", 3.0)], full=False, tie_relative=1e-7)
+    assert len(cs._seen) <= 34

@@ -205,8 +205,7 @@ class SqpBackend(CasadiBackend):
             self._hessian = ConvexifiedHessian(hess)  # a Callback must outlive the solver
             solver = ca.nlpsol(tag, "sqpmethod", scaled, dict(opts, hess_lag=self._hessian))
         self._setup(solver)
-        # |grad J(u0)|_inf reads the solver's own start and parameters (the scale is p's last entry)
-        self._grad_inf = BufferedFunction(grad_inf, share={0: self.solver.inputs[0], 1: self.solver.inputs[1]})
+        self._bind_gradient(grad_inf)
         self.notes.append(note + "; Hessian: exact + delta I (IPOPT-style inertia correction); "
                                  "objective scaled as IPOPT's gradient-based scaling")
 
@@ -214,9 +213,13 @@ class SqpBackend(CasadiBackend):
         if not self.compiled:  # the numpy Hessian is a Python callback inside the solver
             return None
         twin = self._twin()
-        twin._grad_inf = BufferedFunction(self._grad_inf.fn, share={0: twin.solver.inputs[0],
-                                                                     1: twin.solver.inputs[1]})
+        twin._bind_gradient(self._grad_inf.fn)
         return twin
+
+    def _bind_gradient(self, grad_inf: ca.Function) -> None:
+        """|grad J(u0)|_inf, reading the solver's own start and parameters (the scale is the
+        parameters' last entry)."""
+        self._grad_inf = BufferedFunction(grad_inf, share={0: self.solver.inputs[0], 1: self.solver.inputs[1]})
 
     def _solve(self, p, u0, lam_x, lam_g) -> SolveResult:
         t0 = time.perf_counter()

@@ -28,7 +28,8 @@ from .ekf import worst_std_m
 from .robot import RobotParams, robot_step
 from .types import ObstacleForecast, StaticObstacle
 
-__all__ = ["ParameterLayout", "GPCProblem", "build_problem", "parameter_blocks", "effort_cost", "state_cost", "FAR_AWAY_M"]
+__all__ = ["ParameterLayout", "GPCProblem", "build_problem", "parameter_blocks", "effort_cost", "state_cost", "rollout_states",
+           "FAR_AWAY_M"]
 
 FAR_AWAY_M = 1.0e4  # where unused obstacle slots are parked
 
@@ -91,35 +92,36 @@ class ParameterLayout:
         H, M, S = self.horizon, self.max_moving, self.max_static
         if len(forecasts) > M or len(statics) > S:
             raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")
-        sl = self.slices()
-        p = np.zeros(self.size)
+        p = self._empty.copy()  # every slot parked far away and off (numpy's per-call cost is what counts here)
+        sl = self._slices
         p[sl["x0"]] = x0
         p[sl["ref"]] = np.asarray(ref, dtype=float).reshape(-1)
         p[sl["ref_w"]] = 1.0 if ref_weights is None else np.asarray(ref_weights, dtype=float)
-        mov_xy = np.full((M, H, 2), FAR_AWAY_M)
-        mov_p = np.ones((M, H))
-        mov_sigma = np.zeros((M, H))
-        mov_r = np.zeros(M)
-        mov_on = np.zeros(M)
         n = len(forecasts)
-        if n:  # all forecasts at once: numpy's per-call cost, not the arithmetic, is what costs here
+        if n:  # all forecasts at once, written into the slots' views of p
             covs = np.array([f.covs_m2 for f in forecasts], dtype=float)      # (n, H, 2, 2)
-            mov_xy[:n] = [f.means_m for f in forecasts]
-            mov_p[:n] = 1.0 + (covs[..., 0, 0] + covs[..., 1, 1]) / uncertainty_scale_m ** 2
-            mov_sigma[:n] = worst_std_m(covs)
-            mov_r[:n] = [f.radius_m for f in forecasts]
-            mov_on[:n] = 1.0
-        sta_xy = np.full((S, 2), FAR_AWAY_M)
-        sta_r = np.zeros(S)
-        sta_on = np.zeros(S)
-        for j, s in enumerate(statics):
-            sta_xy[j] = s.position_m
-            sta_r[j] = s.radius_m
-            sta_on[j] = 1.0
-        for name, val in (("mov_xy", mov_xy), ("mov_p", mov_p), ("mov_sigma", mov_sigma),
-                          ("mov_r", mov_r), ("mov_on", mov_on), ("sta_xy", sta_xy),
-                          ("sta_r", sta_r), ("sta_on", sta_on)):
-            p[sl[name]] = val.reshape(-1)
+            p[sl["mov_xy"]].reshape(M, H, 2)[:n] = [f.means_m for f in forecasts]
+            p[sl["mov_p"]].reshape(M, H)[:n] = 1.0 + (covs[..., 0, 0] + covs[..., 1, 1]) / uncertainty_scale_m ** 2
+            p[sl["mov_sigma"]].reshape(M, H)[:n] = worst_std_m(covs)
+            p[sl["mov_r"]][:n] = [f.radius_m for f in forecasts]
+            p[sl["mov_on"]][:n] = 1.0
+        if statics:
+            sta_xy, sta_r, sta_on = p[sl["sta_xy"]], p[sl["sta_r"]], p[sl["sta_on"]]
+            for j, st in enumerate(statics):
+                sta_xy[2 * j:2 * j + 2] = st.position_m
+                sta_r[j] = st.radius_m
+                sta_on[j] = 1.0
+        return p
+
+    @cached_property
+    def _empty(self) -> np.ndarray:
+        """The parameters of no obstacle: moving and static slots parked at
+        :data:`FAR_AWAY_M`, off, radius 0, the paper's P 1 and no uncertainty."""
+        p = np.zeros(self.size)
+        sl = self._slices
+        for name in ("mov_xy", "sta_xy"):
+            p[sl[name]] = FAR_AWAY_M
+        p[sl["mov_p"]] = 1.0
         return p
 
     def unpack(self, p: np.ndarray) -> dict[str, np.ndarray]:
@@ -203,6 +205,20 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
     return tracking, turning, obst, margin_pen
 
 
+def rollout_states(config: PlannerConfig, robot: RobotParams, x0, u) -> list[tuple]:
+    """The states ``(x, y, heading, v_right, v_left)`` after each of the H steps of the
+    increments ``u`` from ``x0`` (symbolic or numeric entries), by the robot model: the
+    roll-out of the single-shooting NLP (:func:`build_problem`) and of its Hessian
+    (:mod:`casadi_gpc.solvers.hessian`)."""
+    x, y, th, vr, vl = x0[0], x0[1], x0[2], x0[3], x0[4]
+    states = []
+    for i in range(config.horizon):
+        vr, vl = vr + u[2 * i], vl + u[2 * i + 1]
+        x, y, th = robot_step(ca, x, y, th, vr, vl, config.sample_time_s, robot.wheel_base_m)
+        states.append((x, y, th, vr, vl))
+    return states
+
+
 def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GPCProblem:
     """Build the NLP of ``config`` for ``robot`` (CasADi SX, single shooting)."""
     robot = robot or RobotParams()
@@ -213,15 +229,11 @@ def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GP
     P = parameter_blocks(layout, p)
     x0 = P["x0"]
 
-    x, y, th, vr, vl = x0[0], x0[1], x0[2], x0[3], x0[4]
     tracking = effort = turning = obst = margin_pen = 0
     poses, wheels, g = [], [], []
-    for i in range(H):
-        dvr, dvl = u[2 * i], u[2 * i + 1]
-        vr, vl = vr + dvr, vl + dvl
+    for i, (x, y, th, vr, vl) in enumerate(rollout_states(config, robot, x0, u)):
         g += [vr, vl]
-        effort += effort_cost(config, dvr, dvl)
-        x, y, th = robot_step(ca, x, y, th, vr, vl, T, robot.wheel_base_m)
+        effort += effort_cost(config, u[2 * i], u[2 * i + 1])
         poses.append(ca.horzcat(x, y, th))
         wheels.append(ca.horzcat(vr, vl))
         terms = state_cost(config, robot, P, i, x, y, th, vr, vl)

@@ -163,9 +163,12 @@ class FilterState(NamedTuple):
     def cov_array(self) -> np.ndarray:
         return _cov_array(self.cov_upper)
 
-    def predict(self, horizon: int, q: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def predict(self, horizon: int, q: tuple | None = None, forecast=None) -> tuple[np.ndarray, np.ndarray]:
         """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H
-        (``q``: the diagonal of Q when the caller has it)."""
+        (``q``: the diagonal of Q when the caller has it). ``forecast``: a callable
+        ``(state, cov_upper, T, q, horizon) -> (means, covs)`` giving :func:`propagate`'s
+        numbers faster (:class:`casadi_gpc.forecast_function.ForecastFunction`), for a
+        track seen twice or more."""
         T = self.sample_time_s
         if self.measurements_seen == 1:
             # standing where it was seen, the uncertainty growing with the unknown speed
@@ -177,9 +180,12 @@ class FilterState(NamedTuple):
                 means[j] = s[:2]
                 covs[j] = P[:2, :2] + np.eye(2) * grow * (j + 1) ** 2
             return means, covs
+        q = q or _q_diagonal(self.settings, T)
+        if forecast is not None:
+            return forecast(self.state, self.cov_upper, T, q, horizon)
         x, y, v, th, dth = self.state
         means, covs = [], []  # flat: one array call each at the end
-        _propagate(x, y, v, th, dth, self.cov_upper, T, q or _q_diagonal(self.settings, T), horizon, means, covs)
+        _propagate(x, y, v, th, dth, self.cov_upper, T, q, horizon, means, covs)
         return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)
 
 
@@ -450,9 +456,10 @@ class ObstacleEKF:
         g._second(self.pending_z_)
         return g
 
-    def predict(self, horizon: int) -> tuple[np.ndarray, np.ndarray]:
-        """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H."""
+    def predict(self, horizon: int, forecast=None) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H
+        (``forecast``: see :meth:`FilterState.predict`)."""
         if self._s is None:
             raise RuntimeError("predict() before any measurement")
         return FilterState(self._s, self._U, self.measurements_seen_, self.sample_time_s,
-                           self.settings).predict(horizon, self._q())
+                           self.settings).predict(horizon, self._q(), forecast)

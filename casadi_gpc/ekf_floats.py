@@ -16,7 +16,7 @@ __all__ = ["propagate", "joseph", "upper", "full", "cov_array"]
 
 
 def propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: float, q: tuple, steps: int,
-               means: list | None = None, covs: list | None = None) -> tuple[float, float, float, tuple]:
+              means: list | None = None, covs: list | None = None, xp=math) -> tuple[float, float, float, tuple]:
     """``steps`` steps of the model and of the covariance, ``P' = F P F^T + Q``, on plain
     floats: returns the new ``(x, y, heading)`` and P's upper triangle ``U`` (15 entries row
     by row, :data:`upper`); speed and turn increment do not change. With ``means`` and
@@ -26,10 +26,13 @@ def propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: 
     half of the deployed policy's decision time. F (the Jacobian at the new heading) is the
     identity but for ``F[0, 2:] = (a, b, b)``, ``F[1, 2:] = (e, g, g)``, ``F[3, 4] = 1``, so
     with ``w_j = P f_j`` (``f_j`` the rows of F) the result is ``P'_ij = f_i . w_j`` and only
-    the first two columns of P change shape; the rest are sums of its entries."""
+    the first two columns of P change shape; the rest are sums of its entries.
+
+    ``xp``: the module whose ``cos`` and ``sin`` it uses; ``casadi`` with symbolic arguments
+    traces these very operations into an expression (:mod:`casadi_gpc.forecast_function`)."""
     vT = v * T  # v * T * c evaluates (v * T) * c
     q0, q1, q2, q3, q4 = q
-    cos, sin = math.cos, math.sin
+    cos, sin = xp.cos, xp.sin
     for _ in range(steps):
         th += dth
         c, si = cos(th), sin(th)

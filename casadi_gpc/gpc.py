@@ -13,6 +13,7 @@ from .candidates import CandidateSet, shift
 from .config import PlannerConfig, preset
 from .cost import GPCProblem, build_problem
 from .ekf import EKFSettings, ObstacleEKF
+from .forecast_function import ForecastFunction
 from .guesses import TIE_ORDER, initial_guesses, swerve_guesses
 from .lanes import SolveLanes
 from .progress import ReferenceClock
@@ -91,6 +92,7 @@ class GPCController:
                                        compiled=self.compile_solver, ipopt_options=self.ipopt_options)
         self._ref_slice = self.problem.layout.slices()["ref"]
         self._rollout = BufferedFunction(self.problem.rollout_fn)
+        self._forecast_function = ForecastFunction(self.config.sample_time_s, self.config.horizon)
         self.horizon = self.config.horizon
         unknown = sorted(set(self.config.guesses) - set(TIE_ORDER))
         if unknown:
@@ -143,7 +145,8 @@ class GPCController:
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
         """Fuse this sample's measurements and predict every track over the horizon."""
         H = self.config.horizon
-        return [self.bank.forecast(m, ekf, H) for m, ekf in self.bank.step(obs.moving)]
+        forecast, function = self.bank.forecast, self._forecast_function
+        return [forecast(m, ekf, H, function) for m, ekf in self.bank.step(obs.moving)]
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
         """Advance the reference clock; the desired poses at steps 0..H, shape (H + 1, 3)

@@ -79,9 +79,10 @@ class TrackBank:
         return seen + ghosts
 
     @staticmethod
-    def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int) -> ObstacleForecast:
+    def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int, function=None) -> ObstacleForecast:
         """What a planner plans with: the filter's H-step prediction, a track seen once kept
-        at its next step's uncertainty (:func:`~casadi_gpc.ekf.planning_covariances`)."""
-        means, covs = ekf.predict(horizon)
+        at its next step's uncertainty (:func:`~casadi_gpc.ekf.planning_covariances`);
+        ``function``: the prediction's faster form (:meth:`~casadi_gpc.ekf.FilterState.predict`)."""
+        means, covs = ekf.predict(horizon, function)
         return ObstacleForecast(measurement.obstacle_id, measurement.radius_m, means,
                                 planning_covariances(covs, ekf.initialised))

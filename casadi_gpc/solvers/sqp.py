@@ -15,6 +15,7 @@ from ..cost import GPCProblem
 from ..buffered import BufferedFunction
 from .base import CasadiBackend, SolveResult
 from .compiling import COMPILE_EVENTS, compiled_library
+from .hessian import cost_hessian
 
 __all__ = ["SqpBackend", "ConvexifiedHessian", "CONVEXIFY_C", "SCALE_MAX_GRADIENT", "lagrangian_hessian",
            "convexified_hessian_source"]
@@ -94,12 +95,20 @@ _HESS_NAME = "gpc_hess_cvx"
 _HESS_CALL = "  return casadi_f0(arg, res, iw, w, mem);"
 
 
-def lagrangian_hessian(nlp: dict) -> ca.Function:
-    """The exact, dense Hessian of the Lagrangian, with sqpmethod's ``hess_lag`` signature."""
-    lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", nlp["g"].numel())
-    lag = lam_f * nlp["f"] + ca.dot(lam_g, nlp["g"])
-    hess = ca.densify(ca.hessian(lag, nlp["x"])[0])
-    return ca.Function(_HESS_NAME, [nlp["x"], nlp["p"], lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"], ["hess"])
+def lagrangian_hessian(problem: GPCProblem, scaled: dict) -> ca.Function:
+    """The exact, dense Hessian of the Lagrangian of ``scaled`` (``problem``'s NLP, its
+    objective times the scale appended to the parameters), with sqpmethod's ``hess_lag``
+    signature: ``lam_f`` times the scale times the cost's Hessian by the chain rule
+    (:func:`casadi_gpc.solvers.hessian.cost_hessian`, half the operations of CasADi's
+    ``hessian`` of the whole cost). The constraints (the wheel speeds) are linear in the
+    increments, so the multipliers do not enter; checked here."""
+    x, p_ext, g = scaled["x"], scaled["p"], scaled["g"]
+    lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", g.numel())
+    if ca.hessian(ca.dot(lam_g, g), x)[0].nnz():
+        raise ValueError("the SQP's Hessian assumes constraints linear in the increments")
+    n_p = problem.layout.size
+    hess = lam_f * p_ext[n_p] * cost_hessian(problem)(x, p_ext[:n_p])
+    return ca.Function(_HESS_NAME, [x, p_ext, lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"], ["hess"])
 
 
 def convexified_hessian_source(hess: ca.Function, *others: ca.Function) -> str:
@@ -184,7 +193,7 @@ class SqpBackend(CasadiBackend):
         scale = ca.SX.sym("scale")  # the objective's scale, appended to the parameters
         p_ext = ca.vertcat(nlp["p"], scale)
         scaled = {"x": nlp["x"], "p": p_ext, "f": scale * nlp["f"], "g": nlp["g"]}
-        hess = lagrangian_hessian(scaled)
+        hess = lagrangian_hessian(problem, scaled)
         grad_inf = ca.Function(_GRAD_NAME, [nlp["x"], p_ext], [ca.norm_inf(ca.gradient(nlp["f"], nlp["x"]))])
         solver, note = None, "uncompiled CasADi functions"
         if compiled:

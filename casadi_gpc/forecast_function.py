@@ -1,0 +1,48 @@
+"""The obstacle filter's H-step forecast as a CasADi function: the planner's side.
+
+The planner forecasts every tracked mover at every tick (its relevance, parameters and
+check layer read them all). In plain Python floats (:func:`casadi_gpc.ekf_floats.propagate`)
+the 12-step covariance propagation costs some 50-90 us a mover, most of a crowd decision's
+estimation. Traced once into a CasADi expression, by calling that same function with
+symbols, and evaluated by CasADi's virtual machine through a buffer, it costs about a sixth
+(measured: docs/crowds.md), with the same operations in the same order: the numbers are
+the same bit for bit (tested). The deployed network policy, numpy only, keeps the float form.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .buffered import BufferedFunction
+from .ekf_floats import propagate
+
+__all__ = ["ForecastFunction"]
+
+
+class ForecastFunction:
+    """``forecast(state, cov_upper, T, q, horizon) -> (means (H, 2), covs (H, 2, 2))``: what
+    :meth:`casadi_gpc.ekf.FilterState.predict` computes for a track seen twice or more, for
+    one sample time and horizon (another sample time or horizon: the float form)."""
+
+    def __init__(self, sample_time_s: float, horizon: int):
+        self.sample_time_s, self.horizon = float(sample_time_s), int(horizon)
+        x = ca.SX.sym("x", 25)  # the state, the covariance's upper triangle, Q's diagonal: one write a call
+        means, covs = [], []
+        propagate(*(x[i] for i in range(5)), tuple(x[i] for i in range(5, 20)), self.sample_time_s,
+                  tuple(x[i] for i in range(20, 25)), self.horizon, means, covs, xp=ca)
+        fn = ca.Function("obstacle_forecast", [x], [ca.vertcat(*means, *covs)], ["state_cov_q"], ["means_covs"])
+        self._fn = BufferedFunction(fn)
+        self._in, self._out = self._fn.inputs[0], self._fn.outputs[0]
+        self._eval = self._fn._eval  # plain arithmetic: no error flag to read
+
+    def __call__(self, state: tuple, cov_upper: tuple, T: float, q: tuple,
+                 horizon: int) -> tuple[np.ndarray, np.ndarray]:
+        H = self.horizon
+        if horizon != H or T != self.sample_time_s:
+            means, covs = [], []
+            propagate(*state, cov_upper, T, q, horizon, means, covs)
+            return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)
+        self._in[:] = state + cov_upper + q
+        self._eval()
+        out = self._out.copy()
+        return out[:2 * H].reshape(H, 2), out[2 * H:].reshape(H, 2, 2)

@@ -33,7 +33,7 @@ from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
 from nn_export.runtime.features import compute_features
 from nn_export.runtime.layouts import layout_for
 from nn_export.runtime.tracker import SituationTracker
-from nn_export.runtime.policy import OnnxPolicy
+from nn_export.runtime.policy import MODELS_DIR, OnnxPolicy, _bind, _load_session
 
 DATA = Path(__file__).parent / "data"
 CASES = {
@@ -256,6 +256,31 @@ def test_plain_float_paths_equal_the_general_ones():
         poses = np.array(path.poses_along(s0, step, 13))
         want = path.pose_at_arclength(np.clip(s0 + step * np.arange(13), 0.0, path.length_m))
         np.testing.assert_allclose(poses, want, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("model", sorted(p.name for p in MODELS_DIR.glob("*.onnx")))
+def test_the_policys_session_options_leave_the_outputs_bit_identical(model):
+    """The policy runs its sessions with options of its own (one thread, no memory arena:
+    nn_export/runtime/policy.py ``_load_session``); they change the cost of a call, never
+    its numbers: every shipped network answers exactly as under onnxruntime's default options,
+    one bound row at a time (the policy's call) and in batches."""
+    import onnxruntime as ort
+    path = MODELS_DIR / model
+    pol_session, _ = _load_session(path)
+    plain = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    size = pol_session.get_inputs()[0].shape[1]
+    rng = np.random.default_rng(11)
+    X = (rng.normal(0.0, 1.0, (300, size)) * rng.choice([0.01, 1.0, 12.0], (300, size))).astype(np.float32)
+    # a batch may round differently from single rows (the set network's does): rows against rows
+    want_rows = np.concatenate([plain.run(None, {"features": X[i:i + 1]})[0] for i in range(len(X))])
+    x, y, write, _, run = _bind(pol_session, size, path)
+    got = np.empty_like(want_rows)
+    for i, row in enumerate(X.astype(float).tolist()):
+        write(*row)
+        run()
+        got[i] = y[0]
+    assert np.array_equal(got, want_rows)
+    assert np.array_equal(pol_session.run(None, {"features": X})[0], plain.run(None, {"features": X})[0])
 
 
 @pytest.mark.benchmark

@@ -139,6 +139,10 @@ def _load_session(path: Path) -> tuple[ort.InferenceSession, bytes]:
     opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
     opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
     opts.log_severity_level = 3
+    # no memory arena: the few small intermediate rows come from malloc, which is cheaper per
+    # call than the arena's bookkeeping (the bare call 10.2 -> 9.9 us on the 2-core machine,
+    # interleaved; the same outputs bit for bit, tested)
+    opts.enable_cpu_mem_arena = False
     try:
         return ort.InferenceSession(data, opts, providers=["CPUExecutionProvider"]), data
     except Exception as exc:  # onnxruntime raises its own classes for truncated or corrupt files

@@ -2,11 +2,13 @@
 
 The planner forecasts every tracked mover at every tick (its relevance, parameters and
 check layer read them all). In plain Python floats (:func:`casadi_gpc.ekf_floats.propagate`)
-the 12-step covariance propagation costs some 50-90 us a mover, most of a crowd decision's
+the 12-step forecast costs about 42 us a mover (with its arrays), most of a crowd decision's
 estimation. Traced once into a CasADi expression, by calling that same function with
-symbols, and evaluated by CasADi's virtual machine through a buffer, it costs about a sixth
-(measured: docs/crowds.md), with the same operations in the same order: the numbers are
-the same bit for bit (tested). The deployed network policy, numpy only, keeps the float form.
+symbols, and evaluated by CasADi's virtual machine through a buffer, it costs 13 us (a
+third; the two measured in one process on the 2-core machine, and 0.69 -> 0.40 ms of a
+10-walker crowd decision's estimation, docs/crowds.md), with the same operations in the
+same order: the numbers are the same bit for bit (tested). The deployed network policy,
+numpy only, keeps the float form.
 """
 from __future__ import annotations
 

@@ -372,7 +372,8 @@ def comparison(r: dict) -> str:
     if shipped and shipped["scenarios"]:
         out.append("* **The smallest network that meets it** in the study (docs/nn.md) is the one shipped for `paper`: "
                    "three hidden layers of 64, one pass, trained on 226k GPC labels of the GPC's own closed-loop states "
-                   "(DART). In this run, bare (`shipped` rows): " + _per_situation(shipped) + "; the claim "
+                   "(DART); on the same data two layers of 64, one of 64 and the paper's 17-35-2 (one pass or two) "
+                   "do not meet it. In this run, bare (`shipped` rows): " + _per_situation(shipped) + "; the claim "
                    + ("holds" if shipped["holds"] else "does not hold") + f" for it at {crit}.")
     if ("paper", "gpc") in suite and ("paper", "nn") in suite:
         g, n = suite[("paper", "gpc")], suite[("paper", "nn")]

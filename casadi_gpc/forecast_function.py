@@ -12,6 +12,8 @@ numpy only, keeps the float form.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import casadi as ca
 import numpy as np
 
@@ -21,6 +23,17 @@ from .ekf_floats import propagate
 __all__ = ["ForecastFunction"]
 
 
+@lru_cache(maxsize=8)
+def _traced(sample_time_s: float, horizon: int) -> ca.Function:
+    """The forecast traced once a process for each sample time and horizon (tracing costs
+    about 45 ms: a thousand symbolic operations made one by one from Python)."""
+    x = ca.SX.sym("x", 25)  # the state, the covariance's upper triangle, Q's diagonal: one write a call
+    means, covs = [], []
+    propagate(*(x[i] for i in range(5)), tuple(x[i] for i in range(5, 20)), sample_time_s,
+              tuple(x[i] for i in range(20, 25)), horizon, means, covs, xp=ca)
+    return ca.Function("obstacle_forecast", [x], [ca.vertcat(*means, *covs)], ["state_cov_q"], ["means_covs"])
+
+
 class ForecastFunction:
     """``forecast(state, cov_upper, T, q, horizon) -> (means (H, 2), covs (H, 2, 2))``: what
     :meth:`casadi_gpc.ekf.FilterState.predict` computes for a track seen twice or more, for
@@ -28,12 +41,7 @@ class ForecastFunction:
 
     def __init__(self, sample_time_s: float, horizon: int):
         self.sample_time_s, self.horizon = float(sample_time_s), int(horizon)
-        x = ca.SX.sym("x", 25)  # the state, the covariance's upper triangle, Q's diagonal: one write a call
-        means, covs = [], []
-        propagate(*(x[i] for i in range(5)), tuple(x[i] for i in range(5, 20)), self.sample_time_s,
-                  tuple(x[i] for i in range(20, 25)), self.horizon, means, covs, xp=ca)
-        fn = ca.Function("obstacle_forecast", [x], [ca.vertcat(*means, *covs)], ["state_cov_q"], ["means_covs"])
-        self._fn = BufferedFunction(fn)
+        self._fn = BufferedFunction(_traced(self.sample_time_s, self.horizon))  # its own memory
         self._in, self._out = self._fn.inputs[0], self._fn.outputs[0]
         self._eval = self._fn._eval  # plain arithmetic: no error flag to read
 

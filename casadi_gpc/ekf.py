@@ -25,7 +25,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .ekf_floats import (cov_array as _cov_array, full as _full, joseph as _joseph, propagate as _propagate,
+from .ekf_floats import (cov_array as _cov_array, forecast as _forecast, full as _full, joseph as _joseph,
+                         propagate as _propagate,
                          upper as _upper)
 
 __all__ = ["EKFSettings", "ObstacleEKF", "FilterState", "obstacle_model_step", "planning_covariances", "worst_std_m",
@@ -181,12 +182,7 @@ class FilterState(NamedTuple):
                 covs[j] = P[:2, :2] + np.eye(2) * grow * (j + 1) ** 2
             return means, covs
         q = q or _q_diagonal(self.settings, T)
-        if forecast is not None:
-            return forecast(self.state, self.cov_upper, T, q, horizon)
-        x, y, v, th, dth = self.state
-        means, covs = [], []  # flat: one array call each at the end
-        _propagate(x, y, v, th, dth, self.cov_upper, T, q, horizon, means, covs)
-        return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)
+        return (forecast or _forecast)(self.state, self.cov_upper, T, q, horizon)
 
 
 @dataclass

@@ -12,7 +12,7 @@ from operator import itemgetter
 
 import numpy as np
 
-__all__ = ["propagate", "joseph", "upper", "full", "cov_array"]
+__all__ = ["propagate", "forecast", "joseph", "upper", "full", "cov_array"]
 
 
 def propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: float, q: tuple, steps: int,
@@ -56,6 +56,15 @@ def propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: 
             means += (x, y)
             covs += (U[0], U[1], U[1], U[5])
     return x, y, th, U
+
+
+def forecast(state: tuple, U: tuple, T: float, q: tuple, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """The predicted positions ``(steps, 2)`` and their covariances ``(steps, 2, 2)`` of the
+    filter state ``state = (x, y, V, theta, dtheta)`` with P's upper triangle ``U``
+    (:func:`propagate`, its lists made arrays once)."""
+    means, covs = [], []  # flat: one array call each at the end
+    propagate(*state, U, T, q, steps, means, covs)
+    return np.array(means).reshape(steps, 2), np.array(covs).reshape(steps, 2, 2)
 
 
 upper = itemgetter(0, 1, 2, 3, 4, 6, 7, 8, 9, 12, 13, 14, 18, 19, 24)

@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 
 from .buffered import BufferedFunction
-from .ekf_floats import propagate
+from .ekf_floats import forecast, propagate
 
 __all__ = ["ForecastFunction"]
 
@@ -49,9 +49,7 @@ class ForecastFunction:
                  horizon: int) -> tuple[np.ndarray, np.ndarray]:
         H = self.horizon
         if horizon != H or T != self.sample_time_s:
-            means, covs = [], []
-            propagate(*state, cov_upper, T, q, horizon, means, covs)
-            return np.array(means).reshape(horizon, 2), np.array(covs).reshape(horizon, 2, 2)
+            return forecast(state, cov_upper, T, q, horizon)
         self._in[:] = state + cov_upper + q
         self._eval()
         out = self._out.copy()

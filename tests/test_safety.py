@@ -6,8 +6,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,7 +13,7 @@ import pytest
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
-from casadi_gpc.safety import MANOEUVRES, SafetyFilter, Shield, StandbyPlanner
+from casadi_gpc.safety import SafetyFilter, Shield, StandbyPlanner
 
 from conftest import PAPER_DIR, check_run_document
 from synthetic_models import tracker_model
@@ -142,13 +140,24 @@ def test_bound_is_never_above_the_roll_out():
             assert f.bound(state, plan[0], None, obs)[0] <= worst
 
 
-def _screen_case(rng, f: SafetyFilter, H: int):
-    """A robot state, whether the candidate is its own plan, and a plan within the limits,
-    drawn for the quick screen's tests."""
-    state = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi), *rng.uniform(-0.6, 0.6, 2)])
-    own = rng.random() < 0.5
-    plan = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)) * rng.uniform(0.2, 1.0))
-    return state, own, plan
+def _screen_cases(rng, per_horizon: int):
+    """The quick screen's test cases, ``per_horizon`` for each preset's T and H: the filter,
+    T, H, a robot state, whether the candidate is its own plan, a plan within the limits and
+    the candidate (the plan, or its first command)."""
+    for T, H in ((0.5, 12), (1.5, 6)):
+        f = SafetyFilter(ROBOT, T, H)
+        for _ in range(per_horizon):
+            state = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi), *rng.uniform(-0.6, 0.6, 2)])
+            own = rng.random() < 0.5
+            plan = f.limit(state[3:], rng.uniform(-0.8, 0.8, (H, 2)) * rng.uniform(0.2, 1.0))
+            yield f, T, H, state, own, plan, (plan if own else plan[0])
+
+
+def _movers(rng, T: float, H: int, n: int, spread: float, speed: float, **kw) -> list:
+    """``n`` movers at random within ``spread`` of the origin, at random velocities within
+    ``speed``, with a random diagonal covariance (``kw``: more :func:`forecast` arguments)."""
+    return [forecast(rng.uniform(-spread, spread, 2), rng.uniform(-speed, speed, 2), T, H,
+                     cov=np.diag(rng.uniform(1e-4, 0.05, 2)), oid=i, **kw) for i in range(n)]
 
 
 def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
@@ -158,30 +167,25 @@ def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
     cannot tell, it defers (None) to the exact check."""
     rng = np.random.default_rng(21)
     passed = deferred = 0
-    for T, H in ((0.5, 12), (1.5, 6)):
-        f = SafetyFilter(ROBOT, T, H)
-        for _ in range(40):
-            state, own, plan = _screen_case(rng, f, H)
-            cand = plan if own else plan[0]
-            fcs = [forecast(rng.uniform(-5, 5, 2), rng.uniform(-0.5, 0.5, 2), T, H,
-                            cov=np.diag(rng.uniform(1e-4, 0.05, 2)), oid=i) for i in range(rng.integers(1, 3))]
-            st = (StaticObstacle(tuple(rng.uniform(-5, 5, 2)), 0.3),)
-            q = f._quick(RobotState(*state), cand, fcs, st)
-            if q is None:
-                deferred += 1
-                continue
-            check, cmd, seq, _ = q
-            assert check.safe and not check.exact and check.min_clearance_m >= f.margin_m
-            if own:
-                judged = plan
-            else:  # the bound judges the command then braking, the chords then reversing
-                target = (0.0, 0.0) if check.continuation == "bound, then brake" else f._reverse_target
-                assert check.continuation in ("bound, then brake", "then reverse")
-                judged = np.array(f._then_target(tuple(plan[0]), target))
-            truth = brute_clearance(state, judged, fcs, st, T, f.sigmas, n=200)
-            assert check.min_clearance_m <= truth + 1e-9, (check, truth)
-            assert (cmd[0], cmd[1]) == tuple(plan[0])
-            passed += 1
+    for f, T, H, state, own, plan, cand in _screen_cases(rng, 40):
+        fcs = _movers(rng, T, H, rng.integers(1, 3), 5, 0.5)
+        st = (StaticObstacle(tuple(rng.uniform(-5, 5, 2)), 0.3),)
+        q = f._quick(RobotState(*state), cand, fcs, st)
+        if q is None:
+            deferred += 1
+            continue
+        check, cmd, seq, _ = q
+        assert check.safe and not check.exact and check.min_clearance_m >= f.margin_m
+        if own:
+            judged = plan
+        else:  # the bound judges the command then braking, the chords then reversing
+            target = (0.0, 0.0) if check.continuation == "bound, then brake" else f._reverse_target
+            assert check.continuation in ("bound, then brake", "then reverse")
+            judged = np.array(f._then_target(tuple(plan[0]), target))
+        truth = brute_clearance(state, judged, fcs, st, T, f.sigmas, n=200)
+        assert check.min_clearance_m <= truth + 1e-9, (check, truth)
+        assert (cmd[0], cmd[1]) == tuple(plan[0])
+        passed += 1
     assert passed > 10 and deferred > 10  # both branches exercised
 
 
@@ -193,24 +197,18 @@ def test_quick_screen_among_many_obstacles_gives_the_few_obstacles_numbers(monke
 
     rng = np.random.default_rng(5)
     cases = passed = 0
-    for T, H in ((0.5, 12), (1.5, 6)):
-        f = SafetyFilter(ROBOT, T, H)
-        for _ in range(150):
-            state, own, plan = _screen_case(rng, f, H)
-            cand = plan if own else plan[0]
-            fcs = [forecast(rng.uniform(-6, 6, 2), rng.uniform(-0.6, 0.6, 2), T, H,
-                            cov=np.diag(rng.uniform(1e-4, 0.05, 2)), radius=0.2, oid=i)
-                   for i in range(rng.integers(4, 14))]
-            st = tuple(StaticObstacle(tuple(rng.uniform(-6, 6, 2)), 0.3) for _ in range(rng.integers(0, 3)))
-            many = f._quick(RobotState(*state), cand, fcs, st)
-            monkeypatch.setattr(screen, "MANY_OBSTACLES", 10 ** 9)
-            few = f._quick(RobotState(*state), cand, fcs, st)
-            monkeypatch.setattr(screen, "MANY_OBSTACLES", 4)
-            cases += 1
-            assert (many is None) == (few is None)
-            if many is not None:
-                passed += 1
-                assert many[0] == few[0] and many[1] == few[1] and many[3] == few[3]
+    for f, T, H, state, own, plan, cand in _screen_cases(rng, 150):
+        fcs = _movers(rng, T, H, rng.integers(4, 14), 6, 0.6, radius=0.2)
+        st = tuple(StaticObstacle(tuple(rng.uniform(-6, 6, 2)), 0.3) for _ in range(rng.integers(0, 3)))
+        many = f._quick(RobotState(*state), cand, fcs, st)
+        monkeypatch.setattr(screen, "MANY_OBSTACLES", 10 ** 9)
+        few = f._quick(RobotState(*state), cand, fcs, st)
+        monkeypatch.setattr(screen, "MANY_OBSTACLES", 4)
+        cases += 1
+        assert (many is None) == (few is None)
+        if many is not None:
+            passed += 1
+            assert many[0] == few[0] and many[1] == few[1] and many[3] == few[3]
     assert cases == 300 and 50 < passed < 290  # both verdicts exercised
 
 

@@ -9,6 +9,7 @@ import operator
 
 import numpy as np
 
+from ..ekf import worst_std_m
 from ..robot import RobotState, robot_step_float
 from .check import SafetyCheck, TrajectoryCheck, forecast_covariances
 
@@ -213,11 +214,8 @@ class QuickScreen(TrajectoryCheck):
         q = np.empty((n_mov + len(statics), H + 1), dtype=complex)
         q[:n_mov, 1:] = m[..., 0] + 1j * m[..., 1]
         q[:n_mov, 0] = 2.0 * q[:n_mov, 1] - q[:n_mov, 2] if H > 1 else q[:n_mov, 1]
-        a, b, d = c[..., 0, 0], c[..., 0, 1], c[..., 1, 1]
-        lam = 0.5 * (a + d) + np.hypot(0.5 * (a - d), b)
         touch = np.empty((len(q), H))
-        touch[:n_mov] = (np.array([f.radius_m for f in forecasts], dtype=float)[:, None] + R) + k * np.sqrt(
-            np.maximum(lam, 0.0))
+        touch[:n_mov] = (np.array([f.radius_m for f in forecasts], dtype=float)[:, None] + R) + k * worst_std_m(c)
         for j, st in enumerate(statics, start=n_mov):
             q[j] = complex(st.position_m[0], st.position_m[1])
             touch[j] = st.radius_m + R

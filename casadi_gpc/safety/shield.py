@@ -71,11 +71,18 @@ class Shield:
         to its next plans. Otherwise (a network, a reactive peer) the whole horizon counts.
     ekf_settings : EKFSettings, optional
         The shield's own obstacle filters, for a controller that provides no forecasts.
+    previous_plan : bool
+        Keep the plan let through at each sample, shifted by one step (the last wheel speeds
+        held, as the planner shifts its own), and offer it after the controller's own
+        alternatives when its answer fails the check: the safe candidate of Hose et al.'s
+        safety-augmented approximate MPC, for a controller that outputs whole plans (a plan
+        network). Taken, it counts as ``alternative_used`` with source ``previous_plan``.
     """
 
     def __init__(self, policy, robot: RobotParams | None = None, fallback=None, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, trust_planner_s: float | None = None,
-                 horizon: int | None = None, ekf_settings: EKFSettings | None = None, trust_plans: bool = False):
+                 horizon: int | None = None, ekf_settings: EKFSettings | None = None, trust_plans: bool = False,
+                 previous_plan: bool = False):
         for attr in ("decide", "reset"):
             if not callable(getattr(policy, attr, None)):
                 raise TypeError(f"the shielded controller must have a {attr}() method")
@@ -90,6 +97,7 @@ class Shield:
                                    fallback=fallback, trust_planner_s=trust_planner_s)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = bool(trust_plans)
+        self.previous_plan = bool(previous_plan)
         self.ekf_settings = ekf_settings or EKFSettings()
         self._names: dict[str, str] = {}
         self.reset()
@@ -103,6 +111,8 @@ class Shield:
         self.policy.reset()
         self.filter.reset()
         self._bank = None if self.uses_policy_forecasts else TrackBank(self.sample_time_s, self.ekf_settings)
+        self._kept: np.ndarray | None = None  # the plan let through last, shifted (previous_plan)
+        self._previous_used = 0
 
     @property
     def counters(self) -> dict:
@@ -115,6 +125,8 @@ class Shield:
             if name is None:
                 name = names[k] = k if k == "interventions" else "shield_" + k
             c[name] = n
+        if self.previous_plan:
+            c["shield_previous_plan_used"] = self._previous_used
         if self._bank is not None:  # the shield's own filters: missed, outliers, tracks seen once
             for k, n in self._bank.counters.items():
                 c["shield_" + k] = c.get("shield_" + k, 0) + n
@@ -148,15 +160,26 @@ class Shield:
         plan = dec.planned_wheels_mps
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
         cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
+        alternatives, kept = dec.alternatives, self._kept
+        if kept is not None:
+            alternatives = (*alternatives, kept)
         v = self.filter.filter(obs, cand, forecasts, obs.static, dec.planned_poses if own else None,
-                               dec.alternatives, self.filter.trust_planner_s if self.trust_plans else None)
+                               alternatives, self.filter.trust_planner_s if self.trust_plans else None)
+        if self.previous_plan:
+            p = v.planned_wheels_mps
+            self._kept = None if p is None or p.shape != (self.horizon, 2) else np.concatenate([p[1:], p[-1:]])
         info = dec.info  # the decision is new each step: annotate it in place
         info["safety_time_s"] = time.perf_counter() - t0
         info["safety_clearance_m"] = v.check.min_clearance_m
         if not v.intervened:
             return dec
-        # the controller's own alternative is its answer, not a fallback; the rest are
-        fallback = not v.source.startswith("alternative")
-        return ControlDecision(v.v_right_mps, v.v_left_mps, fallback, v.reason, v.planned_wheels_mps, None,
+        source, reason = v.source, v.reason
+        if kept is not None and source == f"alternative:{len(alternatives)}":
+            source = "previous_plan"
+            self._previous_used += 1
+            reason = reason.replace(f"the controller's alternative {len(alternatives)}", "the previous plan, shifted")
+        # the controller's own alternative, or its previous plan, is its answer, not a fallback; the rest are
+        fallback = not (source.startswith("alternative") or source == "previous_plan")
+        return ControlDecision(v.v_right_mps, v.v_left_mps, fallback, reason, v.planned_wheels_mps, None,
                                info={**info, "controller_wheels_mps": (dec.v_right_mps, dec.v_left_mps),
-                                     "safety_source": v.source}, forecasts=dec.forecasts)
+                                     "safety_source": source}, forecasts=dec.forecasts)

@@ -133,11 +133,14 @@ def make_controller(kind: str, config, robot, model=None, shield: str | None = N
             raise UsageError(str(exc)) from None
     else:
         raise UsageError(f"unknown controller {kind!r}")
-    # the planner replans at every sample: its plans are trusted for the filter's trust time
-    return behind_shield(base, config, robot, shield, trust_plans=kind == "gpc")
+    # the planner replans at every sample: its plans are trusted for the filter's trust time;
+    # a plan network's plans are checked as plans, its shifted previous plan kept as the safe candidate
+    return behind_shield(base, config, robot, shield, trust_plans=kind == "gpc",
+                         previous_plan=bool(getattr(base, "outputs_plans", False)))
 
 
-def behind_shield(controller, config, robot, mode: str, trust_plans: bool = False, ekf_settings=None):
+def behind_shield(controller, config, robot, mode: str, trust_plans: bool = False, ekf_settings=None,
+                  previous_plan: bool = False):
     """``controller`` behind :class:`casadi_gpc.safety.Shield` as ``mode`` says (``off``:
     as it is; ``on``: the manoeuvres only; ``gpc``: the planner of ``config`` on standby). The
     one place every controller (gpc, nn, the peers, a user's class) is put behind it."""
@@ -151,7 +154,8 @@ def behind_shield(controller, config, robot, mode: str, trust_plans: bool = Fals
         except ImportError as exc:
             raise UsageError(f"--shield-fallback gpc needs the planner ({exc}); use --shield-fallback brake") from None
         fallback = StandbyPlanner(GPCController(config, robot))
-    return Shield(controller, robot, fallback=fallback, trust_plans=trust_plans, ekf_settings=ekf_settings)
+    return Shield(controller, robot, fallback=fallback, trust_plans=trust_plans, ekf_settings=ekf_settings,
+                  previous_plan=previous_plan)
 
 
 def check_seed(seed: int | None) -> None:

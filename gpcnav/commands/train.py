@@ -24,6 +24,9 @@ def add_arguments(p):
     p.add_argument("--architecture", choices=("mlp", "set"), default="mlp",
                    help="mlp (default): a perceptron on the whole input row; set: the obstacles of the set layout "
                         "encoded alike and pooled, so their order does not matter (nn_export/training/set_net.py)")
+    p.add_argument("--target", choices=("command", "plan"), default="command",
+                   help="what the network outputs: the first command (default) or the GPC's whole H-step plan "
+                        "of wheel speeds (checked as a plan behind the check layer; docs/nn.md)")
     p.add_argument("--encoder-width", type=int, default=64, help="--architecture set: units of the obstacle encoder")
     p.add_argument("--layout", choices=("paper", "multi", "set"), default=None,
                    help="feature layout the datasets must have (default: whatever they have)")
@@ -53,6 +56,13 @@ def _config_differences(a: dict, b: dict) -> list[str]:
     import json
     a, b = (json.loads(json.dumps(d, default=str)) for d in (a, b))
     return sorted(k for k in set(a) | set(b) if k not in _NOT_THE_PROBLEM and a.get(k) != b.get(k))
+
+
+def _label_names(names, steps: int, target: str):
+    """The output names: the dataset's (one command), or each plan step's ``<name>_<k>``."""
+    if target == "command" or names is None:
+        return names
+    return [f"{n}_{k}" for k in range(1, steps + 1) for n in names]
 
 
 def _dataset_id(manifests) -> str:
@@ -96,7 +106,7 @@ def run(args) -> int:
         if not (d / "manifest.json").is_file():
             raise UsageError(f"{d}: not a dataset folder (no manifest.json)")
         try:
-            sets.append(load_dataset(d, parts))
+            sets.append(load_dataset(d, parts, args.target))
         except (ValueError, KeyError, OSError) as exc:
             raise UsageError(f"{d}: cannot read the dataset: {exc}") from None
     first = sets[0]
@@ -133,14 +143,15 @@ def run(args) -> int:
 
     try:
         model.fit(X, Y, groups=G, feature_names=first.layout.feature_names,
-                  label_names=first.manifest.get("label_names"), progress=tick)
+                  label_names=_label_names(first.manifest.get("label_names"), Y.shape[1] // 2, args.target),
+                  progress=tick)
     except (ValueError, FloatingPointError) as exc:
         raise UsageError(f"training failed: {exc}") from None
     finally:
         bar.close()
     lay = first.layout
     provenance = {
-        "preset": cfg.name, "horizon": cfg.horizon, "sample_time_s": cfg.sample_time_s,
+        "preset": cfg.name, "horizon": cfg.horizon, "sample_time_s": cfg.sample_time_s, "output": args.target,
         "planner_config": cfg.to_dict(), "robot": first.manifest["robot"], "feature_layout": lay.name,
         "feature_layout_version": lay.version, "feature_layout_spec": lay.to_dict(),
         "dataset": {"id": _dataset_id([s.manifest for s in sets]), "paths": [str(d) for d in args.datasets],
@@ -150,10 +161,10 @@ def run(args) -> int:
     }
     model.save(args.out, provenance)
     np.save(args.out / "validation_features.npy", X[model.validation_indices_])
-    shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-2"
+    shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-{Y.shape[1]}"
     if args.architecture == "set":
         rho = "-".join([str(args.hidden)] * args.layers)
-        shape = f"set encoder {args.encoder_width}-{args.encoder_width}, max+sum pool, {rho}-2"
+        shape = f"set encoder {args.encoder_width}-{args.encoder_width}, max+sum pool, {rho}-{Y.shape[1]}"
     print(f"trained {lay.name} layout ({shape}) on {len(model.train_indices_)} samples, "
           f"validated on {len(model.validation_indices_)}: validation RMSE {np.sqrt(model.validation_mse_):.4f} m/s "
           f"(max {model.validation_max_abs_error_:.3f}), best epoch {model.best_epoch_} ({model.stop_reason_}), "

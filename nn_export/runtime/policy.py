@@ -16,36 +16,36 @@ dataset. It runs the paper's two-pass scheme (section 4):
 
 ``two_pass=False`` is the plain variant: one call with the obstacles and the real reference.
 
-A model file is checked when it is loaded, never at the first decision: it must be a
-readable ONNX graph written by :mod:`nn_export.training.export` (format key), with one float input
-of the size its feature layout says and one (batch, 2) output, a feature layout name and
-version this code computes, and a preset, horizon, sample time and robot equal to the ones
-it is asked to run with. Anything else is a one-line ``ValueError``
-(``FileNotFoundError`` for a missing file).
+A plan network (``gpcnav train --target plan``) outputs the whole H-step sequence of wheel
+speeds: its first step is the command, and the decision carries the plan
+(``planned_wheels_mps``), which the check layer tests as a plan (:mod:`casadi_gpc.safety`,
+with the shifted previous plan as the safe candidate). It runs one pass.
+
+A model file is checked when it is loaded (:mod:`nn_export.runtime.model_file`), never at the
+first decision; anything wrong is a one-line ``ValueError`` (``FileNotFoundError`` for a
+missing file).
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import math
-import struct
 import time
 from dataclasses import MISSING, fields
-from functools import partial
 from itertools import repeat
 from operator import sub
 from pathlib import Path
 
 import numpy as np
-import onnxruntime as ort
 
-from casadi_gpc.config import DEFAULT_PRESET, PlannerConfig, preset as preset_config
+from casadi_gpc.config import DEFAULT_PRESET
 from casadi_gpc.ekf import EKFSettings
 from casadi_gpc.robot import RobotParams, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation
 
 from .features import RolloutFeatures, feature_values, feature_values_from
-from .layouts import FeatureLayout, layout_from_dict
+from .layouts import FeatureLayout
+from .model_file import INPUT_NAME, OUTPUT_NAME, POLICY_FORMAT, _bind, _load_session, _validate, read_model_metadata
 from .situation import Situation
 from .tracker import SituationTracker
 
@@ -53,12 +53,8 @@ __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_mode
            "read_model_metadata", "POLICY_FORMAT", "DEFAULT_SAFETY_DISTANCE_M"]
 
 MODELS_DIR = Path(__file__).parents[1] / "models"
-POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.training.export (kept equal by a test)
-INPUT_NAME, OUTPUT_NAME = "features", "wheel_speeds_mps"
 DEFAULT_SAFETY_DISTANCE_M = {"paper": 1.0, "improved": 1.0}
 """Clearance below which the second pass runs, per preset (measured: docs/nn.md)."""
-_REQUIRED = ("format", "feature_layout", "feature_layout_version", "feature_names", "n_features", "preset", "horizon",
-             "sample_time_s", "robot", "output_clip_mps", "dataset", "validation_rmse_mps")
 
 
 def shipped_model_path(preset: str) -> Path:
@@ -85,14 +81,15 @@ class _CrowdNetwork:
     def __init__(self, path: Path, preset: str, robot: RobotParams, main: FeatureLayout):
         self.session, data = _load_session(path)
         meta = read_model_metadata(self.session)
-        self.layout, _ = _validate(path, self.session, meta, preset, robot)
+        self.layout, _, self.steps = _validate(path, self.session, meta, preset, robot)
         if not self.layout.is_set or self.layout.horizon != main.horizon:
             raise ValueError(f"{path}: a crowd network must have the set layout and horizon {main.horizon} "
                              f"(it has {self.layout.name!r}, H={self.layout.horizon})")
         if meta.get("decision_passes", "2") != "1":
             raise ValueError(f"{path}: a crowd network runs one pass (export it with --passes 1)")
         self.main_slots = (main.k_moving, main.k_static, main.range_m)
-        self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path)
+        self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path,
+                                                                        2 * self.steps)
         self.info = {"path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
                      "feature_layout": self.layout.name, "n_features": self.layout.size,
                      "validation_rmse_mps": float(meta["validation_rmse_mps"])}
@@ -116,37 +113,19 @@ class _CrowdNetwork:
     def answer(self, values: list[float]) -> tuple[float, float]:
         self._write(*values)
         self._run()
-        vr, vl = self._y[0].tolist()
+        vr, vl = self._y[0, :2].tolist()
         return vr, vl
 
-
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return text[0][:200] if text else type(exc).__name__
-
-
-def read_model_metadata(session: ort.InferenceSession) -> dict:
-    return dict(session.get_modelmeta().custom_metadata_map)
+    def plan(self, values: list[float]) -> np.ndarray:
+        """The network's (steps, 2) wheel speeds on these feature values, float64."""
+        self._write(*values)
+        self._run()
+        return self._y.reshape(self.steps, 2).astype(float)
 
 
-def _load_session(path: Path) -> tuple[ort.InferenceSession, bytes]:
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such model file")
-    data = path.read_bytes()
-    opts = ort.SessionOptions()
-    opts.intra_op_num_threads = 1  # a 17-35-2 net gains nothing from threads, and loses to their wake-up
-    opts.inter_op_num_threads = 1
-    opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-    opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-    opts.log_severity_level = 3
-    # no memory arena: the few small intermediate rows come from malloc, which is cheaper per
-    # call than the arena's bookkeeping (the bare call 10.2 -> 9.9 us on the 2-core machine,
-    # interleaved; the same outputs bit for bit, tested)
-    opts.enable_cpu_mem_arena = False
-    try:
-        return ort.InferenceSession(data, opts, providers=["CPUExecutionProvider"]), data
-    except Exception as exc:  # onnxruntime raises its own classes for truncated or corrupt files
-        raise ValueError(f"{path}: not a readable ONNX model ({_one_line(exc)})") from None
+def _plan_decision(plan: np.ndarray, reason: str, forecasts) -> ControlDecision:
+    """The decision of a plan network: the plan's first step, the plan with it."""
+    return ControlDecision(float(plan[0, 0]), float(plan[0, 1]), False, reason, plan, forecasts=forecasts)
 
 
 def _decision_maker(reason: str):
@@ -183,92 +162,6 @@ def _decision_maker(reason: str):
         return d
 
     return make_any
-
-
-def _bound_run(session: ort.InferenceSession, binding) -> "partial":
-    """A call without arguments that runs ``session`` on the bound buffers.
-
-    The policy calls the network H + 1 times per decision, so the per-call overhead
-    counts: onnxruntime's Python ``run_with_iobinding`` wraps the C++ method with a
-    graph-capture check (about 0.4 us), and the C++ method given no RunOptions makes one
-    per call (about 0.8 us; 1.31, measured). So the C++ method of the session is called
-    directly, with one RunOptions made here, when this onnxruntime has it (it has since
-    1.x: ``InferenceSession._sess``, ``IOBinding._iobinding``); else the public method."""
-    sess, ib = getattr(session, "_sess", None), getattr(binding, "_iobinding", None)
-    if callable(getattr(sess, "run_with_iobinding", None)) and ib is not None:
-        return partial(sess.run_with_iobinding, ib, ort.RunOptions())
-    return partial(session.run_with_iobinding, binding)
-
-
-def _bind(session: ort.InferenceSession, size: int, path: Path) -> tuple:
-    """``(x, y, write, binding, run)``: one preallocated float32 input row ``x`` (1, size) and
-    output row ``y`` (1, 2) bound to ``session`` once, ``write(*values)`` packing a list of
-    feature values into ``x`` in one call (float64 -> float32 rounding as numpy's), and
-    ``run()`` (:func:`_bound_run`). The first call is made now (it allocates), and a file whose
-    network gives non-finite wheel speeds is refused (``ValueError``)."""
-    x = np.zeros((1, size), dtype=np.float32)
-    y = np.zeros((1, 2), dtype=np.float32)
-    write = partial(struct.Struct(f"={size}f").pack_into, memoryview(x).cast("B"), 0)
-    binding = session.io_binding()
-    binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(x))
-    binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(y))
-    run = _bound_run(session, binding)
-    run()
-    if not np.all(np.isfinite(y)):  # corrupt numbers in an otherwise valid file
-        raise ValueError(f"{path}: the network gives non-finite wheel speeds (corrupt weights?)")
-    return x, y, write, binding, run
-
-
-def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str | None,
-              robot: RobotParams) -> tuple[FeatureLayout, PlannerConfig]:
-    """The checks of the module docstring; returns the layout and the preset's config."""
-    if meta.get("format") != POLICY_FORMAT:
-        raise ValueError(f"{path}: not a gpcnav policy model (metadata format {meta.get('format')!r}, "
-                         f"expected {POLICY_FORMAT!r})")
-    missing = [k for k in _REQUIRED if k not in meta]
-    if missing:
-        raise ValueError(f"{path}: model metadata lacks {', '.join(missing)}")
-    try:
-        spec = json.loads(meta["feature_layout_spec"]) if "feature_layout_spec" in meta else {
-            "name": meta["feature_layout"], "version": meta["feature_layout_version"], "horizon": meta["horizon"]}
-        spec["feature_names"] = json.loads(meta["feature_names"])
-        n_features, horizon = int(meta["n_features"]), int(meta["horizon"])
-        sample_time_s = float(meta["sample_time_s"])
-        model_robot = json.loads(meta["robot"])
-        clip = float(meta["output_clip_mps"])
-    except (ValueError, TypeError, KeyError) as exc:
-        raise ValueError(f"{path}: malformed model metadata ({_one_line(exc)})") from None
-    try:
-        layout = layout_from_dict(spec)
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
-    if layout.size != n_features:
-        raise ValueError(f"{path}: layout {layout.name!r} has {layout.size} inputs but the metadata say {n_features}")
-    inputs, outputs = session.get_inputs(), session.get_outputs()
-    if len(inputs) != 1 or inputs[0].name != INPUT_NAME or inputs[0].type != "tensor(float)":
-        raise ValueError(f"{path}: the graph must have one float input {INPUT_NAME!r}")
-    if len(inputs[0].shape) != 2 or inputs[0].shape[1] != n_features:
-        raise ValueError(f"{path}: the graph's input has shape {inputs[0].shape}, the layout needs "
-                         f"[batch, {n_features}]")
-    if len(outputs) != 1 or len(outputs[0].shape) != 2 or outputs[0].shape[1] != 2:
-        raise ValueError(f"{path}: the graph must have one output of shape [batch, 2]")
-    name = meta["preset"]
-    if preset is not None and name != preset:
-        raise ValueError(f"{path}: model trained for preset {name!r}, refusing to run it under preset {preset!r}")
-    try:
-        cfg = preset_config(name)
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
-    if cfg.horizon != horizon or layout.horizon != horizon or not math.isclose(cfg.sample_time_s, sample_time_s):
-        raise ValueError(f"{path}: model made for H={horizon}, T={sample_time_s} s but preset {name!r} has "
-                         f"H={cfg.horizon}, T={cfg.sample_time_s} s")
-    if model_robot != robot.to_dict():
-        diff = sorted(k for k in set(model_robot) | set(robot.to_dict()) if model_robot.get(k) != robot.to_dict().get(k))
-        raise ValueError(f"{path}: model trained for another robot ({', '.join(diff)} differ: "
-                         f"{ {k: model_robot.get(k) for k in diff} } vs { {k: robot.to_dict().get(k) for k in diff} })")
-    if not math.isclose(clip, robot.max_wheel_speed_mps):
-        raise ValueError(f"{path}: output clip {clip} m/s differs from the wheel limit {robot.max_wheel_speed_mps}")
-    return layout, cfg
 
 
 class OnnxPolicy:
@@ -316,9 +209,13 @@ class OnnxPolicy:
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
         self.session, data = _load_session(path)
         meta = read_model_metadata(self.session)
-        self.layout, self.config = _validate(path, self.session, meta, preset, self.robot)
+        self.layout, self.config, self.steps = _validate(path, self.session, meta, preset, self.robot)
         self.sample_time_s = self.config.sample_time_s
         self.horizon = self.config.horizon
+        if self.steps > 1:  # a plan network: one pass, its plan checked as a plan
+            if two_pass:
+                raise ValueError(f"{path}: a plan network runs one pass, not the paper's two")
+            two_pass = False
         if two_pass is None:
             passes = meta.get("decision_passes", "2")
             if passes not in ("1", "2"):
@@ -332,7 +229,8 @@ class OnnxPolicy:
         # two passes need the desired poses at steps 0..2H-1 (the window of roll-out step j is j..j+H)
         self.tracker = SituationTracker(self.config, ekf_settings,
                                         reference_steps=2 * self.horizon - 1 if self.two_pass else None)
-        self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path)
+        self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path,
+                                                                        2 * self.steps)
         self._x1, self._y1 = self._x[0], self._y[0]  # views of the bound rows
         self._last_values: list[float] = [0.0] * self.layout.size  # see _f64
         self.model_info = {
@@ -353,6 +251,10 @@ class OnnxPolicy:
                                                                       self.layout)
         if self._crowd is not None:
             self.model_info["crowd_model"] = self._crowd.info
+        self.outputs_plans = self.steps > 1 or (self._crowd is not None and self._crowd.steps > 1)
+        """Whether a decision may carry the network's own plan (check it as a plan, keep the
+        shifted previous one: ``casadi_gpc.safety.Shield(previous_plan=True)``)."""
+        self.model_info["output"] = "plan" if self.steps > 1 else "command"
         self.load_time_s = time.perf_counter() - t0
         self.reset()
 
@@ -378,11 +280,11 @@ class OnnxPolicy:
         return np.array(self._last_values)
 
     def _net_values(self, values: list[float]) -> tuple[float, float]:
-        """One network call on these feature values (preallocated buffers)."""
+        """One network call on these feature values (preallocated buffers): its first command."""
         self._last_values = values
         self._write(*values)
         self._run()
-        vr, vl = self._y1.tolist()
+        vr, vl = self._y1[:2].tolist()
         return vr, vl
 
     def _net(self, situation: Situation) -> tuple[float, float]:
@@ -455,12 +357,19 @@ class OnnxPolicy:
         crowd = self._crowd
         if crowd is not None and crowd.needed(obs.robot.x_m, obs.robot.y_m, tracks, obs.static):
             counters["crowd_network"] += 1
-            vr, vl = crowd.answer(feature_values_from(crowd.layout, obs.robot, ref_rows, self.sample_time_s, tracks,
-                                                      obs.static, counters["feature_report"]))
+            values = feature_values_from(crowd.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
+                                         counters["feature_report"])
+            if crowd.steps > 1:
+                return _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
+            vr, vl = crowd.answer(values)
             return self._crowd_decision(vr, vl, tracks)
         if not self.two_pass:
-            vr, vl = self._net_values(feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks,
-                                                          obs.static, counters["feature_report"]))
+            values = feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
+                                         counters["feature_report"])
+            if self.steps > 1:
+                self._net_values(values)
+                return _plan_decision(self._y.reshape(self.steps, 2).astype(float), "one pass: plan", tracks)
+            vr, vl = self._net_values(values)
             return self._one_pass_decision(vr, vl, tracks)
         return self._two_passes(obs, tracks, ref_rows)
 

@@ -7,15 +7,17 @@ un-standardisation (and the output basis) into the last layer's, computed in flo
 the float32 cast: Gemm, Tanh, ..., Gemm, Clip, half the nodes of the plain form and about
 2 us less per call (each node costs onnxruntime a kernel dispatch). The set network
 (:mod:`~nn_export.training.set_net`) is exported as it is, in float32. Input ``features``
-(batch, n_features), output ``wheel_speeds_mps`` (batch, 2), right then left. The batch
-axis is dynamic.
+(batch, n_features), output ``wheel_speeds_mps`` (batch, 2), right then left, or, for a
+network trained on plans (``gpcnav train --target plan``, metadata ``output`` = ``plan``),
+(batch, 2 H): the right and left wheel speeds of each of the H steps. The batch axis is
+dynamic.
 
 Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
 trained for; :class:`nn_export.runtime.policy.OnnxPolicy` refuses a file whose metadata do not match
 the preset, the robot or the feature layout it is asked to run with. Keys: ``format``,
 ``feature_layout``, ``feature_layout_version``, ``feature_layout_spec``, ``feature_names``, ``label_names``,
 ``n_features``, ``preset``, ``horizon``, ``sample_time_s``, ``planner_config``, ``robot``,
-``output_clip_mps``, ``dataset``, ``validation_rmse_mps``, ``validation_max_abs_error_mps``,
+``output_clip_mps``, ``output`` (``command`` or ``plan``), ``dataset``, ``validation_rmse_mps``, ``validation_max_abs_error_mps``,
 ``hidden``, ``layers``, ``decision_passes``, ``activation``, ``trained_with``.
 """
 from __future__ import annotations
@@ -83,6 +85,8 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
         raise ValueError(f"the model's provenance lacks {', '.join(missing)} (train it with `gpcnav train`)")
     if decision_passes not in (1, 2):
         raise ValueError(f"decision_passes must be 1 or 2, got {decision_passes!r}")
+    if prov.get("output", "command") == "plan" and decision_passes != 1:
+        raise ValueError("a plan network runs one pass: export it with --passes 1")
     clip = float(prov["robot"]["max_wheel_speed_mps"])
     meta = _metadata(model, prov, clip, decision_passes)
     data = _onnx_bytes(model, clip, meta)
@@ -139,6 +143,7 @@ def _metadata(model: WheelSpeedMLP, prov: dict, clip: float, decision_passes: in
         "planner_config": json.dumps(prov.get("planner_config", {})),
         "robot": json.dumps(prov["robot"]),
         "output_clip_mps": repr(clip),
+        "output": str(prov.get("output", "command")),
         "dataset": json.dumps(prov.get("dataset", {})),
         "validation_rmse_mps": repr(float(np.sqrt(model.validation_mse_))),
         "validation_max_abs_error_mps": repr(float(model.validation_max_abs_error_)),

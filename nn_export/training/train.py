@@ -171,8 +171,8 @@ class WheelSpeedMLP:
         ----------
         X : array (n, n_features)
             Features, all finite.
-        Y : array (n, 2)
-            Labels: right and left wheel speed, m/s.
+        Y : array (n, 2) or (n, 2 H)
+            Labels: right and left wheel speed, m/s; or a plan, the pairs of its H steps.
         groups : array (n,), optional
             Samples with the same group id go to the same side of the validation split
             (a situation and its mirror image must, or the validation error leaks).
@@ -211,9 +211,12 @@ class WheelSpeedMLP:
                 raise ValueError("the set architecture needs the feature names (to find the obstacle slots)")
             structure = slot_structure(feature_names)
             x_mean, x_scale = set_standardisation(X[train_idx], structure, x_mean, x_scale, _scale)
-        if self.output_basis == "speed_turn" and Y.shape[1] != 2:
-            raise ValueError(f"output_basis 'speed_turn' needs 2 outputs, Y has {Y.shape[1]}")
-        mix = np.array([[1.0, 1.0], [1.0, -1.0]]) if self.output_basis == "speed_turn" else np.eye(Y.shape[1])
+        if self.output_basis == "speed_turn" and Y.shape[1] % 2:
+            raise ValueError(f"output_basis 'speed_turn' needs wheel pairs (an even number of outputs), "
+                             f"Y has {Y.shape[1]}")
+        # speed_turn: (mean speed, half difference) of each (right, left) pair: one command or a plan's steps
+        mix = (np.kron(np.eye(Y.shape[1] // 2), [[1.0, 1.0], [1.0, -1.0]]) if self.output_basis == "speed_turn"
+               else np.eye(Y.shape[1]))
         U = Y @ np.linalg.inv(mix).T  # the learned basis: wheels = U @ mix^T
         y_mean, y_scale = U[train_idx].mean(0), _scale(U[train_idx])
         net = self._new_net(X.shape[1], Y.shape[1], feature_names)

@@ -59,7 +59,7 @@ from .spec import ARRAY_KEYS, MIRROR_TOLERANCE_MPS, DatasetMismatch
 
 __all__ = ["MANIFEST", "LOCK", "shard_name", "write_shard", "read_shard", "shard_ok", "read_manifest", "write_manifest",
            "locked", "remove_stale_temporaries", "merge_stats", "manifest_document", "stats_summary", "LoadedDataset",
-           "load_dataset"]
+           "load_dataset", "TARGETS"]
 
 MANIFEST = "manifest.json"
 LOCK = ".lock"
@@ -171,15 +171,24 @@ class LoadedDataset:
     X: np.ndarray
     """(n, F) features."""
     Y: np.ndarray
-    """(n, 2) labels: right, left wheel speed, m/s."""
+    """(n, 2) labels: right, left wheel speed, m/s; with ``target="plan"``, (n, 2 H): the whole
+    planned sequence, right then left wheel of each step."""
     groups: np.ndarray
     """(n,) situation ids: a sample and its mirror share one (keep them on one side of a split)."""
     layout: FeatureLayout
     manifest: dict
 
 
-def load_dataset(directory, parts: tuple[str, ...] | None = None) -> LoadedDataset:
-    """All finished samples of a dataset directory (every part, or ``parts``)."""
+TARGETS = {"command": "labels", "plan": "plan_wheels_mps"}
+"""What a network learns (``load_dataset``'s ``target``): the first command, or the whole plan."""
+
+
+def load_dataset(directory, parts: tuple[str, ...] | None = None, target: str = "command") -> LoadedDataset:
+    """All finished samples of a dataset directory (every part, or ``parts``); ``Y`` holds
+    the :data:`TARGETS` entry ``target``."""
+    if target not in TARGETS:
+        raise ValueError(f"target must be one of {', '.join(TARGETS)}, got {target!r}")
+    key = TARGETS[target]
     directory = Path(directory)
     man = read_manifest(directory)
     layout = layout_from_dict(man["feature_layout"])
@@ -188,9 +197,9 @@ def load_dataset(directory, parts: tuple[str, ...] | None = None) -> LoadedDatas
         if parts is not None and name not in parts:
             continue
         for shard in part["shards"]:
-            a = read_shard(directory / shard, keys=("features", "labels", "situation_id"))
+            a = read_shard(directory / shard, keys=("features", key, "situation_id"))
             X.append(a["features"])
-            Y.append(a["labels"])
+            Y.append(a[key].reshape(len(a[key]), -1))
             G.append(a["situation_id"])
     if not X:
         raise ValueError(f"{directory}: no finished samples")

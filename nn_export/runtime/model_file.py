@@ -1,0 +1,153 @@
+"""A policy model file: loaded into an onnxruntime session, checked against what it is asked
+to run with, and bound to preallocated buffers (numpy + onnxruntime only).
+
+A model file is checked when it is loaded, never at the first decision: it must be a
+readable ONNX graph written by :mod:`nn_export.training.export` (format key), with one float
+input of the size its feature layout says and one output of (batch, 2) (a command) or, for a
+plan network (metadata ``output`` = ``plan``), (batch, 2 H), a feature layout name and
+version this code computes, and a preset, horizon, sample time and robot equal to the ones it
+is asked to run with. Anything else is a one-line ``ValueError`` (``FileNotFoundError`` for a
+missing file).
+"""
+from __future__ import annotations
+
+import json
+import math
+import struct
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import onnxruntime as ort
+
+from casadi_gpc.config import PlannerConfig, preset as preset_config
+from casadi_gpc.robot import RobotParams
+
+from .layouts import FeatureLayout, layout_from_dict
+
+__all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "read_model_metadata"]
+
+POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.training.export (kept equal by a test)
+INPUT_NAME, OUTPUT_NAME = "features", "wheel_speeds_mps"
+_REQUIRED = ("format", "feature_layout", "feature_layout_version", "feature_names", "n_features", "preset", "horizon",
+             "sample_time_s", "robot", "output_clip_mps", "dataset", "validation_rmse_mps")
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[0][:200] if text else type(exc).__name__
+
+
+def read_model_metadata(session: ort.InferenceSession) -> dict:
+    return dict(session.get_modelmeta().custom_metadata_map)
+
+
+def _load_session(path: Path) -> tuple[ort.InferenceSession, bytes]:
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such model file")
+    data = path.read_bytes()
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = 1  # a 17-35-2 net gains nothing from threads, and loses to their wake-up
+    opts.inter_op_num_threads = 1
+    opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+    opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    opts.log_severity_level = 3
+    # no memory arena: the few small intermediate rows come from malloc, which is cheaper per
+    # call than the arena's bookkeeping (the bare call 10.2 -> 9.9 us on the 2-core machine,
+    # interleaved; the same outputs bit for bit, tested)
+    opts.enable_cpu_mem_arena = False
+    try:
+        return ort.InferenceSession(data, opts, providers=["CPUExecutionProvider"]), data
+    except Exception as exc:  # onnxruntime raises its own classes for truncated or corrupt files
+        raise ValueError(f"{path}: not a readable ONNX model ({_one_line(exc)})") from None
+
+
+def _bound_run(session: ort.InferenceSession, binding) -> "partial":
+    """A call without arguments that runs ``session`` on the bound buffers.
+
+    The policy calls the network H + 1 times per decision, so the per-call overhead
+    counts: onnxruntime's Python ``run_with_iobinding`` wraps the C++ method with a
+    graph-capture check (about 0.4 us), and the C++ method given no RunOptions makes one
+    per call (about 0.8 us; 1.31, measured). So the C++ method of the session is called
+    directly, with one RunOptions made here, when this onnxruntime has it (it has since
+    1.x: ``InferenceSession._sess``, ``IOBinding._iobinding``); else the public method."""
+    sess, ib = getattr(session, "_sess", None), getattr(binding, "_iobinding", None)
+    if callable(getattr(sess, "run_with_iobinding", None)) and ib is not None:
+        return partial(sess.run_with_iobinding, ib, ort.RunOptions())
+    return partial(session.run_with_iobinding, binding)
+
+
+def _bind(session: ort.InferenceSession, size: int, path: Path, outputs: int = 2) -> tuple:
+    """``(x, y, write, binding, run)``: one preallocated float32 input row ``x`` (1, size) and
+    output row ``y`` (1, ``outputs``: 2, or 2 H for a plan network) bound to ``session`` once, ``write(*values)`` packing a list of
+    feature values into ``x`` in one call (float64 -> float32 rounding as numpy's), and
+    ``run()`` (:func:`_bound_run`). The first call is made now (it allocates), and a file whose
+    network gives non-finite wheel speeds is refused (``ValueError``)."""
+    x = np.zeros((1, size), dtype=np.float32)
+    y = np.zeros((1, outputs), dtype=np.float32)
+    write = partial(struct.Struct(f"={size}f").pack_into, memoryview(x).cast("B"), 0)
+    binding = session.io_binding()
+    binding.bind_ortvalue_input(INPUT_NAME, ort.OrtValue.ortvalue_from_numpy(x))
+    binding.bind_ortvalue_output(OUTPUT_NAME, ort.OrtValue.ortvalue_from_numpy(y))
+    run = _bound_run(session, binding)
+    run()
+    if not np.all(np.isfinite(y)):  # corrupt numbers in an otherwise valid file
+        raise ValueError(f"{path}: the network gives non-finite wheel speeds (corrupt weights?)")
+    return x, y, write, binding, run
+
+
+def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str | None,
+              robot: RobotParams) -> tuple[FeatureLayout, PlannerConfig, int]:
+    """The checks of the module docstring; returns the layout, the preset's config and the
+    steps each output row holds (1: a command; H: a plan, metadata ``output`` = ``plan``)."""
+    if meta.get("format") != POLICY_FORMAT:
+        raise ValueError(f"{path}: not a gpcnav policy model (metadata format {meta.get('format')!r}, "
+                         f"expected {POLICY_FORMAT!r})")
+    missing = [k for k in _REQUIRED if k not in meta]
+    if missing:
+        raise ValueError(f"{path}: model metadata lacks {', '.join(missing)}")
+    try:
+        spec = json.loads(meta["feature_layout_spec"]) if "feature_layout_spec" in meta else {
+            "name": meta["feature_layout"], "version": meta["feature_layout_version"], "horizon": meta["horizon"]}
+        spec["feature_names"] = json.loads(meta["feature_names"])
+        n_features, horizon = int(meta["n_features"]), int(meta["horizon"])
+        sample_time_s = float(meta["sample_time_s"])
+        model_robot = json.loads(meta["robot"])
+        clip = float(meta["output_clip_mps"])
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"{path}: malformed model metadata ({_one_line(exc)})") from None
+    try:
+        layout = layout_from_dict(spec)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    if layout.size != n_features:
+        raise ValueError(f"{path}: layout {layout.name!r} has {layout.size} inputs but the metadata say {n_features}")
+    inputs, outputs = session.get_inputs(), session.get_outputs()
+    if len(inputs) != 1 or inputs[0].name != INPUT_NAME or inputs[0].type != "tensor(float)":
+        raise ValueError(f"{path}: the graph must have one float input {INPUT_NAME!r}")
+    if len(inputs[0].shape) != 2 or inputs[0].shape[1] != n_features:
+        raise ValueError(f"{path}: the graph's input has shape {inputs[0].shape}, the layout needs "
+                         f"[batch, {n_features}]")
+    kind = meta.get("output", "command")
+    if kind not in ("command", "plan"):
+        raise ValueError(f"{path}: metadata output is {kind!r}, expected 'command' or 'plan'")
+    steps = 1 if kind == "command" else horizon
+    if len(outputs) != 1 or len(outputs[0].shape) != 2 or outputs[0].shape[1] != 2 * steps:
+        raise ValueError(f"{path}: the graph must have one output of shape [batch, {2 * steps}] ({kind})")
+    name = meta["preset"]
+    if preset is not None and name != preset:
+        raise ValueError(f"{path}: model trained for preset {name!r}, refusing to run it under preset {preset!r}")
+    try:
+        cfg = preset_config(name)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    if cfg.horizon != horizon or layout.horizon != horizon or not math.isclose(cfg.sample_time_s, sample_time_s):
+        raise ValueError(f"{path}: model made for H={horizon}, T={sample_time_s} s but preset {name!r} has "
+                         f"H={cfg.horizon}, T={cfg.sample_time_s} s")
+    if model_robot != robot.to_dict():
+        diff = sorted(k for k in set(model_robot) | set(robot.to_dict()) if model_robot.get(k) != robot.to_dict().get(k))
+        raise ValueError(f"{path}: model trained for another robot ({', '.join(diff)} differ: "
+                         f"{ {k: model_robot.get(k) for k in diff} } vs { {k: robot.to_dict().get(k) for k in diff} })")
+    if not math.isclose(clip, robot.max_wheel_speed_mps):
+        raise ValueError(f"{path}: output clip {clip} m/s differs from the wheel limit {robot.max_wheel_speed_mps}")
+    return layout, cfg, steps

@@ -148,7 +148,7 @@ def test_a_plan_network_runs_behind_the_check_with_its_previous_plan(plan_model)
     from gpcnav.commands.common import make_controller
     path, _, _, _ = plan_model
     ctl = make_controller("nn", CFG, RobotParams(), path, "on")
-    assert isinstance(ctl, Shield) and ctl.previous_plan and not ctl.trust_plans
+    assert isinstance(ctl, Shield) and ctl.previous_plan and ctl.trust_plans
     for k in range(3):
         dec = ctl.decide(_walkers(k))
         assert math.isfinite(dec.v_right_mps) and dec.planned_wheels_mps.shape == (H, 2)

@@ -118,3 +118,6 @@ round "$D" dagger14 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite
   --behaviour social_force --episodes 60 --round 14 --preset improved
 setnet improved-crowd --epochs 75      # the shipped crowd network (m4 in docs/nn.md), all parts
 cp "$OUT/models/improved-crowd.onnx" nn_export/models/improved-crowd.onnx
+# the plan network of issue 14's second design (plan1 in docs/nn.md; measured, not shipped): the
+# same recipe and data, the GPC's whole H-step plan as the target
+setnet improved-crowd-plan --epochs 75 --target plan

@@ -76,7 +76,9 @@ class Shield:
         held, as the planner shifts its own), and offer it after the controller's own
         alternatives when its answer fails the check: the safe candidate of Hose et al.'s
         safety-augmented approximate MPC, for a controller that outputs whole plans (a plan
-        network). Taken, it counts as ``alternative_used`` with source ``previous_plan``.
+        network). Taken, it is the controller's answer (not a fallback), with source
+        ``previous_plan``, counted in ``shield_previous_plan_used`` (and, as every alternative,
+        in ``shield_alternative_used``).
     """
 
     def __init__(self, policy, robot: RobotParams | None = None, fallback=None, margin_m: float = 0.05,

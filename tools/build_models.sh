@@ -116,8 +116,20 @@ round "$D" dagger13 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite
   --behaviour orca --episodes 80 --round 13 --preset improved
 round "$D" dagger14 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite circle-crossing --movers 5 \
   --behaviour social_force --episodes 60 --round 14 --preset improved
-setnet improved-crowd --epochs 75      # the shipped crowd network (m4 in docs/nn.md), all parts
+# the shipped crowd network (m4 in docs/nn.md): every part up to dagger14 (named, so that the
+# plan network's rounds below, once in the data, do not enter it on a rerun)
+setnet improved-crowd --epochs 75 \
+  --parts offpolicy,gpc1,gpc2,gpc3,gpc4,gpc5,gpc6,gpc7,gpc8,dagger9,dagger10,dagger11,dagger12,dagger13,dagger14
 cp "$OUT/models/improved-crowd.onnx" nn_export/models/improved-crowd.onnx
-# the plan network of issue 14's second design (plan1 in docs/nn.md; measured, not shipped): the
-# same recipe and data, the GPC's whole H-step plan as the target
-setnet improved-crowd-plan --epochs 75 --target plan
+# the plan network of issue 14's second design (measured, not shipped; docs/nn.md): plan1 is the
+# same recipe on the same data with the GPC's whole H-step plan as the target; plan3 adds one
+# DAgger round that the bare plan1 drives
+setnet improved-crowd-plan1 --epochs 75 --target plan \
+  --parts offpolicy,gpc1,gpc2,gpc3,gpc4,gpc5,gpc6,gpc7,gpc8,dagger9,dagger10,dagger11,dagger12,dagger13,dagger14
+round "$D" dagger15 --dagger "$OUT/models/improved-crowd-plan1.onnx" --dagger-suite circle-crossing --movers 10 \
+  --behaviour orca --episodes 80 --round 15 --preset improved
+round "$D" dagger16 --dagger "$OUT/models/improved-crowd-plan1.onnx" --dagger-suite square-crossing --movers 5 \
+  --behaviour orca --episodes 100 --round 16 --preset improved
+round "$D" dagger17 --dagger "$OUT/models/improved-crowd-plan1.onnx" --dagger-suite circle-crossing --movers 5 \
+  --behaviour orca --episodes 60 --round 17 --preset improved
+setnet improved-crowd-plan3 --epochs 75 --target plan

@@ -135,7 +135,7 @@ def make_controller(kind: str, config, robot, model=None, shield: str | None = N
         raise UsageError(f"unknown controller {kind!r}")
     # the planner replans at every sample: its plans are trusted for the filter's trust time; so
     # are a plan network's, which replans as often, with its shifted previous plan kept as the
-    # safe candidate (docs/nn.md: 2.5-11x fewer interventions than checked over the whole horizon)
+    # safe candidate (docs/nn.md: 2.8-11x fewer interventions than checked over the whole horizon)
     plans = bool(getattr(base, "outputs_plans", False))
     return behind_shield(base, config, robot, shield, trust_plans=kind == "gpc" or plans, previous_plan=plans)
 

@@ -79,8 +79,9 @@ def _bound_run(session: ort.InferenceSession, binding) -> "partial":
 
 def _bind(session: ort.InferenceSession, size: int, path: Path, outputs: int = 2) -> tuple:
     """``(x, y, write, binding, run)``: one preallocated float32 input row ``x`` (1, size) and
-    output row ``y`` (1, ``outputs``: 2, or 2 H for a plan network) bound to ``session`` once, ``write(*values)`` packing a list of
-    feature values into ``x`` in one call (float64 -> float32 rounding as numpy's), and
+    output row ``y`` (1, ``outputs``: 2, or 2 H for a plan network) bound to ``session`` once,
+    ``write(*values)`` packing a list of feature values into ``x`` in one call (float64 ->
+    float32 rounding as numpy's), and
     ``run()`` (:func:`_bound_run`). The first call is made now (it allocates), and a file whose
     network gives non-finite wheel speeds is refused (``ValueError``)."""
     x = np.zeros((1, size), dtype=np.float32)

@@ -17,8 +17,8 @@ trained for; :class:`nn_export.runtime.policy.OnnxPolicy` refuses a file whose m
 the preset, the robot or the feature layout it is asked to run with. Keys: ``format``,
 ``feature_layout``, ``feature_layout_version``, ``feature_layout_spec``, ``feature_names``, ``label_names``,
 ``n_features``, ``preset``, ``horizon``, ``sample_time_s``, ``planner_config``, ``robot``,
-``output_clip_mps``, ``output`` (``command`` or ``plan``), ``dataset``, ``validation_rmse_mps``, ``validation_max_abs_error_mps``,
-``hidden``, ``layers``, ``decision_passes``, ``activation``, ``trained_with``.
+``output_clip_mps``, ``output`` (``command`` or ``plan``), ``dataset``, ``validation_rmse_mps``,
+``validation_max_abs_error_mps``, ``hidden``, ``layers``, ``decision_passes``, ``activation``, ``trained_with``.
 """
 from __future__ import annotations
 

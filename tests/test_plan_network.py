@@ -175,19 +175,23 @@ def test_plan_networks_are_refused_where_they_cannot_run(plan_model, tmp_path):
         OnnxPolicy(tmp_path / "liar.onnx", preset="improved")
 
 
-def test_the_plan_target_reads_the_datasets_plans(tmp_path):
+def test_the_plan_target_reads_the_datasets_plans(plan_model, tmp_path):
     """``load_dataset(..., target="plan")``: the (n, 2 H) rows of the plans, whose first
-    step is the label; an odd number of outputs cannot take the speed/turn basis."""
+    step is the label, also of a DAgger round a plan network drove; an odd number of outputs
+    cannot take the speed/turn basis."""
     from nn_export.training.dataset import load_dataset
     from nn_export.training.dataset.shards import TARGETS  # noqa: F401 (the public name)
     from nn_export.training.train import WheelSpeedMLP
     import subprocess
     import sys
     d = tmp_path / "ds"
-    proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(d), "--samples", "20",
-                           "--preset", "improved", "--layout", "set", "--workers", "1"],
-                          capture_output=True, text=True, timeout=400)
-    assert proc.returncode == 0, proc.stderr[-2000:]
+    for args in (("--samples", "20", "--layout", "set"),
+                 ("--dagger", plan_model[0], "--dagger-suite", "circle-crossing", "--movers", "3", "--episodes", "1",
+                  "--round", "1")):
+        proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(d), "--preset", "improved",
+                               "--workers", "1", *map(str, args)], capture_output=True, text=True, timeout=400)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+    assert load_dataset(d, ("dagger1",), target="plan").Y.shape[1] == 2 * H
     one, plan = load_dataset(d), load_dataset(d, target="plan")
     assert plan.Y.shape == (len(one.Y), 2 * H)
     np.testing.assert_array_equal(plan.Y[:, :2], one.Y)

@@ -27,7 +27,8 @@ class SafetyVerdict:
     """Why it intervened and what replaced the candidate (empty when accepted)."""
     source: str
     """``"candidate"``, ``"alternative:<i>"`` (the controller's i-th alternative),
-    ``"fallback"`` or ``"manoeuvre:<name>"``."""
+    ``"previous_plan"`` (the plan let through before, shifted), ``"fallback"`` or
+    ``"manoeuvre:<name>"``."""
     check: SafetyCheck
     """The check of the candidate."""
     planned_wheels_mps: np.ndarray | None = None
@@ -72,7 +73,7 @@ class SafetyFilter(QuickScreen):
             self.fallback.reset()
     # --- the filter ----------------------------------------------------------------------
     def filter(self, observation: Observation, wheels, forecasts=(), statics=None, poses=None,
-               alternatives=(), trust_s: float | None = None) -> SafetyVerdict:
+               alternatives=(), trust_s: float | None = None, previous=None) -> SafetyVerdict:
         """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
         replace it (see :meth:`check`).
 
@@ -89,6 +90,9 @@ class SafetyFilter(QuickScreen):
         planner that replans at every sample, a candidate (or alternative) whose check keeps
         the margin at least this long passes, as the fallback planner's answer does with
         ``trust_planner_s`` (None: the whole horizon, the rule for anything else).
+        ``previous``: the ``(H, 2)`` plan let through at the previous sample, shifted by one
+        step: tried after the alternatives, as one more of them (source ``previous_plan``,
+        counted in ``previous_plan_used`` and ``alternative_used``).
         """
         statics = observation.static if statics is None else statics
         r = observation.robot
@@ -110,7 +114,7 @@ class SafetyFilter(QuickScreen):
         if cmd is None:
             self.counters["non_finite_candidate"] += 1
             check = SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
-            return self._intervene(observation, state, obstacles, check, None, alternatives, trust_s)
+            return self._intervene(observation, state, obstacles, check, None, alternatives, trust_s, previous)
         if limited:
             # the simulator (and the robot) would clip it: what is checked is what would happen
             self.counters["candidate_limited"] += 1
@@ -119,31 +123,34 @@ class SafetyFilter(QuickScreen):
             if self.fallback is not None and hasattr(self.fallback, "observe"):
                 self.fallback.observe(observation)
             return SafetyVerdict(float(cmd[0]), float(cmd[1]), False, "", "candidate", check, plan)
-        return self._intervene(observation, state, obstacles, check, cmd, alternatives, trust_s)
+        return self._intervene(observation, state, obstacles, check, cmd, alternatives, trust_s, previous)
 
     def _intervene(self, observation, state, obstacles, check: SafetyCheck, cmd, alternatives=(),
-                   trust_s: float | None = None) -> SafetyVerdict:
+                   trust_s: float | None = None, previous=None) -> SafetyVerdict:
         self.counters["interventions"] += 1
         if math.isfinite(check.min_clearance_m):
             why = (f"safety: {check.obstacle} predicted clearance {check.min_clearance_m:.2f} m at "
                    f"+{check.time_s:.1f} s (margin {self.margin_m:.2f} m)")
         else:
             why = f"safety: {check.continuation}"
-        # 1. the controller's own alternatives, best first: the first that passes the check;
-        # else the best of them competes with the candidate below
-        keep_cmd, keep_plan, keep_check, keep_source = cmd, None, check, "candidate"
-        for i, w in enumerate(alternatives, 1):
+        # 1. the controller's own alternatives, best first, then its previous plan shifted: the
+        # first that passes the check; else the best of them competes with the candidate below
+        options = [(f"alternative:{i}", f"the controller's alternative {i}", w) for i, w in enumerate(alternatives, 1)]
+        if previous is not None:
+            options.append(("previous_plan", "the previous plan, shifted", previous))
+        keep_cmd, keep_plan, keep_check, keep_source, kept = cmd, None, check, "candidate", "candidate kept"
+        for source, name, w in options:
             acmd, aplan, _ = self._as_candidate(state, np.asarray(w, dtype=float))
             if acmd is None:
                 continue
             achk = self._assess(state, acmd, aplan, obstacles, trust_s)
             if _passes(achk, trust_s):
                 self.counters["alternative_used"] += 1
-                return SafetyVerdict(float(acmd[0]), float(acmd[1]), True, why + f"; the controller's alternative {i}",
-                                     f"alternative:{i}", check, aplan)
+                if source == "previous_plan":
+                    self.counters["previous_plan_used"] = self.counters.get("previous_plan_used", 0) + 1
+                return SafetyVerdict(float(acmd[0]), float(acmd[1]), True, why + f"; {name}", source, check, aplan)
             if keep_cmd is None or self._better(achk, keep_check):
-                keep_cmd, keep_plan, keep_check, keep_source = acmd, aplan, achk, f"alternative:{i}"
-        kept = "candidate kept" if keep_source == "candidate" else f"the controller's {keep_source.replace(':', ' ')} kept"
+                keep_cmd, keep_plan, keep_check, keep_source, kept = acmd, aplan, achk, source, f"{name} kept"
         if self.fallback is not None:
             dec: ControlDecision = self.fallback.decide(observation)
             fcmd = np.array([dec.v_right_mps, dec.v_left_mps], dtype=float)

@@ -114,7 +114,6 @@ class Shield:
         self.filter.reset()
         self._bank = None if self.uses_policy_forecasts else TrackBank(self.sample_time_s, self.ekf_settings)
         self._kept: np.ndarray | None = None  # the plan let through last, shifted (previous_plan)
-        self._previous_used = 0
 
     @property
     def counters(self) -> dict:
@@ -128,7 +127,7 @@ class Shield:
                 name = names[k] = k if k == "interventions" else "shield_" + k
             c[name] = n
         if self.previous_plan:
-            c["shield_previous_plan_used"] = self._previous_used
+            c.setdefault("shield_previous_plan_used", 0)
         if self._bank is not None:  # the shield's own filters: missed, outliers, tracks seen once
             for k, n in self._bank.counters.items():
                 c["shield_" + k] = c.get("shield_" + k, 0) + n
@@ -162,11 +161,9 @@ class Shield:
         plan = dec.planned_wheels_mps
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
         cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
-        alternatives, kept = dec.alternatives, self._kept
-        if kept is not None:
-            alternatives = (*alternatives, kept)
         v = self.filter.filter(obs, cand, forecasts, obs.static, dec.planned_poses if own else None,
-                               alternatives, self.filter.trust_planner_s if self.trust_plans else None)
+                               dec.alternatives, self.filter.trust_planner_s if self.trust_plans else None,
+                               self._kept)
         if self.previous_plan:
             p = v.planned_wheels_mps
             self._kept = None if p is None or p.shape != (self.horizon, 2) else np.concatenate([p[1:], p[-1:]])
@@ -175,13 +172,8 @@ class Shield:
         info["safety_clearance_m"] = v.check.min_clearance_m
         if not v.intervened:
             return dec
-        source, reason = v.source, v.reason
-        if kept is not None and source == f"alternative:{len(alternatives)}":
-            source = "previous_plan"
-            self._previous_used += 1
-            reason = reason.replace(f"the controller's alternative {len(alternatives)}", "the previous plan, shifted")
         # the controller's own alternative, or its previous plan, is its answer, not a fallback; the rest are
-        fallback = not (source.startswith("alternative") or source == "previous_plan")
-        return ControlDecision(v.v_right_mps, v.v_left_mps, fallback, reason, v.planned_wheels_mps, None,
+        fallback = not (v.source.startswith("alternative") or v.source == "previous_plan")
+        return ControlDecision(v.v_right_mps, v.v_left_mps, fallback, v.reason, v.planned_wheels_mps, None,
                                info={**info, "controller_wheels_mps": (dec.v_right_mps, dec.v_left_mps),
-                                     "safety_source": source}, forecasts=dec.forecasts)
+                                     "safety_source": v.source}, forecasts=dec.forecasts)

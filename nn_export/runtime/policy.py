@@ -287,6 +287,11 @@ class OnnxPolicy:
         vr, vl = self._y1[:2].tolist()
         return vr, vl
 
+    def _net_plan(self, values: list[float]) -> np.ndarray:
+        """One call of a plan network on these feature values: its (H, 2) plan, float64."""
+        self._net_values(values)
+        return self._y.reshape(self.steps, 2).astype(float)
+
     def _net(self, situation: Situation) -> tuple[float, float]:
         """One network call on ``situation``'s features."""
         return self._net_values(feature_values(self.layout, situation, self._counters["feature_report"]))
@@ -367,8 +372,7 @@ class OnnxPolicy:
             values = feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
                                          counters["feature_report"])
             if self.steps > 1:
-                self._net_values(values)
-                return _plan_decision(self._y.reshape(self.steps, 2).astype(float), "one pass: plan", tracks)
+                return _plan_decision(self._net_plan(values), "one pass: plan", tracks)
             vr, vl = self._net_values(values)
             return self._one_pass_decision(vr, vl, tracks)
         return self._two_passes(obs, tracks, ref_rows)

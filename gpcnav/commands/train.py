@@ -28,6 +28,9 @@ def add_arguments(p):
                    help="what the network outputs: the first command (default) or the GPC's whole H-step plan "
                         "of wheel speeds (checked as a plan behind the check layer; docs/nn.md)")
     p.add_argument("--encoder-width", type=int, default=64, help="--architecture set: units of the obstacle encoder")
+    p.add_argument("--relative", action="store_true",
+                   help="learn the change from the current wheel speeds (the GPC decides increments); the exported "
+                        "graph adds them back, so the model file answers wheel speeds as any other")
     p.add_argument("--layout", choices=("paper", "multi", "set"), default=None,
                    help="feature layout the datasets must have (default: whatever they have)")
     p.add_argument("--output-basis", choices=("speed_turn", "wheels"), default="speed_turn",
@@ -134,7 +137,7 @@ def run(args) -> int:
                           batch_size=args.batch_size, learning_rate=args.lr, weight_decay=args.weight_decay,
                           validation_fraction=args.validation_fraction, patience=args.patience,
                           random_state=args.seed, architecture=args.architecture,
-                          encoder_width=args.encoder_width)
+                          encoder_width=args.encoder_width, relative=args.relative)
     bar = progress(total=args.epochs, desc="training", unit="it")
 
     def tick(epoch, tr, va):

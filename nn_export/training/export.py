@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .train import WheelSpeedMLP
+from .train import WheelSpeedMLP, current_wheels
 
 __all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "REQUIRED_METADATA", "export_onnx", "ExportReport"]
 
@@ -45,15 +45,20 @@ REQUIRED_METADATA = ("format", "feature_layout", "feature_layout_version", "feat
 
 
 class _Deployed(torch.nn.Module):
-    """The trained map followed by the wheel-limit clip, in float32."""
+    """The trained map (plus the current wheel speeds for a ``relative`` network) followed by
+    the wheel-limit clip, in float32."""
 
-    def __init__(self, net, clip_mps: float):
+    def __init__(self, net, clip_mps: float, relative: bool = False):
         super().__init__()
         self.net = net
         self.clip_mps = float(clip_mps)
+        self.relative = bool(relative)
 
     def forward(self, x):
-        return torch.clamp(self.net(x), -self.clip_mps, self.clip_mps)
+        y = self.net(x)
+        if self.relative:
+            y = y + current_wheels(x, y.shape[1])
+        return torch.clamp(y, -self.clip_mps, self.clip_mps)
 
 
 class ExportReport(dict):
@@ -107,7 +112,7 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
 def _onnx_bytes(model: WheelSpeedMLP, clip: float, meta: dict) -> bytes:
     """The deployed map (folded, clipped, float32) as a checked ONNX file with ``meta``."""
     import onnx
-    deployed = _Deployed(_deployable(model.net_), clip).eval()
+    deployed = _Deployed(_deployable(model.net_), clip, model.relative).eval()
     buf = io.BytesIO()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice

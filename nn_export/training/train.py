@@ -22,7 +22,6 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -30,14 +29,23 @@ import torch
 
 from .curve import save_curve_figure
 from .set_net import SetNet, set_standardisation, slot_structure
+from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale
 
-__all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure"]
+__all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure", "current_wheels"]
 
 MODEL_FORMAT = "gpcnav-mlp/1"
 _ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "softsign": torch.nn.Softsign}
 LBFGS_ITERATIONS_PER_STEP = 10
-_STD_FLOOR = 1e-9  # below this a feature is constant (e.g. an absent-obstacle code): its scale is 1,
-# as in scikit-learn's StandardScaler, so that it neither divides by zero nor magnifies float32 rounding
+
+
+CURRENT_WHEELS = ("v_right_prev_mps", "v_left_prev_mps")
+"""The first two features of every layout: the wheel speeds applied over the last interval."""
+
+
+def current_wheels(x: torch.Tensor, n_out: int) -> torch.Tensor:
+    """The current wheel speeds (the first two inputs of ``x``), once per (right, left) pair
+    of ``n_out`` outputs: what a ``relative`` network's output is added to."""
+    return x[:, :2].repeat(1, n_out // 2)
 
 
 class _Net(torch.nn.Module):
@@ -110,13 +118,20 @@ class WheelSpeedMLP:
         the perceptron on the robot's inputs and the pools (``fit`` needs ``feature_names``).
     encoder_width : int
         Units of the set network's obstacle encoder (``set`` only).
+    relative : bool
+        Learn the change from the robot's current wheel speeds (the first two inputs) instead
+        of the wheel speeds themselves; the map adds them back (:func:`current_wheels`), in
+        the exported graph too. Most labels lie close to the current speeds (the GPC's cost
+        charges every increment), so an absolute network spends its fit on reproducing them;
+        a relative one fits the increments the GPC decides, as the GPC's own decision
+        variables are (measured: docs/nn.md).
     """
 
     def __init__(self, hidden: int = 35, activation: str = "tanh", output_basis: str = "speed_turn",
                  optimizer: str = "lbfgs", max_epochs: int = 400, layers: int = 1,
                  batch_size: int = 1024, learning_rate: float = 3e-3, weight_decay: float = 0.0,
                  validation_fraction: float = 0.15, patience: int = 40, random_state: int = 0,
-                 architecture: str = "mlp", encoder_width: int = 64):
+                 architecture: str = "mlp", encoder_width: int = 64, relative: bool = False):
         self.hidden = hidden
         self.layers = layers
         self.activation = activation
@@ -131,6 +146,7 @@ class WheelSpeedMLP:
         self.random_state = random_state
         self.architecture = architecture
         self.encoder_width = encoder_width
+        self.relative = relative
 
     # --- hyper-parameters ------------------------------------------------------------
     def get_params(self) -> dict:
@@ -138,6 +154,8 @@ class WheelSpeedMLP:
                                                 "weight_decay", "validation_fraction", "patience", "random_state")}
         if self.architecture != "mlp":  # only then: a perceptron's files stay what they were
             params.update(architecture=self.architecture, encoder_width=self.encoder_width)
+        if self.relative:  # likewise
+            params.update(relative=True)
         return params
 
     def _check_params(self) -> None:
@@ -202,23 +220,28 @@ class WheelSpeedMLP:
         return self
 
     def _standardised(self, X: np.ndarray, Y: np.ndarray, train_idx, val_idx, feature_names=None
-                      ) -> tuple[_Net, "_Splits"]:
+                      ) -> tuple[_Net, "Splits"]:
         """The network with the training split's standardisation in its buffers, and both
         splits standardised (in the learned output basis)."""
-        x_mean, x_scale = X[train_idx].mean(0), _scale(X[train_idx])
+        x_mean, x_scale = X[train_idx].mean(0), robust_scale(X[train_idx])
         if self.architecture == "set":
             if feature_names is None:
                 raise ValueError("the set architecture needs the feature names (to find the obstacle slots)")
             structure = slot_structure(feature_names)
-            x_mean, x_scale = set_standardisation(X[train_idx], structure, x_mean, x_scale, _scale)
-        if self.output_basis == "speed_turn" and Y.shape[1] % 2:
-            raise ValueError(f"output_basis 'speed_turn' needs wheel pairs (an even number of outputs), "
+            x_mean, x_scale = set_standardisation(X[train_idx], structure, x_mean, x_scale, robust_scale)
+        if (self.output_basis == "speed_turn" or self.relative) and Y.shape[1] % 2:
+            raise ValueError(f"output_basis 'speed_turn' and relative need wheel pairs (an even number of outputs), "
                              f"Y has {Y.shape[1]}")
+        if self.relative:
+            if feature_names is not None and tuple(feature_names[:2]) != CURRENT_WHEELS:
+                raise ValueError(f"relative needs the current wheel speeds {CURRENT_WHEELS} as the first two "
+                                 f"features, got {tuple(feature_names[:2])}")
+            Y = Y - current_wheels(torch.from_numpy(X), Y.shape[1]).numpy()
         # speed_turn: (mean speed, half difference) of each (right, left) pair: one command or a plan's steps
         mix = (np.kron(np.eye(Y.shape[1] // 2), [[1.0, 1.0], [1.0, -1.0]]) if self.output_basis == "speed_turn"
                else np.eye(Y.shape[1]))
         U = Y @ np.linalg.inv(mix).T  # the learned basis: wheels = U @ mix^T
-        y_mean, y_scale = U[train_idx].mean(0), _scale(U[train_idx])
+        y_mean, y_scale = U[train_idx].mean(0), robust_scale(U[train_idx])
         net = self._new_net(X.shape[1], Y.shape[1], feature_names)
         with torch.no_grad():
             net.y_mix.copy_(torch.from_numpy(mix))
@@ -228,7 +251,7 @@ class WheelSpeedMLP:
             net.y_scale.copy_(torch.from_numpy(y_scale))
         Xn = torch.from_numpy((X - x_mean) / x_scale)
         Yn = torch.from_numpy((U - y_mean) / y_scale)
-        return net, _Splits(Xn[train_idx], Yn[train_idx], Xn[val_idx], Yn[val_idx], torch.from_numpy(y_scale),
+        return net, Splits(Xn[train_idx], Yn[train_idx], Xn[val_idx], Yn[val_idx], torch.from_numpy(y_scale),
                             torch.from_numpy(mix))
 
     def _new_net(self, n_in: int, n_out: int, feature_names) -> torch.nn.Module:
@@ -248,7 +271,7 @@ class WheelSpeedMLP:
         return opt, torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=1 / 3, patience=max(1, self.patience // 4),
                                                                min_lr=self.learning_rate * 1e-3)
 
-    def _train(self, net: _Net, data: "_Splits", gen: torch.Generator, progress) -> tuple[dict, dict]:
+    def _train(self, net: _Net, data: "Splits", gen: torch.Generator, progress) -> tuple[dict, dict]:
         """Steps (L-BFGS) or epochs (Adam) until the validation error stalls for ``patience``
         of them or ``max_epochs`` pass: the curve (with ``lbfgs_restarts``) and the best
         weights. Sets ``best_epoch_`` and ``stop_reason_``."""
@@ -265,14 +288,14 @@ class WheelSpeedMLP:
 
         curve = {"epoch": [0], "train_mse": [data.mse(net, xt, yt)], "val_mse": [data.mse(net, xv, yv)],
                  "learning_rate": [self.learning_rate]}
-        best_val, best_state, best_epoch, stale = curve["val_mse"][0], _copy_state(net), 0, 0
+        best_val, best_state, best_epoch, stale = curve["val_mse"][0], copy_state(net), 0, 0
         stop_reason, restarts = "max_epochs", 0
         for epoch in range(1, int(self.max_epochs) + 1):
             net.train()
             if sched is None:
-                restarts += _lbfgs_step(opt, net, closure)
+                restarts += lbfgs_step(opt, net, closure)
             else:
-                _adam_epoch(opt, net, xt, yt, int(self.batch_size), gen)
+                adam_epoch(opt, net, xt, yt, int(self.batch_size), gen)
             net.eval()
             tr, va = data.mse(net, xt, yt), data.mse(net, xv, yv)
             if not (math.isfinite(tr) and math.isfinite(va)):
@@ -285,7 +308,7 @@ class WheelSpeedMLP:
             if progress is not None:
                 progress(epoch, tr, va)
             if va < best_val * (1 - 1e-4):
-                best_val, best_state, best_epoch, stale = va, _copy_state(net), epoch, 0
+                best_val, best_state, best_epoch, stale = va, copy_state(net), epoch, 0
             else:
                 stale += 1
                 if stale >= self.patience:
@@ -295,7 +318,7 @@ class WheelSpeedMLP:
         curve["lbfgs_restarts"] = restarts
         return curve, best_state
 
-    def _keep(self, net: _Net, data: "_Splits", X: np.ndarray, Y: np.ndarray, train_idx, val_idx, feature_names,
+    def _keep(self, net: _Net, data: "Splits", X: np.ndarray, Y: np.ndarray, train_idx, val_idx, feature_names,
               label_names) -> None:
         """The learned attributes of a fitted model (the best weights are in ``net``)."""
         self.net_ = net
@@ -336,7 +359,9 @@ class WheelSpeedMLP:
         if X.ndim != 2 or X.shape[1] != self.n_features_in_:
             raise ValueError(f"X must have shape (n, {self.n_features_in_}), got {X.shape}")
         with torch.no_grad():
-            return self.net_(torch.from_numpy(X)).numpy()
+            x = torch.from_numpy(X)
+            y = self.net_(x)
+            return (y + current_wheels(x, y.shape[1]) if self.relative else y).numpy()
 
     def numpy_params(self) -> dict:
         """The learned arrays, float64: x_mean, x_scale, W1 (hidden, in), b1, W1_2, b1_2, ... (further
@@ -449,52 +474,3 @@ def _checked_arrays(X, Y, feature_names, label_names) -> tuple[np.ndarray, np.nd
     if label_names is not None and len(label_names) != Y.shape[1]:
         raise ValueError(f"{len(label_names)} label names for {Y.shape[1]} labels")
     return X, Y
-
-
-@dataclass(frozen=True)
-class _Splits:
-    """The standardised training (``xt``, ``yt``) and validation (``xv``, ``yv``) splits,
-    and what maps the network's errors back to wheel speeds."""
-
-    xt: torch.Tensor
-    yt: torch.Tensor
-    xv: torch.Tensor
-    yv: torch.Tensor
-    y_scale: torch.Tensor
-    mix: torch.Tensor
-
-    def mse(self, net: _Net, xn: torch.Tensor, yn: torch.Tensor) -> float:
-        """Mean squared wheel-speed error over samples and both wheels, (m/s)^2."""
-        with torch.no_grad():
-            return float(((((net.normalised(xn) - yn) * self.y_scale) @ self.mix.T) ** 2).mean())
-
-
-def _lbfgs_step(opt, net: _Net, closure) -> int:
-    """One L-BFGS step; if it did not move at all, a restart from steepest descent (returns 1)."""
-    before = [q.detach().clone() for q in net.parameters()]
-    opt.step(closure)
-    if all(torch.equal(a, b) for a, b in zip(before, net.parameters())):
-        opt.state.clear()
-        opt.step(closure)
-        return 1
-    return 0
-
-
-def _adam_epoch(opt, net: _Net, xt: torch.Tensor, yt: torch.Tensor, batch_size: int, gen: torch.Generator) -> None:
-    """One pass of Adam over the training split in a shuffled order."""
-    order = torch.randperm(len(xt), generator=gen)
-    for start in range(0, len(xt), batch_size):
-        b = order[start:start + batch_size]
-        opt.zero_grad(set_to_none=True)
-        loss = ((net.normalised(xt[b]) - yt[b]) ** 2).mean()
-        loss.backward()
-        opt.step()
-
-
-def _scale(A: np.ndarray) -> np.ndarray:
-    sd = A.std(0)
-    return np.where(sd > _STD_FLOOR * np.maximum(1.0, np.abs(A.mean(0))), sd, 1.0)
-
-
-def _copy_state(net):
-    return {k: v.detach().clone() for k, v in net.state_dict().items()}

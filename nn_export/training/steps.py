@@ -1,0 +1,62 @@
+"""The optimisation steps of :class:`~nn_export.training.train.WheelSpeedMLP` (torch): the
+standardised splits and their error, one L-BFGS step, one Adam epoch, the robust scale."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+__all__ = ["Splits", "lbfgs_step", "adam_epoch", "robust_scale", "copy_state"]
+
+_STD_FLOOR = 1e-9  # below this a feature is constant (e.g. an absent-obstacle code): its scale is 1,
+# as in scikit-learn's StandardScaler, so that it neither divides by zero nor magnifies float32 rounding
+
+
+@dataclass(frozen=True)
+class Splits:
+    """The standardised training (``xt``, ``yt``) and validation (``xv``, ``yv``) splits,
+    and what maps the network's errors back to wheel speeds."""
+
+    xt: torch.Tensor
+    yt: torch.Tensor
+    xv: torch.Tensor
+    yv: torch.Tensor
+    y_scale: torch.Tensor
+    mix: torch.Tensor
+
+    def mse(self, net: torch.nn.Module, xn: torch.Tensor, yn: torch.Tensor) -> float:
+        """Mean squared wheel-speed error over samples and both wheels, (m/s)^2."""
+        with torch.no_grad():
+            return float(((((net.normalised(xn) - yn) * self.y_scale) @ self.mix.T) ** 2).mean())
+
+
+def lbfgs_step(opt, net: torch.nn.Module, closure) -> int:
+    """One L-BFGS step; if it did not move at all, a restart from steepest descent (returns 1)."""
+    before = [q.detach().clone() for q in net.parameters()]
+    opt.step(closure)
+    if all(torch.equal(a, b) for a, b in zip(before, net.parameters())):
+        opt.state.clear()
+        opt.step(closure)
+        return 1
+    return 0
+
+
+def adam_epoch(opt, net: torch.nn.Module, xt: torch.Tensor, yt: torch.Tensor, batch_size: int, gen: torch.Generator) -> None:
+    """One pass of Adam over the training split in a shuffled order."""
+    order = torch.randperm(len(xt), generator=gen)
+    for start in range(0, len(xt), batch_size):
+        b = order[start:start + batch_size]
+        opt.zero_grad(set_to_none=True)
+        loss = ((net.normalised(xt[b]) - yt[b]) ** 2).mean()
+        loss.backward()
+        opt.step()
+
+
+def robust_scale(A: np.ndarray) -> np.ndarray:
+    sd = A.std(0)
+    return np.where(sd > _STD_FLOOR * np.maximum(1.0, np.abs(A.mean(0))), sd, 1.0)
+
+
+def copy_state(net):
+    return {k: v.detach().clone() for k, v in net.state_dict().items()}

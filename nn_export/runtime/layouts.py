@@ -54,12 +54,15 @@ from functools import cached_property
 
 import numpy as np
 
-__all__ = ["FEATURE_VERSION", "LAYOUTS", "SET_ELEMENT", "SET_SLOTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM",
+__all__ = ["FEATURE_VERSION", "LAYOUTS", "WHEEL_INPUTS",
+           "SET_ELEMENT", "SET_SLOTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM",
            "FeatureLayout", "layout_for", "layout_from_dict"]
 
 FEATURE_VERSION = 1
 """Bumped whenever the meaning of any feature changes; datasets and models carry it."""
 LAYOUTS = ("paper", "multi", "set")
+WHEEL_INPUTS = ("v_right_prev_mps", "v_left_prev_mps")
+"""The first two inputs of every layout: the wheel speeds applied over the last interval."""
 OBSTACLE_RANGE_M = 12.0
 """Obstacles farther than this from the robot are encoded as absent (and parked here)."""
 CURVATURE_LIMIT_1PM = 5.0
@@ -103,7 +106,7 @@ class FeatureLayout:
 
     @cached_property
     def feature_names(self) -> tuple[str, ...]:
-        names = ["v_right_prev_mps", "v_left_prev_mps"]
+        names = list(WHEEL_INPUTS)
         if self.is_set:
             names += [f"mov{j}_{b}" for j in range(1, self.k_moving + 1) for b in SET_ELEMENT]
             names += [f"sta{j}_{b}" for j in range(1, self.k_static + 1) for b in SET_ELEMENT]

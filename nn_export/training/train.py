@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..runtime.layouts import WHEEL_INPUTS
 from .curve import save_curve_figure
 from .set_net import SetNet, set_standardisation, slot_structure
 from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale
@@ -36,10 +37,6 @@ __all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure", "current_wheels
 MODEL_FORMAT = "gpcnav-mlp/1"
 _ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "softsign": torch.nn.Softsign}
 LBFGS_ITERATIONS_PER_STEP = 10
-
-
-CURRENT_WHEELS = ("v_right_prev_mps", "v_left_prev_mps")
-"""The first two features of every layout: the wheel speeds applied over the last interval."""
 
 
 def current_wheels(x: torch.Tensor, n_out: int) -> torch.Tensor:
@@ -233,8 +230,8 @@ class WheelSpeedMLP:
             raise ValueError(f"output_basis 'speed_turn' and relative need wheel pairs (an even number of outputs), "
                              f"Y has {Y.shape[1]}")
         if self.relative:
-            if feature_names is not None and tuple(feature_names[:2]) != CURRENT_WHEELS:
-                raise ValueError(f"relative needs the current wheel speeds {CURRENT_WHEELS} as the first two "
+            if feature_names is not None and tuple(feature_names[:2]) != WHEEL_INPUTS:
+                raise ValueError(f"relative needs the current wheel speeds {WHEEL_INPUTS} as the first two "
                                  f"features, got {tuple(feature_names[:2])}")
             Y = Y - current_wheels(torch.from_numpy(X), Y.shape[1]).numpy()
         # speed_turn: (mean speed, half difference) of each (right, left) pair: one command or a plan's steps

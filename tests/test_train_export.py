@@ -235,6 +235,12 @@ def test_relative_target_learns_the_increments_and_every_form_answers_wheel_spee
     sess = ort.InferenceSession(str(tmp_path / "m.onnx"), providers=["CPUExecutionProvider"])
     got = sess.run(None, {INPUT_NAME: X.astype(np.float32)})[0]
     assert np.max(np.abs(got - np.clip(rel.predict(X), -0.8, 0.8))) <= 1e-5
+    # the addition is one MatMul and one Add in the graph (a traced slice-and-repeat was 25
+    # nodes and a fifth of the crowd network's call)
+    ab.save(tmp_path / "a", PROV)
+    export_onnx(tmp_path / "a", tmp_path / "a.onnx", X[:256])
+    ops = [[n.op_type for n in onnx.load(tmp_path / f).graph.node if n.op_type != "Constant"] for f in ("m.onnx", "a.onnx")]
+    assert sorted(ops[0]) == sorted(ops[1] + ["MatMul", "Add"])
     # the current speeds must be the first two features
     names = [f"x{i}" for i in range(17)]
     with pytest.raises(ValueError, match="relative needs the current wheel speeds"):

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .train import WheelSpeedMLP, current_wheels
+from .train import WheelSpeedMLP, wheel_selection
 
 __all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "REQUIRED_METADATA", "export_onnx", "ExportReport"]
 
@@ -48,16 +48,16 @@ class _Deployed(torch.nn.Module):
     """The trained map (plus the current wheel speeds for a ``relative`` network) followed by
     the wheel-limit clip, in float32."""
 
-    def __init__(self, net, clip_mps: float, relative: bool = False):
+    def __init__(self, net, clip_mps: float, selection: torch.Tensor | None = None):
         super().__init__()
         self.net = net
         self.clip_mps = float(clip_mps)
-        self.relative = bool(relative)
+        self.selection = selection  # float32 wheel_selection of a relative network, else None
 
     def forward(self, x):
         y = self.net(x)
-        if self.relative:
-            y = y + current_wheels(x, y.shape[1])
+        if self.selection is not None:
+            y = y + x @ self.selection
         return torch.clamp(y, -self.clip_mps, self.clip_mps)
 
 
@@ -112,7 +112,9 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
 def _onnx_bytes(model: WheelSpeedMLP, clip: float, meta: dict) -> bytes:
     """The deployed map (folded, clipped, float32) as a checked ONNX file with ``meta``."""
     import onnx
-    deployed = _Deployed(_deployable(model.net_), clip, model.relative).eval()
+    selection = (wheel_selection(model.n_features_in_, model.n_outputs_, torch.float32) if model.relative
+                 else None)
+    deployed = _Deployed(_deployable(model.net_), clip, selection).eval()
     buf = io.BytesIO()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice

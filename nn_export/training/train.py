@@ -32,17 +32,27 @@ from .curve import save_curve_figure
 from .set_net import SetNet, set_standardisation, slot_structure
 from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale
 
-__all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure", "current_wheels"]
+__all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure", "current_wheels", "wheel_selection"]
 
 MODEL_FORMAT = "gpcnav-mlp/1"
 _ACTIVATIONS = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU, "softsign": torch.nn.Softsign}
 LBFGS_ITERATIONS_PER_STEP = 10
 
 
+def wheel_selection(n_in: int, n_out: int, dtype=torch.float64) -> torch.Tensor:
+    """``(n_in, n_out)`` matrix of zeros and ones: ``x @ S`` is the current wheel speeds (the
+    first two inputs of ``x``), once per (right, left) pair of ``n_out`` outputs, exactly
+    (each column holds one 1). A matrix, not slicing and tiling: in the exported graph it is
+    one MatMul, where the traced slice-and-repeat was 25 nodes and 19 % of the call."""
+    S = torch.zeros(n_in, n_out, dtype=dtype)
+    S[0, 0::2] = 1.0
+    S[1, 1::2] = 1.0
+    return S
+
+
 def current_wheels(x: torch.Tensor, n_out: int) -> torch.Tensor:
-    """The current wheel speeds (the first two inputs of ``x``), once per (right, left) pair
-    of ``n_out`` outputs: what a ``relative`` network's output is added to."""
-    return x[:, :2].repeat(1, n_out // 2)
+    """What a ``relative`` network's output is added to (:func:`wheel_selection`)."""
+    return x @ wheel_selection(x.shape[1], n_out, x.dtype)
 
 
 class _Net(torch.nn.Module):

@@ -31,6 +31,7 @@ def a_file(tmp_path):
     (["evaluate", "--suite", "random", "--count", "2", "--seed", "-1"], "--seed"),
     (["simulate", PAPER_DIR / "fig7_1_head_on.toml", "--seed", "-1"], "--seed"),
     (["dataset", "--out", "{tmp}/ds", "--samples", "4", "--seed", "-1"], "--seed"),
+    (["train", "{tmp}", "--out", "{tmp}/model", "--cost-gap-weight", "0"], "--cost-gap-weight"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, words, a_file, tmp_path):
     argv = [str(a).format(file=a_file, tmp=tmp_path) for a in argv]

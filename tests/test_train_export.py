@@ -247,3 +247,35 @@ def test_relative_target_learns_the_increments_and_every_form_answers_wheel_spee
         WheelSpeedMLP(relative=True, max_epochs=1).fit(X, Y, feature_names=names)
     with pytest.raises(ValueError, match="wheel pairs"):
         WheelSpeedMLP(relative=True, output_basis="wheels", max_epochs=1).fit(X, Y[:, :1])
+
+
+def test_cost_gap_and_its_weights_on_hand_made_costs():
+    from nn_export.training.weights import WEIGHT_FLOOR, cost_gap, cost_gap_weights
+    nan = float("nan")
+    cc = np.array([[2.0, 2.0 * (1 + 1e-9), 2.1, nan],   # the same optimum twice, a runner-up 5 % dearer, a failure
+                   [2.0, 2.0, nan, nan],                # one optimum only
+                   [1.0, 1.003, 1.015, 1.5],            # a near tie: 0.3 %
+                   [-1.0, -0.99, nan, nan]])            # a negative cost: relative to |cost|
+    cost = np.array([2.0, 2.0, 1.0, -1.0])
+    np.testing.assert_allclose(cost_gap(cc, cost), [0.05, np.inf, 0.003, 0.01], rtol=1e-9)
+    np.testing.assert_allclose(cost_gap_weights(cc, cost, 0.03), [1.0, 1.0, WEIGHT_FLOOR, 0.01 / 0.03], rtol=1e-9)
+    with pytest.raises(ValueError, match="positive"):
+        cost_gap_weights(cc, cost, 0.0)
+
+
+def test_sample_weights_pull_the_fit_to_the_weighted_mean():
+    """Labels that disagree on the same inputs (the two sides of an obstacle): the least-squares
+    answer is their mean, the weighted one their weighted mean, exactly."""
+    rng = np.random.default_rng(4)
+    X, _ = _data(2000, 4)
+    side = rng.random(len(X)) < 0.5
+    Y = np.where(side, 0.4, -0.4)[:, None] * np.array([1.0, -1.0])     # turn one way or the other
+    w = np.where(side, 1.0, 0.25)
+    kw = dict(hidden=8, max_epochs=40, batch_size=128, optimizer="adam", random_state=0)
+    plain = WheelSpeedMLP(**kw).fit(X, Y).predict(X)[:, 0].mean()
+    weighted = WheelSpeedMLP(**kw).fit(X, Y, sample_weight=w).predict(X)[:, 0].mean()
+    exact = np.sum(w * Y[:, 0]) / np.sum(w)                             # 0.24 for an even split
+    assert abs(plain - Y[:, 0].mean()) < 0.03
+    assert abs(weighted - exact) < 0.03 and exact - Y[:, 0].mean() > 0.2
+    with pytest.raises(ValueError, match="positive finite"):
+        WheelSpeedMLP(**kw).fit(X, Y, sample_weight=np.zeros(len(X)))

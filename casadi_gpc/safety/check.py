@@ -13,7 +13,8 @@ import numpy as np
 from ..ekf import planning_covariances, worst_std_m
 from ..robot import RobotParams, robot_step
 
-__all__ = ["MANOEUVRES", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances"]
+__all__ = ["MANOEUVRES", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
+           "shared_batch"]
 
 MANOEUVRES: tuple[tuple[str, float, float], ...] = (
     ("brake", 0.0, 0.0),
@@ -191,8 +192,7 @@ class TrajectoryCheck:
         touch = np.empty((n, H))
         if nm:
             try:
-                m = np.array([f.means_m for f in forecasts], dtype=float)     # (n, H, 2)
-                c = np.array([forecast_covariances(f) for f in forecasts], dtype=float)     # (n, H, 2, 2)
+                m, c, w = forecast_arrays(forecasts)     # (n, H, 2), (n, H, 2, 2), (n, H)
             except ValueError:
                 raise ValueError("obstacle forecasts of different lengths") from None
             if m.shape[1:] != (H, 2) or c.shape[1:] != (H, 2, 2):
@@ -200,7 +200,7 @@ class TrajectoryCheck:
                                  f"covariances, got {m.shape[1:]} and {c.shape[1:]}")
             q[:nm] = m.view(complex)[..., 0] @ self._known          # x + iy, without arithmetic
             radii = np.array([f.radius_m for f in forecasts], dtype=float)
-            touch[:nm] = self.sigmas * worst_std_m(c) + (radii[:, None] + self.robot.radius_m)
+            touch[:nm] = self.sigmas * w + (radii[:, None] + self.robot.radius_m)
         for i, st in enumerate(statics):
             q[nm + i] = complex(st.position_m[0], st.position_m[1])
             touch[nm + i] = st.radius_m + self.robot.radius_m
@@ -367,6 +367,33 @@ def forecast_covariances(f) -> np.ndarray:
     """The forecast covariances the check uses: the planner's (a track seen once keeps its
     next step's uncertainty; objects without ``initialised`` are estimated tracks)."""
     return planning_covariances(f.covs_m2, getattr(f, "initialised", True))
+
+
+def shared_batch(forecasts):
+    """The :class:`~casadi_gpc.ekf_batch.ForecastBatch` whose rows ``forecasts`` are, in its
+    order (a crowd's track estimates carry ``batch_`` and ``batch_index_``), else None."""
+    batch = getattr(forecasts[0], "batch_", None) if forecasts else None
+    if batch is None or len(forecasts) != len(batch):
+        return None
+    i = 0
+    for f in forecasts:
+        if getattr(f, "batch_", None) is not batch or f.batch_index_ != i:
+            return None
+        i += 1
+    return batch
+
+
+def forecast_arrays(forecasts) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The means ``(n, H, 2)``, :func:`forecast_covariances` ``(n, H, 2, 2)`` and their
+    :func:`~casadi_gpc.ekf.worst_std_m` ``(n, H)`` of ``forecasts``, stacked; taken whole
+    from their :func:`shared_batch` when they have one. Raises ValueError when their lengths
+    differ."""
+    batch = shared_batch(forecasts)
+    if batch is not None:
+        return batch.arrays[0], batch.planning_covs, batch.worst_std_m
+    m = np.array([f.means_m for f in forecasts], dtype=float)
+    c = np.array([forecast_covariances(f) for f in forecasts], dtype=float)
+    return m, c, worst_std_m(c)
 
 
 class Obstacles:

@@ -9,9 +9,8 @@ import operator
 
 import numpy as np
 
-from ..ekf import worst_std_m
 from ..robot import RobotState, robot_step_float
-from .check import SafetyCheck, TrajectoryCheck, forecast_covariances
+from .check import SafetyCheck, TrajectoryCheck, forecast_arrays, forecast_covariances
 
 __all__ = ["QuickScreen"]
 
@@ -205,17 +204,19 @@ class QuickScreen(TrajectoryCheck):
         H, R, k = self.horizon, self.robot.radius_m, self.sigmas
         n_mov = len(forecasts)
         if n_mov:
-            m = np.array([f.means_m for f in forecasts], dtype=float)
-            c = np.array([forecast_covariances(f) for f in forecasts], dtype=float)
+            try:
+                m, c, w = forecast_arrays(forecasts)
+            except ValueError:
+                return None  # the exact path says what is wrong
             if m.shape != (n_mov, H, 2) or c.shape != (n_mov, H, 2, 2):
                 return None
         else:
-            m, c = np.zeros((0, H, 2)), np.zeros((0, H, 2, 2))
+            m, w = np.zeros((0, H, 2)), np.zeros((0, H))
         q = np.empty((n_mov + len(statics), H + 1), dtype=complex)
-        q[:n_mov, 1:] = m[..., 0] + 1j * m[..., 1]
+        q[:n_mov, 1:] = m.view(complex)[..., 0]     # x + iy, without arithmetic
         q[:n_mov, 0] = 2.0 * q[:n_mov, 1] - q[:n_mov, 2] if H > 1 else q[:n_mov, 1]
         touch = np.empty((len(q), H))
-        touch[:n_mov] = (np.array([f.radius_m for f in forecasts], dtype=float)[:, None] + R) + k * worst_std_m(c)
+        touch[:n_mov] = (np.array([f.radius_m for f in forecasts], dtype=float)[:, None] + R) + k * w
         for j, st in enumerate(statics, start=n_mov):
             q[j] = complex(st.position_m[0], st.position_m[1])
             touch[j] = st.radius_m + R
@@ -256,10 +257,9 @@ def _chord_bound_arrays(pts, obs, sag) -> tuple[float, tuple[int, int]]:
     r0, d = rel[:, :-1], rel[:, 1:] - rel[:, :-1]
     dr, di = d.real, d.imag
     dd = dr * dr + di * di
-    small = dd <= 1e-18
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = -(r0.real * dr + r0.imag * di) / np.where(small, 1.0, dd)
-    t = np.where(small, 0.0, np.minimum(np.maximum(t, 0.0), 1.0))
+    # -(r0 . d) / dd clamped to [0, 1], and 0 where the chord is a point (no division there)
+    t = np.divide(-(r0.real * dr + r0.imag * di), dd, out=np.zeros_like(dd), where=dd > 1e-18)
+    t = np.minimum(np.maximum(t, 0.0), 1.0)
     g = _cabs(r0 + t * d) - touch - np.asarray(sag)
     i = int(np.argmin(g))
     j, k = divmod(i, g.shape[1])

@@ -44,6 +44,10 @@ def add_arguments(p):
     p.add_argument("--batch-size", type=int, default=1024, help="Adam mini-batch size")
     p.add_argument("--lr", type=float, default=3e-3, help="initial Adam learning rate")
     p.add_argument("--weight-decay", type=float, default=0.0, help="L2 penalty")
+    p.add_argument("--cost-gap-weight", type=float, default=None, metavar="SCALE",
+                   help="weigh each label by how much dearer the runner-up optimum of its multi-start was, relative "
+                        "to its cost: a gap of SCALE or more counts fully, a near tie down to a tenth "
+                        "(nn_export/training/weights.py; against averaging the two sides of an obstacle)")
     p.add_argument("--validation-fraction", type=float, default=0.15, help="share of situations held out")
     p.add_argument("--seed", type=int, default=0, help="seeds the split, the initial weights and the batch order")
     add_preset_arguments(p)
@@ -95,6 +99,8 @@ def run(args) -> int:
             raise UsageError(f"{name} must be at least {lo}, got {v}")
     if not args.lr > 0:
         raise UsageError(f"--lr must be positive, got {args.lr}")
+    if args.cost_gap_weight is not None and not args.cost_gap_weight > 0:
+        raise UsageError(f"--cost-gap-weight must be positive, got {args.cost_gap_weight}")
     if not 0 < args.validation_fraction < 1:
         raise UsageError(f"--validation-fraction must be in (0, 1), got {args.validation_fraction}")
     parts = None if args.parts is None else tuple(x.strip() for x in args.parts.split(",") if x.strip())
@@ -132,6 +138,12 @@ def run(args) -> int:
     Y = np.concatenate([s.Y for s in sets])
     # situation ids are unique within a dataset; offset them so that datasets do not collide
     G = np.concatenate([s.groups.astype(np.int64) * len(sets) + i for i, s in enumerate(sets)])
+    weights, weighting = None, None
+    if args.cost_gap_weight is not None:
+        from nn_export.training.weights import WEIGHT_FLOOR, cost_gap_weights
+        weights = np.concatenate([cost_gap_weights(s.candidate_costs, s.cost, args.cost_gap_weight) for s in sets])
+        weighting = {"kind": "cost_gap", "scale": args.cost_gap_weight, "floor": WEIGHT_FLOOR,
+                     "mean": float(weights.mean()), "below_one": int(np.sum(weights < 1.0))}
     model = WheelSpeedMLP(hidden=args.hidden, layers=args.layers, activation=args.activation, output_basis=args.output_basis,
                           optimizer=args.optimizer, max_epochs=args.epochs,
                           batch_size=args.batch_size, learning_rate=args.lr, weight_decay=args.weight_decay,
@@ -147,7 +159,7 @@ def run(args) -> int:
     try:
         model.fit(X, Y, groups=G, feature_names=first.layout.feature_names,
                   label_names=_label_names(first.manifest.get("label_names"), Y.shape[1] // 2, args.target),
-                  progress=tick)
+                  progress=tick, sample_weight=weights)
     except (ValueError, FloatingPointError) as exc:
         raise UsageError(f"training failed: {exc}") from None
     finally:
@@ -162,6 +174,8 @@ def run(args) -> int:
                     "parts": {str(d): sorted(x for x in s.manifest.get("parts", {}) if parts is None or x in parts)
                               for d, s in zip(args.datasets, sets)}},
     }
+    if weighting is not None:
+        provenance["training"] = {"sample_weights": weighting}  # into the file's trained_with
     model.save(args.out, provenance)
     np.save(args.out / "validation_features.npy", X[model.validation_indices_])
     shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-{Y.shape[1]}"

@@ -21,11 +21,12 @@ from functools import cached_property
 import numpy as np
 
 from casadi_gpc.ekf import ObstacleEKF, planning_covariances
+from casadi_gpc.ekf_batch import MANY_TRACKS, ForecastBatch
 from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotState
 from casadi_gpc.types import ObstacleForecast, StaticObstacle
 
-__all__ = ["TrackEstimate", "Situation", "reference_poses", "reference_rows", "track_estimate"]
+__all__ = ["TrackEstimate", "Situation", "reference_poses", "reference_rows", "track_estimate", "track_estimates"]
 
 
 @dataclass(frozen=True)
@@ -162,8 +163,15 @@ class _FilterTrack(TrackEstimate):
         return self._filter.cov_array()
 
     def _forecast(self) -> None:
-        means, covs = self._filter.predict(self._horizon)
-        self.__dict__.update(means_m=means, covs_m2=covs)  # the fields a frozen instance holds
+        d = self.__dict__
+        batch = d.get("batch_")
+        if batch is None:
+            means, covs = self._filter.predict(self._horizon)
+        else:  # made with the other tracks of its sample (casadi_gpc.ekf_batch), rows of theirs
+            means, covs = batch.arrays
+            i = d["batch_index_"]
+            means, covs = means[i], covs[i]
+        d.update(means_m=means, covs_m2=covs)  # the fields a frozen instance holds
 
     @cached_property
     def means_m(self) -> np.ndarray:
@@ -179,11 +187,34 @@ class _FilterTrack(TrackEstimate):
 def track_estimate(ekf: ObstacleEKF, obstacle_id: int, radius_m: float, horizon: int) -> TrackEstimate:
     """Snapshot of a running EKF with its H-step forecast (as the GPC's ``estimate``); the
     arrays are made when first read (a :class:`TrackEstimate` all the same)."""
-    snap = ekf.snapshot()
+    return _filter_track(ekf.snapshot(), obstacle_id, radius_m, horizon)
+
+
+def track_estimates(pairs, horizon: int) -> tuple[TrackEstimate, ...]:
+    """:func:`track_estimate` of each ``(measurement, filter)`` pair of a bank's step
+    (:meth:`~casadi_gpc.tracking.TrackBank.step`). From
+    :data:`~casadi_gpc.ekf_batch.MANY_TRACKS` tracks on, their forecasts are made together
+    when the first is read (:class:`~casadi_gpc.ekf_batch.ForecastBatch`, the same numbers
+    up to rounding), and each track knows its row there (``batch_``, ``batch_index_``), so
+    that a check can take the arrays whole."""
+    if len(pairs) < MANY_TRACKS:
+        out = []  # a loop: a comprehension is a function call, for one or two tracks
+        for m, ekf in pairs:
+            out.append(_filter_track(ekf.snapshot(), m.obstacle_id, m.radius_m, horizon))
+        return tuple(out)
+    snaps = [ekf.snapshot() for _, ekf in pairs]
+    batch = ForecastBatch(snaps, horizon)
+    return tuple(_filter_track(s, m.obstacle_id, m.radius_m, horizon, batch, i)
+                 for i, (s, (m, _)) in enumerate(zip(snaps, pairs)))
+
+
+def _filter_track(snap, obstacle_id: int, radius_m: float, horizon: int, batch: ForecastBatch | None = None,
+                  index: int = 0) -> TrackEstimate:
     t = _new(_FilterTrack)  # the fields below; the arrays come from snap when read
     d = t.__dict__  # filled entry by entry (a keyword dict and update() cost a third more)
     d["obstacle_id"], d["radius_m"], d["initialised"] = int(obstacle_id), float(radius_m), snap[2] >= 2
     d["state_values"], d["_filter"], d["_horizon"] = snap[0], snap, int(horizon)
+    d["batch_"], d["batch_index_"] = batch, index
     return t
 
 

@@ -10,7 +10,7 @@ from casadi_gpc.progress import ReferenceClock
 from casadi_gpc.tracking import TrackBank
 from casadi_gpc.types import Observation
 
-from .situation import Situation, TrackEstimate, reference_rows, track_estimate
+from .situation import Situation, TrackEstimate, reference_rows, track_estimates
 
 __all__ = ["SituationTracker"]
 
@@ -66,14 +66,12 @@ class SituationTracker:
         situation's arrays cost more than using them)."""
         cfg = self.config
         H = cfg.horizon
-        tracks = []  # a loop: a comprehension is a function call, for one or two tracks
-        for m, ekf in self.bank.step(obs.moving):
-            tracks.append(track_estimate(ekf, m.obstacle_id, m.radius_m, H))
+        tracks = track_estimates(self.bank.step(obs.moving), H)
         r, ref = obs.robot, obs.reference
         s_m = self.clock.update(ref, obs.t_s, (r.x_m, r.y_m))
         self._rows = rows = reference_rows(ref, s_m, cfg.sample_time_s, self.reference_steps)
         self._ahead = None
-        return tuple(tracks), rows
+        return tracks, rows
 
     def update(self, obs: Observation) -> Situation:
         """Fuse one sample and return the situation at it (call once per sample).

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-__all__ = ["Splits", "lbfgs_step", "adam_epoch", "robust_scale", "copy_state"]
+__all__ = ["Splits", "weighted_loss", "lbfgs_step", "adam_epoch", "robust_scale", "copy_state"]
 
 _STD_FLOOR = 1e-9  # below this a feature is constant (e.g. an absent-obstacle code): its scale is 1,
 # as in scikit-learn's StandardScaler, so that it neither divides by zero nor magnifies float32 rounding
@@ -24,11 +24,23 @@ class Splits:
     yv: torch.Tensor
     y_scale: torch.Tensor
     mix: torch.Tensor
+    wt: torch.Tensor | None = None
+    """Per-sample loss weights of the training split (None: all 1)."""
+    wv: torch.Tensor | None = None
+    """... of the validation split."""
 
-    def mse(self, net: torch.nn.Module, xn: torch.Tensor, yn: torch.Tensor) -> float:
-        """Mean squared wheel-speed error over samples and both wheels, (m/s)^2."""
+    def mse(self, net: torch.nn.Module, xn: torch.Tensor, yn: torch.Tensor, w: torch.Tensor | None = None) -> float:
+        """Mean squared wheel-speed error over samples (weighted by ``w`` when given) and
+        both wheels, (m/s)^2."""
         with torch.no_grad():
-            return float(((((net.normalised(xn) - yn) * self.y_scale) @ self.mix.T) ** 2).mean())
+            sq = (((net.normalised(xn) - yn) * self.y_scale) @ self.mix.T) ** 2
+            return float(sq.mean() if w is None else (sq.mean(1) * w).sum() / w.sum())
+
+
+def weighted_loss(pred: torch.Tensor, target: torch.Tensor, w: torch.Tensor | None) -> torch.Tensor:
+    """The training loss: the mean squared error, each sample weighted by ``w`` (None: plain)."""
+    sq = (pred - target) ** 2
+    return sq.mean() if w is None else (sq.mean(1) * w).sum() / w.sum()
 
 
 def lbfgs_step(opt, net: torch.nn.Module, closure) -> int:
@@ -42,13 +54,14 @@ def lbfgs_step(opt, net: torch.nn.Module, closure) -> int:
     return 0
 
 
-def adam_epoch(opt, net: torch.nn.Module, xt: torch.Tensor, yt: torch.Tensor, batch_size: int, gen: torch.Generator) -> None:
-    """One pass of Adam over the training split in a shuffled order."""
+def adam_epoch(opt, net: torch.nn.Module, xt: torch.Tensor, yt: torch.Tensor, batch_size: int, gen: torch.Generator,
+               wt: torch.Tensor | None = None) -> None:
+    """One pass of Adam over the training split in a shuffled order (``wt``: sample weights)."""
     order = torch.randperm(len(xt), generator=gen)
     for start in range(0, len(xt), batch_size):
         b = order[start:start + batch_size]
         opt.zero_grad(set_to_none=True)
-        loss = ((net.normalised(xt[b]) - yt[b]) ** 2).mean()
+        loss = weighted_loss(net.normalised(xt[b]), yt[b], None if wt is None else wt[b])
         loss.backward()
         opt.step()
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +31,7 @@ import torch
 from ..runtime.layouts import WHEEL_INPUTS
 from .curve import save_curve_figure
 from .set_net import SetNet, set_standardisation, slot_structure
-from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale
+from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale, weighted_loss
 
 __all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure", "current_wheels", "wheel_selection"]
 
@@ -189,7 +190,8 @@ class WheelSpeedMLP:
             raise ValueError(f"learning_rate must be positive, got {self.learning_rate}")
 
     # --- learning --------------------------------------------------------------------
-    def fit(self, X, Y, groups=None, feature_names=None, label_names=None, progress=None) -> "WheelSpeedMLP":
+    def fit(self, X, Y, groups=None, feature_names=None, label_names=None, progress=None,
+            sample_weight=None) -> "WheelSpeedMLP":
         """Learn the map ``X -> Y``.
 
         Parameters
@@ -205,15 +207,26 @@ class WheelSpeedMLP:
             Stored with the model and checked against its input and output sizes.
         progress : callable(epoch, train_mse, val_mse), optional
             Called after each epoch (the CLI's progress bar).
+        sample_weight : array (n,), optional
+            Positive weights of the samples in the loss and in the validation error that
+            picks the best epoch (:mod:`nn_export.training.weights`); the errors the model
+            reports (``train_mse_``, ``validation_mse_``) stay unweighted.
         """
         self._check_params()
         X, Y = _checked_arrays(X, Y, feature_names, label_names)
+        if sample_weight is not None:
+            sample_weight = np.asarray(sample_weight, dtype=float)
+            if sample_weight.shape != (len(X),) or not np.all(np.isfinite(sample_weight)) or not np.all(sample_weight > 0):
+                raise ValueError(f"sample_weight must be {len(X)} positive finite numbers")
         rng = np.random.default_rng(self.random_state)
         train_idx, val_idx = self._split(len(X), groups, rng)
         torch.set_num_threads(1)  # a small net: threads only add nondeterminism and contention
         torch.manual_seed(self.random_state)
         gen = torch.Generator().manual_seed(self.random_state)
         net, data = self._standardised(X, Y, train_idx, val_idx, feature_names)
+        if sample_weight is not None:
+            w = torch.from_numpy(sample_weight)
+            data = replace(data, wt=w[train_idx], wv=w[val_idx])
         t0 = time.perf_counter()
         curve, best_state = self._train(net, data, gen, progress)
         net.load_state_dict(best_state)
@@ -285,15 +298,17 @@ class WheelSpeedMLP:
         opt, sched = self._optimizer(net)
         xt, yt, xv, yv = data.xt, data.yt, data.xv, data.yv
 
+        wt, wv = data.wt, data.wv
+
         def closure():
             opt.zero_grad(set_to_none=True)
-            loss = ((net.normalised(xt) - yt) ** 2).mean()
+            loss = weighted_loss(net.normalised(xt), yt, wt)
             if self.weight_decay:
                 loss = loss + self.weight_decay * sum((p ** 2).sum() for p in net.parameters())
             loss.backward()
             return loss
 
-        curve = {"epoch": [0], "train_mse": [data.mse(net, xt, yt)], "val_mse": [data.mse(net, xv, yv)],
+        curve = {"epoch": [0], "train_mse": [data.mse(net, xt, yt, wt)], "val_mse": [data.mse(net, xv, yv, wv)],
                  "learning_rate": [self.learning_rate]}
         best_val, best_state, best_epoch, stale = curve["val_mse"][0], copy_state(net), 0, 0
         stop_reason, restarts = "max_epochs", 0
@@ -302,9 +317,9 @@ class WheelSpeedMLP:
             if sched is None:
                 restarts += lbfgs_step(opt, net, closure)
             else:
-                adam_epoch(opt, net, xt, yt, int(self.batch_size), gen)
+                adam_epoch(opt, net, xt, yt, int(self.batch_size), gen, wt)
             net.eval()
-            tr, va = data.mse(net, xt, yt), data.mse(net, xv, yv)
+            tr, va = data.mse(net, xt, yt, wt), data.mse(net, xv, yv, wv)
             if not (math.isfinite(tr) and math.isfinite(va)):
                 raise FloatingPointError(f"training diverged at epoch {epoch} (learning_rate {self.learning_rate})")
             if sched is not None:

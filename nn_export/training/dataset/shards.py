@@ -177,6 +177,10 @@ class LoadedDataset:
     """(n,) situation ids: a sample and its mirror share one (keep them on one side of a split)."""
     layout: FeatureLayout
     manifest: dict
+    cost: np.ndarray | None = None
+    """(n,) the chosen plan's cost."""
+    candidate_costs: np.ndarray | None = None
+    """(n, G) each initial guess's converged cost (NaN where it failed; manifest ``guess_names``)."""
 
 
 TARGETS = {"command": "labels", "plan": "plan_wheels_mps"}
@@ -192,15 +196,18 @@ def load_dataset(directory, parts: tuple[str, ...] | None = None, target: str = 
     directory = Path(directory)
     man = read_manifest(directory)
     layout = layout_from_dict(man["feature_layout"])
-    X, Y, G = [], [], []
+    X, Y, G, C, CC = [], [], [], [], []
     for name, part in man.get("parts", {}).items():
         if parts is not None and name not in parts:
             continue
         for shard in part["shards"]:
-            a = read_shard(directory / shard, keys=("features", key, "situation_id"))
+            a = read_shard(directory / shard, keys=("features", key, "situation_id", "cost", "candidate_costs"))
             X.append(a["features"])
             Y.append(a[key].reshape(len(a[key]), -1))
             G.append(a["situation_id"])
+            C.append(a["cost"])
+            CC.append(a["candidate_costs"])
     if not X:
         raise ValueError(f"{directory}: no finished samples")
-    return LoadedDataset(np.concatenate(X), np.concatenate(Y), np.concatenate(G), layout, man)
+    return LoadedDataset(np.concatenate(X), np.concatenate(Y), np.concatenate(G), layout, man, np.concatenate(C),
+                         np.concatenate(CC))

@@ -43,13 +43,14 @@ def _rows(horizon: int, q_z: tuple) -> tuple[np.ndarray, ...]:
     """Constants over the steps k = 1..H: k and m = k - 1 (rows, shape (H,)), the noise that
     ``C_{k-1}`` has gathered, ``sum_{i<m} G^i Q_z G^i^T`` (its (V, V), (theta, theta),
     (theta, dtheta) and (dtheta, dtheta) entries; the others are zero), 2 m and m^2, and
-    the summing matrices: ``X @ L`` sums the steps up to k, ``X @ Ls`` those before it."""
+    the summing matrices: ``X @ L`` sums the steps up to k, and ``X @ [L, Ls]`` also those
+    before it."""
     k = np.arange(1, horizon + 1, dtype=float)
     m = k - 1.0
     q2, q3, q4 = q_z
     L = np.triu(np.ones((horizon, horizon)))
     rows = (k, m, m * q2, m * q3 + q4 * (m - 1.0) * m * (2.0 * m - 1.0) / 6.0, q4 * m * (m - 1.0) / 2.0, m * q4,
-            2.0 * m, m * m, L, np.triu(np.ones((horizon, horizon)), 1))
+            2.0 * m, m * m, L, np.concatenate([L, np.triu(np.ones((horizon, horizon)), 1)], axis=1))
     for r in rows:
         r.flags.writeable = False
     return rows
@@ -68,7 +69,7 @@ def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) 
     S = np.asarray(states, dtype=float).reshape(-1, 5).T[:, :, None]     # (5, N, 1)
     U = np.asarray(uppers, dtype=float).reshape(-1, 15).T[:, :, None]    # (15, N, 1)
     T = float(sample_time_s)
-    k, m, n_vv, n_hh, n_hw, n_ww, two_m, m2, L, Ls = _rows(int(horizon), (float(q[2]), float(q[3]), float(q[4])))
+    k, m, n_vv, n_hh, n_hw, n_ww, two_m, m2, L, L_Ls = _rows(int(horizon), (float(q[2]), float(q[3]), float(q[4])))
     p00, p01, p02, p03, p04, p11, p12, p13, p14, p22, p23, p24, p33, p34, p44 = U
     th = S[3] + k * S[4]                                   # (N, H): the heading after each step
     N, H = th.shape
@@ -91,7 +92,7 @@ def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) 
     np.multiply(alpha[:, None], Cv, out=Y)
     Y += beta[:, None] * D
     np.multiply(k, Y[:, 2], out=X[8:])
-    sums = X.reshape(10 * N, H) @ np.concatenate([L, Ls], axis=1)
+    sums = X.reshape(10 * N, H) @ L_Ls
     means = sums[:2 * N, :H].reshape(2, N, H)
     means += S[:2]
     before = sums[2 * N:, H:].reshape(8, N, H)             # sums over the steps before k

@@ -3,7 +3,9 @@ stepped once per sample, and the forecasts a planner plans with (numpy only).
 
 The planner (:meth:`casadi_gpc.gpc.GPCController.estimate`) and the deployed policy's
 situation tracker (:class:`nn_export.runtime.tracker.SituationTracker`) both keep their
-tracks here, so the network sees exactly the estimates the planner would see.
+tracks here, so the network sees exactly the estimates the planner would see (their
+forecasts: the planner's bit for bit, or, for the network among six tracks or more, made
+together by :mod:`casadi_gpc.ekf_batch`, the same to rounding).
 """
 from __future__ import annotations
 

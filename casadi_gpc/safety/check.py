@@ -50,9 +50,11 @@ class SafetyCheck:
     """Which obstacle: ``"moving <id>"`` or ``"static <index>"`` (empty without obstacles)."""
     continuation: str
     """What follows the command in the sequence judged: ``"plan"`` (the candidate's own),
-    ``"then <manoeuvre>"`` (the best way out after one interval of the command), or
+    ``"then <manoeuvre>"`` (the best way out after one interval of the command),
     ``"bound"`` / ``"bound, then brake"`` (far enough from everything, the plan or the
-    command then braking, that no roll-out was needed)."""
+    command then braking, that no roll-out was needed), or ``"roll-out"`` (the controller's
+    own continuation, asked for when the command alone failed: ``SafetyFilter.filter``'s
+    ``plan_on_demand``)."""
     kept_s: float = math.inf
     """How long from now the clearance stays at or above the margin (or, inside the margin,
     at or above the clearance now); the horizon when it always does."""

@@ -4,7 +4,7 @@ so; every check and intervention counted (numpy only; see :mod:`casadi_gpc.safet
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -66,14 +66,14 @@ class SafetyFilter(QuickScreen):
 
     def reset(self) -> None:
         self.counters = {"checks": 0, "interventions": 0, "fallback_used": 0, "fallback_failed": 0,
-                         "fallback_overruled": 0,
+                         "fallback_overruled": 0, "rollouts": 0, "rollout_passed": 0,
                          "alternative_used": 0, "manoeuvres": 0, "no_safer_option": 0, "candidate_limited": 0,
                          "non_finite_candidate": 0, "unestimated_tracks": 0}
         if self.fallback is not None and hasattr(self.fallback, "reset"):
             self.fallback.reset()
     # --- the filter ----------------------------------------------------------------------
     def filter(self, observation: Observation, wheels, forecasts=(), statics=None, poses=None,
-               alternatives=(), trust_s: float | None = None, previous=None) -> SafetyVerdict:
+               alternatives=(), trust_s: float | None = None, previous=None, plan_on_demand=None) -> SafetyVerdict:
         """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
         replace it (see :meth:`check`).
 
@@ -93,6 +93,15 @@ class SafetyFilter(QuickScreen):
         ``previous``: the ``(H, 2)`` plan let through at the previous sample, shifted by one
         step: tried after the alternatives, as one more of them (source ``previous_plan``,
         counted in ``previous_plan_used`` and ``alternative_used``).
+        ``plan_on_demand``: for a command without a plan, a callable giving the controller's
+        own continuation, ``(plan (H, 2) whose first row is the command, poses (H, 3))`` or
+        None (a one-command network's roll-out, :meth:`nn_export.OnnxPolicy.rollout`). It is
+        asked for only when the command alone fails the check, and judged as a plan over the
+        whole horizon: if it keeps the margin, the command goes through (counted in
+        ``rollouts`` and ``rollout_passed``; the check's continuation reads ``roll-out``),
+        else the command is replaced as usual. Not for ``trust_planner_s``: trusted for
+        3 s (or 4.5 s), roll-outs let walkers close in and the shipped crowd network collided
+        in 2.5 % (0.5 %) of 200 crossings among 10 walkers, against none over the horizon.
         """
         statics = observation.static if statics is None else statics
         r = observation.robot
@@ -119,11 +128,37 @@ class SafetyFilter(QuickScreen):
             # the simulator (and the robot) would clip it: what is checked is what would happen
             self.counters["candidate_limited"] += 1
         check = self._assess(state, cmd, plan, obstacles, trust_s)
-        if _passes(check, trust_s):
+        passed = _passes(check, trust_s)
+        if not passed and plan is None and plan_on_demand is not None:
+            own = self._judge_rollout(r, state, plan_on_demand, forecasts, statics, obstacles)
+            if own is not None:
+                (check, cmd, plan), passed = own, True
+        if passed:
             if self.fallback is not None and hasattr(self.fallback, "observe"):
                 self.fallback.observe(observation)
             return SafetyVerdict(float(cmd[0]), float(cmd[1]), False, "", "candidate", check, plan)
         return self._intervene(observation, state, obstacles, check, cmd, alternatives, trust_s, previous)
+
+    def _judge_rollout(self, robot, state, plan_on_demand, forecasts, statics, obstacles):
+        """``(check, command, plan)`` when the controller's own continuation passes as a plan
+        (:meth:`filter`'s ``plan_on_demand``), else None."""
+        got = plan_on_demand()
+        if got is None:
+            return None
+        self.counters["rollouts"] += 1
+        wheels, poses = got
+        quick = self._quick(robot, wheels, forecasts, statics, poses)
+        if quick is not None:
+            check, cmd, plan, _ = quick
+        else:
+            cmd, plan, _ = self._as_candidate(state, wheels)
+            if cmd is None:
+                return None
+            check = self._assess(state, cmd, plan, obstacles, None)
+            if not check.safe:  # the whole horizon (see filter)
+                return None
+        self.counters["rollout_passed"] += 1
+        return replace(check, continuation="roll-out"), cmd, plan
 
     def _intervene(self, observation, state, obstacles, check: SafetyCheck, cmd, alternatives=(),
                    trust_s: float | None = None, previous=None) -> SafetyVerdict:

@@ -79,12 +79,19 @@ class Shield:
         network). Taken, it is the controller's answer (not a fallback), with source
         ``previous_plan``, counted in ``shield_previous_plan_used`` (and, as every alternative,
         in ``shield_alternative_used``).
+    rollouts : bool
+        For a controller that answers a command without a plan and can roll itself forward
+        (a ``rollout()`` method: :meth:`nn_export.OnnxPolicy.rollout`): when the command
+        alone fails the check, its roll-out is judged as a plan over the whole horizon before
+        the check steps in (:meth:`SafetyFilter.filter`'s ``plan_on_demand``; counted in
+        ``shield_rollouts`` and ``shield_rollout_passed``; the plan let through is in the
+        decision's ``info["rollout_wheels_mps"]``).
     """
 
     def __init__(self, policy, robot: RobotParams | None = None, fallback=None, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, trust_planner_s: float | None = None,
                  horizon: int | None = None, ekf_settings: EKFSettings | None = None, trust_plans: bool = False,
-                 previous_plan: bool = False):
+                 previous_plan: bool = False, rollouts: bool = False):
         for attr in ("decide", "reset"):
             if not callable(getattr(policy, attr, None)):
                 raise TypeError(f"the shielded controller must have a {attr}() method")
@@ -100,6 +107,9 @@ class Shield:
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = bool(trust_plans)
         self.previous_plan = bool(previous_plan)
+        self._rollout = getattr(policy, "rollout", None) if rollouts else None
+        if rollouts and not callable(self._rollout):
+            raise TypeError("rollouts=True needs a controller with a rollout() method")
         self.ekf_settings = ekf_settings or EKFSettings()
         self._names: dict[str, str] = {}
         self.reset()
@@ -163,13 +173,15 @@ class Shield:
         cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
         v = self.filter.filter(obs, cand, forecasts, obs.static, dec.planned_poses if own else None,
                                dec.alternatives, self.filter.trust_planner_s if self.trust_plans else None,
-                               self._kept)
+                               self._kept, None if own else self._rollout)
         if self.previous_plan:
             p = v.planned_wheels_mps
             self._kept = None if p is None or p.shape != (self.horizon, 2) else np.concatenate([p[1:], p[-1:]])
         info = dec.info  # the decision is new each step: annotate it in place
         info["safety_time_s"] = time.perf_counter() - t0
         info["safety_clearance_m"] = v.check.min_clearance_m
+        if v.check.continuation == "roll-out":  # let through on the controller's own roll-out: the plan judged
+            info["rollout_wheels_mps"] = v.planned_wheels_mps
         if not v.intervened:
             return dec
         # the controller's own alternative, or its previous plan, is its answer, not a fallback; the rest are

@@ -46,7 +46,8 @@ from casadi_gpc.types import ControlDecision, Observation
 from .features import RolloutFeatures, feature_values, feature_values_from
 from .layouts import FeatureLayout
 from .model_file import INPUT_NAME, OUTPUT_NAME, POLICY_FORMAT, _bind, _load_session, _validate, read_model_metadata
-from .situation import Situation
+from .rollout import roll_out
+from .situation import Situation, reference_rows
 from .tracker import SituationTracker
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "SHIPPED",
@@ -262,6 +263,7 @@ class OnnxPolicy:
     def reset(self) -> None:
         self.tracker.reset()
         self._counters = {"decisions": 0, "second_pass": 0, "crowd_network": 0, "feature_report": {}}
+        self._last = None
 
     @property
     def counters(self) -> dict:
@@ -282,6 +284,13 @@ class OnnxPolicy:
     def _net_values(self, values: list[float]) -> tuple[float, float]:
         """One network call on these feature values (preallocated buffers): its first command."""
         self._last_values = values
+        self._write(*values)
+        self._run()
+        vr, vl = self._y1[:2].tolist()
+        return vr, vl
+
+    def _net_answer(self, values: list[float]) -> tuple[float, float]:
+        """:meth:`_net_values` without keeping the input (a roll-out's calls)."""
         self._write(*values)
         self._run()
         vr, vl = self._y1[:2].tolist()
@@ -359,6 +368,7 @@ class OnnxPolicy:
         tracks, ref_rows = self.tracker.track(obs)
         counters = self._counters
         counters["decisions"] += 1
+        self._last = None  # what rollout() needs, for a one-command decision
         crowd = self._crowd
         if crowd is not None and crowd.needed(obs.robot.x_m, obs.robot.y_m, tracks, obs.static):
             counters["crowd_network"] += 1
@@ -367,6 +377,7 @@ class OnnxPolicy:
             if crowd.steps > 1:
                 return _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
             vr, vl = crowd.answer(values)
+            self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl)
             return self._crowd_decision(vr, vl, tracks)
         if not self.two_pass:
             values = feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
@@ -374,8 +385,22 @@ class OnnxPolicy:
             if self.steps > 1:
                 return _plan_decision(self._net_plan(values), "one pass: plan", tracks)
             vr, vl = self._net_values(values)
+            self._last = (self.layout, self._net_answer, obs, tracks, vr, vl)
             return self._one_pass_decision(vr, vl, tracks)
         return self._two_passes(obs, tracks, ref_rows)
+
+    def rollout(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The last decision's network rolled forward over the horizon against the forecasts
+        it was made with (:func:`~nn_export.runtime.rollout.roll_out`): its plan ``(H, 2)``,
+        whose first step is the decision's command, and the poses ``(H, 3)``; None when the
+        last decision was not one network's single command (two passes, a plan network).
+        What a check layer judges as the network's own plan (``Shield(rollouts=True)``)."""
+        last = self._last
+        if last is None:
+            return None
+        layout, answer, obs, tracks, vr, vl = last
+        rows = reference_rows(obs.reference, self.tracker.clock.s_m, self.sample_time_s, 2 * self.horizon - 1)
+        return roll_out(layout, answer, obs.robot, (vr, vl), tracks, obs.static, rows, self.sample_time_s, self.robot)
 
     def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list) -> ControlDecision:
         """The paper's scheme (module docstring), from the sample's track estimates and the

@@ -377,7 +377,7 @@ class OnnxPolicy:
             if crowd.steps > 1:
                 return _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
             vr, vl = crowd.answer(values)
-            self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl)
+            self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
             return self._crowd_decision(vr, vl, tracks)
         if not self.two_pass:
             values = feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
@@ -385,7 +385,7 @@ class OnnxPolicy:
             if self.steps > 1:
                 return _plan_decision(self._net_plan(values), "one pass: plan", tracks)
             vr, vl = self._net_values(values)
-            self._last = (self.layout, self._net_answer, obs, tracks, vr, vl)
+            self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
             return self._one_pass_decision(vr, vl, tracks)
         return self._two_passes(obs, tracks, ref_rows)
 
@@ -398,8 +398,8 @@ class OnnxPolicy:
         last = self._last
         if last is None:
             return None
-        layout, answer, obs, tracks, vr, vl = last
-        rows = reference_rows(obs.reference, self.tracker.clock.s_m, self.sample_time_s, 2 * self.horizon - 1)
+        layout, answer, obs, tracks, vr, vl, s_m = last
+        rows = reference_rows(obs.reference, s_m, self.sample_time_s, 2 * self.horizon - 1)
         return roll_out(layout, answer, obs.robot, (vr, vl), tracks, obs.static, rows, self.sample_time_s, self.robot)
 
     def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list) -> ControlDecision:

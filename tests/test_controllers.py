@@ -82,6 +82,24 @@ def test_every_builtin_name_makes_its_controller():
     assert ControllerSpec("gpc", shield="on").label == "gpc"
 
 
+def test_shield_keeps_the_network_s_planner_on_standby():
+    """``--shield`` asks for the check layer, which gpc and nn run behind by default: it keeps
+    the network's GPC on standby (it once meant the manoeuvres alone for nn, unlike its help);
+    ``--shield-fallback brake`` is the way to the manoeuvres alone."""
+    import argparse
+
+    from gpcnav.commands.common import shield_mode
+
+    def mode(kind, shield=None, fallback=None):
+        return shield_mode(argparse.Namespace(shield=shield, shield_fallback=fallback), kind)
+
+    assert mode("nn") == mode("nn", "on") == "gpc"
+    assert mode("nn", "on", "brake") == mode("nn", None, "brake") == "on"
+    assert mode("nn", "off") == "off" and mode("nn", "off", "gpc") == "off"
+    assert mode("gpc", "on") == mode("gpc") == "on"
+    assert mode("orca") == "off" and mode("orca", "on") == "on" and mode("orca", "on", "gpc") == "gpc"
+
+
 def test_options_of_the_network_are_refused_for_another_controller(tmp_path):
     with pytest.raises(UsageError, match="options of --controller nn"):
         check(ControllerSpec("orca", model=tmp_path / "m.onnx"), CONFIG, RobotParams())

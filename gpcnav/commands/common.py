@@ -101,7 +101,12 @@ def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> 
 def shield_mode(args, kind: str | None = None) -> str:
     """The check layer's mode (:data:`SHIELD_MODES`) from the controller options."""
     kind = kind or getattr(args, "controller", "gpc")
-    mode = getattr(args, "shield", None) or DEFAULT_SHIELD.get(kind, "off")
+    default = DEFAULT_SHIELD.get(kind, "off")
+    mode = getattr(args, "shield", None) or default
+    if mode == "on" and default != "off":
+        # --shield asks for the check layer, which gpc and nn run behind already: as they do
+        # (for nn, with the GPC on standby; --shield-fallback brake for the manoeuvres alone)
+        mode = default
     fallback = getattr(args, "shield_fallback", None)
     if mode != "off" and fallback is not None:
         mode = "gpc" if fallback == "gpc" else "on"

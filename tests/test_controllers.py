@@ -80,6 +80,9 @@ def test_every_builtin_name_makes_its_controller():
     assert type(make(ControllerSpec("gpc", shield="off"), CONFIG, robot)).__name__ == "GPCController"
     assert ControllerSpec("orca", shield="on").label == "orca[shield=on]"
     assert ControllerSpec("gpc", shield="on").label == "gpc"
+    # the network's roll-out is judged with the GPC on standby, not behind the manoeuvres alone
+    assert made["nn"]._rollout is not None and made["gpc"]._rollout is None
+    assert make(ControllerSpec("nn", shield="on"), CONFIG, robot)._rollout is None
 
 
 def test_shield_keeps_the_network_s_planner_on_standby():

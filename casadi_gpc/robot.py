@@ -25,6 +25,7 @@ __all__ = [
     "robot_step_float",
     "wheel_to_unicycle",
     "brake_wheels",
+    "followed_wheel",
 ]
 
 _SINC_SWITCH = 1e-3  # below this |u| the Taylor series is exact to ~1e-22
@@ -126,6 +127,12 @@ def robot_step_float(x: float, y: float, heading: float, v_right: float, v_left:
         chord = speed * dt * (math.sin(half) / half)
     mid = heading + half
     return x + chord * math.cos(mid), y + chord * math.sin(mid), heading + 2.0 * half
+
+
+def followed_wheel(v_now: float, v_asked: float, dv_max: float, v_max: float) -> float:
+    """The speed one wheel reaches when asked for ``v_asked`` from ``v_now``: the rate limit
+    first, then the speed limit (the simulator's clipping, on plain floats)."""
+    return min(max(min(max(v_asked, v_now - dv_max), v_now + dv_max), -v_max), v_max)
 
 
 def brake_wheels(v_right: float, v_left: float, dv_max: float) -> tuple[float, float]:

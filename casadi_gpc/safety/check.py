@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..ekf import planning_covariances, worst_std_m
-from ..robot import RobotParams, robot_step
+from ..robot import RobotParams, followed_wheel, robot_step
 
 __all__ = ["MANOEUVRES", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
            "shared_batch"]
@@ -144,8 +144,7 @@ class TrajectoryCheck:
             vr, vl = float(v0[0]), float(v0[1])
             rows = []
             for r, l in wheels.tolist():
-                vr = min(max(min(max(r, vr - dv), vr + dv), -vmax), vmax)
-                vl = min(max(min(max(l, vl - dv), vl + dv), -vmax), vmax)
+                vr, vl = followed_wheel(vr, r, dv, vmax), followed_wheel(vl, l, dv, vmax)
                 rows.append((vr, vl))
             return np.array(rows)
         out = np.empty_like(wheels)

@@ -282,12 +282,10 @@ class OnnxPolicy:
         return np.array(self._last_values)
 
     def _net_values(self, values: list[float]) -> tuple[float, float]:
-        """One network call on these feature values (preallocated buffers): its first command."""
+        """One network call on these feature values (preallocated buffers): its first command;
+        the input kept (:attr:`_f64`)."""
         self._last_values = values
-        self._write(*values)
-        self._run()
-        vr, vl = self._y1[:2].tolist()
-        return vr, vl
+        return self._net_answer(values)
 
     def _net_answer(self, values: list[float]) -> tuple[float, float]:
         """:meth:`_net_values` without keeping the input (a roll-out's calls)."""

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from casadi_gpc.robot import RobotParams, RobotState, robot_step_float
+from casadi_gpc.robot import RobotParams, RobotState, followed_wheel, robot_step_float
 
 from .features import feature_values_from
 from .layouts import FeatureLayout
@@ -60,9 +60,7 @@ def roll_out(layout: FeatureLayout, answer, robot: RobotState, command: tuple[fl
         ahead = [_Ahead(t, m[j - 1], j) for t, m in paths]
         nr, nl = answer(feature_values_from(layout, RobotState(x, y, th, vr, vl), reference_rows[j:j + H + 1], T,
                                             ahead, statics, None))
-        # as the robot follows it: within one step's acceleration, then the speed limit
-        vr = max(-vmax, min(vmax, max(vr - dv, min(vr + dv, nr))))
-        vl = max(-vmax, min(vmax, max(vl - dv, min(vl + dv, nl))))
+        vr, vl = followed_wheel(vr, nr, dv, vmax), followed_wheel(vl, nl, dv, vmax)  # as the robot follows it
         x, y, th = robot_step_float(x, y, th, vr, vl, T, W)
         wheels.append((vr, vl))
         poses.append((x, y, th))

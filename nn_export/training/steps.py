@@ -33,13 +33,16 @@ class Splits:
         """Mean squared wheel-speed error over samples (weighted by ``w`` when given) and
         both wheels, (m/s)^2."""
         with torch.no_grad():
-            sq = (((net.normalised(xn) - yn) * self.y_scale) @ self.mix.T) ** 2
-            return float(sq.mean() if w is None else (sq.mean(1) * w).sum() / w.sum())
+            return float(_mean((((net.normalised(xn) - yn) * self.y_scale) @ self.mix.T) ** 2, w))
 
 
 def weighted_loss(pred: torch.Tensor, target: torch.Tensor, w: torch.Tensor | None) -> torch.Tensor:
     """The training loss: the mean squared error, each sample weighted by ``w`` (None: plain)."""
-    sq = (pred - target) ** 2
+    return _mean((pred - target) ** 2, w)
+
+
+def _mean(sq: torch.Tensor, w: torch.Tensor | None) -> torch.Tensor:
+    """The mean of ``sq`` (samples, outputs), each sample weighted by ``w`` (None: plain)."""
     return sq.mean() if w is None else (sq.mean(1) * w).sum() / w.sum()
 
 

@@ -101,6 +101,7 @@ def test_the_check_lets_a_command_through_on_its_roll_out_only_when_the_roll_out
     log = simulate(sc, rec, "nn")
     c = sh.counters
     assert c["shield_rollouts"] > 0 and 0 < c["shield_rollout_passed"] <= c["shield_rollouts"]
+    assert c["shield_rollout_trusted"] == 0      # no trust time: the whole horizon
     through = [(o, d) for o, d in rec.seen if "rollout_wheels_mps" in d.info]
     assert len(through) == c["shield_rollout_passed"]
     for o, d in through:
@@ -113,6 +114,43 @@ def test_the_check_lets_a_command_through_on_its_roll_out_only_when_the_roll_out
     plain = Shield(OnnxPolicy(preset="improved", robot=robot), robot)
     simulate(sc, plain, "nn")
     assert plain.counters["shield_rollouts"] == 0 and plain.counters["interventions"] > c["interventions"]
+
+
+def test_a_trusted_roll_out_passes_when_it_keeps_the_margin_that_long():
+    """With ``trust_rollout_s`` (the shipped ``--controller nn``), a roll-out that keeps the
+    margin for that long passes even where it fails later in the horizon, and each such pass
+    is counted apart: on a crowd episode, every command let through on its roll-out re-checks
+    as keeping the margin at least the trust time, those that fail over the whole horizon are
+    exactly the ones counted ``rollout_trusted`` (episode 6: three of four), and the check
+    steps in less often than with the whole horizon (none against three)."""
+    from casadi_gpc.safety import ROLLOUT_TRUST_S
+    sc = _crowd_scene(6)
+    robot = sc.robot or RobotParams()
+
+    def run(trust):
+        sh = Shield(OnnxPolicy(preset="improved", robot=robot), robot, fallback=StandbyPlanner(GPCController(CFG, robot)),
+                    rollouts=True, trust_rollout_s=trust)
+        rec = _Recording(sh)
+        simulate(sc, rec, "nn")
+        return sh, rec
+
+    sh, rec = run(ROLLOUT_TRUST_S)
+    c = sh.counters
+    through = [(o, d) for o, d in rec.seen if "rollout_wheels_mps" in d.info]
+    assert len(through) == c["shield_rollout_passed"] > 0
+    beyond = 0
+    for o, d in through:
+        plan = d.info["rollout_wheels_mps"]
+        assert tuple(plan[0]) == (d.v_right_mps, d.v_left_mps) and not d.fallback
+        again = sh.filter.check(o.robot.as_array(), plan, d.forecasts, o.static)
+        assert again.safe or again.kept_s >= ROLLOUT_TRUST_S - 1e-9
+        beyond += not again.safe
+    assert beyond == c["shield_rollout_trusted"] > 0
+    whole, _ = run(None)
+    assert whole.counters["shield_rollout_trusted"] == 0
+    assert c["interventions"] < whole.counters["interventions"]
+    with pytest.raises(ValueError, match="trust_rollout_s"):
+        Shield(OnnxPolicy(preset="improved", robot=robot), robot, rollouts=True, trust_rollout_s=-1.0)
 
 
 def test_rollouts_need_a_controller_that_rolls_out():

@@ -68,8 +68,9 @@ manoeuvres), ``screen`` (the quick screen in plain floats in front of the check)
 ``standby`` (:class:`StandbyPlanner`, the planner kept in step behind the filter).
 """
 from .check import MANOEUVRES, SafetyCheck, TrajectoryCheck
-from .filter import SafetyFilter, SafetyVerdict
+from .filter import ROLLOUT_TRUST_S, SafetyFilter, SafetyVerdict
 from .shield import Shield
 from .standby import StandbyPlanner
 
-__all__ = ["MANOEUVRES", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "Shield", "StandbyPlanner", "TrajectoryCheck"]
+__all__ = ["MANOEUVRES", "ROLLOUT_TRUST_S", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "Shield", "StandbyPlanner",
+           "TrajectoryCheck"]

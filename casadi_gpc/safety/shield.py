@@ -82,16 +82,20 @@ class Shield:
     rollouts : bool
         For a controller that answers a command without a plan and can roll itself forward
         (a ``rollout()`` method: :meth:`nn_export.OnnxPolicy.rollout`): when the command
-        alone fails the check, its roll-out is judged as a plan over the whole horizon before
-        the check steps in (:meth:`SafetyFilter.filter`'s ``plan_on_demand``; counted in
+        alone fails the check, its roll-out is judged as a plan (over the whole horizon, or
+        for ``trust_rollout_s``) before the check steps in (:meth:`SafetyFilter.filter`'s ``plan_on_demand``; counted in
         ``shield_rollouts`` and ``shield_rollout_passed``; the plan let through is in the
         decision's ``info["rollout_wheels_mps"]``).
+    trust_rollout_s : float, optional
+        With ``rollouts``: a roll-out that keeps the margin this long passes, even if it
+        fails later in the horizon (counted in ``shield_rollout_trusted``); None: the whole
+        horizon (:class:`~casadi_gpc.safety.SafetyFilter`'s ``trust_rollout_s``).
     """
 
     def __init__(self, policy, robot: RobotParams | None = None, fallback=None, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, trust_planner_s: float | None = None,
                  horizon: int | None = None, ekf_settings: EKFSettings | None = None, trust_plans: bool = False,
-                 previous_plan: bool = False, rollouts: bool = False):
+                 previous_plan: bool = False, rollouts: bool = False, trust_rollout_s: float | None = None):
         for attr in ("decide", "reset"):
             if not callable(getattr(policy, attr, None)):
                 raise TypeError(f"the shielded controller must have a {attr}() method")
@@ -103,7 +107,8 @@ class Shield:
         self.robot = robot or getattr(policy, "robot", None) or RobotParams()
         self.horizon = int(horizon) if horizon is not None else _policy_horizon(policy, self.sample_time_s)
         self.filter = SafetyFilter(self.robot, self.sample_time_s, self.horizon, margin_m, sigmas, substeps,
-                                   fallback=fallback, trust_planner_s=trust_planner_s)
+                                   fallback=fallback, trust_planner_s=trust_planner_s,
+                                   trust_rollout_s=trust_rollout_s)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = bool(trust_plans)
         self.previous_plan = bool(previous_plan)

@@ -21,8 +21,8 @@ on standby (``gpcnav --controller nn``). Measured with the shipped networks agai
 whole horizon on the same 2 800 episodes (circle-crossing with 5 and 10 ORCA walkers,
 square-crossing and random-multi on seeds 1 to 3, random on seeds 1 and 2): two outcomes
 changed, one collision became an arrival and one arrival a timeout (seed 2, 10 walkers),
-with 1.5 to 10 times fewer interventions; 3 s let one more collision through (seed 1, 10 walkers). docs/nn.md,
-"The network's roll-out as its plan"."""
+with 1.5 to 12 times fewer interventions; 3 s let one more collision through (seed 1, 10
+walkers). docs/nn.md, "The network's roll-out as its plan"."""
 
 
 @dataclass(slots=True)

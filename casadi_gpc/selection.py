@@ -28,7 +28,8 @@ import numpy as np
 from .config import PlannerConfig
 from .types import ObstacleForecast, StaticObstacle
 
-__all__ = ["Selection", "select_obstacles", "planner_parameters", "goal_weights", "relevance_m"]
+__all__ = ["Selection", "select_obstacles", "planner_parameters", "pack_selection", "goal_weights",
+           "relevance_m"]
 
 
 def relevance_m(forecasts, x0: np.ndarray, path_xy: np.ndarray | None) -> np.ndarray:
@@ -113,6 +114,15 @@ def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts,
     selection.
     """
     sel = select_obstacles(x0, forecasts, statics, config, path_xy)
+    return pack_selection(layout, x0, ref_poses, sel, config), sel
+
+
+def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Selection, config: PlannerConfig
+                   ) -> np.ndarray:
+    """The NLP parameter vector of a :class:`Selection` made already, packed by ``layout``
+    (the part of :func:`planner_parameters` after the choice). ``layout`` may have fewer
+    slots than ``config`` where the selection fits in them (the labeller solves on such an
+    NLP: an empty slot's terms are exact zeros, so the answer is the same)."""
     ref = np.asarray(ref_poses, dtype=float)
-    p = layout.pack(x0, ref[1:], sel.forecasts, sel.statics, config.uncertainty_scale_m, goal_weights(ref, config))
-    return p, sel
+    return layout.pack(x0, ref[1:], selection.forecasts, selection.statics, config.uncertainty_scale_m,
+                       goal_weights(ref, config))

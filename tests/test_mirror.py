@@ -10,7 +10,7 @@ import pytest
 from casadi_gpc.config import preset
 from nn_export.runtime.features import compute_features, mirror_features
 from nn_export.runtime.layouts import layout_for
-from nn_export.training.labels import Labeller, mirror_label
+from nn_export.training.labels import FALLBACK_SOLVER, Labeller, fitted_slots, mirror_label
 from nn_export.training.sampler import sample_situation
 
 TOL_MPS = 1e-6
@@ -138,3 +138,91 @@ def test_known_answer_label_on_the_reference_without_obstacles(labellers, preset
     f = dict(zip(lay.feature_names, compute_features(lay, sit)))
     assert f["ref_x_m"] == pytest.approx(0.4 * cfg.sample_time_s) and f["ref_speed_mps"] == pytest.approx(0.4)
     assert math.isclose(f["ref_y_m"], 0.0, abs_tol=1e-12)
+
+
+# --- the labeller's NLP fitted to the obstacles selected -----------------------------------
+
+def _same_label(a, b, tol=1e-12):
+    """Two labels of one situation agree to ``tol`` (plan, cost, candidate costs, guess, side)."""
+    assert a.converged == b.converged and a.guess == b.guess and a.solver == b.solver and a.side == b.side
+    np.testing.assert_allclose(a.plan_wheels_mps, b.plan_wheels_mps, rtol=0, atol=tol)
+    np.testing.assert_allclose(a.candidate_costs, b.candidate_costs, rtol=0, atol=tol)  # NaN where NaN
+    if a.converged:
+        assert abs(a.cost - b.cost) <= tol
+    assert (a.alternative is None) == (b.alternative is None)
+    if a.alternative is not None:
+        _same_label(a.alternative, b.alternative, tol)
+
+
+def _situations(cfg, layout_name, count, seed, shapes=None):
+    """``count`` sampled situations (only those the fitted labeller solves on one of ``shapes``)."""
+    from casadi_gpc.selection import select_obstacles
+    rng, out = np.random.default_rng(seed), []
+    while len(out) < count:
+        sit = sample_situation(rng, cfg, layout_name)
+        sel = select_obstacles(sit.robot.as_array(), sit.forecasts(), sit.statics, cfg)
+        if shapes is None or fitted_slots(len(sel.forecasts), len(sel.statics), cfg) in shapes:
+            out.append(sit)
+    return out
+
+
+def test_fitted_slots_rounds_up_to_a_rung_and_caps_at_the_config():
+    imp, pap = preset("improved"), preset("paper")   # 6 + 3 and 3 + 3 slots
+    assert fitted_slots(0, 0, imp) == fitted_slots(1, 0, imp) == (1, 0)
+    assert fitted_slots(2, 1, imp) == (2, 1) and fitted_slots(3, 2, imp) == (4, 3)
+    assert fitted_slots(5, 0, imp) == fitted_slots(6, 0, imp) == (6, 0)
+    assert fitted_slots(6, 3, imp) == (6, 3) and fitted_slots(3, 3, pap) == fitted_slots(3, 2, pap) == (3, 3)
+    with pytest.raises(ValueError):
+        fitted_slots(7, 0, imp)
+
+
+def test_fitted_nlp_labels_are_the_full_nlp_s():
+    """The labeller selects the obstacles with the planner's slots and solves on the smallest
+    NLP that holds them: the labels are the full NLP's (to 1e-12; measured bit for bit), on
+    30 ``paper``-layout situations (one mover at most: the 1 + 0 NLP) and 10 ``multi`` ones
+    with three movers and two or three static obstacles (the 4 + 3 NLP)."""
+    cfg = preset("improved")
+    fit, full = Labeller(cfg), Labeller(cfg, fit_slots=False)
+    paper = _situations(cfg, "paper", 30, 11)
+    multi = _situations(cfg, "multi", 10, 12, shapes={(4, 3)})
+    for sit in paper + multi:
+        _same_label(fit.label(sit), full.label(sit))
+    assert full.counters["full_nlp"] == 40 and full.counters["fitted_nlp"] == 0
+    assert fit.counters["full_nlp"] == 0 and fit.counters["fitted_nlp"] == 40
+    assert fit.counters["nlp_1x0"] == 30 and fit.counters["nlp_4x3"] == 10
+    # the public parameter vector stays the full NLP's
+    np.testing.assert_array_equal(fit.parameters(multi[0]), full.parameters(multi[0]))
+    assert fit.parameters(multi[0]).size == full.controller.problem.layout.size
+
+
+def test_fitted_nlp_near_tie_and_fallback_paths_match_the_full_nlp():
+    """The near-tie rule (roll-outs of the fitted NLP's plans on its own parameters) and the
+    fallback solver (on the fitted NLP too) give the full NLP's labels."""
+    cfg = preset("improved")
+    sits = _situations(cfg, "paper", 8, 13, shapes={(1, 0)})
+    fit, full = Labeller(cfg, tie_margin=0.05), Labeller(cfg, tie_margin=0.05, fit_slots=False)
+    for sit in sits:
+        _same_label(fit.label(sit), full.label(sit))
+    assert fit.counters["nlp_1x0"] == 8 and full.counters["full_nlp"] == 8
+    # the labelling solver finds nothing: the fallback solver answers, on the same NLP
+    fit, full = Labeller(cfg), Labeller(cfg, fit_slots=False)
+    for ctl in (fit.prepare(1, 0), full.prepare()):
+        ctl.plan = lambda *args: (None, [])
+    for sit in sits[:3]:
+        a, b = fit.label(sit), full.label(sit)
+        assert a.converged and a.solver == FALLBACK_SOLVER
+        _same_label(a, b)
+    assert fit.counters["fallback_converged"] == 3 and fit.counters["nlp_1x0"] == 3
+    assert (FALLBACK_SOLVER, 1, 0) in fit._controllers and (FALLBACK_SOLVER, 6, 3) not in fit._controllers
+
+
+def test_a_selection_that_needs_every_slot_is_solved_on_the_full_nlp():
+    """Under ``paper`` (3 + 3 slots) a situation with three movers and static obstacles
+    rounds up to the full NLP: the fitted labeller uses it (counted) and says the same."""
+    cfg = preset("paper")
+    sits = _situations(cfg, "multi", 3, 14, shapes={(3, 3)})
+    fit, full = Labeller(cfg), Labeller(cfg, fit_slots=False)
+    for sit in sits:
+        _same_label(fit.label(sit), full.label(sit))
+    assert fit.counters["full_nlp"] == 3 and fit.counters["fitted_nlp"] == 0
+

@@ -26,14 +26,21 @@ _LABELLERS: dict = {}
 
 
 def prepare_labeller(spec: DatasetSpec) -> Labeller:
-    """Build (once per process) the labeller ``spec`` needs; raises ValueError for an
-    unknown solver. Local workers are forked after this, so they inherit it built."""
-    return labeller_for(spec.config, spec.robot, spec.solver, spec.tie_margin)
+    """Build (once per process) the labeller ``spec`` needs, with the NLP that holds the
+    obstacles of its feature layout (``k_moving``, ``k_static``: the paper layout's one mover
+    needs the smallest, :meth:`Labeller.prepare`); raises ValueError for an unknown solver.
+    Local workers are forked after this, so they inherit it built."""
+    labeller = labeller_for(spec.config, spec.robot, spec.solver, spec.tie_margin)
+    labeller.prepare(spec.layout.k_moving, spec.layout.k_static)
+    return labeller
 
 
 def labeller_for(config: PlannerConfig, robot: RobotParams, solver: str | None,
                  tie_margin: float | None = None) -> Labeller:
-    """The labeller of this process for ``(config, robot, solver, tie_margin)``, built on first use."""
+    """The labeller of this process for ``(config, robot, solver, tie_margin)``, built on first use.
+    It solves each situation on the smallest NLP that holds the obstacles the planner
+    selects (:class:`Labeller`, sizes built on first need; the same labels as the full NLP's);
+    ``config``, with its full slots, is what it selects with and what a dataset records."""
     key = (config, robot, solver, tie_margin)
     if key not in _LABELLERS:
         _LABELLERS[key] = Labeller(config, robot, solver, tie_margin=tie_margin)

@@ -128,8 +128,8 @@ def test_a_trusted_roll_out_passes_when_it_keeps_the_margin_that_long():
     robot = sc.robot or RobotParams()
 
     def run(trust):
-        sh = Shield(OnnxPolicy(preset="improved", robot=robot), robot, fallback=StandbyPlanner(GPCController(CFG, robot)),
-                    rollouts=True, trust_rollout_s=trust)
+        sh = Shield(OnnxPolicy(preset="improved", robot=robot), robot,
+                    fallback=StandbyPlanner(GPCController(CFG, robot)), rollouts=True, trust_rollout_s=trust)
         rec = _Recording(sh)
         simulate(sc, rec, "nn")
         return sh, rec

@@ -225,8 +225,9 @@ class Labeller:
     difference 0.0 on 300 ``paper``-layout, 60 ``multi`` and 40 ``set`` ``improved``
     situations), only cheaper. The ``paper`` layout's situations (one mover at most) are
     solved on 1 + 0 slots instead of ``improved``'s 6 + 3: 8.7 ms CPU a situation instead of
-    11.2 (one lane, 300 situations), and ``gpcnav dataset --preset improved --samples 4000 --workers 2`` on 2 cores
-    (interleaved, nothing else running) at 402 and 416 samples/s against 333 and 342
+    11.2 (one lane, 300 situations), and ``gpcnav dataset --preset improved --samples 4000
+    --workers 2`` on 2 cores (interleaved, nothing else running) at 402 and 416 samples/s
+    against 333 and 342
     (about 1.2x; the shards' CPU time 19.6 and 18.8 s against 23.5 and 23.0 s), the shards
     identical. ``fit_slots=False`` always solves on the full NLP. :meth:`parameters` is the
     full NLP's vector either way.
@@ -311,7 +312,7 @@ class Labeller:
         vector, and the selected forecasts and statics (what fills the slots)."""
         sel = self._select(situation)
         slots = self.slots_for(len(sel.forecasts), len(sel.statics))
-        layout = self.layout if slots == self.full_slots else ParameterLayout(self.config.horizon, *slots)
+        layout = self.layout if slots == self.full_slots else self._controller(self.solver, slots).problem.layout
         p = pack_selection(layout, situation.robot.as_array(), situation.ref_poses, sel, self.config)
         return slots, p, sel.forecasts, sel.statics
 

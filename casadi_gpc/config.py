@@ -138,7 +138,11 @@ PRESETS: dict[str, PlannerConfig] = {
         clearance_margin_m=0.15,
         max_lead_m=0.5,
         solver="sqpmethod-daqp+fatrop",
-        max_moving=6,
+        # 10 mover slots: with 6, the movers left out of a converging crowd are the ones the
+        # plan runs into (with the walkers' true futures as its forecasts the GPC still
+        # collided there); 10 took circle crossings among 10 walkers from 5 collisions in 600
+        # to none (docs/crowds.md, "The cost of a slot")
+        max_moving=10,
         margin_smoothing_m=0.05,
         goal_weight=30.0,
         guesses=("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake"),

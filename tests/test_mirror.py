@@ -167,13 +167,15 @@ def _situations(cfg, layout_name, count, seed, shapes=None):
 
 
 def test_fitted_slots_rounds_up_to_a_rung_and_caps_at_the_config():
-    imp, pap = preset("improved"), preset("paper")   # 6 + 3 and 3 + 3 slots
+    imp, pap = preset("improved"), preset("paper")   # 10 + 3 and 3 + 3 slots
+    assert (imp.max_moving, imp.max_static, pap.max_moving, pap.max_static) == (10, 3, 3, 3)
     assert fitted_slots(0, 0, imp) == fitted_slots(1, 0, imp) == (1, 0)
     assert fitted_slots(2, 1, imp) == (2, 1) and fitted_slots(3, 2, imp) == (4, 3)
     assert fitted_slots(5, 0, imp) == fitted_slots(6, 0, imp) == (6, 0)
-    assert fitted_slots(6, 3, imp) == (6, 3) and fitted_slots(3, 3, pap) == fitted_slots(3, 2, pap) == (3, 3)
+    assert fitted_slots(7, 0, imp) == (10, 0) and fitted_slots(10, 1, imp) == (10, 1)
+    assert fitted_slots(10, 3, imp) == (10, 3) and fitted_slots(3, 3, pap) == fitted_slots(3, 2, pap) == (3, 3)
     with pytest.raises(ValueError):
-        fitted_slots(7, 0, imp)
+        fitted_slots(11, 0, imp)
 
 
 def test_fitted_nlp_labels_are_the_full_nlp_s():
@@ -213,7 +215,7 @@ def test_fitted_nlp_near_tie_and_fallback_paths_match_the_full_nlp():
         assert a.converged and a.solver == FALLBACK_SOLVER
         _same_label(a, b)
     assert fit.counters["fallback_converged"] == 3 and fit.counters["nlp_1x0"] == 3
-    assert (FALLBACK_SOLVER, 1, 0) in fit._controllers and (FALLBACK_SOLVER, 6, 3) not in fit._controllers
+    assert (FALLBACK_SOLVER, 1, 0) in fit._controllers and (FALLBACK_SOLVER, *fit.full_slots) not in fit._controllers
 
 
 def test_a_selection_that_needs_every_slot_is_solved_on_the_full_nlp():

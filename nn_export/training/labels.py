@@ -62,7 +62,7 @@ SAME_OPTIMUM_MPS = 1e-4
 """Starts whose increments differ by less than this (and whose costs tie) found one optimum."""
 FALLBACK_SOLVER = "ipopt-warm"
 """Solves the situations where no initial guess converged with the labelling solver."""
-MOVING_RUNGS = (1, 2, 4)
+MOVING_RUNGS = (1, 2, 4, 6)
 STATIC_RUNGS = (0, 1)
 """The NLP sizes (obstacle slots) the labeller solves on below the planner's own
 (:func:`fitted_slots`): few, so that few variants are compiled and held."""
@@ -224,12 +224,11 @@ class Labeller:
     cost and its derivatives, so the answer is the full NLP's bit for bit (measured: max
     difference 0.0 on 300 ``paper``-layout, 60 ``multi`` and 40 ``set`` ``improved``
     situations), only cheaper. The ``paper`` layout's situations (one mover at most) are
-    solved on 1 + 0 slots instead of ``improved``'s 6 + 3: 8.7 ms CPU a situation instead of
-    11.2 (one lane, 300 situations), and ``gpcnav dataset --preset improved --samples 4000
-    --workers 2`` on 2 cores (interleaved, nothing else running) at 402 and 416 samples/s
-    against 333 and 342
-    (about 1.2x; the shards' CPU time 19.6 and 18.8 s against 23.5 and 23.0 s), the shards
-    identical. ``fit_slots=False`` always solves on the full NLP. :meth:`parameters` is the
+    solved on 1 + 0 slots instead of the 6 + 3 ``improved`` had then (10 + 3 now): 8.7 ms CPU
+    a situation instead of 11.2 (one lane, 300 situations), and ``gpcnav dataset --preset
+    improved --samples 4000 --workers 2`` on 2 cores (interleaved, nothing else running) at 402
+    and 416 samples/s against 333 and 342 (about 1.2x; the shards' CPU time 19.6 and 18.8 s
+    against 23.5 and 23.0 s), the shards identical. ``fit_slots=False`` always solves on the full NLP. :meth:`parameters` is the
     full NLP's vector either way.
     """
 

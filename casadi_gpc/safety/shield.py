@@ -83,9 +83,9 @@ class Shield:
         For a controller that answers a command without a plan and can roll itself forward
         (a ``rollout()`` method: :meth:`nn_export.OnnxPolicy.rollout`): when the command
         alone fails the check, its roll-out is judged as a plan (over the whole horizon, or
-        for ``trust_rollout_s``) before the check steps in (:meth:`SafetyFilter.filter`'s ``plan_on_demand``; counted in
-        ``shield_rollouts`` and ``shield_rollout_passed``; the plan let through is in the
-        decision's ``info["rollout_wheels_mps"]``).
+        for ``trust_rollout_s``) before the check steps in (:meth:`SafetyFilter.filter`'s
+        ``plan_on_demand``; counted in ``shield_rollouts`` and ``shield_rollout_passed``; the
+        plan let through is in the decision's ``info["rollout_wheels_mps"]``).
     trust_rollout_s : float, optional
         With ``rollouts``: a roll-out that keeps the margin this long passes, even if it
         fails later in the horizon (counted in ``shield_rollout_trusted``); None: the whole

@@ -228,8 +228,8 @@ class Labeller:
     a situation instead of 11.2 (one lane, 300 situations), and ``gpcnav dataset --preset
     improved --samples 4000 --workers 2`` on 2 cores (interleaved, nothing else running) at 402
     and 416 samples/s against 333 and 342 (about 1.2x; the shards' CPU time 19.6 and 18.8 s
-    against 23.5 and 23.0 s), the shards identical. ``fit_slots=False`` always solves on the full NLP. :meth:`parameters` is the
-    full NLP's vector either way.
+    against 23.5 and 23.0 s), the shards identical. ``fit_slots=False`` always solves on the
+    full NLP. :meth:`parameters` is the full NLP's vector either way.
     """
 
     def __init__(self, config: PlannerConfig, robot: RobotParams | None = None, solver: str | None = None,

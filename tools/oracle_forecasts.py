@@ -90,8 +90,8 @@ def main(argv=None) -> int:
                     gaps = np.hypot(*(truth[k + 1:k + H + 1] - p).transpose(2, 0, 1))
                     gaps -= sc.robot.radius_m + np.array([m.radius_m for m in sc.moving])
                     worst = min(worst, float(gaps.min()))
-            print(f"slots {slots:2d}  episode {i:4d}: {log.outcome:12s} smallest clearance {log.min_clearance_m:6.3f} m, "
-                  f"worst planned clearance against the truth {worst:6.3f} m")
+            print(f"slots {slots:2d}  episode {i:4d}: {log.outcome:12s} smallest clearance "
+                  f"{log.min_clearance_m:6.3f} m, worst planned clearance against the truth {worst:6.3f} m")
     return 0
 
 

@@ -76,6 +76,10 @@ python tools/evaluate_shipped.py --workers "$WORKERS" --multi-model nn_export/mo
 # improved preset, one pass. Data: sampled situations, then DART rounds where the GPC drives
 # the crowd suites (ORCA, social-force and constant-velocity walkers), random-multi, random and
 # encounters, then one DAgger round where the bare network drives the crowds.
+# The shipped improved-crowd.onnx was built when the improved preset had 6 mover slots (its
+# metadata's planner_config says so); the preset has 10 since 2026-11-25, so this recipe now
+# labels with the 10-slot planner and gives another network (on a reduced version of this
+# recipe the bare collisions were the same either way: docs/nn.md, "The reduced dataset").
 D="$OUT/data/improved-set"
 setnet() {  # set network: setnet NAME [--parts LIST]
   local name=$1

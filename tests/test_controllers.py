@@ -85,7 +85,7 @@ def test_every_builtin_name_makes_its_controller():
     assert make(ControllerSpec("nn", shield="on"), CONFIG, robot)._rollout is None
     # ... and passes when it keeps the margin for the measured trust time; nothing else has one
     from casadi_gpc.safety import ROLLOUT_TRUST_S
-    assert made["nn"].filter.trust_rollout_s == ROLLOUT_TRUST_S == 4.0
+    assert made["nn"].filter.trust_rollout_s == ROLLOUT_TRUST_S == 4.5
     assert made["gpc"].filter.trust_rollout_s is None
     assert make(ControllerSpec("nn", shield="on"), CONFIG, robot).filter.trust_rollout_s is None
 

@@ -122,7 +122,7 @@ def test_a_trusted_roll_out_passes_when_it_keeps_the_margin_that_long():
     is counted apart: on a crowd episode, every command let through on its roll-out re-checks
     as keeping the margin at least the trust time, those that fail over the whole horizon are
     exactly the ones counted ``rollout_trusted`` (episode 6: three of four), and the check
-    steps in less often than with the whole horizon (none against three)."""
+    steps in less often than with the whole horizon (none against four)."""
     from casadi_gpc.safety import ROLLOUT_TRUST_S
     sc = _crowd_scene(6)
     robot = sc.robot or RobotParams()

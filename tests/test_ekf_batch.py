@@ -100,7 +100,8 @@ def test_the_batch_is_cheaper_than_track_by_track_in_a_crowd():
     """The reason for the batch: 10 walkers' forecasts made together cost less than one by
     one (timed in the same run, medians; 0.5-0.6x measured, asserted below 0.85x in the best
     of three blocks of 60 alternated rounds: on a shared machine a burst of load can slow the
-    numpy calls more than the float ones for a whole block, measured 0.83x once)."""
+    numpy calls more than the float ones for whole blocks: 0.83x in two blocks, and above
+    0.85x once in the full suite)."""
     import time
     rng = np.random.default_rng(2)
     filters = _random_filters(rng, 10, 0.25)

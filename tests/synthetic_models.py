@@ -16,6 +16,7 @@ import numpy as np
 from casadi_gpc.config import PlannerConfig, preset
 from casadi_gpc.robot import RobotParams
 from nn_export.runtime.layouts import layout_for
+from nn_export.runtime.model_file import float32_bound
 
 POLICY_FORMAT = "gpcnav-onnx-policy/1"
 
@@ -81,7 +82,7 @@ def tracker_model(path, preset_name: str = "improved", robot: RobotParams | None
         W = np.resize(W, (n, 2))
     if weight_fill is not None:
         W = np.full_like(W, weight_fill)
-    clip = robot.max_wheel_speed_mps
+    clip = float32_bound(robot.max_wheel_speed_mps)  # as gpcnav export clips
     graph = helper.make_graph(
         [helper.make_node("MatMul", ["features", "W"], ["xw"]),
          helper.make_node("Add", ["xw", "b"], ["raw"]),
@@ -102,3 +103,21 @@ def tracker_model(path, preset_name: str = "improved", robot: RobotParams | None
     path.write_bytes(model.SerializeToString())
     return path
 
+
+
+def with_clip_bound(src: Path, bound: float, dst: Path) -> Path:
+    """``src`` (a ``gpcnav export`` file) written to ``dst`` with its one Clip node's bounds
+    set to ``-bound, bound`` (float32), nothing else changed."""
+    import onnx
+    from onnx import numpy_helper
+    model = onnx.load(str(src))
+    consts = {n.output[0]: n for n in model.graph.node if n.op_type == "Constant"}
+    clips = [n for n in model.graph.node if n.op_type == "Clip"]
+    if len(clips) != 1:
+        raise ValueError(f"{src}: {len(clips)} Clip nodes, expected one")
+    for name, sign in zip(clips[0].input[1:3], (-1.0, 1.0)):
+        t = consts[name].attribute[0].t
+        t.CopyFrom(numpy_helper.from_array(np.array(sign * bound, np.float32), t.name))
+    onnx.checker.check_model(model, full_check=True)
+    dst.write_bytes(model.SerializeToString())
+    return dst

@@ -9,6 +9,13 @@ safety filter), every decision, its plan and its network input, plus the situati
 tracker built (EKF estimates, desired poses) and the features of both layouts. The test
 replays the stream open loop and asserts agreement to 1e-9 (features to 1e-12).
 
+The recordings were made with the shipped models as they were then, whose output clip was
+float32(0.8) = 0.800000011920929; since 2026-11-26 the export clips at the largest float32
+not above the wheel limit, 0.7999999523 (:func:`nn_export.runtime.model_file.float32_bound`),
+and the shipped files were changed in that constant alone. The decisions are replayed with
+the shipped model at the recording's bound, and a test holds the shipped model to it: the
+same outputs, clipped at the new bound.
+
 The timing test compares the full decision with the bare onnxruntime call measured in
 the same run (a ratio, never an absolute time).
 
@@ -109,10 +116,15 @@ def observations_from(d) -> list[Observation]:
     return out
 
 
-def replay(preset_name: str, observations, two_pass: bool, safety: bool) -> dict:
+RECORDED_CLIP_MPS = float(np.float32(0.8))
+"""The output clip of the shipped models the recordings were made with."""
+
+
+def replay(preset_name: str, observations, two_pass: bool, safety: bool, model=None) -> dict:
     """Every decision of a fresh policy on ``observations`` (open loop), as arrays: the main
-    network alone (the crowd network's hand-over is tests/test_set_network.py's)."""
-    net = OnnxPolicy(preset=preset_name, two_pass=two_pass, crowd_model=None)
+    network alone (the crowd network's hand-over is tests/test_set_network.py's); ``model``:
+    the file (default the one shipped for the preset)."""
+    net = OnnxPolicy(model, preset=preset_name, two_pass=two_pass, crowd_model=None)
     pol = Shield(net) if safety else net  # the check layer, manoeuvres only (no planner on standby)
     H = net.horizon
     n = len(observations)
@@ -215,11 +227,36 @@ def test_situations_equal_the_recorded_ones(recorded):
         np.testing.assert_allclose(v, d[f"situation_{k}"], rtol=0, atol=1e-12, equal_nan=True, err_msg=k)
 
 
+def _at_recorded_clip(preset_name: str, tmp_path: Path) -> Path:
+    """The model shipped for the preset, with the output clip the recordings were made with."""
+    from synthetic_models import with_clip_bound
+    from nn_export.runtime.policy import shipped_model_path
+    return with_clip_bound(shipped_model_path(preset_name), RECORDED_CLIP_MPS, tmp_path / f"{preset_name}.onnx")
+
+
+def test_the_shipped_models_are_the_recorded_ones_clipped_within_the_wheel_limit(recorded, tmp_path):
+    """The shipped model answers every recorded network input (all variants, and the same
+    scaled by 10, far outside the training data, where it saturates) exactly as the model at
+    the recording's clip, clipped at the largest float32 not above the limit; and no answer
+    exceeds the limit in float64 (the recording's model's saturated answers do)."""
+    from nn_export.runtime.model_file import float32_bound
+    case, d, _ = recorded
+    preset_name = CASES[case][0]
+    X = np.concatenate([d[f"{v}_net_input"] for v in VARIANTS]).astype(np.float32)
+    X = np.concatenate([X, 10 * X])
+    old = _load_session(_at_recorded_clip(preset_name, tmp_path))[0]
+    new = _load_session(MODELS_DIR / f"{preset_name}.onnx")[0]
+    y_old, y_new = (s.run(None, {"features": X})[0] for s in (old, new))
+    b = float32_bound(0.8)
+    np.testing.assert_array_equal(y_new, np.clip(y_old, np.float32(-b), np.float32(b)))
+    assert np.abs(y_new.astype(float)).max() <= 0.8 < np.abs(y_old.astype(float)).max()
+
+
 @pytest.mark.parametrize("variant", sorted(VARIANTS))
-def test_decisions_equal_the_recorded_ones(recorded, variant):
+def test_decisions_equal_the_recorded_ones(recorded, variant, tmp_path):
     case, d, obs = recorded
     two_pass, safety = VARIANTS[variant]
-    now = replay(CASES[case][0], obs, two_pass, safety)
+    now = replay(CASES[case][0], obs, two_pass, safety, _at_recorded_clip(CASES[case][0], tmp_path))
     for k, v in now.items():
         ref = d[f"{variant}_{k}"]
         if v.dtype.kind in "biu":

@@ -87,14 +87,6 @@ def test_the_roll_out_is_the_network_on_the_predicted_situations():
     assert np.all(np.abs(np.diff(wheels, axis=0)) <= dv + 1e-12) and np.all(np.abs(wheels) <= vmax)
 
 
-def _held(sh, obs, d) -> tuple:
-    """The decision's command as the robot follows it (the wheel limits from its wheel speeds
-    now): what a roll-out starts with. The network's float32 output clipped at the limit
-    reads 0.800000011920929 in float64, which the robot holds to 0.8."""
-    now = obs.robot.as_array()[3:5]
-    return tuple(sh.filter.limit(now, np.array([[d.v_right_mps, d.v_left_mps]]))[0])
-
-
 def test_the_check_lets_a_command_through_on_its_roll_out_only_when_the_roll_out_keeps_clear():
     """The shipped networks among 10 walkers behind the check with roll-outs: where a command
     failed alone and went through on its roll-out, that roll-out starts with the command,
@@ -114,7 +106,7 @@ def test_the_check_lets_a_command_through_on_its_roll_out_only_when_the_roll_out
     assert len(through) == c["shield_rollout_passed"]
     for o, d in through:
         plan = d.info["rollout_wheels_mps"]
-        assert tuple(plan[0]) == _held(sh, o, d) and not d.fallback
+        assert tuple(plan[0]) == (d.v_right_mps, d.v_left_mps) and not d.fallback
         again = sh.filter.check(o.robot.as_array(), plan, d.forecasts, o.static)
         assert again.safe and again.continuation in ("plan", "bound")
     assert log.outcome in ("reached_goal", "timed_out")
@@ -149,7 +141,7 @@ def test_a_trusted_roll_out_passes_when_it_keeps_the_margin_that_long():
     beyond = 0
     for o, d in through:
         plan = d.info["rollout_wheels_mps"]
-        assert tuple(plan[0]) == _held(sh, o, d) and not d.fallback
+        assert tuple(plan[0]) == (d.v_right_mps, d.v_left_mps) and not d.fallback
         again = sh.filter.check(o.robot.as_array(), plan, d.forecasts, o.static)
         assert again.safe or again.kept_s >= ROLLOUT_TRUST_S - 1e-9
         beyond += not again.safe

@@ -1,16 +1,16 @@
 """Export a trained :class:`~nn_export.training.train.WheelSpeedMLP` to one ONNX file (torch, onnx).
 
 The graph is the whole deployed map, in float32: standardise the features, the hidden layers,
-un-standardise, and clip both wheel speeds to the robot's limit, so the runtime adds nothing
-of its own. The standardisation is folded into the first layer's weights and the
-un-standardisation (and the output basis) into the last layer's, computed in float64 before
-the float32 cast: Gemm, Tanh, ..., Gemm, Clip, half the nodes of the plain form and about
-2 us less per call (each node costs onnxruntime a kernel dispatch). The set network
-(:mod:`~nn_export.training.set_net`) is exported as it is, in float32. Input ``features``
-(batch, n_features), output ``wheel_speeds_mps`` (batch, 2), right then left, or, for a
-network trained on plans (``gpcnav train --target plan``, metadata ``output`` = ``plan``),
-(batch, 2 H): the right and left wheel speeds of each of the H steps. The batch axis is
-dynamic.
+un-standardise, and clip both wheel speeds to the robot's limit (the largest float32 not above
+it: :func:`~nn_export.runtime.model_file.float32_bound`), so the runtime adds nothing of its
+own. The standardisation is folded into the first layer's weights and the un-standardisation
+(and the output basis) into the last layer's, computed in float64 before the float32 cast: Gemm,
+Tanh, ..., Gemm, Clip, half the nodes of the plain form and about 2 us less per call (each node
+costs onnxruntime a kernel dispatch). The set network (:mod:`~nn_export.training.set_net`) is
+exported as it is, in float32. Input ``features`` (batch, n_features), output
+``wheel_speeds_mps`` (batch, 2), right then left, or, for a network trained on plans (``gpcnav
+train --target plan``, metadata ``output`` = ``plan``), (batch, 2 H): the right and left wheel
+speeds of each of the H steps. The batch axis is dynamic.
 
 Metadata (``metadata_props``, all strings; JSON where structured) say what the model was
 trained for; :class:`nn_export.runtime.policy.OnnxPolicy` refuses a file whose metadata do not match
@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..runtime.model_file import float32_bound
 from .train import WheelSpeedMLP, wheel_selection
 
 __all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "REQUIRED_METADATA", "export_onnx", "ExportReport"]
@@ -51,7 +52,7 @@ class _Deployed(torch.nn.Module):
     def __init__(self, net, clip_mps: float, selection: torch.Tensor | None = None):
         super().__init__()
         self.net = net
-        self.clip_mps = float(clip_mps)
+        self.clip_mps = float32_bound(clip_mps)
         self.selection = selection  # float32 wheel_selection of a relative network, else None
 
     def forward(self, x):
@@ -169,7 +170,8 @@ def _parity(model: WheelSpeedMLP, data: bytes, parity_X: np.ndarray, clip: float
     import onnxruntime as ort
     sess = ort.InferenceSession(data, providers=["CPUExecutionProvider"])
     got = sess.run(None, {INPUT_NAME: parity_X.astype(np.float32)})[0]
-    want = np.clip(model.predict(parity_X), -clip, clip)
+    bound = float32_bound(clip)
+    want = np.clip(model.predict(parity_X), -bound, bound)
     parity = float(np.max(np.abs(got - want))) if len(parity_X) else 0.0
     if not parity <= PARITY_TOL:
         raise RuntimeError(f"ONNX/torch parity {parity:.3g} m/s exceeds {PARITY_TOL:g}")

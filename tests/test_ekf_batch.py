@@ -96,6 +96,35 @@ def test_the_tracker_batches_a_crowd_and_the_check_takes_its_arrays_whole():
     assert shared_batch(few) is None and all(t.batch_ is None for t in few)
 
 
+@pytest.mark.parametrize("layout_name", ["set", "multi"])
+def test_a_crowds_features_read_the_batch_as_track_by_track(layout_name):
+    """The features of a crowd whose forecasts were made together take every track's
+    ``pos_std_m`` from the batch in one go (``_position_stds``): the very numbers each
+    track's own row gives (``_position_std``), and the features of the same tracks forecast
+    one by one to rounding; a track seen once among them included."""
+    from casadi_gpc.robot import RobotState
+    from nn_export.runtime.features import _position_std, _position_stds, feature_values_from
+    from nn_export.runtime.layouts import layout_for
+    rng = np.random.default_rng(5)
+    n = MANY_TRACKS + 4
+    filters = _random_filters(rng, n, 0.5, seen_once=(2,))
+    pairs = [(ObstacleMeasurement(i, (0.0, 0.0), 0.3), f) for i, f in enumerate(filters)]
+    together = track_estimates(pairs, 12)
+    assert shared_batch(together) is not None
+    stds = _position_stds(together)
+    assert stds == [_position_std(t) for t in together] and len(set(stds)) == n
+    one_by_one = tuple(track_estimate(f, m.obstacle_id, m.radius_m, 12) for m, f in pairs)
+    assert _position_stds(one_by_one) is None and _position_stds(together[:3] + one_by_one[3:]) is None
+    layout = layout_for(layout_name, 12)
+    robot = RobotState(0.5, -0.3, 0.4, 0.2, 0.25)
+    rows = [(0.1 * j, 0.0, 0.0) for j in range(13)]
+    a = feature_values_from(layout, robot, rows, 0.5, together, ())
+    b = feature_values_from(layout, robot, rows, 0.5, one_by_one, ())
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+    k = layout.feature_names.index("mov1_pos_std_m")
+    assert a[k] > 0.0
+
+
 def test_the_batch_is_cheaper_than_track_by_track_in_a_crowd():
     """The reason for the batch: 10 walkers' forecasts made together cost less than one by
     one (timed in the same run, medians; 0.5-0.6x measured, asserted below 0.85x in the best

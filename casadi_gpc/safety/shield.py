@@ -31,6 +31,7 @@ from ..ekf import EKFSettings
 from ..robot import RobotParams
 from ..tracking import TrackBank
 from ..types import ControlDecision, Observation
+from .check import shared_batch
 from .filter import SafetyFilter
 
 __all__ = ["Shield", "DEFAULT_HORIZON_S"]
@@ -167,9 +168,14 @@ class Shield:
         if self._bank is None and dec.forecasts:
             # a controller's forecasts are its estimation's, made when first read by some
             # (the network's track estimates: its bare decision needs none): made here, off
-            # the check's clock (safety_time_s), as they were inside the decision before
-            for f in dec.forecasts:
-                f.means_m, f.covs_m2
+            # the check's clock (safety_time_s), as they were inside the decision before; a
+            # crowd's, made together, as the arrays the check takes whole
+            batch = shared_batch(dec.forecasts)
+            if batch is not None:
+                batch.arrays
+            else:
+                for f in dec.forecasts:
+                    f.means_m, f.covs_m2
         t0 = time.perf_counter()
         forecasts = self._forecasts(obs, dec)
         # the plan is the candidate's own continuation only when its first step is the command

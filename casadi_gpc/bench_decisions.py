@@ -88,13 +88,34 @@ def compare_candidates(ticks: list[RecordedTick], config: PlannerConfig, robot: 
 def policy_decision_run(scenario, name: str, policy) -> dict:
     """``scenario`` closed loop with ``policy`` (any controller, e.g. the network behind its
     check layer): its decision times as the simulator takes them (features, network, check:
-    everything ``decide`` does), interventions, fallbacks and the outcome."""
+    everything ``decide`` does), interventions, fallbacks and the outcome; and, where the
+    decisions say it (:meth:`nn_export.OnnxPolicy.decide` behind a
+    :class:`~casadi_gpc.safety.Shield`), the medians of the decision's parts
+    (:func:`decision_parts`)."""
     log = simulate(scenario, policy, name)
     return {"scenario": scenario.name, "controller": name, "outcome": log.outcome, "decisions": len(log.decisions),
             "movers": len(scenario.moving), "time_s": time_stats(log.compute_time_s),
+            "parts_s": decision_parts(log.decisions, log.compute_time_s),
             "interventions": int(log.events.get("interventions", 0)),
             "fallbacks": int(sum(bool(d.fallback) for d in log.decisions)),
             "min_clearance_m": float(log.min_clearance_m), "time_samples_s": list(log.compute_time_s)}
+
+
+def decision_parts(decisions, times_s) -> dict | None:
+    """Medians over the decisions of where their time went (None unless every decision says
+    it): ``estimation`` (the filters' updates, the desired poses and the forecasts:
+    ``estimation_time_s`` + ``forecast_time_s``), ``network`` (the features and the network's
+    calls, ``network_time_s``), ``check`` (``safety_time_s``, the fallback's time included
+    where it stepped in) and ``rest`` (the decision's time less those three)."""
+    keys = ("estimation_time_s", "forecast_time_s", "network_time_s", "safety_time_s")
+    if not decisions or any(k not in d.info for d in decisions for k in keys):
+        return None
+    est = [d.info["estimation_time_s"] + d.info["forecast_time_s"] for d in decisions]
+    net = [d.info["network_time_s"] for d in decisions]
+    chk = [d.info["safety_time_s"] for d in decisions]
+    rest = [t - a - b - c for t, a, b, c in zip(times_s, est, net, chk)]
+    return {k: float(np.median(v)) for k, v in (("estimation", est), ("network", net), ("check", chk),
+                                                  ("rest", rest))}
 
 
 def decision_run(scenario, config: PlannerConfig) -> dict:

@@ -205,3 +205,31 @@ def test_cli_writes_bench_json_png_and_a_table(write_scenario, tmp_path):
     assert "sqpmethod-daqp" in proc.stdout and "chosen:" in proc.stdout
     assert all(math.isfinite(r["time_s"]["median"]) for r in doc["results"])
     assert SAME_COST_RELATIVE == 1e-6
+
+
+def test_a_network_decisions_parts_are_disjoint_stretches_of_its_time():
+    """Behind the check, each decision of the shipped networks among 10 walkers says where its
+    time went: estimation (with the crowd's forecasts), features and network, check. Those
+    are disjoint stretches of the time the simulator takes for the decision: each positive,
+    their sum below it. The bench reports their medians; a controller whose decisions do not
+    say them gets none."""
+    from casadi_gpc.bench_decisions import decision_parts, policy_decision_run
+    from casadi_gpc.config import preset
+    from casadi_gpc.simulator import simulate
+    from gpcnav.controllers import ControllerSpec, make
+    from scenarios import Suite
+    sc = Suite("circle-crossing", 1, 1, 10, "orca").scenario(0)
+    cfg = preset("improved")
+    pol = make(ControllerSpec("nn"), cfg, sc.robot)
+    log = simulate(sc, pol, "nn")
+    assert pol.policy.counters["crowd_network"] > 0
+    for d, t in zip(log.decisions, log.compute_time_s):
+        parts = [d.info[k] for k in ("estimation_time_s", "forecast_time_s", "network_time_s", "safety_time_s")]
+        assert all(p >= 0.0 for p in parts) and parts[0] > 0 and parts[2] > 0 and parts[3] > 0
+        assert sum(parts) < t
+    row = policy_decision_run(sc, "nn", make(ControllerSpec("nn"), cfg, sc.robot))
+    assert set(row["parts_s"]) == {"estimation", "network", "check", "rest"}
+    assert all(v > 0 for v in row["parts_s"].values())
+    assert decision_parts(log.decisions[:3], log.compute_time_s[:3]) is not None
+    gpc = simulate(sc, make(ControllerSpec("gpc"), cfg, sc.robot), "gpc")
+    assert decision_parts(gpc.decisions, gpc.compute_time_s) is None

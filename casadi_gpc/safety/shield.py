@@ -164,7 +164,13 @@ class Shield:
         return [self._bank.forecast(m, ekf, H) for m, ekf in self._bank.step(obs.moving)]
 
     def decide(self, obs: Observation) -> ControlDecision:
+        """The controller's decision, checked (see the class). Its ``info`` adds
+        ``safety_time_s`` (the check's own time, the fallback's included when it steps in,
+        and this layer's own filters' updates and forecasts for a controller without
+        forecasts) and ``forecast_time_s`` (the controller's forecasts, made here when its
+        decision had not read them)."""
         dec = self.policy.decide(obs)
+        t_forecasts = time.perf_counter()
         if self._bank is None and dec.forecasts:
             # a controller's forecasts are its estimation's, made when first read by some
             # (the network's track estimates: its bare decision needs none): made here, off
@@ -189,7 +195,7 @@ class Shield:
             p = v.planned_wheels_mps
             self._kept = None if p is None or p.shape != (self.horizon, 2) else np.concatenate([p[1:], p[-1:]])
         info = dec.info  # the decision is new each step: annotate it in place
-        info["safety_time_s"] = time.perf_counter() - t0
+        info["safety_time_s"], info["forecast_time_s"] = time.perf_counter() - t0, t0 - t_forecasts
         info["safety_clearance_m"] = v.check.min_clearance_m
         if v.check.continuation == "roll-out":  # let through on the controller's own roll-out: the plan judged
             info["rollout_wheels_mps"] = v.planned_wheels_mps

@@ -152,6 +152,12 @@ def run(args) -> int:
         print(f"network decision on {d['scenario']} ({d['movers']} movers, closed loop, {d['controller']}): median "
               f"{t['median'] * 1e6:.0f} us (p95 {t['p95'] * 1e6:.0f}, max {t['max'] * 1e6:.0f}); "
               f"{d['interventions']} interventions in {d['decisions']} decisions, {d['outcome']}")
+        parts = d.get("parts_s")
+        if parts:
+            print("  its parts (medians): " + ", ".join(
+                f"{what} {parts[k] * 1e6:.0f} us" for k, what in (
+                    ("estimation", "estimation (the filters' updates, desired poses, forecasts)"),
+                    ("network", "features and network"), ("check", "check"), ("rest", "the rest"))))
     print(f"chosen: {ch['name']}  median {ch['median_time_s'] * 1e3:.3f} ms  "
           f"{ch['speedup_vs_reference']:.1f}x faster than {doc['reference']}  success {ch['success_rate']:.1%}  "
           f"as good as {doc['reference']} on {ch['as_good_as_reference_rate']:.1%} of the problems")

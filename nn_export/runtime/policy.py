@@ -363,29 +363,47 @@ class OnnxPolicy:
 
     # --- the step --------------------------------------------------------------------
     def decide(self, obs: Observation) -> ControlDecision:
+        """The decision on ``obs``. Its ``info`` says where the time went:
+        ``estimation_time_s`` (the filters' updates, the desired poses, and a crowd's
+        forecasts, which the crowd network's features read) and ``network_time_s`` (the
+        features and the network's calls)."""
+        clock = time.perf_counter
+        t0 = clock()
         tracks, ref_rows = self.tracker.track(obs)
         counters = self._counters
         counters["decisions"] += 1
         self._last = None  # what rollout() needs, for a one-command decision
         crowd = self._crowd
         if crowd is not None and crowd.needed(obs.robot.x_m, obs.robot.y_m, tracks, obs.static):
+            batch = getattr(tracks[0], "batch_", None) if tracks else None
+            if batch is not None:
+                batch.arrays  # the forecasts made together, as the features and a check read them
+            t1 = clock()
             counters["crowd_network"] += 1
             values = feature_values_from(crowd.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
                                          counters["feature_report"])
             if crowd.steps > 1:
-                return _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
-            vr, vl = crowd.answer(values)
-            self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
-            return self._crowd_decision(vr, vl, tracks)
-        if not self.two_pass:
+                dec = _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
+            else:
+                vr, vl = crowd.answer(values)
+                self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
+                dec = self._crowd_decision(vr, vl, tracks)
+        elif not self.two_pass:
+            t1 = clock()
             values = feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
                                          counters["feature_report"])
             if self.steps > 1:
-                return _plan_decision(self._net_plan(values), "one pass: plan", tracks)
-            vr, vl = self._net_values(values)
-            self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
-            return self._one_pass_decision(vr, vl, tracks)
-        return self._two_passes(obs, tracks, ref_rows)
+                dec = _plan_decision(self._net_plan(values), "one pass: plan", tracks)
+            else:
+                vr, vl = self._net_values(values)
+                self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
+                dec = self._one_pass_decision(vr, vl, tracks)
+        else:
+            t1 = clock()
+            dec = self._two_passes(obs, tracks, ref_rows)
+        info = dec.info
+        info["estimation_time_s"], info["network_time_s"] = t1 - t0, clock() - t1
+        return dec
 
     def rollout(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The last decision's network rolled forward over the horizon against the forecasts

@@ -709,3 +709,52 @@ def test_shield_refuses_what_is_not_a_controller():
         Shield(NoDecide())
     with pytest.raises(TypeError, match="sample_time_s"):
         Shield(_Scripted(np.zeros((H, 2)), sample_time_s=None))
+
+
+def test_a_trusted_plan_gives_way_to_an_alternative_that_keeps_the_margin_all_along():
+    """With ``safer_alternatives``, a replanning planner's plan that keeps the margin for its
+    trust time (3 s) but not over the horizon passes, unless one of the planner's own
+    alternatives keeps it all along: then that one is taken (an intervention, counted
+    alternative_safer, not a fallback). A disc of radius 1 m coming head-on at 1 m/s from 5 m: straight on at
+    0.4 m/s keeps the margin 4.9 s and no manoeuvre after it gets out; turning left at once,
+    then at full speed (as the acceleration limit lets it), keeps it all along; braking does
+    not."""
+    T_, H_ = 0.5, 12
+    fc = forecast((5.0, 0.0), (-1.0, 0.0), T_, H_, radius=1.0)
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
+    obs = Observation(0.0, RobotState(0.0, 0.0, 0.0, 0.4, 0.4), ref, (), ())
+    straight = np.full((H_, 2), 0.4)
+    brake = np.array([[0.2, 0.2]] + [[0.0, 0.0]] * (H_ - 1))
+    left = np.array([[0.2, 0.6]] * 2 + [[0.8, 0.8]] * (H_ - 2))
+    f = SafetyFilter(ROBOT, sample_time_s=T_, horizon=H_, safer_alternatives=True)
+    state = obs.robot.as_array()
+    c = f.check(state, straight, (fc,), ())
+    assert not c.safe and 3.0 <= c.kept_s < 5.0
+    assert not f.check(state, brake, (fc,), ()).safe and f.check(state, left, (fc,), ()).safe
+    v = f.filter(obs, straight, (fc,), (), alternatives=(brake,), trust_s=3.0)
+    assert not v.intervened and v.source == "candidate"  # no alternative keeps it all along
+    v = f.filter(obs, straight, (fc,), (), alternatives=(brake, left), trust_s=3.0)
+    assert v.intervened and v.source == "alternative:2"
+    np.testing.assert_array_equal(v.planned_wheels_mps, f.limit(state[3:5], left))  # as the robot follows it
+    assert f.counters["alternative_safer"] == 1 and f.counters["interventions"] == 1
+    assert f.counters["alternative_used"] == 0
+    # with no trust (the rule for anything but a replanning planner) the plan fails and the
+    # first alternative that passes is taken, as before
+    v = f.filter(obs, straight, (fc,), (), alternatives=(brake, left))
+    assert v.source == "alternative:2" and f.counters["alternative_used"] == 1
+    assert f.counters["alternative_safer"] == 1
+    # off (the default, and the paper preset's planner): the trusted plan passes
+    off = SafetyFilter(ROBOT, sample_time_s=T_, horizon=H_)
+    v = off.filter(obs, straight, (fc,), (), alternatives=(brake, left), trust_s=3.0)
+    assert not v.intervened and v.source == "candidate" and off.counters["alternative_safer"] == 0
+
+
+@pytest.mark.parametrize("preset_name", ["paper", "improved"])
+def test_the_planner_goes_behind_the_check_with_safer_alternatives_where_measured(preset_name):
+    from casadi_gpc.config import preset
+    from casadi_gpc.safety import SAFER_ALTERNATIVES
+    from gpcnav.commands.common import make_controller
+    cfg = preset(preset_name)
+    assert make_controller("gpc", cfg, ROBOT).filter.safer_alternatives is SAFER_ALTERNATIVES[preset_name]
+    assert SAFER_ALTERNATIVES == {"paper": False, "improved": True}
+    assert make_controller("nn", cfg, ROBOT).filter.safer_alternatives is False

@@ -59,7 +59,10 @@ Every check and every intervention is counted in :attr:`SafetyFilter.counters`.
 Before the fallback planner and the manoeuvres, a controller's own alternatives
 (``ControlDecision.alternatives``: the planner's other solved candidates, best first) are
 tried: the first that passes is taken (counted ``alternative_used``), and the best of them
-competes with the candidate where nothing passes.
+competes with the candidate where nothing passes. With ``safer_alternatives`` (the
+``improved`` planner, :data:`SAFER_ALTERNATIVES`), a plan that passes on the planner's
+trust time alone gives way to the first alternative that keeps the margin over the whole
+horizon (counted ``alternative_safer``).
 
 Rooms: ``check`` (the roll-out, the clearances and the verdict on a sequence, the
 manoeuvres), ``screen`` (the quick screen in plain floats in front of the check),
@@ -68,9 +71,9 @@ manoeuvres), ``screen`` (the quick screen in plain floats in front of the check)
 ``standby`` (:class:`StandbyPlanner`, the planner kept in step behind the filter).
 """
 from .check import MANOEUVRES, SafetyCheck, TrajectoryCheck
-from .filter import ROLLOUT_TRUST_S, SafetyFilter, SafetyVerdict
+from .filter import ROLLOUT_TRUST_S, SAFER_ALTERNATIVES, SafetyFilter, SafetyVerdict
 from .shield import Shield
 from .standby import StandbyPlanner
 
-__all__ = ["MANOEUVRES", "ROLLOUT_TRUST_S", "SafetyCheck", "SafetyVerdict", "SafetyFilter", "Shield", "StandbyPlanner",
-           "TrajectoryCheck"]
+__all__ = ["MANOEUVRES", "ROLLOUT_TRUST_S", "SAFER_ALTERNATIVES", "SafetyCheck", "SafetyVerdict", "SafetyFilter",
+           "Shield", "StandbyPlanner", "TrajectoryCheck"]

@@ -91,12 +91,18 @@ class Shield:
         With ``rollouts``: a roll-out that keeps the margin this long passes, even if it
         fails later in the horizon (counted in ``shield_rollout_trusted``); None: the whole
         horizon (:class:`~casadi_gpc.safety.SafetyFilter`'s ``trust_rollout_s``).
+    safer_alternatives : bool
+        With ``trust_plans``: a plan that passes on the trust time alone gives way to the
+        first of the controller's alternatives that keeps the margin over the whole horizon
+        (an intervention, not a fallback; counted in ``shield_alternative_safer``).
+        :data:`~casadi_gpc.safety.SAFER_ALTERNATIVES` per preset.
     """
 
     def __init__(self, policy, robot: RobotParams | None = None, fallback=None, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, trust_planner_s: float | None = None,
                  horizon: int | None = None, ekf_settings: EKFSettings | None = None, trust_plans: bool = False,
-                 previous_plan: bool = False, rollouts: bool = False, trust_rollout_s: float | None = None):
+                 previous_plan: bool = False, rollouts: bool = False, trust_rollout_s: float | None = None,
+                 safer_alternatives: bool = False):
         for attr in ("decide", "reset"):
             if not callable(getattr(policy, attr, None)):
                 raise TypeError(f"the shielded controller must have a {attr}() method")
@@ -109,7 +115,7 @@ class Shield:
         self.horizon = int(horizon) if horizon is not None else _policy_horizon(policy, self.sample_time_s)
         self.filter = SafetyFilter(self.robot, self.sample_time_s, self.horizon, margin_m, sigmas, substeps,
                                    fallback=fallback, trust_planner_s=trust_planner_s,
-                                   trust_rollout_s=trust_rollout_s)
+                                   trust_rollout_s=trust_rollout_s, safer_alternatives=safer_alternatives)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = bool(trust_plans)
         self.previous_plan = bool(previous_plan)

@@ -150,12 +150,18 @@ def make_controller(kind: str, config, robot, model=None, shield: str | None = N
     rollouts, trust = kind == "nn" and not plans and shield == "gpc", None
     if rollouts:
         from casadi_gpc.safety import ROLLOUT_TRUST_S as trust
+    # the planner's plan passing on that trust alone gives way to an alternative of its own that
+    # keeps the margin all along, under the presets where that was measured better
+    # (casadi_gpc.safety.SAFER_ALTERNATIVES)
+    from casadi_gpc.safety import SAFER_ALTERNATIVES
+    safer = kind == "gpc" and SAFER_ALTERNATIVES.get(config.name, False)
     return behind_shield(base, config, robot, shield, trust_plans=kind == "gpc" or plans, previous_plan=plans,
-                         rollouts=rollouts, trust_rollout_s=trust)
+                         rollouts=rollouts, trust_rollout_s=trust, safer_alternatives=safer)
 
 
 def behind_shield(controller, config, robot, mode: str, trust_plans: bool = False, ekf_settings=None,
-                  previous_plan: bool = False, rollouts: bool = False, trust_rollout_s: float | None = None):
+                  previous_plan: bool = False, rollouts: bool = False, trust_rollout_s: float | None = None,
+                  safer_alternatives: bool = False):
     """``controller`` behind :class:`casadi_gpc.safety.Shield` as ``mode`` says (``off``:
     as it is; ``on``: the manoeuvres only; ``gpc``: the planner of ``config`` on standby). The
     one place every controller (gpc, nn, the peers, a user's class) is put behind it."""
@@ -170,7 +176,8 @@ def behind_shield(controller, config, robot, mode: str, trust_plans: bool = Fals
             raise UsageError(f"--shield-fallback gpc needs the planner ({exc}); use --shield-fallback brake") from None
         fallback = StandbyPlanner(GPCController(config, robot))
     return Shield(controller, robot, fallback=fallback, trust_plans=trust_plans, ekf_settings=ekf_settings,
-                  previous_plan=previous_plan, rollouts=rollouts, trust_rollout_s=trust_rollout_s)
+                  previous_plan=previous_plan, rollouts=rollouts, trust_rollout_s=trust_rollout_s,
+                  safer_alternatives=safer_alternatives)
 
 
 def check_seed(seed: int | None) -> None:

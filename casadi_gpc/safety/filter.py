@@ -206,7 +206,7 @@ class SafetyFilter(QuickScreen):
                 return SafetyVerdict(float(acmd[0]), float(acmd[1]), True,
                                      f"safety: the candidate keeps the margin only {check.kept_s:.1f} s; the "
                                      f"controller's alternative {i} keeps it over the horizon", f"alternative:{i}",
-                                     achk, aplan)
+                                     check, aplan)  # the candidate's check, as every intervention reports
         return None
 
     def _judge_rollout(self, robot, state, plan_on_demand, forecasts, statics, obstacles):

@@ -32,7 +32,7 @@ own alternatives that keeps the margin over the whole horizon (:class:`SafetyFil
 ``safer_alternatives``, ``gpcnav --controller gpc``). Measured behind the check, 200
 episodes each, seed 1 (navground's Antipodal scene: seeds 1-200): under ``improved`` the one
 collision of the Antipodal scene goes (199 -> 200 reached, smallest clearance -0.027 ->
-0.035 m), the crowds keep 100 % and no collision at 0.2-1.0 s more to the goal, and
+0.035 m), the crowds keep their outcomes at 0.2-1.4 s more to the goal, and
 ``random``, ``random-multi`` and ``encounters`` are unchanged but for the swaps. Under
 ``paper`` it changed the planner's Fig. 7.1 and 7.2 (its plans predict violations 6-8 s
 ahead, in the paper's 9 s horizon), the figure a reader puts beside the paper: off there.

@@ -715,10 +715,10 @@ def test_a_trusted_plan_gives_way_to_an_alternative_that_keeps_the_margin_all_al
     """With ``safer_alternatives``, a replanning planner's plan that keeps the margin for its
     trust time (3 s) but not over the horizon passes, unless one of the planner's own
     alternatives keeps it all along: then that one is taken (an intervention, counted
-    alternative_safer, not a fallback). A disc of radius 1 m coming head-on at 1 m/s from 5 m: straight on at
-    0.4 m/s keeps the margin 4.9 s and no manoeuvre after it gets out; turning left at once,
-    then at full speed (as the acceleration limit lets it), keeps it all along; braking does
-    not."""
+    alternative_safer, not a fallback). A disc of radius 1 m comes head-on at 1 m/s from
+    5 m. Straight on at 0.4 m/s keeps the margin 4.9 s, and no manoeuvre after it gets out;
+    turning left at once, then at full speed (as the acceleration limit lets it), keeps it
+    all along; braking does not."""
     T_, H_ = 0.5, 12
     fc = forecast((5.0, 0.0), (-1.0, 0.0), T_, H_, radius=1.0)
     ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)

@@ -17,6 +17,10 @@
 # On-policy episodes use suite seeds 1000 * round (+ 500 for GPC-driven rounds), never the
 # evaluation seed 1; candidates were compared on seed 7. Each model is then measured by
 # tools/evaluate_shipped.py.
+# The GPC-driven rounds follow `gpcnav --controller gpc` as it is when this runs. Since
+# 3ccf286 the improved GPC behind its check takes its safer alternatives
+# (casadi_gpc.safety.SAFER_ALTERNATIVES); the shipped models' rounds were made before that, so
+# their data are regenerated as they were by this script at f64a8f6.
 set -euo pipefail
 OUT=${1:-out/nn}
 WORKERS=${WORKERS:-2}

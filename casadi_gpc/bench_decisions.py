@@ -23,7 +23,7 @@ from .config import PlannerConfig
 from .gpc import GPCController, Tick
 from .metrics import time_stats
 from .robot import RobotParams
-from .safety import SAFER_ALTERNATIVES, Shield
+from .safety import Shield, safer_alternatives_for
 from .simulator import simulate
 
 __all__ = ["SAME_COST_RELATIVE", "RecordedTick", "record_ticks", "compare_candidates", "decision_run"]
@@ -124,9 +124,8 @@ def decision_run(scenario, config: PlannerConfig) -> dict:
     decisions that solved the fixed guesses, interventions, the outcome. Each decision is
     timed as the simulator times it (estimation, parameters, solves, the check)."""
     gpc = GPCController(config, scenario.robot)
-    shield = Shield(gpc, scenario.robot, trust_plans=True,
-                    safer_alternatives=SAFER_ALTERNATIVES.get(config.name, False))
-    log = simulate(scenario, shield, "gpc")
+    log = simulate(scenario, Shield(gpc, scenario.robot, trust_plans=True,
+                                    safer_alternatives=safer_alternatives_for(config)), "gpc")
     n = max(len(log.decisions), 1)
     return {"scenario": scenario.name, "preset": config.name, "outcome": log.outcome, "decisions": len(log.decisions),
             "movers": len(scenario.moving), "time_s": time_stats(log.compute_time_s),

@@ -71,9 +71,9 @@ manoeuvres), ``screen`` (the quick screen in plain floats in front of the check)
 ``standby`` (:class:`StandbyPlanner`, the planner kept in step behind the filter).
 """
 from .check import MANOEUVRES, SafetyCheck, TrajectoryCheck
-from .filter import ROLLOUT_TRUST_S, SAFER_ALTERNATIVES, SafetyFilter, SafetyVerdict
+from .filter import ROLLOUT_TRUST_S, SAFER_ALTERNATIVES, SafetyFilter, SafetyVerdict, safer_alternatives_for
 from .shield import Shield
 from .standby import StandbyPlanner
 
 __all__ = ["MANOEUVRES", "ROLLOUT_TRUST_S", "SAFER_ALTERNATIVES", "SafetyCheck", "SafetyVerdict", "SafetyFilter",
-           "Shield", "StandbyPlanner", "TrajectoryCheck"]
+           "Shield", "StandbyPlanner", "TrajectoryCheck", "safer_alternatives_for"]

@@ -39,6 +39,11 @@ ahead, in the paper's 9 s horizon), the figure a reader puts beside the paper: o
 docs/peers.md."""
 
 
+def safer_alternatives_for(config) -> bool:
+    """:data:`SAFER_ALTERNATIVES` for a planner config (off for a preset it does not name)."""
+    return SAFER_ALTERNATIVES.get(getattr(config, "name", None), False)
+
+
 @dataclass(slots=True)
 class SafetyVerdict:
     """What the filter lets through."""
@@ -195,19 +200,24 @@ class SafetyFilter(QuickScreen):
         keeps the margin all the way, that one is taken. On navground's Antipodal scene
         (seeds 1-200) the GPC sped into the centre on a trusted plan whose violation, 5.6 s
         ahead, came true: one collision; with this rule none (docs/peers.md)."""
-        for i, w in enumerate(alternatives, 1):
-            acmd, aplan, _ = self._as_candidate(state, np.asarray(w, dtype=float))
-            if acmd is None:
-                continue
-            achk = self._assess(state, acmd, aplan, obstacles, None)
+        options = _as_options(alternatives)
+        for source, name, acmd, aplan, achk in self._checked(state, obstacles, options, None):
             if achk.safe:
                 self.counters["interventions"] += 1
                 self.counters["alternative_safer"] += 1
                 return SafetyVerdict(float(acmd[0]), float(acmd[1]), True,
-                                     f"safety: the candidate keeps the margin only {check.kept_s:.1f} s; the "
-                                     f"controller's alternative {i} keeps it over the horizon", f"alternative:{i}",
+                                     f"safety: the candidate keeps the margin only {check.kept_s:.1f} s; {name} "
+                                     f"keeps it over the horizon", source,
                                      check, aplan)  # the candidate's check, as every intervention reports
         return None
+
+    def _checked(self, state, obstacles, options, trust_s: float | None):
+        """Each option ``(source, name, wheels)`` whose wheels are finite, checked in turn (as
+        the robot would follow them, for ``trust_s``): ``(source, name, command, plan, check)``."""
+        for source, name, w in options:
+            acmd, aplan, _ = self._as_candidate(state, np.asarray(w, dtype=float))
+            if acmd is not None:
+                yield source, name, acmd, aplan, self._assess(state, acmd, aplan, obstacles, trust_s)
 
     def _judge_rollout(self, robot, state, plan_on_demand, forecasts, statics, obstacles):
         """``(check, command, plan)`` when the controller's own continuation passes as a plan
@@ -243,15 +253,11 @@ class SafetyFilter(QuickScreen):
             why = f"safety: {check.continuation}"
         # 1. the controller's own alternatives, best first, then its previous plan shifted: the
         # first that passes the check; else the best of them competes with the candidate below
-        options = [(f"alternative:{i}", f"the controller's alternative {i}", w) for i, w in enumerate(alternatives, 1)]
+        options = _as_options(alternatives)
         if previous is not None:
             options.append(("previous_plan", "the previous plan, shifted", previous))
         keep_cmd, keep_plan, keep_check, keep_source, kept = cmd, None, check, "candidate", "candidate kept"
-        for source, name, w in options:
-            acmd, aplan, _ = self._as_candidate(state, np.asarray(w, dtype=float))
-            if acmd is None:
-                continue
-            achk = self._assess(state, acmd, aplan, obstacles, trust_s)
+        for source, name, acmd, aplan, achk in self._checked(state, obstacles, options, trust_s):
             if _passes(achk, trust_s):
                 self.counters["alternative_used"] += 1
                 if source == "previous_plan":
@@ -305,6 +311,11 @@ class SafetyFilter(QuickScreen):
         return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
                              why + f"; manoeuvre {name} (clearance {mc.min_clearance_m:.2f} m, margin kept "
                              f"{mc.kept_s:.1f} s)", f"manoeuvre:{name}", check, mw)
+
+
+def _as_options(alternatives) -> list:
+    """The controller's alternatives as options ``(source, name, wheels)``, best first."""
+    return [(f"alternative:{i}", f"the controller's alternative {i}", w) for i, w in enumerate(alternatives, 1)]
 
 
 def _passes(check: SafetyCheck, trust_s: float | None) -> bool:

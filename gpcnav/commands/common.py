@@ -153,8 +153,8 @@ def make_controller(kind: str, config, robot, model=None, shield: str | None = N
     # the planner's plan passing on that trust alone gives way to an alternative of its own that
     # keeps the margin all along, under the presets where that was measured better
     # (casadi_gpc.safety.SAFER_ALTERNATIVES)
-    from casadi_gpc.safety import SAFER_ALTERNATIVES
-    safer = kind == "gpc" and SAFER_ALTERNATIVES.get(config.name, False)
+    from casadi_gpc.safety import safer_alternatives_for
+    safer = kind == "gpc" and safer_alternatives_for(config)
     return behind_shield(base, config, robot, shield, trust_plans=kind == "gpc" or plans, previous_plan=plans,
                          rollouts=rollouts, trust_rollout_s=trust, safer_alternatives=safer)
 

@@ -5,7 +5,7 @@ The numpy-only pieces (``robot``, ``reference``, ``ekf``, ``progress``, ``types`
 itself (``cost``, ``gpc``) needs CasADi and is imported lazily here.
 """
 from .config import DEFAULT_PRESET, PRESETS, PlannerConfig, preset
-from .ekf import EKFSettings, ObstacleEKF
+from .estimation.ekf import EKFSettings, ObstacleEKF
 from .reference import ReferencePath, Segment
 from .robot import RobotParams, RobotState, arc_step, robot_step
 from .types import ControlDecision, Observation, ObstacleForecast, ObstacleMeasurement, Policy, StaticObstacle
@@ -19,6 +19,6 @@ __all__ = [
 
 def __getattr__(name):
     if name == "GPCController":
-        from .gpc import GPCController
+        from .planner.gpc import GPCController
         return GPCController
     raise AttributeError(name)

@@ -62,7 +62,7 @@ class BufferedFunction:
         """A second buffer of the same function: its own CasADi memory and arrays, the inputs
         copied (the constant ones stay set). CasADi releases the GIL while a buffer
         evaluates, so two buffers can run in two threads at once
-        (:mod:`casadi_gpc.lanes`)."""
+        (:mod:`casadi_gpc.planner.lanes`)."""
         twin = BufferedFunction(self.fn)
         for a, b in zip(twin.inputs, self.inputs):
             a[:] = b

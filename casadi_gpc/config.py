@@ -59,7 +59,7 @@ class PlannerConfig:
     projection on the path (it waits while the robot yields). None: the paper's clock."""
     max_moving: int = 3
     """Moving-obstacle slots of the NLP (unused slots are switched off). With more movers,
-    the most relevant fill them (:mod:`casadi_gpc.selection`)."""
+    the most relevant fill them (:mod:`casadi_gpc.problem.selection`)."""
     relevance_range_m: float = 2.5
     """A mover left out of the slots is counted (``left_out``) when its predicted clearance
     to the robot's predicted path is under this (the obstacle term's 1.5 m reach of the
@@ -79,7 +79,7 @@ class PlannerConfig:
     candidates: str = "persistent"
     """``persistent``: the solutions found are kept alive from tick to tick and warm-started,
     the fixed guesses solved again only when an obstacle comes near, when every candidate was
-    lost, or every ``multistart_period_s`` (:mod:`casadi_gpc.candidates`); ``multistart``:
+    lost, or every ``multistart_period_s`` (:mod:`casadi_gpc.planner.candidates`); ``multistart``:
     every fixed guess and the previous plan at every tick near obstacles (the reference)."""
     multistart_period_s: float = 3.0
     """Longest time between two full multi-starts while obstacles are near (persistent
@@ -91,21 +91,21 @@ class PlannerConfig:
     relevance_memory_s: float = 3.0
     """Persistent candidates: an obstacle that mattered within this long (rounded to whole
     samples, at least one) is not new when it matters again, so it does not make a full
-    multi-start due (:mod:`casadi_gpc.candidates`)."""
+    multi-start due (:mod:`casadi_gpc.planner.candidates`)."""
     prune_ratio: float | None = 0.25
     """Persistent candidates: a candidate dearer than the best by more than this fraction
     is let go (None: every distinct one is kept)."""
     swerve_turn_rate_rad_s: float = 0.5
     """Turn rate of the swerve-left / swerve-right initial guesses."""
     guesses: tuple[str, ...] = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left")
-    """The fixed initial guesses of the multi-start, by name (:data:`casadi_gpc.guesses.TIE_ORDER`
+    """The fixed initial guesses of the multi-start, by name (:data:`casadi_gpc.planner.guesses.TIE_ORDER`
     gives their tie-break order whatever the order here)."""
     solver: str = "ipopt"
     """NLP solver backend of the controller (``casadi_gpc.solvers.SOLVER_NAMES``; ``ipopt`` is
     ``ipopt-warm``). The presets use the one ``gpcnav bench`` measured fastest among those
     that reach IPOPT's cost (docs/solvers.md)."""
     solve_lanes: int = 2
-    """Starts of one tick solved at once, in this many threads (:mod:`casadi_gpc.lanes`);
+    """Starts of one tick solved at once, in this many threads (:mod:`casadi_gpc.planner.lanes`);
     the answers are the same for any number. Solvers that cannot run in threads (IPOPT,
     Powell, the uncompiled SQP) use one."""
     time_budget_s: float | None = None

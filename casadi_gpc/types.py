@@ -89,7 +89,7 @@ class ControlDecision:
     forecasts: tuple | None = None
     """The obstacle forecasts the decision was made with, one per moving obstacle the
     controller tracks (objects with the fields of :class:`ObstacleForecast`), when the
-    controller estimates them with :class:`casadi_gpc.tracking.TrackBank`; a
+    controller estimates them with :class:`casadi_gpc.estimation.tracking.TrackBank`; a
     :class:`~casadi_gpc.safety.Shield` then checks against these instead of running a second
     bank. None: the controller does not say."""
     alternatives: tuple = ()

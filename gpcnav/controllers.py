@@ -4,7 +4,7 @@
 controllers here, so a name means the same thing everywhere:
 
 ========================  =============================================================
-``gpc``                   the GPC planner (:class:`casadi_gpc.gpc.GPCController`)
+``gpc``                   the GPC planner (:class:`casadi_gpc.planner.gpc.GPCController`)
 ``nn``                    the network (:class:`nn_export.OnnxPolicy`, behind its filter)
 ``orca``, ``hrvo``,       navground's behaviours with its differential-drive kinematics
 ``social_force``          (:mod:`gpcnav.peers.navground_peer`)
@@ -15,12 +15,14 @@ controllers here, so a name means the same thing everywhere:
                           ``sample_time_s``)
 ========================  =============================================================
 
-``gpc`` and ``nn`` are built by :func:`gpcnav.commands.common.make_controller`, as the
-commands always built them. A name that cannot be made is a :class:`~gpcnav.errors.UsageError`
-(one line, exit 2), raised by :func:`check` before any work. Any of them runs behind the
-controller-agnostic safety check layer (:class:`casadi_gpc.safety.Shield`) as the shield mode
-says (``--shield``, ``--no-shield``, ``--shield-fallback``; :data:`~gpcnav.commands.common.SHIELD_MODES`):
-by default ``gpc`` and ``nn`` do, the peers and a user's class run bare, as their users run them.
+A name that cannot be made is a :class:`~gpcnav.errors.UsageError` (one line, exit 2),
+raised by :func:`check` before any work. Any of them runs behind the controller-agnostic
+check layer (:class:`casadi_gpc.safety.Shield`) as the shield mode says (``--shield``,
+``--no-shield``, ``--shield-fallback``; :data:`SHIELD_MODES`): by default ``gpc`` and ``nn``
+do, the peers and a user's class run bare, as their users run them. What the check layer
+trusts from each controller and what it falls back on is declared here, next to its name
+(:data:`REGISTRY`: one :class:`~casadi_gpc.safety.CheckSettings` per controller and mode),
+so no command chooses the check's flags by the kind of controller.
 
 A ``MODULE:CLASS`` is imported with the current folder first on ``sys.path`` (as ``python -m``
 would), so a ``mymod.py`` beside the user works with the installed ``gpcnav`` command too.
@@ -32,16 +34,95 @@ import importlib
 import math
 import os
 import sys
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, is_dataclass
 from pathlib import Path
 
 from .errors import UsageError
 
-__all__ = ["BUILTIN", "PEERS", "ControllerSpec", "make", "check", "load_user_class", "describe", "spec_from_args",
+__all__ = ["BUILTIN", "PEERS", "REGISTRY", "SHIELD_MODES", "DEFAULT_SHIELD", "Kind", "ControllerSpec", "make",
+           "make_controller", "check", "check_settings", "shield_mode", "load_user_class", "describe", "spec_from_args",
            "parse_controller_list"]
 
 PEERS = ("orca", "hrvo", "social_force", "mppi")
 BUILTIN = ("gpc", "nn") + PEERS
+
+SHIELD_MODES = ("off", "on", "gpc")
+"""``off``: the bare controller; ``on``: behind the check layer, which falls back on the
+controller's alternatives and its own manoeuvres; ``gpc``: the same with the GPC on standby
+as the first fallback."""
+
+
+def _gpc_check(controller, config, mode: str):
+    """The planner replans at every sample: its plans (and alternatives) are trusted for the
+    filter's trust time, and under the presets where it was measured better a plan passing on
+    that trust alone gives way to an alternative of its own that keeps the margin all along
+    (:data:`casadi_gpc.safety.SAFER_ALTERNATIVES`). Its own alternatives come before any
+    fallback, so it never has the planner on standby behind it."""
+    from casadi_gpc.safety import CheckSettings, safer_alternatives_for
+    return CheckSettings(trust_plans=True, safer_alternatives=safer_alternatives_for(config))
+
+
+def _nn_check(controller, config, mode: str):
+    """A plan network replans as often as the planner: its plans are trusted as the planner's,
+    with its shifted previous plan kept as the safe candidate (docs/nn.md: 2.8-11x fewer
+    interventions than checked over the whole horizon). A one-command network's own roll-out
+    is judged as its plan before the check steps in, with the GPC on standby, and passes when
+    it keeps the margin for :data:`casadi_gpc.safety.ROLLOUT_TRUST_S` (docs/nn.md, "The
+    network's roll-out as its plan": no collision in 2 600 crowd and random episodes, 2.7-5x
+    fewer interventions; behind the manoeuvres alone one episode collided, so not there)."""
+    from casadi_gpc.safety import ROLLOUT_TRUST_S, CheckSettings
+    plans = bool(getattr(controller, "outputs_plans", False))
+    rollouts = not plans and mode == "gpc"
+    return CheckSettings(trust_plans=plans, previous_plan=plans, rollouts=rollouts,
+                         trust_rollout_s=ROLLOUT_TRUST_S if rollouts else None,
+                         fallback="planner" if mode == "gpc" else "manoeuvres")
+
+
+def _reactive_check(controller, config, mode: str):
+    """A peer or a user's controller: nothing trusted, the whole horizon checked."""
+    from casadi_gpc.safety import CheckSettings
+    return CheckSettings(fallback="planner" if mode == "gpc" else "manoeuvres")
+
+
+@dataclass(frozen=True)
+class Kind:
+    """One entry of the registry.
+
+    Attributes
+    ----------
+    default_shield : str
+        The shield mode (:data:`SHIELD_MODES`) the controller runs with unless told.
+    check : callable
+        ``check(controller, config, mode) -> CheckSettings``: what the check layer trusts
+        from the made controller, for how long, and what it falls back on, in ``mode``.
+    """
+
+    default_shield: str
+    check: Callable
+
+
+REGISTRY = {
+    "gpc": Kind("on", _gpc_check),
+    "nn": Kind("gpc", _nn_check),
+    **{name: Kind("off", _reactive_check) for name in PEERS},
+}
+"""Every built-in controller by name; a user's ``MODULE:CLASS`` is checked as a peer is."""
+
+USER_CLASS = Kind("off", _reactive_check)
+
+DEFAULT_SHIELD = {name: kind.default_shield for name, kind in REGISTRY.items()}
+"""The shield mode each built-in controller runs with unless told (the others: ``off``)."""
+
+
+def _kind(name: str) -> Kind:
+    return REGISTRY.get(name, USER_CLASS)
+
+
+def check_settings(name: str, controller, config, mode: str):
+    """The :class:`~casadi_gpc.safety.CheckSettings` the registry declares for the made
+    ``controller`` named ``name`` in shield mode ``mode``."""
+    return _kind(name).check(controller, config, mode)
 
 
 @dataclass(frozen=True)
@@ -72,8 +153,7 @@ class ControllerSpec:
     def mode(self) -> str:
         """The shield mode it runs with: the one asked for, else the controller's default
         (``on`` for gpc, ``gpc`` for nn, ``off`` for the others)."""
-        from .commands.common import DEFAULT_SHIELD
-        mode = self.shield or DEFAULT_SHIELD.get(self.name, "off")
+        mode = self.shield or _kind(self.name).default_shield
         return "on" if mode == "brake" else mode
 
     @property
@@ -151,24 +231,45 @@ def _make_peer(name: str, config, robot):
     return NavgroundPeer(NAVGROUND_PEERS[name](), robot)
 
 
-def _shielded(controller, config, robot, mode: str):
-    """A peer or a user's controller behind the check layer (:func:`gpcnav.commands.common.behind_shield`).
-    The shield's own obstacle filters run at the controller's sample time: with the planner's
-    noise per second, or a 6 s check at 0.1 s loses every heading (docs/peers.md)."""
-    from casadi_gpc.ekf import EKFSettings
-    from .commands.common import behind_shield
-    return behind_shield(controller, config, robot, mode,
-                         ekf_settings=EKFSettings().for_sample_time(controller.sample_time_s))
+def _make_base(spec: ControllerSpec, config, robot):
+    """The bare controller ``spec`` names."""
+    if spec.name == "gpc":
+        from casadi_gpc.planner.gpc import GPCController
+        return GPCController(config, robot)
+    if spec.name == "nn":
+        try:
+            from nn_export import OnnxPolicy
+            return OnnxPolicy(spec.model, preset=config.name, robot=robot,
+                              two_pass=None if spec.passes is None else spec.passes == 2)
+        except ImportError as exc:
+            raise UsageError(f"--controller nn is not available: {exc}") from None
+        except (FileNotFoundError, ValueError) as exc:
+            raise UsageError(str(exc)) from None
+    return _make_peer(spec.name, config, robot) if spec.name in PEERS else _make_user(spec.name)
 
 
 def make(spec: ControllerSpec, config, robot):
     """The controller ``spec`` names, for the planner preset ``config`` and the scenario's
-    ``robot``: an object with ``reset()``, ``decide(observation)`` and ``sample_time_s``."""
-    if spec.name in ("gpc", "nn"):
-        from .commands.common import make_controller
-        return make_controller(spec.name, config, robot, spec.model, spec.mode, spec.passes)
-    controller = _make_peer(spec.name, config, robot) if spec.name in PEERS else _make_user(spec.name)
-    return _shielded(controller, config, robot, spec.mode)
+    ``robot``, behind the check layer as its mode and the registry say: an object with
+    ``reset()``, ``decide(observation)`` and ``sample_time_s``."""
+    mode = spec.mode
+    if mode not in SHIELD_MODES:
+        raise UsageError(f"unknown shield mode {spec.shield!r} (choose from {', '.join(SHIELD_MODES)})")
+    controller = _make_base(spec, config, robot)
+    if mode == "off":
+        return controller
+    from casadi_gpc.safety import Shield
+    settings = check_settings(spec.name, controller, config, mode)
+    try:
+        return Shield(controller, robot, settings, planner_config=config)
+    except ImportError as exc:  # the planner on standby needs CasADi
+        raise UsageError(f"--shield-fallback gpc needs the planner ({exc}); use --shield-fallback brake") from None
+
+
+def make_controller(kind: str, config, robot, model=None, shield: str | None = None, passes: int | None = None):
+    """:func:`make` from loose arguments (``shield``: a mode of :data:`SHIELD_MODES`, or
+    ``brake``, the older name of ``on``; None: the controller's default)."""
+    return make(ControllerSpec(kind, model, shield, passes), config, robot)
 
 
 def check(spec: ControllerSpec, config, robot) -> None:
@@ -176,7 +277,6 @@ def check(spec: ControllerSpec, config, robot) -> None:
     name, a user class that does not load or answer the protocol, ``mppi`` without torch,
     ``nn`` with a bad model, an unknown shield mode. Options meant for ``nn`` given to
     another controller are refused too."""
-    from .commands.common import SHIELD_MODES
     if spec.name != "nn" and (spec.model is not None or spec.passes is not None):
         raise UsageError(f"--model and --passes are options of --controller nn, not of {spec.name}")
     if spec.mode not in SHIELD_MODES:
@@ -221,11 +321,25 @@ def parse_controller_list(text: str) -> list[str]:
     return list(dict.fromkeys(names))
 
 
+def shield_mode(args, kind: str | None = None) -> str:
+    """The check layer's mode (:data:`SHIELD_MODES`) from the controller options."""
+    kind = kind or getattr(args, "controller", "gpc")
+    default = DEFAULT_SHIELD.get(kind, "off")
+    mode = getattr(args, "shield", None) or default
+    if mode == "on" and default != "off":
+        # --shield asks for the check layer, which gpc and nn run behind already: as they do
+        # (for nn, with the GPC on standby; --shield-fallback brake for the manoeuvres alone)
+        mode = default
+    fallback = getattr(args, "shield_fallback", None)
+    if mode != "off" and fallback is not None:
+        mode = "gpc" if fallback == "gpc" else "on"
+    return mode
+
+
 def spec_from_args(args, name: str | None = None) -> ControllerSpec:
     """The :class:`ControllerSpec` the options give (:func:`gpcnav.commands.common.add_controller_arguments`).
     With ``name`` (one of ``--controllers``) the network's options go to ``nn`` only; without,
     they go to ``--controller`` as given, and :func:`check` refuses them for another one."""
-    from .commands.common import shield_mode
     if name is None:
         name = args.controller
         return ControllerSpec(name, args.model, shield_mode(args, name), args.passes)

@@ -1,6 +1,6 @@
 """``gpcnav/Navigation-v0``: gpcnav's episodes as a Gymnasium environment (the ``gym`` extra).
 
-Built on :class:`casadi_gpc.simulator.Episode`, so an agent drives exactly the robot, the
+Built on :class:`scenarios.simulator.Episode`, so an agent drives exactly the robot, the
 movers, the sensor and the outcome rules the controllers are evaluated with.
 
 Making it::
@@ -54,9 +54,9 @@ from gymnasium.core import Env
 from gymnasium.envs.registration import register, registry
 
 from casadi_gpc.config import preset as preset_config
-from casadi_gpc.ekf import EKFSettings
-from casadi_gpc.simulator import Episode
-from casadi_gpc.tracking import TrackBank
+from casadi_gpc.estimation.ekf import EKFSettings
+from scenarios.simulator import Episode
+from casadi_gpc.estimation.tracking import TrackBank
 from casadi_gpc.types import ControlDecision, Observation
 from nn_export.runtime.features import wrap_pi
 

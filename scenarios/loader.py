@@ -93,7 +93,7 @@ _TOP_KEYS = {"name", "description", "duration_s", "robot", "reference", "moving_
 _CONSTANT_KEYS = {"position", "heading_deg", "speed_mps", "turn_rate_deg_s", "radius_m", "behaviour"}
 _WALKER_KEYS = {"position", "radius_m", "behaviour", "goal", "preferred_speed_mps", "sees_robot"}
 BEHAVIOURS = ("constant", "orca", "social_force")
-"""What a moving obstacle may do: keep its course, or walk to a goal (casadi_gpc.movers)."""
+"""What a moving obstacle may do: keep its course, or walk to a goal (scenarios.movers)."""
 
 
 def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:

@@ -34,7 +34,7 @@ class MovingObstacleSpec:
 class WalkerSpec:
     """A mover that walks to a goal at its preferred speed and avoids the other movers
     (``behaviour`` ``"orca"`` or ``"social_force"``: navground's ORCA or social force model;
-    :mod:`casadi_gpc.movers`), and the robot when ``sees_robot``. It stands at its goal
+    :mod:`scenarios.movers`), and the robot when ``sees_robot``. It stands at its goal
     once there."""
 
     position_m: tuple[float, float]

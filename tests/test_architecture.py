@@ -1,6 +1,7 @@
 """The house rules of docs/architecture.md, read from the source (ast), so that they stay
-true: imports go one way between the floors, no import circle, no module over 500 lines,
-and the numpy-only modules import with CasADi and torch made unimportable."""
+true: imports go one way between the floors and between the rooms of ``casadi_gpc``, the
+robot's side imports nothing of the world it is tested in, no import circle, no module over
+500 lines, and the numpy-only modules import with CasADi and torch made unimportable."""
 from __future__ import annotations
 
 import ast
@@ -66,7 +67,47 @@ def test_imports_go_one_way_between_the_floors():
                 wrong.append((name, t))
             if name.startswith("scenarios") and top == "nn_export":
                 wrong.append((name, t))
+            if name.startswith("casadi_gpc") and top == "scenarios":  # the robot never imports the world
+                wrong.append((name, t))
     assert not wrong
+
+
+ROOMS = ("", "estimation", "problem", "solvers", "planner", "safety")
+"""The rooms of ``casadi_gpc`` from the bottom up ("" : the modules at its top, the model, the
+reference, the typed data, the presets, file writing, the worker pool): a room imports only
+rooms below it (docs/architecture.md). The package's own ``__init__`` is its front desk and
+reaches any room."""
+
+
+def _room(name: str) -> str:
+    parts = name.split(".")
+    return parts[1] if len(parts) >= 2 and parts[1] in ROOMS else ""
+
+
+def test_rooms_of_the_robot_import_downwards_only():
+    wrong = []
+    for name, targets in _graph().items():
+        if not name.startswith("casadi_gpc.") or name == "casadi_gpc":
+            continue
+        here = ROOMS.index(_room(name))
+        for t in targets:
+            if t.startswith("casadi_gpc.") and ROOMS.index(_room(t)) > here:
+                wrong.append((name, t))
+    assert not wrong
+
+
+def test_the_world_lives_outside_the_robot():
+    """The simulator, the movers, the episode measures and the plots are ``scenarios``'s; no
+    module of that kind is left under ``casadi_gpc``, and no room of it is missing."""
+    mods = _modules()
+    world = ("simulator", "movers", "metrics", "plots", "bench", "bench_decisions")
+    assert not [m for m in mods if m.startswith("casadi_gpc.") and m.rsplit(".", 1)[1] in world]
+    for m in ("scenarios.simulator", "scenarios.movers", "scenarios.metrics", "scenarios.plots",
+              "casadi_gpc.estimation.ekf", "casadi_gpc.problem.cost", "casadi_gpc.planner.gpc",
+              "casadi_gpc.solvers", "casadi_gpc.safety.shield"):
+        assert m in mods, m
+    tops = {n.split(".")[1] for n in mods if n.startswith("casadi_gpc.")}
+    assert tops <= set(ROOMS) | {"robot", "reference", "progress", "types", "config", "io", "pool", "buffered"}
 
 
 def test_no_import_circle():
@@ -109,8 +150,9 @@ def test_numpy_only_modules_import_without_casadi_or_torch():
     """The deployed floor and the numpy-only rooms of casadi_gpc import with torch, CasADi,
     onnx, scipy and matplotlib blocked."""
     names = ["nn_export.runtime.layouts", "nn_export.runtime.situation", "nn_export.runtime.features",
-             "nn_export.runtime.tracker", "nn_export.runtime.policy", "casadi_gpc.tracking", "casadi_gpc.selection",
-             "casadi_gpc.safety", "casadi_gpc.pool", "casadi_gpc.io", "casadi_gpc.ekf", "casadi_gpc.robot"]
+             "nn_export.runtime.tracker", "nn_export.runtime.policy", "casadi_gpc.estimation",
+             "casadi_gpc.estimation.tracking", "casadi_gpc.estimation.ekf_batch", "casadi_gpc.problem.selection",
+             "casadi_gpc.planner", "casadi_gpc.safety", "casadi_gpc.pool", "casadi_gpc.io", "casadi_gpc.robot"]
     script = BLOCKER + "import importlib\n" + "".join(f"importlib.import_module({n!r})\n" for n in names) + \
         "print('OK')\n"
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120, cwd=REPO)

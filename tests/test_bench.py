@@ -1,4 +1,4 @@
-"""The solver benchmark (casadi_gpc.bench and ``gpcnav bench``): what is recorded, how the
+"""The solver benchmark (gpcnav.benchmarks.solvers and ``gpcnav bench``): what is recorded, how the
 rows are computed, the choice of the solver, the policy extension point, the command line."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from casadi_gpc.bench import (AGREE_FRACTION, REFERENCE, SAME_COST_RELATIVE, choose_solver, policy_rows,
+from gpcnav.benchmarks.solvers import (AGREE_FRACTION, REFERENCE, SAME_COST_RELATIVE, choose_solver, policy_rows,
                               record_problems, run_bench, speedups)
 from casadi_gpc.config import PRESETS
 from casadi_gpc.types import ControlDecision
@@ -213,9 +213,9 @@ def test_a_network_decisions_parts_are_disjoint_stretches_of_its_time():
     are disjoint stretches of the time the simulator takes for the decision: each positive,
     their sum below it. The bench reports their medians; a controller whose decisions do not
     say them gets none."""
-    from casadi_gpc.bench_decisions import decision_parts, policy_decision_run
+    from gpcnav.benchmarks.decisions import decision_parts, policy_decision_run
     from casadi_gpc.config import preset
-    from casadi_gpc.simulator import simulate
+    from scenarios.simulator import simulate
     from gpcnav.controllers import ControllerSpec, make
     from scenarios import Suite
     sc = Suite("circle-crossing", 1, 1, 10, "orca").scenario(0)

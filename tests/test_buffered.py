@@ -50,7 +50,7 @@ def test_an_nlp_solved_through_the_buffer_equals_the_ordinary_solve():
     """The planner's SQP backend through its buffer against the same CasADi solver called the
     ordinary way (DM in, DM out), on a recorded crossing problem: the same numbers."""
     from casadi_gpc.config import preset
-    from casadi_gpc.cost import build_problem
+    from casadi_gpc.problem.cost import build_problem
     from casadi_gpc.solvers import make_backend
 
     cfg = preset("paper")

@@ -1,11 +1,11 @@
-"""Persistent candidates (casadi_gpc.candidates): the bookkeeping on constructed plans, and
+"""Persistent candidates (casadi_gpc.planner.candidates): the bookkeeping on constructed plans, and
 the planner's chosen plans against the full multi-start on recorded closed-loop problems."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from casadi_gpc.candidates import CandidateSet, shift
+from casadi_gpc.planner.candidates import CandidateSet, shift
 from casadi_gpc.solvers.base import SolveResult
 
 H = 3
@@ -16,7 +16,7 @@ class P(SolveResult):
 
 
 def plan(guess, cost, u=None, ok=True):
-    from casadi_gpc.gpc import Plan
+    from casadi_gpc.planner.gpc import Plan
     u = np.full(2 * H, cost / 100.0) if u is None else np.asarray(u, float)
     return Plan(u, cost, ok, "ok", 3, np.arange(2 * H, dtype=float), np.arange(2 * H, dtype=float), guess=guess)
 
@@ -99,7 +99,7 @@ def test_persistent_candidates_choose_the_full_multistarts_plan_on_recorded_prob
     """The paper's scenes run closed loop with the full multi-start; the persistent candidates
     solve the same sequence of problems. Measured: as good (cost within 1e-6 relative, or
     lower) at every step, with 2 to 4 solves a step against the multi-start's 6 to 7."""
-    from casadi_gpc.bench_decisions import compare_candidates, record_ticks
+    from gpcnav.benchmarks.decisions import compare_candidates, record_ticks
     from casadi_gpc.config import preset
     from scenarios import PAPER_DIR, load_scenario
 
@@ -121,8 +121,8 @@ def test_a_head_on_mover_is_passed_on_the_right_whatever_the_solver():
     from dataclasses import replace
 
     from casadi_gpc.config import PRESETS
-    from casadi_gpc.gpc import GPCController
-    from casadi_gpc.simulator import simulate
+    from casadi_gpc.planner.gpc import GPCController
+    from scenarios.simulator import simulate
     from scenarios import paper_scenarios
 
     sc = paper_scenarios()[0]
@@ -138,7 +138,7 @@ def test_a_head_on_mover_is_passed_on_the_right_whatever_the_solver():
 
 
 def test_a_plan_falls_off_the_ridge_only_from_straight_to_turning():
-    from casadi_gpc.gpc import STRAIGHT_MPS, _fell_off_a_ridge
+    from casadi_gpc.planner.gpc import STRAIGHT_MPS, _fell_off_a_ridge
     straight = plan("swerve_right", 1.0, np.tile([0.05, 0.05], H))
     turning = plan("warm", 1.0, np.tile([0.05, 0.05 - 3 * STRAIGHT_MPS], H))
     slightly = plan("warm", 1.0, np.tile([0.05, 0.05 - 0.5 * STRAIGHT_MPS], H))
@@ -153,7 +153,7 @@ def test_the_relevance_memory_in_samples_per_preset():
     """improved remembers 3 s (six samples of 0.5 s); paper one sample of 1.5 s, the rule
     before the memory (a walker moves 2 m between its samples)."""
     from casadi_gpc.config import preset
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
 
     assert GPCController(preset("improved")).candidates.memory_steps == 6
     assert GPCController(preset("paper")).candidates.memory_steps == 1

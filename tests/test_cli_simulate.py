@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.gpc import GPCController
-from casadi_gpc.metrics import run_document
-from casadi_gpc.simulator import simulate
+from casadi_gpc.planner.gpc import GPCController
+from scenarios.metrics import run_document
+from scenarios.simulator import simulate
 from conftest import PAPER_DIR, REPO, check_run_document
 from scenarios import paper_scenarios
 

@@ -96,7 +96,7 @@ def test_shield_keeps_the_network_s_planner_on_standby():
     ``--shield-fallback brake`` is the way to the manoeuvres alone."""
     import argparse
 
-    from gpcnav.commands.common import shield_mode
+    from gpcnav.controllers import shield_mode
 
     def mode(kind, shield=None, fallback=None):
         return shield_mode(argparse.Namespace(shield=shield, shield_fallback=fallback), kind)

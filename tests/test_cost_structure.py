@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.cost import FAR_AWAY_M, ParameterLayout, build_problem
-from casadi_gpc.ekf_floats import propagate
-from casadi_gpc.forecast_function import ForecastFunction
+from casadi_gpc.problem.cost import FAR_AWAY_M, ParameterLayout, build_problem
+from casadi_gpc.estimation.ekf_floats import propagate
+from casadi_gpc.estimation.forecast_function import ForecastFunction
 from casadi_gpc.solvers.hessian import cost_hessian
 from casadi_gpc.solvers.sqp import lagrangian_hessian
 from casadi_gpc.types import ObstacleForecast, StaticObstacle

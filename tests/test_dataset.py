@@ -230,7 +230,7 @@ def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, t
     n = len(arrays["labels"])
     assert n == 2 * (12 - stats["not_converged"])
     # the visited situations are what the deployed tracker sees: recompute the first one
-    from casadi_gpc.simulator import simulate
+    from scenarios.simulator import simulate
     from nn_export.runtime.tracker import SituationTracker
     seen = []
 

@@ -61,7 +61,7 @@ def test_policy_runs_with_torch_and_casadi_blocked():
 
 def test_the_blocker_really_blocks():
     """The same blocker makes an import of the planner (which needs casadi) fail."""
-    out = subprocess.run([sys.executable, "-c", BLOCKER + "import casadi_gpc.gpc"], capture_output=True, text=True,
+    out = subprocess.run([sys.executable, "-c", BLOCKER + "import casadi_gpc.planner.gpc"], capture_output=True, text=True,
                          timeout=60)
     assert out.returncode != 0 and "blocked" in out.stderr
 

@@ -1,4 +1,4 @@
-"""The obstacle EKF (casadi_gpc.ekf): convergence, predicted covariance against Monte Carlo,
+"""The obstacle EKF (casadi_gpc.estimation.ekf): convergence, predicted covariance against Monte Carlo,
 missing measurements and outliers."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step, planning_covariances
+from casadi_gpc.estimation.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step, planning_covariances
 from casadi_gpc.robot import RobotState
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.types import ObstacleMeasurement, Observation
@@ -209,7 +209,7 @@ def test_an_obstacle_that_stops_dead_is_a_ghost_then_a_manoeuvre():
 
 
 def test_controller_counts_missed_measurements_and_outliers():
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
     cfg = PRESETS["paper"]
     ctrl = GPCController(cfg)
     ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(10.0),), 0.4)
@@ -272,7 +272,7 @@ def test_closed_form_matches_the_matrix_form(T):
 
 
 def test_a_track_seen_once_is_planned_with_its_next_step_uncertainty():
-    from casadi_gpc.ekf import planning_covariances
+    from casadi_gpc.estimation.ekf import planning_covariances
     ekf = ObstacleEKF(0.5)
     ekf.step(np.array([5.0, 1.0]))
     assert not ekf.initialised

@@ -1,4 +1,4 @@
-"""The forecasts of many tracks made together (casadi_gpc.ekf_batch) against the textbook
+"""The forecasts of many tracks made together (casadi_gpc.estimation.ekf_batch) against the textbook
 matrix form step by step, the bank's rows (a track seen once, planning covariances), and
 their use by the deployed tracker and the check (the same numbers as track by track)."""
 from __future__ import annotations
@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from casadi_gpc.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step
-from casadi_gpc.ekf_batch import MANY_TRACKS, ForecastBatch, forecast_many
-from casadi_gpc.ekf_floats import upper
+from casadi_gpc.estimation.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step
+from casadi_gpc.estimation.ekf_batch import MANY_TRACKS, ForecastBatch, forecast_many
+from casadi_gpc.estimation.ekf_floats import upper
 from casadi_gpc.safety.check import forecast_arrays, forecast_covariances, shared_batch
 from casadi_gpc.types import ObstacleMeasurement
 from nn_export.runtime.situation import track_estimate, track_estimates

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import preset
-from casadi_gpc.ekf import ObstacleEKF
+from casadi_gpc.estimation.ekf import ObstacleEKF
 from casadi_gpc.robot import RobotParams
-from casadi_gpc.simulator import simulate
+from scenarios.simulator import simulate
 from casadi_gpc.types import ObstacleMeasurement
 from scenarios import Faults, load_scenario
 from scenarios.model import MovingObstacleSpec
@@ -160,7 +160,7 @@ def assert_commands_finite_within_limits(log, controller_name):
 @pytest.fixture(scope="module")
 def gpc():
     pytest.importorskip("casadi")
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
     return GPCController(preset("improved"))
 
 
@@ -218,7 +218,7 @@ def test_every_solve_failing_brakes_within_the_limits_and_never_collides(write_s
     the path ahead): the GPC follows what is left of its last plan, then brakes at the
     acceleration limit, stops, and never touches the obstacle."""
     pytest.importorskip("casadi")
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
 
     ctrl = GPCController(preset("improved"))
     text = """
@@ -311,7 +311,7 @@ class _FakeSolver:
 @pytest.mark.parametrize("mode", ["raise", "nan"])
 def test_a_solve_that_raises_or_returns_nan_is_a_counted_fallback(mode):
     pytest.importorskip("casadi")
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
 
     # one CasADi solver behind the backend (one lane: the fake stands in for that solver's
     # buffer, a second lane would have its own), and no second try by the backup solver (issue 3)
@@ -335,7 +335,7 @@ def test_a_solve_over_its_time_budget_does_not_block_the_loop():
     """A solver that takes 0.12 s against a 0.05 s budget: the late answer is not used, the
     remaining starts are skipped, the step returns after one solve, counted."""
     pytest.importorskip("casadi")
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
 
     ctrl = GPCController(preset("improved").with_overrides(time_budget_s=0.05, solver="sqpmethod-daqp", solve_lanes=1))
     ctrl.backend.solver = _FakeSolver(ctrl.backend.solver, "slow", sleep_s=0.12)

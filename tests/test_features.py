@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import preset
-from casadi_gpc.ekf import ObstacleEKF
+from casadi_gpc.estimation.ekf import ObstacleEKF
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotState
 from casadi_gpc.types import ObstacleMeasurement, Observation, StaticObstacle

@@ -13,8 +13,8 @@ import pytest
 from scipy.optimize import LinearConstraint, minimize
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.gpc import GPCController
-from casadi_gpc.guesses import initial_guesses
+from casadi_gpc.planner.gpc import GPCController
+from casadi_gpc.planner.guesses import initial_guesses
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams
 from casadi_gpc.types import ObstacleForecast, StaticObstacle

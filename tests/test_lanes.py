@@ -1,4 +1,4 @@
-"""casadi_gpc.lanes: starts solved at once in threads give the very answers solved one after
+"""casadi_gpc.planner.lanes: starts solved at once in threads give the very answers solved one after
 the other, and the planner's closed loop does not depend on the number of lanes."""
 from dataclasses import replace
 
@@ -8,17 +8,17 @@ import pytest
 pytest.importorskip("casadi")
 
 from casadi_gpc.config import preset  # noqa: E402
-from casadi_gpc.cost import build_problem  # noqa: E402
-from casadi_gpc.gpc import GPCController  # noqa: E402
-from casadi_gpc.lanes import SolveLanes  # noqa: E402
-from casadi_gpc.safety import Shield  # noqa: E402
-from casadi_gpc.simulator import simulate  # noqa: E402
+from casadi_gpc.problem.cost import build_problem  # noqa: E402
+from casadi_gpc.planner.gpc import GPCController  # noqa: E402
+from casadi_gpc.planner.lanes import SolveLanes  # noqa: E402
+from casadi_gpc.safety import CheckSettings, Shield  # noqa: E402
+from scenarios.simulator import simulate  # noqa: E402
 from casadi_gpc.solvers import make_backend  # noqa: E402
 
 
 def _crossing_problems(cfg, n=12):
     """Parameters and cold starts of a crossing mover at several distances."""
-    from casadi_gpc.guesses import initial_guesses
+    from casadi_gpc.planner.guesses import initial_guesses
     from casadi_gpc.types import ObstacleForecast
 
     pr = build_problem(cfg)
@@ -87,7 +87,7 @@ def test_the_closed_loop_is_the_same_with_one_lane_or_two():
         # no time budget: what is compared is the answers, not how late a loaded machine gives
         # them (in one full-suite run a solve came back past the 0.5 s budget: over_budget 1)
         gpc = GPCController(preset("improved").with_overrides(solve_lanes=n, time_budget_s=1e6), sc.robot)
-        logs[n] = simulate(sc, Shield(gpc, sc.robot, trust_plans=True), "gpc")
+        logs[n] = simulate(sc, Shield(gpc, sc.robot, CheckSettings(trust_plans=True)), "gpc")
         counters[n] = dict(gpc.counters)
         assert gpc.lanes.count == n
     np.testing.assert_array_equal(np.asarray(logs[1].states), np.asarray(logs[2].states))

@@ -1,8 +1,8 @@
-"""Path comparison metrics (casadi_gpc.metrics): known answers on hand-made paths."""
+"""Path comparison metrics (scenarios.metrics): known answers on hand-made paths."""
 import numpy as np
 import pytest
 
-from casadi_gpc.metrics import path_deviation_m, same_instant_deviation_m
+from scenarios.metrics import path_deviation_m, same_instant_deviation_m
 
 
 def test_path_deviation_known_answers():
@@ -36,7 +36,7 @@ def test_path_deviation_is_symmetric_for_a_short_path():
 
 
 def test_clopper_pearson_upper_bound_against_known_values():
-    from casadi_gpc.metrics import clopper_pearson_upper
+    from scenarios.metrics import clopper_pearson_upper
     assert clopper_pearson_upper(0, 200) == pytest.approx(1 - 0.05 ** (1 / 200), abs=1e-12)  # 1.49 %
     assert round(100 * clopper_pearson_upper(0, 200), 2) == 1.49
     # R: binom.test(1, 200, alternative = "less")$conf.int[2] = 0.02350; binom.test(3, 10, ...) = 0.6066
@@ -48,7 +48,7 @@ def test_clopper_pearson_upper_bound_against_known_values():
 
 
 def test_path_length_of_exact_arcs():
-    from casadi_gpc.metrics import path_length_m
+    from scenarios.metrics import path_length_m
     # 0.4 m/s for 3 intervals of 0.5 s, then 0.2 m/s backwards (turning) for 2: 0.6 + 0.2 m
     states = [[0, 0, 0, 0, 0], [0, 0, 0, 0.4, 0.4], [0, 0, 0, 0.4, 0.4], [0, 0, 0, 0.4, 0.4],
               [0, 0, 0, -0.1, -0.3], [0, 0, 0, -0.1, -0.3]]

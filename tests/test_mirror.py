@@ -156,7 +156,7 @@ def _same_label(a, b, tol=1e-12):
 
 def _situations(cfg, layout_name, count, seed, shapes=None):
     """``count`` sampled situations (only those the fitted labeller solves on one of ``shapes``)."""
-    from casadi_gpc.selection import select_obstacles
+    from casadi_gpc.problem.selection import select_obstacles
     rng, out = np.random.default_rng(seed), []
     while len(out) < count:
         sit = sample_situation(rng, cfg, layout_name)

@@ -1,4 +1,4 @@
-"""Movers that react (casadi_gpc.movers, navground's ORCA and social force): known answers on
+"""Movers that react (scenarios.movers, navground's ORCA and social force): known answers on
 constructed encounters, and the scenario format's walkers."""
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from casadi_gpc.movers import CROWD_TIME_STEP_S, GOAL_TOLERANCE_M, MoverWorld
+from scenarios.movers import CROWD_TIME_STEP_S, GOAL_TOLERANCE_M, MoverWorld
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState
-from casadi_gpc.simulator import simulate
+from scenarios.simulator import simulate
 from casadi_gpc.types import ControlDecision, StaticObstacle
 from scenarios import ScenarioError, scenario_from_dict
 from scenarios.model import MovingObstacleSpec, Scenario, Sensing, WalkerSpec

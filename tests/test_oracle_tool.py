@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from casadi_gpc.simulator import simulate
+from scenarios.simulator import simulate
 from casadi_gpc.types import ControlDecision
 from scenarios import Suite
 

@@ -15,10 +15,10 @@ import pytest
 from conftest import straight_line_toml
 
 from casadi_gpc.config import preset
-from casadi_gpc.ekf import EKFSettings
-from casadi_gpc.metrics import episode_metrics
-from casadi_gpc.selection import planner_parameters
-from casadi_gpc.simulator import Episode, simulate
+from casadi_gpc.estimation.ekf import EKFSettings
+from scenarios.metrics import episode_metrics
+from casadi_gpc.problem.selection import planner_parameters
+from scenarios.simulator import Episode, simulate
 from conftest import REPO
 from gpcnav.peers.navground_peer import (HrvoSettings, NavgroundPeer, OrcaSettings, SocialForceSettings,
                                          limit_wheel_change)
@@ -95,7 +95,7 @@ def test_ekf_settings_for_another_sample_time_keep_the_noise_per_second():
     assert 5 * (f.speed_noise_mps2 * 0.1) ** 2 == pytest.approx((e.speed_noise_mps2 * 0.5) ** 2)
     # the turn increment is a turn rate times T: its rate's random walk is kept
     assert 5 * (f.turn_noise_rad / 0.1) ** 2 == pytest.approx((e.turn_noise_rad / 0.5) ** 2)
-    from casadi_gpc.ekf import ObstacleEKF
+    from casadi_gpc.estimation.ekf import ObstacleEKF
     rng = np.random.default_rng(0)
     spread = {}
     for T, s in ((0.5, e), (0.1, f)):
@@ -113,7 +113,7 @@ mppi_peer = pytest.importorskip("gpcnav.peers.mppi_peer")
 
 
 def test_mppi_plans_with_the_gpc_s_own_parameters():
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
     cfg = preset("improved")
     sc = paper_scenarios()[1]
     obs = Episode(sc, cfg.sample_time_s).observation()
@@ -125,7 +125,7 @@ def test_mppi_plans_with_the_gpc_s_own_parameters():
 
 
 def test_mppi_minimises_the_gpc_s_cost_towards_its_optimum():
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
     cfg = preset("improved")
     sc = _line(8.0, 40.0)
     obs = Episode(sc, cfg.sample_time_s).observation()

@@ -11,7 +11,7 @@ import pytest
 from casadi_gpc.config import preset
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState
-from casadi_gpc.safety import Shield
+from casadi_gpc.safety import CheckSettings, Shield
 from casadi_gpc.types import ControlDecision, Observation, ObstacleMeasurement, StaticObstacle
 from nn_export.runtime.layouts import layout_for
 
@@ -52,7 +52,7 @@ def test_the_shifted_previous_plan_is_the_safe_candidate(keep):
     ahead): a plan through the disc. With ``previous_plan`` the shield applies the braking
     plan shifted by one step (stand: 0.35 m of clearance) as the controller's own answer;
     without it, one of its manoeuvres, a fallback."""
-    sh = Shield(_Plans([BRAKE, INTO]), previous_plan=keep)
+    sh = Shield(_Plans([BRAKE, INTO]), settings=CheckSettings(previous_plan=keep))
     first = sh.decide(_obs(0.0, 0.8))
     assert not first.fallback and (first.v_right_mps, first.v_left_mps) == (0.4, 0.4)
     d = sh.decide(_obs(0.2, 0.4))
@@ -72,7 +72,7 @@ def test_the_shifted_previous_plan_is_the_safe_candidate(keep):
 
 
 def test_a_reset_forgets_the_previous_plan():
-    sh = Shield(_Plans([BRAKE, INTO]), previous_plan=True)
+    sh = Shield(_Plans([BRAKE, INTO]), settings=CheckSettings(previous_plan=True))
     sh.decide(_obs(0.0, 0.8))
     sh.reset()
     sh.policy.k = 1
@@ -145,7 +145,7 @@ def test_the_policy_runs_a_plan_network_as_a_plan(plan_model):
 
 
 def test_a_plan_network_runs_behind_the_check_with_its_previous_plan(plan_model):
-    from gpcnav.commands.common import make_controller
+    from gpcnav.controllers import make_controller
     path, _, _, _ = plan_model
     ctl = make_controller("nn", CFG, RobotParams(), path, "on")
     assert isinstance(ctl, Shield) and ctl.previous_plan and ctl.trust_plans

@@ -177,7 +177,7 @@ def situations(preset_name: str, observations) -> dict:
 
 def record(case: str) -> None:
     """Write ``tests/data/policy_decisions_{case}.npz`` with the code as it is."""
-    from casadi_gpc.simulator import simulate
+    from scenarios.simulator import simulate
     preset_name, sc = _scenario(case)
     pol = Shield(OnnxPolicy(preset=preset_name, crowd_model=None))  # the main network drives
     observations = []

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from casadi_gpc.config import preset
-from casadi_gpc.ekf import ObstacleEKF
+from casadi_gpc.estimation.ekf import ObstacleEKF
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, brake_wheels, robot_step, wheel_to_unicycle
 from casadi_gpc.types import ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
@@ -245,7 +245,7 @@ def observation_streams(draw, steps=3, T=0.5):
 @pytest.fixture(scope="module")
 def gpcs():
     pytest.importorskip("casadi")
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
     return {name: GPCController(preset(name)) for name in ("paper", "improved")}
 
 

@@ -1,16 +1,16 @@
 """A one-command network's roll-out (nn_export/runtime/rollout.py) against the features of
 the predicted situations built the public way, and the check layer that judges it as the
-network's plan (Shield(rollouts=True))."""
+network's plan (CheckSettings(rollouts=True))."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from casadi_gpc.config import preset
-from casadi_gpc.gpc import GPCController
+from casadi_gpc.planner.gpc import GPCController
 from casadi_gpc.robot import RobotParams, RobotState, robot_step_float
-from casadi_gpc.safety import Shield, StandbyPlanner
-from casadi_gpc.simulator import simulate
+from casadi_gpc.safety import CheckSettings, Shield, StandbyPlanner
+from scenarios.simulator import simulate
 from nn_export import OnnxPolicy
 from nn_export.runtime.features import compute_features
 from nn_export.runtime.situation import Situation, TrackEstimate, reference_rows
@@ -96,7 +96,7 @@ def test_the_check_lets_a_command_through_on_its_roll_out_only_when_the_roll_out
     sc = _crowd_scene(2)
     robot = sc.robot or RobotParams()
     sh = Shield(OnnxPolicy(preset="improved", robot=robot), robot,
-                fallback=StandbyPlanner(GPCController(CFG, robot)), rollouts=True)
+                CheckSettings(rollouts=True, fallback="planner"), standby=StandbyPlanner(GPCController(CFG, robot)))
     rec = _Recording(sh)
     log = simulate(sc, rec, "nn")
     c = sh.counters
@@ -129,7 +129,8 @@ def test_a_trusted_roll_out_passes_when_it_keeps_the_margin_that_long():
 
     def run(trust):
         sh = Shield(OnnxPolicy(preset="improved", robot=robot), robot,
-                    fallback=StandbyPlanner(GPCController(CFG, robot)), rollouts=True, trust_rollout_s=trust)
+                    CheckSettings(rollouts=True, trust_rollout_s=trust, fallback="planner"),
+                    standby=StandbyPlanner(GPCController(CFG, robot)))
         rec = _Recording(sh)
         simulate(sc, rec, "nn")
         return sh, rec
@@ -150,7 +151,7 @@ def test_a_trusted_roll_out_passes_when_it_keeps_the_margin_that_long():
     assert whole.counters["shield_rollout_trusted"] == 0
     assert c["interventions"] < whole.counters["interventions"]
     with pytest.raises(ValueError, match="trust_rollout_s"):
-        Shield(OnnxPolicy(preset="improved", robot=robot), robot, rollouts=True, trust_rollout_s=-1.0)
+        Shield(OnnxPolicy(preset="improved", robot=robot), robot, CheckSettings(rollouts=True, trust_rollout_s=-1.0))
 
 
 def test_rollouts_need_a_controller_that_rolls_out():
@@ -164,4 +165,4 @@ def test_rollouts_need_a_controller_that_rolls_out():
             raise AssertionError
 
     with pytest.raises(TypeError, match="rollout"):
-        Shield(_NoRollout(), rollouts=True)
+        Shield(_NoRollout(), settings=CheckSettings(rollouts=True))

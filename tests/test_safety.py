@@ -13,7 +13,7 @@ import pytest
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
-from casadi_gpc.safety import SafetyFilter, Shield, StandbyPlanner
+from casadi_gpc.safety import CheckSettings, SafetyFilter, Shield, StandbyPlanner
 
 from conftest import PAPER_DIR, check_run_document
 from synthetic_models import tracker_model
@@ -436,7 +436,7 @@ def test_standby_planner_replays_what_it_missed_exactly():
     reference clock as a GPC that saw every sample, and decides the same."""
     pytest.importorskip("casadi")
     from casadi_gpc.config import preset
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
 
     # the full multi-start at every step: the same answer whatever the planner solved before
     # (persistent candidates carry their history, which the standby planner does not have)
@@ -487,12 +487,12 @@ def tracker_path(tmp_path_factory):
 
 
 def _run(policy, scenario):
-    from casadi_gpc.simulator import simulate
+    from scenarios.simulator import simulate
     return simulate(scenario, policy, "nn")
 
 
 def test_obstacle_blind_network_collides_without_the_filter_and_not_with_it(tracker_path):
-    from casadi_gpc.metrics import run_document
+    from scenarios.metrics import run_document
     from nn_export import OnnxPolicy
     from scenarios import load_scenario
 
@@ -523,13 +523,13 @@ def test_obstacle_blind_network_collides_without_the_filter_and_not_with_it(trac
 
 def test_the_gpc_on_standby_takes_over(tracker_path):
     pytest.importorskip("casadi")
-    from casadi_gpc.gpc import GPCController
+    from casadi_gpc.planner.gpc import GPCController
     from nn_export import OnnxPolicy
     from scenarios import load_scenario
 
     head_on = load_scenario(HEAD_ON)
-    pol = Shield(OnnxPolicy(tracker_path, preset="improved"),
-                 fallback=StandbyPlanner(GPCController(preset_config("improved"), head_on.robot)))
+    pol = Shield(OnnxPolicy(tracker_path, preset="improved"), settings=CheckSettings(fallback="planner"),
+                 standby=StandbyPlanner(GPCController(preset_config("improved"), head_on.robot)))
     log = _run(pol, head_on)
     assert log.outcome == "reached_goal" and log.min_clearance_m > 0.0
     assert pol.counters["shield_fallback_used"] > 0
@@ -577,7 +577,7 @@ def test_shipped_network_with_faults_does_not_collide_behind_the_filter():
     every intervention a counted fallback."""
     from dataclasses import replace
 
-    from casadi_gpc.simulator import simulate
+    from scenarios.simulator import simulate
     from nn_export import OnnxPolicy
     from scenarios import Faults, random_suite
 
@@ -602,7 +602,7 @@ def test_filter_costs_at_most_30_percent_of_the_decision(tmp_path, preset_name):
     0.28-0.36 on main under load 4, and 0.31-0.35 once the one-pass decision it is measured
     against was made 2.6 times lighter, branch nnspeed: the bound is for a filter that
     grows, not for a decision that shrinks)."""
-    from casadi_gpc.simulator import simulate
+    from scenarios.simulator import simulate
     from nn_export import OnnxPolicy
     from nn_export.runtime.policy import shipped_model_path
     from scenarios import load_scenario
@@ -753,7 +753,7 @@ def test_a_trusted_plan_gives_way_to_an_alternative_that_keeps_the_margin_all_al
 def test_the_planner_goes_behind_the_check_with_safer_alternatives_where_measured(preset_name):
     from casadi_gpc.config import preset
     from casadi_gpc.safety import SAFER_ALTERNATIVES
-    from gpcnav.commands.common import make_controller
+    from gpcnav.controllers import make_controller
     cfg = preset(preset_name)
     assert make_controller("gpc", cfg, ROBOT).filter.safer_alternatives is SAFER_ALTERNATIVES[preset_name]
     assert SAFER_ALTERNATIVES == {"paper": False, "improved": True}

@@ -1,4 +1,4 @@
-"""The closed loop (casadi_gpc.simulator) and the RUN document: outcome rules with known
+"""The closed loop (scenarios.simulator) and the RUN document: outcome rules with known
 answers, collisions between samples, reproducibility from the seed, RUN.json fields."""
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.gpc import GPCController
-from casadi_gpc.metrics import episode_metrics, longest_stop_s, run_document
+from casadi_gpc.planner.gpc import GPCController
+from scenarios.metrics import episode_metrics, longest_stop_s, run_document
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState
-from casadi_gpc.simulator import GOAL_TOLERANCE_M, SUBSTEPS, simulate
+from scenarios.simulator import GOAL_TOLERANCE_M, SUBSTEPS, simulate
 from casadi_gpc.types import ControlDecision, StaticObstacle
 from conftest import check_run_document
 from scenarios import paper_scenarios, random_scenario, random_suite
@@ -240,7 +240,7 @@ def test_the_improved_gpc_does_not_swerve_from_an_obstacle_it_has_seen_once():
     """Fig. 7.2 under improved: the crossing obstacle is 10 m away when first seen; its
     standing-still forecast with an uncertainty growing 1 m/s x t used to push the robot
     0.55 m off the path in the first 5 s. Planned with its next step's uncertainty
-    (casadi_gpc.ekf.planning_covariances), the robot stays on the path, and it is counted."""
+    (casadi_gpc.estimation.ekf.planning_covariances), the robot stays on the path, and it is counted."""
     from dataclasses import replace
     sc = replace(paper_scenarios()[1], duration_s=5.0)
     ctrl = GPCController(PRESETS["improved"], sc.robot)

@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 
 from casadi_gpc import solvers
-from casadi_gpc.bench import record_problems
+from gpcnav.benchmarks.solvers import record_problems
 from casadi_gpc.config import PRESETS
-from casadi_gpc.cost import build_problem
-from casadi_gpc.gpc import GPCController
-from casadi_gpc.simulator import simulate
+from casadi_gpc.problem.cost import build_problem
+from casadi_gpc.planner.gpc import GPCController
+from scenarios.simulator import simulate
 from casadi_gpc.solvers import (COMPILE_EVENTS, FASTEST_SOLVER, SOLVER_NAMES, SolveResult, canonical_name,
                                 constraint_violation_mps, make_backend, project_increments)
 from scenarios import Faults, paper_scenarios

@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from casadi_gpc.metrics import passing_sides
+from scenarios.metrics import passing_sides
 from nn_export.training.labels import GUESS_NAMES, Label
 from nn_export.training.ties import LEFT, RIGHT, choose, passing_side, prefers_right
 
@@ -80,7 +80,7 @@ def test_plain_mirror_without_margin_swaps_wheels():
 
 
 def test_passing_sides_of_runs():
-    """casadi_gpc.metrics.passing_sides: a robot driving +x past an obstacle that stands at
+    """scenarios.metrics.passing_sides: a robot driving +x past an obstacle that stands at
     (5, 0) passes it on the right when it goes by at y = -1, on the left at y = +1."""
     x = np.linspace(0.0, 10.0, 21)
     obstacle = np.tile([[5.0, 0.0]], (21, 1, 1))

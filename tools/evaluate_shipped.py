@@ -8,7 +8,7 @@ passes (metadata ``decision_passes``):
 * the paper's three Fig. 7 situations: the GPC, the network as ``gpcnav simulate
   --controller nn`` runs it (safety filter with the GPC on standby) and the bare network;
   outcome, clearance, fallbacks, and the deviation of the network's path from the GPC's,
-  as curves (casadi_gpc.metrics.path_deviation_m) and at the same sample instants;
+  as curves (scenarios.metrics.path_deviation_m) and at the same sample instants;
 * the random suite (200 episodes, seed 1): GPC, network behind the filter, bare network;
 * the encounters suite (the Fig. 7 family, 100 episodes, seed 1): the same path deviations
   per episode, bare network;
@@ -34,9 +34,9 @@ sys.path.insert(0, str(ROOT))
 
 from casadi_gpc.config import PRESETS  # noqa: E402
 from casadi_gpc.io import save_figure, write_json, write_text  # noqa: E402
-from casadi_gpc.metrics import path_deviation_m, same_instant_deviation_m  # noqa: E402
-from casadi_gpc.simulator import simulate  # noqa: E402
-from gpcnav.commands.common import make_controller  # noqa: E402
+from scenarios.metrics import path_deviation_m, same_instant_deviation_m  # noqa: E402
+from scenarios.simulator import simulate  # noqa: E402
+from gpcnav.controllers import make_controller  # noqa: E402
 from gpcnav.commands.evaluate import evaluate  # noqa: E402
 from nn_export.runtime.policy import OnnxPolicy, shipped_model_path  # noqa: E402
 from scenarios import paper_scenarios, random_suite  # noqa: E402

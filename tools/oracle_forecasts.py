@@ -24,11 +24,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from casadi_gpc.config import preset  # noqa: E402
-from casadi_gpc.gpc import GPCController  # noqa: E402
-from casadi_gpc.movers import MoverWorld  # noqa: E402
-from casadi_gpc.simulator import simulate  # noqa: E402
+from casadi_gpc.planner.gpc import GPCController  # noqa: E402
+from scenarios.movers import MoverWorld  # noqa: E402
+from scenarios.simulator import simulate  # noqa: E402
 from casadi_gpc.types import ObstacleForecast  # noqa: E402
-from gpcnav.commands.common import behind_shield  # noqa: E402
+from casadi_gpc.safety import CheckSettings, Shield  # noqa: E402
 from scenarios import Suite  # noqa: E402
 
 
@@ -80,7 +80,7 @@ def main(argv=None) -> int:
             truth = true_positions(sc, T, H)
             gpc = OracleGPC(cfg, sc.robot)
             gpc.use_truth(truth, [m.radius_m for m in sc.moving], args.std)
-            log = simulate(sc, behind_shield(gpc, cfg, sc.robot, "on", trust_plans=True), "gpc-oracle")
+            log = simulate(sc, Shield(gpc, sc.robot, CheckSettings(trust_plans=True)), "gpc-oracle")
             recorded = np.array(log.obstacle_xy)[:, :len(sc.moving)]
             assert np.array_equal(truth[:len(recorded)], recorded), "the oracle's positions are not the simulator's"
             worst = np.inf  # the worst clearance of the plans against the true positions

@@ -14,8 +14,8 @@ another seed), export once per number of passes, and measure:
 
 * the paper's three Fig. 7 situations, bare network and behind the safety filter (GPC on
   standby): outcome, the largest distance from the GPC's path (as curves, and at the same
-  sample instant, ``casadi_gpc.metrics``), and whether every obstacle was passed on the
-  GPC's side (``casadi_gpc.metrics.passing_sides``);
+  sample instant, ``scenarios.metrics``), and whether every obstacle was passed on the
+  GPC's side (``scenarios.metrics.passing_sides``);
 * ``encounters`` (the Fig. 7 family, seed 1), bare: the share of episodes whose path stays
   within 0.25 m of the GPC's, the median distance, and the share passed on the GPC's side;
 * ``random`` (seed 1): reached / collided, bare and behind the filter.
@@ -42,7 +42,7 @@ sys.path.insert(0, str(ROOT))
 
 from casadi_gpc.config import preset  # noqa: E402
 from casadi_gpc.io import write_json, write_text  # noqa: E402
-from casadi_gpc.metrics import passing_sides, path_deviation_m, same_instant_deviation_m  # noqa: E402
+from scenarios.metrics import passing_sides, path_deviation_m, same_instant_deviation_m  # noqa: E402
 from casadi_gpc.pool import WorkerPool  # noqa: E402
 from scenarios import paper_scenarios, random_suite  # noqa: E402
 
@@ -58,14 +58,14 @@ def _controller(kind: str, model, safety: str, passes, robot, tie_margin):
             from nn_export.training.two_pass import TwoPassGPC
             _WORKER[key] = TwoPassGPC(Labeller(CONFIG, robot, tie_margin=tie_margin), kind.split("-")[1])
         else:
-            from gpcnav.commands.common import make_controller
+            from gpcnav.controllers import make_controller
             _WORKER[key] = make_controller(kind, CONFIG, robot, model, safety, passes)
     return _WORKER[key]
 
 
 def _run(index, job):
     """Worker: one episode; returns the path, the obstacles' paths and the outcome."""
-    from casadi_gpc.simulator import simulate
+    from scenarios.simulator import simulate
     scenario, kind, model, safety, passes, tie_margin = job
     log = simulate(scenario, _controller(kind, model, safety, passes, scenario.robot, tie_margin), kind)
     return index, {"xy": np.asarray(log.states)[:, :2], "obstacles": np.asarray(log.obstacle_xy),

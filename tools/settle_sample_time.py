@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from casadi_gpc.config import preset
-from casadi_gpc.gpc import GPCController
-from casadi_gpc.metrics import episode_metrics
-from casadi_gpc.simulator import simulate
+from casadi_gpc.planner.gpc import GPCController
+from scenarios.metrics import episode_metrics
+from scenarios.simulator import simulate
 from scenarios import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

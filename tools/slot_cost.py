@@ -20,10 +20,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from casadi_gpc.candidates import START_ORDER  # noqa: E402
+from casadi_gpc.planner.candidates import START_ORDER  # noqa: E402
 from casadi_gpc.config import preset  # noqa: E402
-from casadi_gpc.gpc import GPCController  # noqa: E402
-from casadi_gpc.simulator import simulate  # noqa: E402
+from casadi_gpc.planner.gpc import GPCController  # noqa: E402
+from scenarios.simulator import simulate  # noqa: E402
 from scenarios import Suite  # noqa: E402
 
 

@@ -48,7 +48,7 @@ the filter **intervenes**, in this order:
 
 A moving obstacle seen only once (``initialised`` false on the policy's track estimate:
 speed and heading unknown) is checked as the planner plans with it
-(:func:`casadi_gpc.ekf.planning_covariances`): standing where it was seen, with its next
+(:func:`casadi_gpc.estimation.ekf.planning_covariances`): standing where it was seen, with its next
 step's uncertainty; each such check is counted (``unestimated_tracks``). The EKF's own
 forecast grows that uncertainty without information, so that every option "fails" it some
 seconds ahead; the next sample gives it a velocity and the full check.
@@ -66,14 +66,17 @@ horizon (counted ``alternative_safer``).
 
 Rooms: ``check`` (the roll-out, the clearances and the verdict on a sequence, the
 manoeuvres), ``screen`` (the quick screen in plain floats in front of the check),
-``filter`` (:class:`SafetyFilter`: the interventions and their counters), ``shield``
-(:class:`Shield`: any controller behind the filter, its forecasts or the shield's own) and
+``filter`` (:class:`SafetyFilter`: the interventions and their counters), ``settings``
+(:class:`CheckSettings`: what the check trusts from a controller and what it falls back
+on, one frozen object per controller), ``shield`` (:class:`Shield`: any controller behind
+the filter, its forecasts or the shield's own) and
 ``standby`` (:class:`StandbyPlanner`, the planner kept in step behind the filter).
 """
 from .check import MANOEUVRES, SafetyCheck, TrajectoryCheck
 from .filter import ROLLOUT_TRUST_S, SAFER_ALTERNATIVES, SafetyFilter, SafetyVerdict, safer_alternatives_for
+from .settings import FALLBACKS, CheckSettings
 from .shield import Shield
 from .standby import StandbyPlanner
 
-__all__ = ["MANOEUVRES", "ROLLOUT_TRUST_S", "SAFER_ALTERNATIVES", "SafetyCheck", "SafetyVerdict", "SafetyFilter",
-           "Shield", "StandbyPlanner", "TrajectoryCheck", "safer_alternatives_for"]
+__all__ = ["MANOEUVRES", "ROLLOUT_TRUST_S", "SAFER_ALTERNATIVES", "CheckSettings", "FALLBACKS", "SafetyCheck",
+           "SafetyVerdict", "SafetyFilter", "Shield", "StandbyPlanner", "TrajectoryCheck", "safer_alternatives_for"]

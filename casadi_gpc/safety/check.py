@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..ekf import planning_covariances, worst_std_m
+from ..estimation.ekf import planning_covariances, worst_std_m
 from ..robot import RobotParams, followed_wheel, robot_step
 
 __all__ = ["MANOEUVRES", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
@@ -371,7 +371,7 @@ def forecast_covariances(f) -> np.ndarray:
 
 
 def shared_batch(forecasts):
-    """The :class:`~casadi_gpc.ekf_batch.ForecastBatch` whose rows ``forecasts`` are, in its
+    """The :class:`~casadi_gpc.estimation.ekf_batch.ForecastBatch` whose rows ``forecasts`` are, in its
     order (a crowd's track estimates carry ``batch_`` and ``batch_index_``), else None."""
     batch = getattr(forecasts[0], "batch_", None) if forecasts else None
     if batch is None or len(forecasts) != len(batch):
@@ -386,7 +386,7 @@ def shared_batch(forecasts):
 
 def forecast_arrays(forecasts) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The means ``(n, H, 2)``, :func:`forecast_covariances` ``(n, H, 2, 2)`` and their
-    :func:`~casadi_gpc.ekf.worst_std_m` ``(n, H)`` of ``forecasts``, stacked; taken whole
+    :func:`~casadi_gpc.estimation.ekf.worst_std_m` ``(n, H)`` of ``forecasts``, stacked; taken whole
     from their :func:`shared_batch` when they have one. Raises ValueError when their lengths
     differ."""
     batch = shared_batch(forecasts)

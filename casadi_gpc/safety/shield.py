@@ -11,7 +11,7 @@ intervention is counted, in ``counters["interventions"]``; one that takes the fa
 planner's answer or a manoeuvre marks the decision as a fallback.
 
 Forecasts: a controller that tracks the obstacles with the one EKF bank
-(:class:`~casadi_gpc.tracking.TrackBank`, the GPC and the network do) says so with a true
+(:class:`~casadi_gpc.estimation.tracking.TrackBank`, the GPC and the network do) says so with a true
 ``provides_forecasts`` and hands its forecasts over in every decision
 (``ControlDecision.forecasts``); the shield checks against those, so the estimation is not
 done twice. For any other controller the shield runs its own bank on the observations.
@@ -27,12 +27,14 @@ import time
 
 import numpy as np
 
-from ..ekf import EKFSettings
+from ..estimation.ekf import EKFSettings
 from ..robot import RobotParams
-from ..tracking import TrackBank
+from ..estimation.tracking import TrackBank
 from ..types import ControlDecision, Observation
 from .check import shared_batch
 from .filter import SafetyFilter
+from .settings import CheckSettings
+from .standby import StandbyPlanner
 
 __all__ = ["Shield", "DEFAULT_HORIZON_S"]
 
@@ -56,75 +58,69 @@ class Shield:
     policy : object answering the Policy protocol
         The controller whose answers are checked.
     robot : RobotParams, optional
-        The robot's geometry and limits (default: the contract's robot).
-    fallback : object with ``decide(observation)``, optional
-        The planner the check hands over to when the controller's answer fails (e.g. the
-        GPC in a :class:`~casadi_gpc.safety.StandbyPlanner` behind a network).
-    margin_m, sigmas, substeps, trust_planner_s
-        As :class:`~casadi_gpc.safety.SafetyFilter`.
-    horizon : int, optional
-        Intervals checked (default: the controller's horizon, see the module text).
-    trust_plans : bool
-        The controller is a planner that replans at every sample (the GPC): its plan, or
-        one of its alternatives, passes when it keeps the margin for the filter's
-        ``trust_planner_s`` (default 3 s), as the fallback planner's answer does; a
-        violation later in the horizon, where the forecast's uncertainty has grown, is left
-        to its next plans. Otherwise (a network, a reactive peer) the whole horizon counts.
-    ekf_settings : EKFSettings, optional
-        The shield's own obstacle filters, for a controller that provides no forecasts.
-    previous_plan : bool
-        Keep the plan let through at each sample, shifted by one step (the last wheel speeds
-        held, as the planner shifts its own), and offer it after the controller's own
-        alternatives when its answer fails the check: the safe candidate of Hose et al.'s
-        safety-augmented approximate MPC, for a controller that outputs whole plans (a plan
-        network). Taken, it is the controller's answer (not a fallback), with source
-        ``previous_plan``, counted in ``shield_previous_plan_used`` (and, as every alternative,
-        in ``shield_alternative_used``).
-    rollouts : bool
-        For a controller that answers a command without a plan and can roll itself forward
-        (a ``rollout()`` method: :meth:`nn_export.OnnxPolicy.rollout`): when the command
-        alone fails the check, its roll-out is judged as a plan (over the whole horizon, or
-        for ``trust_rollout_s``) before the check steps in (:meth:`SafetyFilter.filter`'s
-        ``plan_on_demand``; counted in ``shield_rollouts`` and ``shield_rollout_passed``; the
-        plan let through is in the decision's ``info["rollout_wheels_mps"]``).
-    trust_rollout_s : float, optional
-        With ``rollouts``: a roll-out that keeps the margin this long passes, even if it
-        fails later in the horizon (counted in ``shield_rollout_trusted``); None: the whole
-        horizon (:class:`~casadi_gpc.safety.SafetyFilter`'s ``trust_rollout_s``).
-    safer_alternatives : bool
-        With ``trust_plans``: a plan that passes on the trust time alone gives way to the
-        first of the controller's alternatives that keeps the margin over the whole horizon
-        (an intervention, not a fallback; counted in ``shield_alternative_safer``).
-        :data:`~casadi_gpc.safety.SAFER_ALTERNATIVES` per preset.
+        The robot's geometry and limits (default: the controller's ``robot``, else the
+        contract's robot).
+    settings : CheckSettings, optional
+        What the check trusts from this controller, for how long, and what it falls back on
+        (:class:`~casadi_gpc.safety.CheckSettings`; default: nothing trusted, the whole
+        horizon checked, the manoeuvres behind). The controller registry
+        (``gpcnav.controllers``) declares them per controller.
+    planner_config : PlannerConfig, optional
+        With ``settings.fallback == "planner"``: the settings of the GPC kept on standby
+        (default: the controller's own ``config``). The planner is made here, so CasADi is
+        imported only by a check that falls back on it.
+    standby : object with ``decide(observation)``, optional
+        A planner to keep on standby instead of the GPC (``settings.fallback`` must be
+        ``planner``); for tests and for users with a planner of their own.
+
+    A controller that provides no forecasts is checked against the shield's own obstacle
+    filters, stepped at the controller's sample time with the planner's noise per second
+    (:meth:`~casadi_gpc.estimation.ekf.EKFSettings.for_sample_time`: a 6 s check at 0.1 s
+    would otherwise lose every heading).
     """
 
-    def __init__(self, policy, robot: RobotParams | None = None, fallback=None, margin_m: float = 0.05,
-                 sigmas: float = 2.0, substeps: int = 4, trust_planner_s: float | None = None,
-                 horizon: int | None = None, ekf_settings: EKFSettings | None = None, trust_plans: bool = False,
-                 previous_plan: bool = False, rollouts: bool = False, trust_rollout_s: float | None = None,
-                 safer_alternatives: bool = False):
+    def __init__(self, policy, robot: RobotParams | None = None, settings: CheckSettings | None = None,
+                 planner_config=None, standby=None):
         for attr in ("decide", "reset"):
             if not callable(getattr(policy, attr, None)):
                 raise TypeError(f"the shielded controller must have a {attr}() method")
         T = getattr(policy, "sample_time_s", None)
         if not isinstance(T, (int, float)) or not (math.isfinite(T) and T > 0):
             raise TypeError(f"the shielded controller's sample_time_s must be a positive number, got {T!r}")
+        settings = settings or CheckSettings()
+        self.settings = settings
         self.policy = policy
         self.sample_time_s = float(T)
         self.robot = robot or getattr(policy, "robot", None) or RobotParams()
-        self.horizon = int(horizon) if horizon is not None else _policy_horizon(policy, self.sample_time_s)
-        self.filter = SafetyFilter(self.robot, self.sample_time_s, self.horizon, margin_m, sigmas, substeps,
-                                   fallback=fallback, trust_planner_s=trust_planner_s,
-                                   trust_rollout_s=trust_rollout_s, safer_alternatives=safer_alternatives)
+        self.horizon = settings.horizon if settings.horizon is not None else _policy_horizon(policy, self.sample_time_s)
+        fallback = self._standby(settings, planner_config, standby)
+        self.filter = SafetyFilter(self.robot, self.sample_time_s, self.horizon, settings.margin_m, settings.sigmas,
+                                   settings.substeps, fallback=fallback, trust_planner_s=settings.trust_planner_s,
+                                   trust_rollout_s=settings.trust_rollout_s,
+                                   safer_alternatives=settings.safer_alternatives)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
-        self.trust_plans = bool(trust_plans)
-        self.previous_plan = bool(previous_plan)
-        self._rollout = getattr(policy, "rollout", None) if rollouts else None
-        if rollouts and not callable(self._rollout):
+        self.trust_plans = settings.trust_plans
+        self.previous_plan = settings.previous_plan
+        self._rollout = getattr(policy, "rollout", None) if settings.rollouts else None
+        if settings.rollouts and not callable(self._rollout):
             raise TypeError("rollouts=True needs a controller with a rollout() method")
-        self.ekf_settings = ekf_settings or EKFSettings()
+        self.ekf_settings = EKFSettings().for_sample_time(self.sample_time_s)
         self._names: dict[str, str] = {}
         self.reset()
+
+    def _standby(self, settings: CheckSettings, planner_config, standby):
+        """The planner kept on standby (``fallback == "planner"``), or None."""
+        if settings.fallback != "planner":
+            if standby is not None:
+                raise ValueError("a standby planner was given but settings.fallback is not 'planner'")
+            return None
+        if standby is None:
+            from ..planner.gpc import GPCController  # CasADi: only for a check that falls back on the planner
+            config = planner_config if planner_config is not None else getattr(self.policy, "config", None)
+            if config is None:
+                raise ValueError("fallback 'planner' needs a planner_config (the controller has no config)")
+            standby = GPCController(config, self.robot)
+        return standby if isinstance(standby, StandbyPlanner) else StandbyPlanner(standby)
 
     @property
     def config(self):

@@ -1,7 +1,7 @@
 """The GPC's NLP solvers: one interface, each built once per problem and warm-started.
 
 Every backend answers ``solve(p, u0, lam_x, lam_g) -> SolveResult`` for the problem of
-:func:`casadi_gpc.cost.build_problem` (decision variables: the wheel-speed increments ``u``),
+:func:`casadi_gpc.problem.cost.build_problem` (decision variables: the wheel-speed increments ``u``),
 so the controller, the label generator and the benchmark never ask which one they hold.
 
 ==========================  ===============================================================
@@ -18,7 +18,7 @@ name                        what it is
                             QPs by ``qrqp``, compiled NLP functions.
 ``sqpmethod-daqp``          the same SQP with the dense active-set QP solver ``daqp``.
 ``fatrop``                  the same problem in multiple-shooting form (states and increments
-                            in stage order, the stage cost of :mod:`casadi_gpc.cost`), solved by
+                            in stage order, the stage cost of :mod:`casadi_gpc.problem.cost`), solved by
                             fatrop's structure-exploiting interior point; compiled functions.
 ``powell``                  the paper's method: scipy's Powell on the same cost, increments
                             bounded, wheel speeds kept within their limit by projection.

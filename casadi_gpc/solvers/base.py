@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 
 from ..buffered import BufferedFunction
-from ..cost import GPCProblem
+from ..problem.cost import GPCProblem
 
 __all__ = ["SolveResult", "Backend", "CasadiBackend", "all_finite", "constraint_violation_mps"]
 
@@ -67,7 +67,7 @@ class Backend:
 
     def fork(self) -> "Backend | None":
         """A twin that may solve in another thread at the same time as this one (the same
-        compiled functions, its own memory and arrays: :mod:`casadi_gpc.lanes`), or None
+        compiled functions, its own memory and arrays: :mod:`casadi_gpc.planner.lanes`), or None
         where that is not safe: IPOPT (known to crash under threads), anything that calls
         back into Python (Powell, the uncompiled SQP's Hessian)."""
         return None

@@ -7,7 +7,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from ..cost import GPCProblem, effort_cost, parameter_blocks, state_cost
+from ..problem.cost import GPCProblem, effort_cost, parameter_blocks, state_cost
 from ..robot import robot_step, robot_step_float
 from ..buffered import BufferedFunction
 from .base import Backend, SolveResult, all_finite

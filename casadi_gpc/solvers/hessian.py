@@ -2,7 +2,7 @@
 
 The cost is a sum of stage terms of the states the increments roll out to,
 ``J(u) = sum_i phi_i(z_i(u)) + lambda1 |u|^2`` with ``z_i = (x, y, heading, v_right,
-v_left)`` after step i (:func:`casadi_gpc.cost.rollout_states`, :func:`state_cost`). So
+v_left)`` after step i (:func:`casadi_gpc.problem.cost.rollout_states`, :func:`state_cost`). So
 
     d2J/du2 = sum_i  Jz_i^T B_i Jz_i  +  d2/du2 (sum_i g_i . z_i(u))  +  2 lambda1 I,
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from ..cost import GPCProblem, effort_cost, parameter_blocks, rollout_states, state_cost
+from ..problem.cost import GPCProblem, effort_cost, parameter_blocks, rollout_states, state_cost
 
 __all__ = ["cost_hessian"]
 

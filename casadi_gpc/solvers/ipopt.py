@@ -2,7 +2,7 @@
 multiplier warm start), optionally with compiled NLP functions."""
 from __future__ import annotations
 
-from ..cost import GPCProblem
+from ..problem.cost import GPCProblem
 from .base import CasadiBackend
 from .compiling import build_nlpsol
 

@@ -8,7 +8,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from ..cost import GPCProblem
+from ..problem.cost import GPCProblem
 from .base import Backend, SolveResult, all_finite
 
 __all__ = ["PowellBackend", "project_increments"]

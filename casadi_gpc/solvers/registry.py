@@ -2,7 +2,7 @@
 a problem."""
 from __future__ import annotations
 
-from ..cost import GPCProblem
+from ..problem.cost import GPCProblem
 from .base import Backend
 from .fatrop import FatropBackend
 from .hybrid import HybridBackend

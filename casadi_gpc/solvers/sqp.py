@@ -11,7 +11,7 @@ import warnings
 import casadi as ca
 import numpy as np
 
-from ..cost import GPCProblem
+from ..problem.cost import GPCProblem
 from ..buffered import BufferedFunction
 from .base import CasadiBackend, SolveResult
 from .compiling import COMPILE_EVENTS, compiled_library

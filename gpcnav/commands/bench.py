@@ -53,7 +53,7 @@ def controller_policies(args, config, robot) -> list:
 
 def extra_policies(args, config, robot) -> list:
     """Policies to time beside the solvers: ``(name, make_policy)`` pairs, see
-    :func:`casadi_gpc.bench.policy_rows`. The network policies (numpy, torch, onnxruntime)
+    :func:`gpcnav.benchmarks.solvers.policy_rows`. The network policies (numpy, torch, onnxruntime)
     are timed on the features the ``onnxpolicy`` row recorded (:func:`network_rows`)."""
     if getattr(args, "no_nn_rows", False):
         return controller_policies(args, config, robot)
@@ -83,7 +83,7 @@ def network_decisions(args, doc, config, scenarios) -> None:
     loop on the crowd scene(s): ``doc["network_decisions"]``."""
     if getattr(args, "no_nn_rows", False) or not scenarios:
         return
-    from casadi_gpc.bench_decisions import policy_decision_run
+    from gpcnav.benchmarks.decisions import policy_decision_run
 
     from ..controllers import ControllerSpec, make
     spec = ControllerSpec("nn", model=args.model)
@@ -102,7 +102,7 @@ def parse_solvers(text: str) -> list[str]:
 
 
 def run(args) -> int:
-    from casadi_gpc.bench import bench_figure, format_table, run_bench
+    from gpcnav.benchmarks.solvers import bench_figure, format_table, run_bench
     from scenarios import PAPER_DIR, Suite, load_scenario
 
     from casadi_gpc.io import save_figure, write_json

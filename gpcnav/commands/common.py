@@ -62,15 +62,6 @@ def suite_from_args(args):
         raise UsageError(str(exc)) from None
 
 
-SHIELD_MODES = ("off", "on", "gpc")
-"""``off``: the bare controller; ``on``: behind the safety check layer, which falls back on
-the controller's alternatives and its own manoeuvres; ``gpc``: the same with the GPC on
-standby as the first fallback (the network's default)."""
-DEFAULT_SHIELD = {"gpc": "on", "nn": "gpc"}
-"""The planner and the network run behind the check layer unless told not to; other
-controllers (the peers, a user's own) run as their users run them unless ``--shield``."""
-
-
 def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> None:
     """``--controller NAME`` (``--controllers LIST`` with ``many``), the check layer's and the
     network's options, and the preset's. Names are those of :mod:`gpcnav.controllers`."""
@@ -96,88 +87,6 @@ def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> 
     p.add_argument("--solver", default=None, metavar="NAME",
                    help="--controller gpc: the NLP solver (default: the preset's; see docs/solvers.md)")
     add_preset_arguments(p)
-
-
-def shield_mode(args, kind: str | None = None) -> str:
-    """The check layer's mode (:data:`SHIELD_MODES`) from the controller options."""
-    kind = kind or getattr(args, "controller", "gpc")
-    default = DEFAULT_SHIELD.get(kind, "off")
-    mode = getattr(args, "shield", None) or default
-    if mode == "on" and default != "off":
-        # --shield asks for the check layer, which gpc and nn run behind already: as they do
-        # (for nn, with the GPC on standby; --shield-fallback brake for the manoeuvres alone)
-        mode = default
-    fallback = getattr(args, "shield_fallback", None)
-    if mode != "off" and fallback is not None:
-        mode = "gpc" if fallback == "gpc" else "on"
-    return mode
-
-
-def make_controller(kind: str, config, robot, model=None, shield: str | None = None, passes: int | None = None):
-    """The controller object for ``kind``, behind the check layer as ``shield`` says
-    (:data:`SHIELD_MODES`; None: :data:`DEFAULT_SHIELD`). Everything answers
-    ``decide(observation)``. ``passes`` (network only): 1 or 2, or None for what the model
-    file says.
-    """
-    shield = shield or DEFAULT_SHIELD.get(kind, "off")
-    if shield == "brake":  # the older name of a check layer without the planner on standby
-        shield = "on"
-    if shield not in SHIELD_MODES:
-        raise UsageError(f"unknown shield mode {shield!r} (choose from {', '.join(SHIELD_MODES)})")
-    if kind == "gpc":
-        from casadi_gpc.gpc import GPCController
-        base = GPCController(config, robot)
-        shield = "on" if shield == "gpc" else shield  # the planner's own alternatives come first
-    elif kind == "nn":
-        try:
-            from nn_export import OnnxPolicy
-            base = OnnxPolicy(model, preset=config.name, robot=robot, two_pass=None if passes is None else passes == 2)
-        except ImportError as exc:
-            raise UsageError(f"--controller nn is not available: {exc}") from None
-        except (FileNotFoundError, ValueError) as exc:
-            raise UsageError(str(exc)) from None
-    else:
-        raise UsageError(f"unknown controller {kind!r}")
-    # the planner replans at every sample: its plans are trusted for the filter's trust time; so
-    # are a plan network's, which replans as often, with its shifted previous plan kept as the
-    # safe candidate (docs/nn.md: 2.8-11x fewer interventions than checked over the whole horizon)
-    # a one-command network's own roll-out is judged as its plan before the check steps in,
-    # with the GPC on standby, and passes when it keeps the margin for ROLLOUT_TRUST_S
-    # (docs/nn.md, "The network's roll-out as its plan": no collision in 2 600 crowd and
-    # random episodes, 2.7-5x fewer interventions than checked over the whole horizon; behind
-    # the manoeuvres alone one episode collided, so not there)
-    plans = bool(getattr(base, "outputs_plans", False))
-    rollouts, trust = kind == "nn" and not plans and shield == "gpc", None
-    if rollouts:
-        from casadi_gpc.safety import ROLLOUT_TRUST_S as trust
-    # the planner's plan passing on that trust alone gives way to an alternative of its own that
-    # keeps the margin all along, under the presets where that was measured better
-    # (casadi_gpc.safety.SAFER_ALTERNATIVES)
-    from casadi_gpc.safety import safer_alternatives_for
-    safer = kind == "gpc" and safer_alternatives_for(config)
-    return behind_shield(base, config, robot, shield, trust_plans=kind == "gpc" or plans, previous_plan=plans,
-                         rollouts=rollouts, trust_rollout_s=trust, safer_alternatives=safer)
-
-
-def behind_shield(controller, config, robot, mode: str, trust_plans: bool = False, ekf_settings=None,
-                  previous_plan: bool = False, rollouts: bool = False, trust_rollout_s: float | None = None,
-                  safer_alternatives: bool = False):
-    """``controller`` behind :class:`casadi_gpc.safety.Shield` as ``mode`` says (``off``:
-    as it is; ``on``: the manoeuvres only; ``gpc``: the planner of ``config`` on standby). The
-    one place every controller (gpc, nn, the peers, a user's class) is put behind it."""
-    if mode == "off":
-        return controller
-    from casadi_gpc.safety import Shield, StandbyPlanner
-    fallback = None
-    if mode == "gpc":
-        try:
-            from casadi_gpc.gpc import GPCController
-        except ImportError as exc:
-            raise UsageError(f"--shield-fallback gpc needs the planner ({exc}); use --shield-fallback brake") from None
-        fallback = StandbyPlanner(GPCController(config, robot))
-    return Shield(controller, robot, fallback=fallback, trust_plans=trust_plans, ekf_settings=ekf_settings,
-                  previous_plan=previous_plan, rollouts=rollouts, trust_rollout_s=trust_rollout_s,
-                  safer_alternatives=safer_alternatives)
 
 
 def check_seed(seed: int | None) -> None:

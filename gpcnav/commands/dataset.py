@@ -247,7 +247,7 @@ def _driver(args, config, robot, by_gpc: bool):
     one line, if its model is bad)."""
     import functools
 
-    from .common import make_controller
+    from ..controllers import make_controller
     if by_gpc:
         return functools.partial(make_controller, "gpc", config, robot)
     factory = functools.partial(make_controller, "nn", config, robot, args.dagger, args.dagger_safety)

@@ -50,8 +50,8 @@ def pool_from_args(args):
 
 def _episode(index, job):
     """Worker: one episode; each controller is made once per worker and robot."""
-    from casadi_gpc.metrics import episode_metrics
-    from casadi_gpc.simulator import simulate
+    from scenarios.metrics import episode_metrics
+    from scenarios.simulator import simulate
 
     from .. import controllers
     scenario, spec, config = job
@@ -147,7 +147,7 @@ def controller_extra(spec: ControllerSpec, config, robot) -> dict:
 
 def eval_doc(spec: ControllerSpec, result, config, suite, seed, extra: dict | None = None) -> dict:
     """The EVAL document of one controller's ``(metrics, times, events)``."""
-    from casadi_gpc.metrics import eval_document
+    from scenarios.metrics import eval_document
     metrics, times, events = result
     return eval_document(spec.label, metrics, times, {
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": suite.name if suite else None,

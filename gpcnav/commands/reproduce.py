@@ -206,8 +206,8 @@ def _scheme_limit(st: _Stages, runs: Path, sizes: Sizes) -> dict:
     def limit():
         from casadi_gpc.config import preset
         from casadi_gpc.io import write_json
-        from casadi_gpc.metrics import run_document
-        from casadi_gpc.simulator import simulate
+        from scenarios.metrics import run_document
+        from scenarios.simulator import simulate
         from nn_export.training.labels import Labeller
         from nn_export.training.two_pass import TwoPassGPC
         from scenarios import paper_scenarios

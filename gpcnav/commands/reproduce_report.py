@@ -23,8 +23,8 @@ def _xy(doc: dict) -> np.ndarray:
 
 
 def deviations_m(a: dict, b: dict) -> tuple[float, float]:
-    """Two runs' distance: (as paths, at the same sample instants); casadi_gpc.metrics."""
-    from casadi_gpc.metrics import path_deviation_m, same_instant_deviation_m
+    """Two runs' distance: (as paths, at the same sample instants); scenarios.metrics."""
+    from scenarios.metrics import path_deviation_m, same_instant_deviation_m
     return path_deviation_m(_xy(a), _xy(b)), same_instant_deviation_m(_xy(a), _xy(b))
 
 
@@ -33,7 +33,7 @@ def fig7(run_files: dict, path: Path) -> None:
     over the network's for comparison."""
     import matplotlib.pyplot as plt
 
-    from casadi_gpc.plots import plot_run
+    from scenarios.plots import plot_run
     fig, axes = plt.subplots(3, 2, figsize=(12, 11))
     for i, name in enumerate(PAPER_SCENARIOS):
         gpc = _load(run_files[("paper", name, "gpc")])
@@ -132,7 +132,7 @@ LIMIT_ROWS = {"rollout": "two-pass GPC", "plan": "two-pass GPC, planned predicti
 
 def fig7_rows(run_files: dict, limit_files: dict | None) -> list[dict]:
     """One row per preset, scenario and controller, each network against the GPC's run."""
-    from casadi_gpc.metrics import passing_sides
+    from scenarios.metrics import passing_sides
     rows = []
     presets = sorted({k[0] for k in run_files}, key=("paper", "improved").index)
     for preset_name in presets:

@@ -20,8 +20,8 @@ def add_arguments(p):
 def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=None, passes=None):
     """Simulate ``scenario`` with the controller ``spec`` names (or ``spec``, ``model``,
     ``shield``, ``passes`` as the controller's name and options) and return its RUN document."""
-    from casadi_gpc.metrics import run_document
-    from casadi_gpc.simulator import simulate
+    from scenarios.metrics import run_document
+    from scenarios.simulator import simulate
     if isinstance(spec, str):
         spec = ControllerSpec(spec, model, shield, passes)
     controller = make(spec, config, scenario.robot)
@@ -55,13 +55,13 @@ def run(args) -> int:
     if args.out:
         write_json(args.out, doc)
     if args.plot:
-        from casadi_gpc.plots import run_figure
+        from scenarios.plots import run_figure
         import matplotlib.pyplot as plt
         fig = run_figure(doc, scenario.robot.radius_m)
         save_figure(fig, args.plot, dpi=130)
         plt.close(fig)
     if args.animate:
-        from casadi_gpc.plots import animate_run
+        from scenarios.plots import animate_run
         animate_run(doc, args.animate, scenario.robot.radius_m)
     ct = doc["compute_time_s"]
     print(f"{doc['scenario']} [{spec.label}, preset {config.name}, T={doc['sample_time_s']} s]: "

@@ -1,17 +1,17 @@
 """MPPI (Williams et al. 2017; the sampler behind nav2's MPPI controller) on the GPC's own
 problem: ``pytorch_mppi.MPPI`` (``pip install pytorch-mppi``, needs torch: the ``train``
-extra) minimising the GPC's cost, written once in :mod:`casadi_gpc.cost`.
+extra) minimising the GPC's cost, written once in :mod:`casadi_gpc.problem.cost`.
 
 What MPPI and the GPC share, so that only the optimiser differs:
 
 - the decision variables: the wheel-speed increments of the H steps of one sample time T
   each (the preset's T and H), bounded by the acceleration limit;
 - the cost: the GPC's ``cost_fn(u, p)`` (tracking, effort, turning, obstacles, margin;
-  :func:`casadi_gpc.cost.build_problem`), evaluated for all samples in one call of its
+  :func:`casadi_gpc.problem.cost.build_problem`), evaluated for all samples in one call of its
   CasADi ``map``: nothing of the cost is written a second time;
-- its parameters: the same EKF bank's forecasts per step (:class:`~casadi_gpc.tracking.TrackBank`),
+- its parameters: the same EKF bank's forecasts per step (:class:`~casadi_gpc.estimation.tracking.TrackBank`),
   the same reference clock (:class:`~casadi_gpc.progress.ReferenceClock`) and the same
-  obstacle selection and packing (:func:`casadi_gpc.selection.planner_parameters`).
+  obstacle selection and packing (:func:`casadi_gpc.problem.selection.planner_parameters`).
 
 MPPI's own state is the two wheel speeds: its dynamics add an increment and clip at the
 wheel limit (the NLP's constraint); the increments actually applied (after the clip) are
@@ -26,11 +26,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig, preset
-from casadi_gpc.cost import build_problem
+from casadi_gpc.problem.cost import build_problem
 from casadi_gpc.progress import ReferenceClock
 from casadi_gpc.robot import RobotParams
-from casadi_gpc.selection import planner_parameters
-from casadi_gpc.tracking import TrackBank
+from casadi_gpc.problem.selection import planner_parameters
+from casadi_gpc.estimation.tracking import TrackBank
 from casadi_gpc.types import ControlDecision, Observation
 
 __all__ = ["MPPISettings", "MPPIPeer"]
@@ -146,7 +146,7 @@ class MPPIPeer:
 
     def parameters(self, observation: Observation) -> np.ndarray:
         """The GPC's NLP parameters for this observation, made as
-        :meth:`casadi_gpc.gpc.GPCController.decide` makes them (its EKF bank, reference clock,
+        :meth:`casadi_gpc.planner.gpc.GPCController.decide` makes them (its EKF bank, reference clock,
         obstacle selection by relevance to the last plan's path, and packing): one step of
         the bank and the clock, so call once per decision. The forecasts are kept for the
         decision."""

@@ -7,9 +7,9 @@ Each decision:
    to the behaviour, in the world frame: navground's velocity-obstacle behaviours build
    their constraints from the current velocity, so it must be the robot's real one;
 2. the moving obstacles enter as navground ``Neighbor`` s with the positions and velocities
-   of the one EKF bank the GPC plans with (:class:`casadi_gpc.tracking.TrackBank`, fed the
+   of the one EKF bank the GPC plans with (:class:`casadi_gpc.estimation.tracking.TrackBank`, fed the
    same measured positions, stepped at this controller's sample time with the planner's
-   noise per second, :meth:`~casadi_gpc.ekf.EKFSettings.for_sample_time`); a track seen once
+   noise per second, :meth:`~casadi_gpc.estimation.ekf.EKFSettings.for_sample_time`); a track seen once
    has no velocity yet and enters standing; static obstacles enter as ``Disc`` s;
 3. the target is navground's path following: reach the end of the reference path along the
    path (``Target.Point(end, along_path=...)``, navground's look-ahead and relaxation time),
@@ -32,9 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from casadi_gpc.ekf import EKFSettings
+from casadi_gpc.estimation.ekf import EKFSettings
 from casadi_gpc.robot import RobotParams
-from casadi_gpc.tracking import TrackBank
+from casadi_gpc.estimation.tracking import TrackBank
 from casadi_gpc.types import ControlDecision, Observation
 
 __all__ = ["NavgroundSettings", "OrcaSettings", "HrvoSettings", "SocialForceSettings", "NavgroundPeer",

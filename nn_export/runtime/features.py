@@ -203,7 +203,7 @@ def _position_std(tr: TrackEstimate) -> float:
 
 def _position_stds(tracks) -> list | None:
     """:func:`_position_std` of every row of the forecast batch that ``tracks`` share
-    (:class:`~casadi_gpc.ekf_batch.ForecastBatch`: a crowd's track estimates, made together),
+    (:class:`~casadi_gpc.estimation.ekf_batch.ForecastBatch`: a crowd's track estimates, made together),
     in one go and the same numbers, indexed by ``batch_index_``; None when they share none.
     Reading each track's forecast row instead cost most of the features' time among ten
     walkers (measured)."""

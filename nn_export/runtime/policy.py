@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from casadi_gpc.config import DEFAULT_PRESET
-from casadi_gpc.ekf import EKFSettings
+from casadi_gpc.estimation.ekf import EKFSettings
 from casadi_gpc.robot import RobotParams, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation
 
@@ -254,7 +254,7 @@ class OnnxPolicy:
             self.model_info["crowd_model"] = self._crowd.info
         self.outputs_plans = self.steps > 1 or (self._crowd is not None and self._crowd.steps > 1)
         """Whether a decision may carry the network's own plan (check it as a plan, keep the
-        shifted previous one: ``casadi_gpc.safety.Shield(previous_plan=True)``)."""
+        shifted previous one: ``casadi_gpc.safety.CheckSettings(previous_plan=True)``)."""
         self.model_info["output"] = "plan" if self.steps > 1 else "command"
         self.load_time_s = time.perf_counter() - t0
         self.reset()
@@ -410,7 +410,7 @@ class OnnxPolicy:
         it was made with (:func:`~nn_export.runtime.rollout.roll_out`): its plan ``(H, 2)``,
         whose first step is the decision's command, and the poses ``(H, 3)``; None when the
         last decision was not one network's single command (two passes, a plan network).
-        What a check layer judges as the network's own plan (``Shield(rollouts=True)``)."""
+        What a check layer judges as the network's own plan (``CheckSettings(rollouts=True)``)."""
         last = self._last
         if last is None:
             return None

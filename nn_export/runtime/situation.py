@@ -20,8 +20,8 @@ from functools import cached_property
 
 import numpy as np
 
-from casadi_gpc.ekf import ObstacleEKF, planning_covariances
-from casadi_gpc.ekf_batch import MANY_TRACKS, ForecastBatch
+from casadi_gpc.estimation.ekf import ObstacleEKF, planning_covariances
+from casadi_gpc.estimation.ekf_batch import MANY_TRACKS, ForecastBatch
 from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotState
 from casadi_gpc.types import ObstacleForecast, StaticObstacle
@@ -53,7 +53,7 @@ class TrackEstimate:
         return tuple(self.state.tolist())
 
     def forecast(self) -> ObstacleForecast:
-        """What the planner plans with (:func:`casadi_gpc.ekf.planning_covariances`)."""
+        """What the planner plans with (:func:`casadi_gpc.estimation.ekf.planning_covariances`)."""
         return ObstacleForecast(self.obstacle_id, self.radius_m, self.means_m,
                                 planning_covariances(self.covs_m2, self.initialised))
 
@@ -149,8 +149,8 @@ def reference_poses(path: ReferencePath, s0_m: float, sample_time_s: float, hori
 
 class _FilterTrack(TrackEstimate):
     """A :class:`TrackEstimate` made from a filter's frozen estimate
-    (:class:`~casadi_gpc.ekf.FilterState`) whose arrays (state, covariance, H-step forecast)
-    are made when first read, with :meth:`ObstacleEKF.predict <casadi_gpc.ekf.ObstacleEKF.predict>`'s
+    (:class:`~casadi_gpc.estimation.ekf.FilterState`) whose arrays (state, covariance, H-step forecast)
+    are made when first read, with :meth:`ObstacleEKF.predict <casadi_gpc.estimation.ekf.ObstacleEKF.predict>`'s
     numbers. The deployed policy hands its track estimates over with every decision; the
     bare network reads only the state, a check layer behind it the forecast (made once)."""
 
@@ -167,7 +167,7 @@ class _FilterTrack(TrackEstimate):
         batch = d.get("batch_")
         if batch is None:
             means, covs = self._filter.predict(self._horizon)
-        else:  # made with the other tracks of its sample (casadi_gpc.ekf_batch), rows of theirs
+        else:  # made with the other tracks of its sample (casadi_gpc.estimation.ekf_batch), rows of theirs
             means, covs = batch.arrays
             i = d["batch_index_"]
             means, covs = means[i], covs[i]
@@ -192,9 +192,9 @@ def track_estimate(ekf: ObstacleEKF, obstacle_id: int, radius_m: float, horizon:
 
 def track_estimates(pairs, horizon: int) -> tuple[TrackEstimate, ...]:
     """:func:`track_estimate` of each ``(measurement, filter)`` pair of a bank's step
-    (:meth:`~casadi_gpc.tracking.TrackBank.step`). From
-    :data:`~casadi_gpc.ekf_batch.MANY_TRACKS` tracks on, their forecasts are made together
-    when the first is read (:class:`~casadi_gpc.ekf_batch.ForecastBatch`, the same numbers
+    (:meth:`~casadi_gpc.estimation.tracking.TrackBank.step`). From
+    :data:`~casadi_gpc.estimation.ekf_batch.MANY_TRACKS` tracks on, their forecasts are made together
+    when the first is read (:class:`~casadi_gpc.estimation.ekf_batch.ForecastBatch`, the same numbers
     up to rounding), and each track knows its row there (``batch_``, ``batch_index_``), so
     that a check can take the arrays whole."""
     if len(pairs) < MANY_TRACKS:

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig
-from casadi_gpc.ekf import EKFSettings
+from casadi_gpc.estimation.ekf import EKFSettings
 from casadi_gpc.progress import ReferenceClock
-from casadi_gpc.tracking import TrackBank
+from casadi_gpc.estimation.tracking import TrackBank
 from casadi_gpc.types import Observation
 
 from .situation import Situation, TrackEstimate, reference_rows, track_estimates
@@ -17,7 +17,7 @@ __all__ = ["SituationTracker"]
 
 class SituationTracker:
     """Builds the :class:`Situation` from the stream of observations, exactly as the GPC
-    does: the planner's bank of obstacle filters (:class:`~casadi_gpc.tracking.TrackBank`),
+    does: the planner's bank of obstacle filters (:class:`~casadi_gpc.estimation.tracking.TrackBank`),
     stepped once per sample, and the preset's :class:`ReferenceClock`. ``update(observation)``
     once per sample.
 
@@ -42,7 +42,7 @@ class SituationTracker:
 
     @property
     def counters(self) -> dict:
-        """The bank's counters (:data:`casadi_gpc.tracking.TRACK_COUNTERS`)."""
+        """The bank's counters (:data:`casadi_gpc.estimation.tracking.TRACK_COUNTERS`)."""
         return self.bank.counters
 
     def observe(self, obs: Observation) -> None:

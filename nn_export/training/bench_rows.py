@@ -70,7 +70,7 @@ def network_inputs(policy: OnnxPolicy, observations) -> np.ndarray:
 
 
 def policy_entries(config, robot, model=None) -> tuple[list, ObservationRecorder]:
-    """``(name, make_policy)`` pairs for :func:`casadi_gpc.bench.policy_rows`: the full
+    """``(name, make_policy)`` pairs for :func:`gpcnav.benchmarks.solvers.policy_rows`: the full
     decision as deployed (the model's own number of passes, metadata ``decision_passes``),
     bare and behind the check layer (:class:`casadi_gpc.safety.Shield`, manoeuvres only), and
     with one and with two passes."""
@@ -191,7 +191,7 @@ def forward_rows(model_path, observations, rounds: int = ROUNDS) -> list[dict]:
     largest output difference from onnxruntime on the network inputs of a replay, and for
     onnxruntime the same call timed back to back (``back_to_back_time_s``), for comparison."""
     import onnx
-    from casadi_gpc.metrics import time_stats
+    from scenarios.metrics import time_stats
     model_path = Path(model_path)
     proto = onnx.load(model_path)
     policy = OnnxPolicy(model_path)

@@ -3,7 +3,7 @@
 Each situation is solved the way the planner solves a fresh problem: from the planner's fixed
 initial guesses (:data:`GUESS_NAMES`: swerve right, swerve left, straight, and the detours
 where the planner has them) with the planner's own tie-break
-(:meth:`casadi_gpc.gpc.GPCController.plan`), on the NLP parameters the planner would pack.
+(:meth:`casadi_gpc.planner.gpc.GPCController.plan`), on the NLP parameters the planner would pack.
 The labelling solver is the one measured fastest for these cold multi-starts
 (:data:`LABEL_SOLVERS`, else ``casadi_gpc.solvers.FASTEST_SOLVER``); where
 none of its starts converges, IPOPT at a tight tolerance solves the situation again
@@ -38,9 +38,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig
-from casadi_gpc.cost import ParameterLayout
+from casadi_gpc.problem.cost import ParameterLayout
 from casadi_gpc.robot import RobotParams
-from casadi_gpc.selection import pack_selection, select_obstacles
+from casadi_gpc.problem.selection import pack_selection, select_obstacles
 
 from ..runtime.features import compute_features, mirror_features
 from ..runtime.layouts import FeatureLayout
@@ -53,7 +53,7 @@ __all__ = ["LABEL_NAMES", "GUESS_NAMES", "MIRROR_GUESS_ORDER", "Label", "Labelle
 LABEL_NAMES = ("v_right_mps", "v_left_mps")
 """The network's outputs: the wheel speeds to apply over the next interval."""
 try:  # the planner's initial guesses, in its tie-break order
-    from casadi_gpc.guesses import TIE_ORDER as GUESS_NAMES
+    from casadi_gpc.planner.guesses import TIE_ORDER as GUESS_NAMES
 except ImportError:  # pragma: no cover - older planner
     GUESS_NAMES = ("swerve_right", "swerve_left", "straight")
 LABEL_TOLERANCE = 1e-12
@@ -198,7 +198,7 @@ def _merge_duplicates(best, candidates) -> np.ndarray:
     labels mirror-symmetric to ~1e-10 instead of ~1e-5. Different optima (a left and a
     right pass) are never averaged: those stay with the planner's tie-break.
     """
-    from casadi_gpc.gpc import TIE_RELATIVE
+    from casadi_gpc.planner.gpc import TIE_RELATIVE
     u0 = np.asarray(best.u, dtype=float)
     same = [np.asarray(c.u, dtype=float) for c in candidates
             if c.success and abs(c.cost - best.cost) <= TIE_RELATIVE * abs(best.cost) + 1e-12
@@ -216,11 +216,11 @@ class Labeller:
     most, and dropping them would leave the network without examples exactly there.
 
     NLP size (``fit_slots``): the obstacles are chosen as the planner chooses them, with
-    ``config``'s slots (:func:`casadi_gpc.selection.select_obstacles`), and the situation is
+    ``config``'s slots (:func:`casadi_gpc.problem.selection.select_obstacles`), and the situation is
     then solved on the smallest NLP whose slots hold the ones chosen (:func:`fitted_slots`;
     each size built on first need, counted in ``counters``: ``fitted_nlp`` / ``full_nlp``
     and ``nlp_<moving>x<static>``). An empty slot is parked far away with its terms
-    multiplied by an "on" flag of 0 (:mod:`casadi_gpc.cost`): it adds exact zeros to the
+    multiplied by an "on" flag of 0 (:mod:`casadi_gpc.problem.cost`): it adds exact zeros to the
     cost and its derivatives, so the answer is the full NLP's bit for bit (measured: max
     difference 0.0 on 300 ``paper``-layout, 60 ``multi`` and 40 ``set`` ``improved``
     situations), only cheaper. The ``paper`` layout's situations (one mover at most) are
@@ -263,7 +263,7 @@ class Labeller:
         slots = self.full_slots if slots is None else tuple(slots)
         key = (solver, *slots)
         if key not in self._controllers:
-            from casadi_gpc.gpc import GPCController
+            from casadi_gpc.planner.gpc import GPCController
             # labels are solved tighter than the closed loop needs: when several initial guesses
             # reach the same optimum, the tie-break's pick must not show through the solver's
             # tolerance (at IPOPT's 1e-9 the first control differs by up to ~5e-6 m/s between
@@ -371,7 +371,7 @@ class Labeller:
         H = self.config.horizon
         u = _merge_duplicates(best, candidates)
         # the planned wheel speeds: the previous ones plus the cumulated increments (the
-        # decision variables of casadi_gpc.cost)
+        # decision variables of casadi_gpc.problem.cost)
         wheels = x0[3:5] + np.cumsum(u.reshape(H, 2), axis=0)
         return Label(True, wheels[0].copy(), wheels, float(best.cost), best.status, best.guess, best.iterations,
                      costs, t, len(candidates), solver, side, None, self.tie_margin)

@@ -63,7 +63,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig
-from casadi_gpc.ekf import EKFSettings
+from casadi_gpc.estimation.ekf import EKFSettings
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, arc_step, robot_step
 from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle

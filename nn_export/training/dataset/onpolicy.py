@@ -129,7 +129,7 @@ def collect_on_policy(policy, scenarios, options: OnPolicyOptions, labeller: Lab
 
 def _drive(policy, scenarios, options: OnPolicyOptions) -> tuple[list, list[dict]]:
     """Run ``policy`` on every scenario: the situations it visited, and each episode's outcome."""
-    from casadi_gpc.simulator import simulate
+    from scenarios.simulator import simulate
     recorder = Recorder(policy, options.config, options.noise_mps, options.noise_seed)
     situations, episodes = [], []
     for sc in scenarios:

@@ -1,4 +1,4 @@
-"""The obstacle EKF's arithmetic written out on plain floats (:mod:`casadi_gpc.ekf`).
+"""The obstacle EKF's arithmetic written out on plain floats (:mod:`casadi_gpc.estimation.ekf`).
 
 The deployed policy runs the filter every sample; numpy's per-call cost on 5-vectors and
 5x5 matrices, not the arithmetic, was half of its decision time. The covariance travels as
@@ -29,7 +29,7 @@ def propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: 
     the first two columns of P change shape; the rest are sums of its entries.
 
     ``xp``: the module whose ``cos`` and ``sin`` it uses; ``casadi`` with symbolic arguments
-    traces these very operations into an expression (:mod:`casadi_gpc.forecast_function`)."""
+    traces these very operations into an expression (:mod:`casadi_gpc.estimation.forecast_function`)."""
     vT = v * T  # v * T * c evaluates (v * T) * c
     q0, q1, q2, q3, q4 = q
     cos, sin = xp.cos, xp.sin

@@ -23,10 +23,10 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
-from .config import PlannerConfig
-from .ekf import worst_std_m
-from .robot import RobotParams, robot_step
-from .types import ObstacleForecast, StaticObstacle
+from ..config import PlannerConfig
+from ..estimation.ekf import worst_std_m
+from ..robot import RobotParams, robot_step
+from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["ParameterLayout", "GPCProblem", "build_problem", "parameter_blocks", "effort_cost", "state_cost", "rollout_states",
            "FAR_AWAY_M"]
@@ -87,8 +87,8 @@ class ParameterLayout:
         ref_weights: np.ndarray | None = None,
     ) -> np.ndarray:
         """Parameter vector for one tick, the obstacles in the order given
-        (:mod:`casadi_gpc.selection` chooses them). ``ref_weights``: the tracking weight
-        factor of each desired pose (:func:`casadi_gpc.selection.goal_weights`; None: 1)."""
+        (:mod:`casadi_gpc.problem.selection` chooses them). ``ref_weights``: the tracking weight
+        factor of each desired pose (:func:`casadi_gpc.problem.selection.goal_weights`; None: 1)."""
         H, M, S = self.horizon, self.max_moving, self.max_static
         if len(forecasts) > M or len(statics) > S:
             raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")

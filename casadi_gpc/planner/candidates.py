@@ -7,7 +7,7 @@ the planner keeps every distinct solution it found (one per class, named after t
 came from), shifts each by one step and warm-starts it from itself at the next tick: a warm
 start from last tick's optimum needs a few iterations. The fixed guesses are solved again
 (with the incumbent's warm start, exactly the full multi-start of
-:meth:`casadi_gpc.gpc.GPCController.plan`) only when
+:meth:`casadi_gpc.planner.gpc.GPCController.plan`) only when
 
 - there is no candidate (the first tick, or all were lost),
 - a class was lost at the last tick: two candidates reached one optimum, or a solve failed
@@ -24,7 +24,7 @@ start from last tick's optimum needs a few iterations. The fixed guesses are sol
 
 When the one kept plan drove straight (its wheels' increments within 0.01 m/s of each other)
 and its warm start near an obstacle now turns, the two swerves are solved beside it
-(``opening_solves``, :meth:`casadi_gpc.gpc.GPCController.plan_persistent`): a head-on mover
+(``opening_solves``, :meth:`casadi_gpc.planner.gpc.GPCController.plan_persistent`): a head-on mover
 puts a straight plan on the ridge between passing left and passing right, where a warm start
 falls to either side by the solver's round-off; the swerves find both sides and a tie goes to
 the right, as in the full multi-start. (Solving them whenever a single candidate was kept
@@ -33,7 +33,7 @@ doubled the median decision.)
 Candidates that reach the same optimum (increments within :data:`SAME_PLAN_MPS`) are one
 class: the first in tie order stays. A candidate whose solve fails is dropped. Far from
 every obstacle only the incumbent is kept. The cheapest survivor wins, exact ties going to
-the earlier start in :data:`casadi_gpc.guesses.TIE_ORDER` (then the previous plan), as in
+the earlier start in :data:`casadi_gpc.planner.guesses.TIE_ORDER` (then the previous plan), as in
 the full multi-start.
 """
 from __future__ import annotations

@@ -1,28 +1,28 @@
-"""The bank of obstacle filters: one :class:`~casadi_gpc.ekf.ObstacleEKF` per obstacle id,
+"""The bank of obstacle filters: one :class:`~casadi_gpc.estimation.ekf.ObstacleEKF` per obstacle id,
 stepped once per sample, and the forecasts a planner plans with (numpy only).
 
-The planner (:meth:`casadi_gpc.gpc.GPCController.estimate`) and the deployed policy's
+The planner (:meth:`casadi_gpc.planner.gpc.GPCController.estimate`) and the deployed policy's
 situation tracker (:class:`nn_export.runtime.tracker.SituationTracker`) both keep their
 tracks here, so the network sees exactly the estimates the planner would see (their
 forecasts: the planner's bit for bit, or, for the network among six tracks or more, made
-together by :mod:`casadi_gpc.ekf_batch`, the same to rounding).
+together by :mod:`casadi_gpc.estimation.ekf_batch`, the same to rounding).
 """
 from __future__ import annotations
 
 from collections.abc import Iterable
 
 from .ekf import EKFSettings, ObstacleEKF, planning_covariances
-from .types import ObstacleForecast, ObstacleMeasurement
+from ..types import ObstacleForecast, ObstacleMeasurement
 
 __all__ = ["TrackBank", "TRACK_COUNTERS"]
 
 TRACK_COUNTERS = ("missed_measurements", "outliers", "unestimated_tracks", "manoeuvres", "ghosts")
 """What a bank counts: measurements missing (or not finite), measurements gated as
 outliers, tracks that have a state but have seen a single position (speed and heading
-unknown; planned standing, :func:`~casadi_gpc.ekf.planning_covariances`), once per sample,
+unknown; planned standing, :func:`~casadi_gpc.estimation.ekf.planning_covariances`), once per sample,
 manoeuvres (two gated measurements that agree: the velocity estimated afresh) and ghosts
 (samples a gated measurement waited for confirmation, its position planned as an obstacle
-standing there too, :meth:`~casadi_gpc.ekf.ObstacleEKF.ghost`)."""
+standing there too, :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`)."""
 
 
 class TrackBank:
@@ -51,7 +51,7 @@ class TrackBank:
         """Fuse one sample's measurements (one step of every measured obstacle's filter);
         returns the ``(measurement, filter)`` pairs of the tracks that have a state, then
         those of their ghosts (a gated, plausible measurement: the obstacle standing there,
-        :meth:`~casadi_gpc.ekf.ObstacleEKF.ghost`), which every planner avoids as well."""
+        :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`), which every planner avoids as well."""
         seen = []
         counters, filters = self.counters, self.filters
         pending = False  # a ghost to add (checked in the loop: a comprehension costs more)
@@ -83,8 +83,8 @@ class TrackBank:
     @staticmethod
     def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int, function=None) -> ObstacleForecast:
         """What a planner plans with: the filter's H-step prediction, a track seen once kept
-        at its next step's uncertainty (:func:`~casadi_gpc.ekf.planning_covariances`);
-        ``function``: the prediction's faster form (:meth:`~casadi_gpc.ekf.FilterState.predict`)."""
+        at its next step's uncertainty (:func:`~casadi_gpc.estimation.ekf.planning_covariances`);
+        ``function``: the prediction's faster form (:meth:`~casadi_gpc.estimation.ekf.FilterState.predict`)."""
         means, covs = ekf.predict(horizon, function)
         return ObstacleForecast(measurement.obstacle_id, measurement.radius_m, means,
                                 planning_covariances(covs, ekf.initialised))

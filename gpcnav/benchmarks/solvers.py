@@ -4,7 +4,7 @@ every solver (and, through :func:`policy_rows`, any policy) on the same problems
 The run is recorded with the reference solver (``ipopt-warm``). Each control step with a
 previous plan gives one **problem**: its NLP parameters and the warm start, the previous
 plan shifted one step with its multipliers. Those are the ``problems`` of BENCH.json. The
-planner also solves from its fixed guesses (``casadi_gpc.guesses``) near obstacles and at
+planner also solves from its fixed guesses (``casadi_gpc.planner.guesses``) near obstacles and at
 a step without a previous plan; those cold starts are recorded as well and reported apart,
 under ``multistart``, because from a far start two correct solvers may end in different
 local minima.
@@ -24,14 +24,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import PlannerConfig
-from .cost import GPCProblem
-from .gpc import GPCController
-from .metrics import time_stats
-from .robot import RobotParams
-from .simulator import RunLog, simulate
-from .solvers import SOLVER_NAMES, Backend, SolveResult, constraint_violation_mps, make_backend
-from .types import Observation, Policy
+from casadi_gpc.config import PlannerConfig
+from casadi_gpc.problem.cost import GPCProblem
+from casadi_gpc.planner.gpc import GPCController
+from scenarios.metrics import time_stats
+from casadi_gpc.robot import RobotParams
+from scenarios.simulator import RunLog, simulate
+from casadi_gpc.solvers import SOLVER_NAMES, Backend, SolveResult, constraint_violation_mps, make_backend
+from casadi_gpc.types import Observation, Policy
 
 __all__ = ["REFERENCE", "SAME_COST_RELATIVE", "AGREE_FRACTION", "RecordedProblem", "Recording",
            "record_problems", "run_solvers", "solver_rows", "policy_rows", "choose_solver", "speedups",
@@ -331,7 +331,7 @@ def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_N
     ``gpc_rows`` adds two policy rows, the full GPC decision (estimation included) with the
     reference solver and with the chosen one, replayed on the recorded observations.
     ``decision_scenarios`` (a crowd scene, say) are run closed loop with the planner as shipped,
-    beside ``scenario`` itself (:mod:`casadi_gpc.bench_decisions`): decision times, solves
+    beside ``scenario`` itself (:mod:`gpcnav.benchmarks.decisions`): decision times, solves
     per decision, and the persistent candidates against the full multi-start."""
     say = say or (lambda msg: None)
     names = list(dict.fromkeys([REFERENCE, *solvers]))
@@ -344,7 +344,7 @@ def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_N
         say(f"building {name}")
         t0 = time.perf_counter()
         if problem is None:
-            from .cost import build_problem
+            from casadi_gpc.problem.cost import build_problem
             problem = build_problem(config, scenario.robot)
         backends[name] = make_backend(name, problem, compiled=compiled)
         say(f"  {name}: {'; '.join(backends[name].notes)} ({time.perf_counter() - t0:.1f} s)")
@@ -385,7 +385,7 @@ def decision_rows(scenarios, config: PlannerConfig, warm_solve_median_s: float, 
     """The planner's whole decision on each scenario (closed loop, as shipped) beside one
     warm solve of the chosen solver, and its persistent candidates against the full
     multi-start on the same recorded problems."""
-    from .bench_decisions import compare_candidates, decision_run, record_ticks
+    from .decisions import compare_candidates, decision_run, record_ticks
     out = []
     for sc in scenarios:
         say(f"the planner's decision on {sc.name} ({len(sc.moving)} movers), and its candidates against the "

@@ -1,7 +1,7 @@
 """The obstacle filter's H-step forecast as a CasADi function: the planner's side.
 
 The planner forecasts every tracked mover at every tick (its relevance, parameters and
-check layer read them all). In plain Python floats (:func:`casadi_gpc.ekf_floats.propagate`)
+check layer read them all). In plain Python floats (:func:`casadi_gpc.estimation.ekf_floats.propagate`)
 the 12-step forecast costs about 42 us a mover (with its arrays), most of a crowd decision's
 estimation. Traced once into a CasADi expression, by calling that same function with
 symbols, and evaluated by CasADi's virtual machine through a buffer, it costs 13 us (a
@@ -17,7 +17,7 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-from .buffered import BufferedFunction
+from ..buffered import BufferedFunction
 from .ekf_floats import forecast, propagate
 
 __all__ = ["ForecastFunction"]
@@ -36,7 +36,7 @@ def _traced(sample_time_s: float, horizon: int) -> ca.Function:
 
 class ForecastFunction:
     """``forecast(state, cov_upper, T, q, horizon) -> (means (H, 2), covs (H, 2, 2))``: what
-    :meth:`casadi_gpc.ekf.FilterState.predict` computes for a track seen twice or more, for
+    :meth:`casadi_gpc.estimation.ekf.FilterState.predict` computes for a track seen twice or more, for
     one sample time and horizon (another sample time or horizon: the float form)."""
 
     def __init__(self, sample_time_s: float, horizon: int):

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .movers import MoverWorld
-from .robot import RobotState, brake_wheels, robot_step
-from .types import ControlDecision, ObstacleMeasurement, Observation, Policy
+from casadi_gpc.robot import RobotState, brake_wheels, robot_step
+from casadi_gpc.types import ControlDecision, ObstacleMeasurement, Observation, Policy
 
 __all__ = ["RunLog", "Episode", "simulate", "GOAL_TOLERANCE_M", "SUBSTEPS"]
 

@@ -8,20 +8,20 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-from .buffered import BufferedFunction
+from ..buffered import BufferedFunction
 from .candidates import CandidateSet, shift
-from .config import PlannerConfig, preset
-from .cost import GPCProblem, build_problem
-from .ekf import EKFSettings, ObstacleEKF
-from .forecast_function import ForecastFunction
+from ..config import PlannerConfig, preset
+from ..problem.cost import GPCProblem, build_problem
+from ..estimation.ekf import EKFSettings, ObstacleEKF
+from ..estimation.forecast_function import ForecastFunction
 from .guesses import TIE_ORDER, initial_guesses, swerve_guesses
 from .lanes import SolveLanes
-from .progress import ReferenceClock
-from .robot import RobotParams, brake_wheels
-from .selection import planner_parameters
-from .solvers import Backend, SolveResult, canonical_name, make_backend
-from .tracking import TrackBank
-from .types import ControlDecision, Observation, ObstacleForecast
+from ..progress import ReferenceClock
+from ..robot import RobotParams, brake_wheels
+from ..problem.selection import planner_parameters
+from ..solvers import Backend, SolveResult, canonical_name, make_backend
+from ..estimation.tracking import TrackBank
+from ..types import ControlDecision, Observation, ObstacleForecast
 
 __all__ = ["Plan", "Tick", "GPCController"]
 
@@ -41,7 +41,7 @@ class Tick:
     """One control step's NLP, as the planner poses it: what its candidates are solved on."""
 
     p: np.ndarray
-    """The NLP parameters (``casadi_gpc.cost.ParameterLayout``)."""
+    """The NLP parameters (``casadi_gpc.problem.cost.ParameterLayout``)."""
     x0: np.ndarray
     """The robot's state (x, y, heading, v_right, v_left)."""
     ref_speed_mps: float
@@ -168,7 +168,7 @@ class GPCController:
 
     def solve_many(self, p: np.ndarray, starts: list[tuple]) -> list[Plan]:
         """The starts ``(guess, u0, lam_x, lam_g)`` solved at once on the controller's lanes
-        (:mod:`casadi_gpc.lanes`) by its backend (and, where that fails, by the backup solver),
+        (:mod:`casadi_gpc.planner.lanes`) by its backend (and, where that fails, by the backup solver),
         in the order given. Inside ``decide``, a start not begun within the step's time budget
         is left out (counted in ``budget_skips``), and an answer that arrives after it is
         marked failed (``over_budget``): the loop does not use late answers."""
@@ -239,7 +239,7 @@ class GPCController:
 
     def plan_persistent(self, p: np.ndarray, x0: np.ndarray, ref_speed_mps: float, near: bool,
                         relevant: frozenset) -> tuple[Plan, list[Plan]]:
-        """The persistent candidates' tick (:mod:`casadi_gpc.candidates`): each kept
+        """The persistent candidates' tick (:mod:`casadi_gpc.planner.candidates`): each kept
         candidate warm-started, or, when due, the full multi-start of :meth:`plan`.
         ``near``: obstacles within the multi-start range; ``relevant``: the obstacles that
         matter now (movers within ``relevance_range_m`` of the predicted path, static ones

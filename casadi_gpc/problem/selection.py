@@ -14,7 +14,7 @@ Movers left out although they come within ``PlannerConfig.relevance_range_m`` of
 predicted path are counted by the planner (``left_out``): they are still in the safety
 check (:mod:`casadi_gpc.safety`), which sees every obstacle.
 
-The planner (:class:`casadi_gpc.gpc.GPCController`) and the labeller
+The planner (:class:`casadi_gpc.planner.gpc.GPCController`) and the labeller
 (:class:`nn_export.training.labels.Labeller`) both choose and pack here, so a change of the
 criterion is made once. :func:`goal_weights` marks the desired poses at the end of the path
 (the same rule for both).
@@ -25,8 +25,8 @@ import math
 
 import numpy as np
 
-from .config import PlannerConfig
-from .types import ObstacleForecast, StaticObstacle
+from ..config import PlannerConfig
+from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["Selection", "select_obstacles", "planner_parameters", "pack_selection", "goal_weights",
            "relevance_m"]
@@ -107,7 +107,7 @@ def goal_weights(ref_poses: np.ndarray, config: PlannerConfig) -> np.ndarray | N
 def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts, statics, config: PlannerConfig,
                        path_xy: np.ndarray | None = None) -> tuple[np.ndarray, Selection]:
     """The NLP parameter vector of one tick and the obstacles in it: :func:`select_obstacles`,
-    packed by the problem's parameter ``layout`` (:meth:`casadi_gpc.cost.ParameterLayout.pack`).
+    packed by the problem's parameter ``layout`` (:meth:`casadi_gpc.problem.cost.ParameterLayout.pack`).
 
     ``ref_poses``: the desired poses ``[x_m, y_m, heading_rad]`` at steps 0..H, shape
     (H + 1, 3) (step 0: where the reference point is now). Returns the parameters and the

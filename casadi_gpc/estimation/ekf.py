@@ -68,7 +68,7 @@ def obstacle_model_step(s: np.ndarray, sample_time_s: float) -> np.ndarray:
 
 def _jacobian(s: np.ndarray, T: float) -> np.ndarray:
     """The model's Jacobian at state ``s`` (the filter uses its closed form,
-    :func:`casadi_gpc.ekf_floats.propagate`; this matrix form is kept for tests and readers)."""
+    :func:`casadi_gpc.estimation.ekf_floats.propagate`; this matrix form is kept for tests and readers)."""
     _, _, v, th, dth = s
     th1 = th + dth
     c, si = np.cos(th1), np.sin(th1)
@@ -168,7 +168,7 @@ class FilterState(NamedTuple):
         """Predicted positions ``(H, 2)`` and their covariances ``(H, 2, 2)`` for steps 1..H
         (``q``: the diagonal of Q when the caller has it). ``forecast``: a callable
         ``(state, cov_upper, T, q, horizon) -> (means, covs)`` giving :func:`propagate`'s
-        numbers faster (:class:`casadi_gpc.forecast_function.ForecastFunction`), for a
+        numbers faster (:class:`casadi_gpc.estimation.forecast_function.ForecastFunction`), for a
         track seen twice or more."""
         T = self.sample_time_s
         if self.measurements_seen == 1:
@@ -212,7 +212,7 @@ class ObstacleEKF:
     _s: tuple | None = field(default=None, repr=False)
     """The state ``(x, y, V, theta, dtheta)`` in plain floats; None before the first measurement."""
     _U: tuple | None = field(default=None, repr=False)
-    """The covariance's upper triangle in plain floats (:data:`casadi_gpc.ekf_floats.upper`)."""
+    """The covariance's upper triangle in plain floats (:data:`casadi_gpc.estimation.ekf_floats.upper`)."""
 
     def __post_init__(self):
         self._consts = (None, None, None, None)

@@ -7,9 +7,9 @@ fixed guesses were solved.
 
 :func:`record_ticks` runs a scenario closed loop with the full multi-start
 (``PlannerConfig.candidates = "multistart"``: every fixed guess and the previous plan at every
-step near obstacles) and keeps each step's NLP (:class:`casadi_gpc.gpc.Tick`) and the cost
+step near obstacles) and keeps each step's NLP (:class:`casadi_gpc.planner.gpc.Tick`) and the cost
 of the plan it chose. :func:`compare_candidates` solves the same sequence of NLPs with the
-persistent candidates (:mod:`casadi_gpc.candidates`), which carry their own solutions from
+persistent candidates (:mod:`casadi_gpc.planner.candidates`), which carry their own solutions from
 step to step, and compares the chosen costs step by step: the same (within
 :data:`SAME_COST_RELATIVE`) or lower counts as as good.
 """
@@ -19,12 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import PlannerConfig
-from .gpc import GPCController, Tick
-from .metrics import time_stats
-from .robot import RobotParams
-from .safety import Shield, safer_alternatives_for
-from .simulator import simulate
+from casadi_gpc.config import PlannerConfig
+from casadi_gpc.planner.gpc import GPCController, Tick
+from scenarios.metrics import time_stats
+from casadi_gpc.robot import RobotParams
+from casadi_gpc.safety import CheckSettings, Shield, safer_alternatives_for
+from scenarios.simulator import simulate
 
 __all__ = ["SAME_COST_RELATIVE", "RecordedTick", "record_ticks", "compare_candidates", "decision_run"]
 
@@ -124,8 +124,8 @@ def decision_run(scenario, config: PlannerConfig) -> dict:
     decisions that solved the fixed guesses, interventions, the outcome. Each decision is
     timed as the simulator times it (estimation, parameters, solves, the check)."""
     gpc = GPCController(config, scenario.robot)
-    log = simulate(scenario, Shield(gpc, scenario.robot, trust_plans=True,
-                                    safer_alternatives=safer_alternatives_for(config)), "gpc")
+    log = simulate(scenario, Shield(gpc, scenario.robot, CheckSettings(
+        trust_plans=True, safer_alternatives=safer_alternatives_for(config))), "gpc")
     n = max(len(log.decisions), 1)
     return {"scenario": scenario.name, "preset": config.name, "outcome": log.outcome, "decisions": len(log.decisions),
             "movers": len(scenario.moving), "time_s": time_stats(log.compute_time_s),

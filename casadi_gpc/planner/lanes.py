@@ -20,7 +20,7 @@ import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
-from .solvers import Backend, SolveResult
+from ..solvers import Backend, SolveResult
 
 __all__ = ["SolveLanes"]
 

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from .robot import robot_step_float
+from ..robot import robot_step_float
 
 __all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "brake_guess", "initial_guesses"]
 

@@ -1,11 +1,11 @@
 """The obstacle filter's H-step forecast for many tracks at once (numpy only).
 
-:func:`casadi_gpc.ekf_floats.propagate` steps one track's mean and covariance H times on
+:func:`casadi_gpc.estimation.ekf_floats.propagate` steps one track's mean and covariance H times on
 plain floats: about 16 us a track on the 2-core machine, 0.16 ms of a decision among ten
 walkers. Here the H steps of N tracks are taken together, in closed form over the
 horizon, with a fixed number of array operations whatever N is (about 80 us for ten).
 
-The model (:mod:`casadi_gpc.ekf`) splits the state into the position ``p = (x, y)`` and
+The model (:mod:`casadi_gpc.estimation.ekf`) splits the state into the position ``p = (x, y)`` and
 ``z = (V, theta, dtheta)``. Its Jacobian at step k is ``F_k = [[I, J_k], [0, G]]`` with
 ``G = [[1, 0, 0], [0, 1, 1], [0, 0, 1]]`` (constant) and
 ``J_k = [[T c_k, -V T s_k, -V T s_k], [T s_k, V T c_k, V T c_k]]`` (``c_k, s_k`` the cosine
@@ -18,7 +18,7 @@ and sine of ``theta + k dtheta``). With ``P = [[A, B], [B^T, C]]`` and
 
 ``C`` does not depend on the state, and ``G^m = I + m e_theta e_dtheta^T``, so ``C_k`` is a
 polynomial in k and ``B_k``, ``A_k`` are cumulative sums over the steps. The numbers are
-:func:`~casadi_gpc.ekf_floats.propagate`'s up to rounding (the sums are taken in another
+:func:`~casadi_gpc.estimation.ekf_floats.propagate`'s up to rounding (the sums are taken in another
 order; tested to 1e-12).
 """
 from __future__ import annotations
@@ -59,8 +59,8 @@ def _rows(horizon: int, q_z: tuple) -> tuple[np.ndarray, ...]:
 def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) -> tuple[np.ndarray, np.ndarray]:
     """The predicted positions ``(N, H, 2)`` and their covariances ``(N, H, 2, 2)`` at steps
     1..H of N filter states ``(x, y, V, theta, dtheta)`` (``(N, 5)``) with their covariances'
-    upper triangles (``(N, 15)``, row by row: :data:`casadi_gpc.ekf_floats.upper`), all with
-    the same sample time and Q diagonal ``q``: :func:`casadi_gpc.ekf_floats.forecast` of
+    upper triangles (``(N, 15)``, row by row: :data:`casadi_gpc.estimation.ekf_floats.upper`), all with
+    the same sample time and Q diagonal ``q``: :func:`casadi_gpc.estimation.ekf_floats.forecast` of
     each, together.
 
     Every array below runs over (track, step) as its last two axes, so that each operation
@@ -116,9 +116,9 @@ def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) 
 
 class ForecastBatch:
     """The H-step forecasts of several filters' frozen estimates
-    (:class:`~casadi_gpc.ekf.FilterState`, from one bank: same sample time and settings),
+    (:class:`~casadi_gpc.estimation.ekf.FilterState`, from one bank: same sample time and settings),
     made together when first read: :meth:`FilterState.predict
-    <casadi_gpc.ekf.FilterState.predict>`'s numbers up to rounding, one row per estimate.
+    <casadi_gpc.estimation.ekf.FilterState.predict>`'s numbers up to rounding, one row per estimate.
     Estimates seen once (standing, their own forecast) are made one by one."""
 
     __slots__ = ("snapshots", "horizon", "_arrays", "_planning", "_worst")
@@ -148,7 +148,7 @@ class ForecastBatch:
 
     @property
     def planning_covs(self) -> np.ndarray:
-        """The covariances a planner plans with (:func:`~casadi_gpc.ekf.planning_covariances`
+        """The covariances a planner plans with (:func:`~casadi_gpc.estimation.ekf.planning_covariances`
         of each row), read-only."""
         if self._planning is None:
             covs = self.arrays[1]
@@ -162,7 +162,7 @@ class ForecastBatch:
 
     @property
     def worst_std_m(self) -> np.ndarray:
-        """:func:`~casadi_gpc.ekf.worst_std_m` of :attr:`planning_covs`, ``(N, H)``, read-only
+        """:func:`~casadi_gpc.estimation.ekf.worst_std_m` of :attr:`planning_covs`, ``(N, H)``, read-only
         (the check's touching distances widen by it)."""
         if self._worst is None:
             w = worst_std_m(self.planning_covs)

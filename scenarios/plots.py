@@ -86,7 +86,7 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
     """A GIF of the run, one frame per sample."""
     from matplotlib.animation import FuncAnimation, PillowWriter
 
-    from .io import atomic_file
+    from casadi_gpc.io import atomic_file
 
     tr = doc["trajectory"]
     x, y, h, t = (np.asarray(tr[k]) for k in ("x", "y", "heading_rad", "t"))

@@ -1,0 +1,100 @@
+"""What the check layer trusts from a controller, for how long, and what it falls back on:
+one frozen settings object (numpy only).
+
+Each controller declares its :class:`CheckSettings` next to its name in the one controller
+registry (``gpcnav.controllers``); :class:`~casadi_gpc.safety.Shield` takes the controller,
+the robot and these settings, so no caller chooses the check's flags by the kind of
+controller it holds.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["CheckSettings", "FALLBACKS"]
+
+FALLBACKS = ("manoeuvres", "planner")
+"""What the check hands over to when the controller's answer and its alternatives fail:
+``manoeuvres``, the check's own fixed set (brake, swerve, slow turns, reverse, dash;
+numpy only, what a robot without CasADi runs); ``planner``, the GPC kept on standby
+(:class:`~casadi_gpc.safety.StandbyPlanner`), then the manoeuvres."""
+
+
+@dataclass(frozen=True)
+class CheckSettings:
+    """The check layer's settings for one controller (docs/faults.md has the measured cost).
+
+    Attributes
+    ----------
+    trust_plans : bool
+        The controller is a planner that replans every sample (the GPC, a plan network): its
+        plan, or one of its alternatives, passes when it keeps the margin for
+        :attr:`trust_planner_s`; a violation later in the horizon, where the forecast's
+        uncertainty has grown, is left to its next plans. False: the whole horizon counts.
+    trust_planner_s : float or None
+        How long a trusted plan (and the standby planner's answer) must keep the margin, s;
+        None: 3 s, at least two samples and at most the horizon
+        (:class:`~casadi_gpc.safety.SafetyFilter`).
+    safer_alternatives : bool
+        With :attr:`trust_plans`: a plan that passes on the trust time alone gives way to the
+        first of the controller's alternatives that keeps the margin over the whole horizon
+        (an intervention, not a fallback; counted ``shield_alternative_safer``).
+        :data:`~casadi_gpc.safety.SAFER_ALTERNATIVES` says for which preset it was measured
+        better.
+    previous_plan : bool
+        Keep the plan let through at each sample, shifted by one step, and offer it after the
+        controller's own alternatives when its answer fails (the safe candidate of Hose et
+        al.'s safety-augmented approximate MPC, for a controller that outputs whole plans).
+    rollouts : bool
+        For a controller that answers one command and can roll itself forward (a
+        ``rollout()`` method): when the command alone fails, its roll-out is judged as its
+        plan before the check steps in (counted ``shield_rollouts``, ``shield_rollout_passed``).
+    trust_rollout_s : float or None
+        With :attr:`rollouts`: a roll-out that keeps the margin this long passes (counted
+        ``shield_rollout_trusted``); None: the whole horizon.
+        :data:`~casadi_gpc.safety.ROLLOUT_TRUST_S` is the measured setting behind the
+        standby planner.
+    fallback : str
+        One of :data:`FALLBACKS`.
+    margin_m : float
+        The clearance a checked sequence must keep from every inflated obstacle disc, m.
+    sigmas : float
+        How many standard deviations of the predicted position inflate a moving obstacle.
+    substeps : int
+        Sub-samples of every interval at which the clearance is measured (the closest
+        approach between them is exact).
+    horizon : int or None
+        Intervals checked; None: the controller's own horizon, or 6 s of its samples.
+    """
+
+    trust_plans: bool = False
+    trust_planner_s: float | None = None
+    safer_alternatives: bool = False
+    previous_plan: bool = False
+    rollouts: bool = False
+    trust_rollout_s: float | None = None
+    fallback: str = "manoeuvres"
+    margin_m: float = 0.05
+    sigmas: float = 2.0
+    substeps: int = 4
+    horizon: int | None = None
+
+    def __post_init__(self):
+        if self.fallback not in FALLBACKS:
+            raise ValueError(f"fallback must be one of {', '.join(FALLBACKS)}, got {self.fallback!r}")
+        for name in ("trust_planner_s", "trust_rollout_s"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and not negative, got {value}")
+        if not (math.isfinite(self.margin_m) and self.margin_m >= 0):
+            raise ValueError(f"margin_m must be finite and not negative, got {self.margin_m}")
+        if not (math.isfinite(self.sigmas) and self.sigmas >= 0):
+            raise ValueError(f"sigmas must be finite and not negative, got {self.sigmas}")
+        if self.substeps < 1:
+            raise ValueError(f"substeps must be at least 1, got {self.substeps}")
+        if self.horizon is not None and self.horizon < 1:
+            raise ValueError(f"horizon must be at least 1, got {self.horizon}")
+        if self.safer_alternatives and not self.trust_plans:
+            raise ValueError("safer_alternatives applies to trusted plans: set trust_plans too")
+        if self.trust_rollout_s is not None and not self.rollouts:
+            raise ValueError("trust_rollout_s applies to roll-outs: set rollouts too")

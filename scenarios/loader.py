@@ -16,7 +16,7 @@ from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState
 from casadi_gpc.types import StaticObstacle
 
-from .model import Faults, MovingObstacleSpec, Scenario, Sensing, WalkerSpec
+from .model import TRACK_BEHAVIOURS, Faults, MovingObstacleSpec, Scenario, Sensing, TrackSpec, WalkerSpec
 
 __all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "BEHAVIOURS"]
 
@@ -92,6 +92,7 @@ _TOP_KEYS = {"name", "description", "duration_s", "robot", "reference", "moving_
              "sensing", "faults"}
 _CONSTANT_KEYS = {"position", "heading_deg", "speed_mps", "turn_rate_deg_s", "radius_m", "behaviour"}
 _WALKER_KEYS = {"position", "radius_m", "behaviour", "goal", "preferred_speed_mps", "sees_robot"}
+_TRACK_KEYS = {"track", "radius_m", "behaviour", "sees_robot"}
 BEHAVIOURS = ("constant", "orca", "social_force")
 """What a moving obstacle may do: keep its course, or walk to a goal (scenarios.movers)."""
 
@@ -115,6 +116,14 @@ def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
     faults = _faults(r, data["faults"]) if "faults" in data else Faults()
     for kind, obstacles in (("moving_obstacles", moving), ("static_obstacles", static)):
         for i, ob in enumerate(obstacles):
+            if isinstance(ob, TrackSpec) and not ob.exists_at(0.0):
+                continue  # someone who enters the scene later
+            if isinstance(ob, TrackSpec):
+                x, y = ob.recorded_at(0.0)
+                gap = math.hypot(x - start.x_m, y - start.y_m) - params.radius_m - ob.radius_m
+                if gap < 0:
+                    r.fail(f"{kind}[{i}].track", f"the robot starts overlapping this mover (gap {gap:.3f} m)")
+                continue
             gap = math.hypot(ob.position_m[0] - start.x_m, ob.position_m[1] - start.y_m) - params.radius_m - ob.radius_m
             if gap < 0:
                 r.fail(f"{kind}[{i}].position", f"the robot starts overlapping this obstacle (gap {gap:.3f} m)")
@@ -166,9 +175,12 @@ def _reference(r: _Reader, table, params: RobotParams) -> ReferencePath:
                          tuple(segments), speed)
 
 
-def _moving(r: _Reader, ob, f: str) -> MovingObstacleSpec | WalkerSpec:
-    """One ``[[moving_obstacles]]`` table: a constant mover, or a walker (``behaviour``
-    ``orca`` or ``social_force``); each refuses the other's keys."""
+def _moving(r: _Reader, ob, f: str) -> MovingObstacleSpec | WalkerSpec | TrackSpec:
+    """One ``[[moving_obstacles]]`` table: a constant mover, a walker (``behaviour``
+    ``orca`` or ``social_force``), or a mover that follows a recorded ``track``; each refuses
+    the others' keys."""
+    if isinstance(ob, dict) and "track" in ob:
+        return _track_mover(r, ob, f)
     behaviour = ob.get("behaviour", "constant") if isinstance(ob, dict) else "constant"
     if behaviour not in BEHAVIOURS:
         r.fail(f"{f}.behaviour", f"must be one of {', '.join(BEHAVIOURS)}, got {behaviour!r}")
@@ -191,15 +203,55 @@ def _moving(r: _Reader, ob, f: str) -> MovingObstacleSpec | WalkerSpec:
                       r.point(ob, "goal", f), float(r.number(ob, "preferred_speed_mps", f, positive=True)), sees)
 
 
+def _track_mover(r: _Reader, ob: dict, f: str) -> TrackSpec:
+    """A mover with a ``track`` of ``[t_s, x_m, y_m]`` rows (CONTRACT.md, "Movers that follow
+    a recording")."""
+    for key in sorted(set(ob) - _TRACK_KEYS):
+        if key in _CONSTANT_KEYS | _WALKER_KEYS:
+            r.fail(f"{f}.{key}", "not for a mover with a track (it follows its recording: one way to say one thing)")
+    r.table(ob, f, _TRACK_KEYS, {"track", "radius_m"})
+    behaviour = ob.get("behaviour", "replay")
+    if behaviour not in TRACK_BEHAVIOURS:
+        r.fail(f"{f}.behaviour", f"with a track must be one of {', '.join(TRACK_BEHAVIOURS)}, got {behaviour!r}")
+    sees = ob.get("sees_robot", False)
+    if not isinstance(sees, bool):
+        r.fail(f"{f}.sees_robot", f"must be true or false, got {type(sees).__name__}")
+    if sees and behaviour == "replay":
+        r.fail(f"{f}.sees_robot", "a replayed track cannot give way (sees_robot is for orca and social_force)")
+    rows = ob["track"]
+    name = f"{f}.track"
+    if not isinstance(rows, list):
+        r.fail(name, "must be a list of [t_s, x_m, y_m] rows")
+    if len(rows) < 2:
+        r.fail(name, f"needs at least two rows, got {len(rows)}")
+    out = []
+    for k, row in enumerate(rows):
+        if not isinstance(row, list) or len(row) != 3:
+            r.fail(f"{name}[{k}]", "must be a row of three numbers [t_s, x_m, y_m]")
+        for c in row:
+            if isinstance(c, bool) or not isinstance(c, (int, float)):
+                r.fail(f"{name}[{k}]", "must be a row of three numbers [t_s, x_m, y_m]")
+            if not math.isfinite(c):
+                r.fail(f"{name}[{k}]", f"must be finite, got {c}")
+        if row[0] < 0:
+            r.fail(f"{name}[{k}]", f"time must not be negative, got {row[0]}")
+        if out and not row[0] > out[-1][0]:
+            r.fail(f"{name}[{k}]", f"times must increase strictly ({row[0]} after {out[-1][0]})")
+        out.append((float(row[0]), float(row[1]), float(row[2])))
+    return TrackSpec(float(r.number(ob, "radius_m", f, positive=True)), tuple(out), behaviour, sees)
+
+
 def _static(r: _Reader, ob, f: str) -> StaticObstacle:
     r.table(ob, f, {"position", "radius_m"}, {"position", "radius_m"})
     return StaticObstacle(r.point(ob, "position", f), float(r.number(ob, "radius_m", f, positive=True)))
 
 
 def _sensing(r: _Reader, table) -> Sensing:
-    s = r.table(table, "sensing", {"position_noise_std_m", "seed"}, set())
+    s = r.table(table, "sensing", {"position_noise_std_m", "seed", "range_m"}, set())
+    range_m = r.number(s, "range_m", "sensing", positive=True) if "range_m" in s else None
     return Sensing(float(r.number(s, "position_noise_std_m", "sensing", default=0.02, nonnegative=True)),
-                   int(r.number(s, "seed", "sensing", default=0, integer=True, nonnegative=True)))
+                   int(r.number(s, "seed", "sensing", default=0, integer=True, nonnegative=True)),
+                   None if range_m is None else float(range_m))
 
 
 def _faults(r: _Reader, table) -> Faults:

@@ -13,6 +13,12 @@ __all__ = ["EpisodeMetrics", "episode_metrics", "path_deviation_m", "same_instan
            "DANGER_CLEARANCE_M", "intervention_count"]
 
 STOP_SPEED_MPS = 0.05
+APPROACH_SPEED_MPS = 0.05
+"""A collision is the robot's own doing when its speed towards the obstacle was above this
+(CONTRACT.md, ``collided_robot_approaching``)..."""
+GHOST_TIME_S = 1.0
+"""...and the obstacle had existed for at least this long (G-MPC's "ghost time": one who
+appears on the robot at a recording's edge is not the robot's doing)."""
 DANGER_CLEARANCE_M = 0.2
 """CrowdNav's discomfort distance: a sample whose clearance to some mover falls below this
 is a sample in danger."""
@@ -130,6 +136,15 @@ class EpisodeMetrics:
     danger_clearance_sum_m: float = 0.0
     """Sum over those intervals of their smallest clearance (for the mean over all)."""
     interventions: int = 0
+    collision: dict | None = None
+    """What was hit and how (RUN.json's ``collision``), for a collided episode."""
+
+    @property
+    def robot_approaching(self) -> bool:
+        """A collision of the robot's own doing: it drove towards an obstacle that had been
+        in the scene for :data:`GHOST_TIME_S` or more, faster than :data:`APPROACH_SPEED_MPS`."""
+        c = self.collision
+        return bool(c) and c["robot_speed_towards_mps"] > APPROACH_SPEED_MPS and c["obstacle_age_s"] >= GHOST_TIME_S
 
     @property
     def reached_goal(self) -> bool:
@@ -161,7 +176,13 @@ def episode_metrics(log: RunLog) -> EpisodeMetrics:
         danger_steps=int(danger.size),
         danger_clearance_sum_m=float(danger.sum()),
         interventions=intervention_count(log.events),
+        collision=getattr(log, "collision", None),
     )
+
+
+def _nullable(values: np.ndarray) -> list:
+    """A list for JSON, NaN (a mover not in the scene) as null."""
+    return [None if v != v else float(v) for v in values.tolist()]
 
 
 def run_document(log: RunLog, extra: dict | None = None) -> dict:
@@ -173,10 +194,12 @@ def run_document(log: RunLog, extra: dict | None = None) -> dict:
     sc = log.scenario
     kinds = [("moving", o) for o in sc.moving] + [("static", o) for o in sc.static]
     for j, (kind, ob) in enumerate(kinds):
-        entry = {"kind": kind, "radius_m": ob.radius_m, "x": obs_xy[:, j, 0].tolist(), "y": obs_xy[:, j, 1].tolist()}
+        entry = {"kind": kind, "radius_m": ob.radius_m, "x": _nullable(obs_xy[:, j, 0]), "y": _nullable(obs_xy[:, j, 1])}
         if kind == "moving":
             entry["behaviour"] = ob.behaviour
-            if ob.behaviour != "constant":
+            if hasattr(ob, "track"):  # x, y are null while it is not in the scene
+                entry.update(track_start_s=ob.start_s, track_end_s=ob.end_s, sees_robot=ob.sees_robot)
+            elif ob.behaviour != "constant":
                 entry.update(goal=list(ob.goal_m), sees_robot=ob.sees_robot)
         obstacles.append(entry)
     doc = {
@@ -197,6 +220,7 @@ def run_document(log: RunLog, extra: dict | None = None) -> dict:
         "danger_rate": m.danger_steps / max(m.steps, 1),
         "min_clearance_in_danger_m": m.danger_clearance_sum_m / m.danger_steps if m.danger_steps else None,
         "interventions": m.interventions,
+        "collision": m.collision,
         "clipped_commands": log.clipped_commands,
         "events": {k: int(v) for k, v in log.events.items()},
         "trajectory": {
@@ -242,6 +266,7 @@ def eval_document(controller: str, metrics: list[EpisodeMetrics], compute_times:
         "collision_rate_upper_95": clopper_pearson_upper(collisions, n),
         "failure_rate_upper_95": clopper_pearson_upper(failures, n),
         "interventions": int(sum(m.interventions for m in metrics)),
+        "collided_robot_approaching": int(sum(m.robot_approaching for m in metrics)),
         "episodes_detail": [asdict(m) for m in metrics],
     }
     doc.update(extra or {})

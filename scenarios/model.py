@@ -9,7 +9,7 @@ from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotParams, RobotState, arc_step
 from casadi_gpc.types import StaticObstacle
 
-__all__ = ["MovingObstacleSpec", "WalkerSpec", "Sensing", "Faults", "Scenario"]
+__all__ = ["MovingObstacleSpec", "WalkerSpec", "TrackSpec", "Sensing", "Faults", "Scenario", "TRACK_BEHAVIOURS"]
 
 
 @dataclass(frozen=True)
@@ -45,10 +45,90 @@ class WalkerSpec:
     sees_robot: bool = False
 
 
+TRACK_BEHAVIOURS = ("replay", "orca", "social_force")
+"""What a mover with a recorded track does: replay it exactly (open loop), or follow it as a
+walker that avoids the others (navground's ORCA or social force)."""
+
+
+@dataclass(frozen=True)
+class TrackSpec:
+    """A mover that follows a recorded track (a pedestrian of a recording).
+
+    ``track`` holds the ``(t_s, x_m, y_m)`` rows, times strictly increasing (as the file
+    gives them; :attr:`times_s` and :attr:`xy_m` are their arrays); the position is linear
+    between rows. The mover exists only from its first row's time to its last
+    (:meth:`exists_at`): before and after, it is nowhere (no measurement, no collision).
+    ``behaviour`` ``"replay"`` is the recording exactly; ``"orca"`` / ``"social_force"`` a
+    walker that heads at every instant for where its recording says it should be while
+    avoiding the other movers (and the robot when ``sees_robot``), and leaves at its last
+    row's time (:mod:`scenarios.movers`).
+    """
+
+    radius_m: float
+    track: tuple[tuple[float, float, float], ...]
+    behaviour: str = "replay"
+    sees_robot: bool = False
+
+    def __post_init__(self):
+        rows = np.asarray(self.track, dtype=float).reshape(-1, 3)
+        rows.flags.writeable = False
+        object.__setattr__(self, "_rows", rows)
+
+    @property
+    def times_s(self) -> np.ndarray:
+        return self._rows[:, 0]
+
+    @property
+    def xy_m(self) -> np.ndarray:
+        return self._rows[:, 1:]
+
+    @property
+    def start_s(self) -> float:
+        return float(self.times_s[0])
+
+    @property
+    def end_s(self) -> float:
+        return float(self.times_s[-1])
+
+    @property
+    def position_m(self) -> tuple[float, float]:
+        """Where the track starts (its first row)."""
+        return float(self.xy_m[0, 0]), float(self.xy_m[0, 1])
+
+    def exists_at(self, t_s):
+        """Whether the mover is in the scene at time(s) ``t_s`` (first to last row, inclusive)."""
+        t = np.asarray(t_s, dtype=float)
+        return (t >= self.times_s[0] - 1e-9) & (t <= self.times_s[-1] + 1e-9)
+
+    def recorded_at(self, t_s) -> np.ndarray:
+        """The recorded position at time(s) ``t_s``, linear between rows and held at the
+        ends: ``(2,)`` for a scalar, ``(len(t), 2)`` for an array."""
+        t = np.asarray(t_s, dtype=float)
+        out = np.stack([np.interp(t, self.times_s, self.xy_m[:, 0]), np.interp(t, self.times_s, self.xy_m[:, 1])],
+                       axis=-1)
+        return out
+
+    def recorded_velocity_at(self, t_s: float) -> np.ndarray:
+        """The recorded velocity over the row interval that holds ``t_s`` (zero outside the
+        track's time)."""
+        if not bool(self.exists_at(t_s)):
+            return np.zeros(2)
+        k = int(np.clip(np.searchsorted(self.times_s, t_s, side="right") - 1, 0, len(self.times_s) - 2))
+        return (self.xy_m[k + 1] - self.xy_m[k]) / (self.times_s[k + 1] - self.times_s[k])
+
+    @property
+    def max_recorded_speed_mps(self) -> float:
+        v = np.hypot(*np.diff(self.xy_m, axis=0).T) / np.diff(self.times_s)
+        return float(v.max()) if v.size else 0.0
+
+
 @dataclass(frozen=True)
 class Sensing:
     position_noise_std_m: float = 0.02
     seed: int = 0
+    range_m: float | None = None
+    """A mover is measured only while its centre is within this distance of the robot's
+    centre (None: no limit)."""
 
 
 @dataclass(frozen=True)
@@ -77,7 +157,7 @@ class Scenario:
     robot_start: RobotState
     reference: ReferencePath
     robot: RobotParams = field(default_factory=RobotParams)
-    moving: tuple[MovingObstacleSpec | WalkerSpec, ...] = ()
+    moving: tuple[MovingObstacleSpec | WalkerSpec | TrackSpec, ...] = ()
     static: tuple[StaticObstacle, ...] = ()
     sensing: Sensing = field(default_factory=Sensing)
     faults: Faults = field(default_factory=Faults)

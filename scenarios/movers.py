@@ -1,14 +1,24 @@
 """The moving obstacles' true motion in one episode: what the simulator shows the sensor and
 checks collisions against.
 
-Two kinds of movers (the scenario format's ``behaviour``):
+Three kinds of movers (the scenario format's ``behaviour``):
 
 - ``constant``: a fixed course, constant speed and turn rate from t = 0, in closed form
   (:meth:`MovingObstacleSpec.state_at <scenarios.model.MovingObstacleSpec.state_at>`).
+- ``replay``: a recorded track (:class:`~scenarios.model.TrackSpec`), exactly, whatever the
+  robot does (open loop), in closed form too.
 - ``orca`` and ``social_force``: people who walk to a goal at a preferred speed and avoid the
   other movers (and the robot, when they see it), stepped by navground's own behaviours
   (``ORCA``, ``SocialForce``; C++ core, ``pip install navground``) with holonomic (``Omni``)
   kinematics. A walker stands at its goal once it is within :data:`GOAL_TOLERANCE_M` of it.
+  A walker with a recorded track has no fixed goal: at every grid instant it heads for where
+  its recording will be :data:`TRACK_LOOKAHEAD_S` later, at the speed that gets it there
+  (at most :data:`TRACK_SPEED_FACTOR` times the track's fastest recorded speed), and leaves
+  the scene at its last row's time.
+
+A mover with a track exists only from its first row's time to its last: outside that window
+:meth:`MoverWorld.positions` gives NaN for it (nothing measures it, nothing collides with
+it, no walker sees it).
 
 The reacting movers are advanced on a fixed grid of :data:`CROWD_TIME_STEP_S`, independent
 of the controller's sample time: at each grid instant every walker's behaviour is given the
@@ -38,6 +48,12 @@ MOVER_SAFETY_MARGIN_M = 0.05
 its numerical tolerance (measured: overlaps of ~1 mm in a head-on pair)."""
 PERCEPTION_RANGE_M = 5.0
 """A walker sees what is this close (centre distance; navground's default behaviour horizon)."""
+TRACK_LOOKAHEAD_S = 0.4
+"""How far ahead on its recording a walker that follows a track aims (one row of the ETH/UCY
+recordings)."""
+TRACK_SPEED_FACTOR = 1.5
+"""A walker that follows a track may walk this much faster than its fastest recorded speed to
+catch up with its recording after giving way."""
 BEHAVIOURS = {"orca": "ORCA", "social_force": "SocialForce"}
 """Scenario ``behaviour`` names of the walkers and navground's behaviour types."""
 
@@ -63,8 +79,12 @@ class MoverWorld:
         self.movers = tuple(movers)
         self.n = len(self.movers)
         self.radii = np.array([m.radius_m for m in self.movers], dtype=float)
-        self._walkers = [j for j, m in enumerate(self.movers) if getattr(m, "behaviour", "constant") != "constant"]
-        self._constant = [j for j in range(self.n) if j not in set(self._walkers)]
+        kinds = [getattr(m, "behaviour", "constant") for m in self.movers]
+        self._walkers = [j for j, k in enumerate(kinds) if k in BEHAVIOURS]
+        self._constant = [j for j, k in enumerate(kinds) if k == "constant"]
+        self._replay = [j for j, k in enumerate(kinds) if k == "replay"]
+        self._tracked = [j for j, m in enumerate(self.movers) if hasattr(m, "track")]
+        """Movers with a recorded track (replayed or walking it): they exist in a window only."""
         self._robot_radius = float(robot_radius_m)
         self._statics = tuple(statics)
         self.steps = 0
@@ -78,6 +98,7 @@ class MoverWorld:
             self._grid = [start]                       # walker positions at grid instants 0, 1, ...
             self._vel = np.zeros_like(start)            # velocity over the current grid step
             self._arrived = np.zeros(len(self._walkers), dtype=bool)
+            self._entered = np.zeros(len(self._walkers), dtype=bool)  # track walkers placed on their recording
 
     @property
     def has_walkers(self) -> bool:
@@ -96,11 +117,24 @@ class MoverWorld:
             m = self.movers[j]
             _, _, h = m.state_at(t_s)
             v[j] = m.speed_mps * math.cos(float(h)), m.speed_mps * math.sin(float(h))
+        for j in self._replay:
+            v[j] = self.movers[j].recorded_velocity_at(t_s)
         if self._walkers:
             k = min(int(math.floor(t_s / CROWD_TIME_STEP_S + 1e-9)), len(self._grid) - 2)
             if k >= 0:
                 v[self._walkers] = (self._grid[k + 1] - self._grid[k]) / CROWD_TIME_STEP_S
+        for j in self._tracked:
+            if not self.movers[j].exists_at(t_s):
+                v[j] = 0.0
         return v
+
+    def exists(self, t_s: float) -> np.ndarray:
+        """Which movers are in the scene at ``t_s``, ``(n,)`` booleans (a mover with a track
+        only between its first and last rows)."""
+        e = np.ones(self.n, dtype=bool)
+        for j in self._tracked:
+            e[j] = bool(self.movers[j].exists_at(t_s))
+        return e
 
     def positions(self, t_s) -> np.ndarray:
         """True positions at time(s) ``t_s``: shape ``(n, 2)`` for a scalar, ``(len(t), n, 2)``
@@ -111,6 +145,8 @@ class MoverWorld:
         for j in self._constant:
             x, y, _ = self.movers[j].state_at(ts)
             out[:, j, 0], out[:, j, 1] = x, y
+        for j in self._replay:
+            out[:, j, :] = self.movers[j].recorded_at(ts)
         if self._walkers:
             if ts.max(initial=0.0) > self.advanced_to_s + 1e-9:
                 raise ValueError(f"walkers known until {self.advanced_to_s:.2f} s, asked for {ts.max():.2f} s")
@@ -120,6 +156,8 @@ class MoverWorld:
             a = (u - k)[:, None, None]
             nxt = grid[np.minimum(k + 1, len(self._grid) - 1)]
             out[:, self._walkers, :] = (1.0 - a) * grid[k] + a * nxt
+        for j in self._tracked:
+            out[~self.movers[j].exists_at(ts), j, :] = np.nan
         return out if t.ndim else out[0]
 
     def advance(self, t_end_s: float, robot: RobotMotion | None = None) -> None:
@@ -137,18 +175,27 @@ class MoverWorld:
         k = len(self._grid) - 1
         t = k * CROWD_TIME_STEP_S
         now = self._grid[-1]
+        for i, j in enumerate(self._walkers):
+            m = self.movers[j]
+            if not self._entered[i] and hasattr(m, "track") and m.exists_at(t):
+                now[i] = m.recorded_at(t)  # enters the scene where its recording is
+                self._entered[i] = True
         pos_all = self.positions(t)
         vel_all = self.velocities(t) if k > 0 else np.zeros((self.n, 2))
         if k == 0:
             vel_all[self._walkers] = 0.0
+        present = self.exists(t)
         for i, j in enumerate(self._walkers):
-            if not self._arrived[i] and math.hypot(*(now[i] - self.movers[j].goal_m)) <= GOAL_TOLERANCE_M:
+            m = self.movers[j]
+            if hasattr(m, "track"):
+                continue  # follows its recording, has no goal to stand at
+            if not self._arrived[i] and math.hypot(*(now[i] - m.goal_m)) <= GOAL_TOLERANCE_M:
                 self._arrived[i] = True
                 self.counters["arrived"] += 1
         standing = {j for i, j in enumerate(self._walkers) if self._arrived[i]}
         # each mover once, as navground sees it: a walker standing at its goal is a disc (it
         # will not give way), everything else an agent with its velocity
-        seen = [core.Disc(pos_all[o], float(self.radii[o])) if o in standing
+        seen = [None if not present[o] else core.Disc(pos_all[o], float(self.radii[o])) if o in standing
                 else core.Neighbor(pos_all[o], float(self.radii[o]), vel_all[o], o) for o in range(self.n)]
         robot_neighbour = None
         if any(self.movers[j].sees_robot for j in self._walkers):
@@ -159,10 +206,15 @@ class MoverWorld:
             robot_neighbour = core.Neighbor(robot_xy, self._robot_radius, np.array((rvx, rvy)), -1)
         vel = np.zeros_like(now)
         for i, (j, b) in enumerate(zip(self._walkers, self._behaviours)):
-            if self._arrived[i]:
+            if self._arrived[i] or not present[j]:
                 continue
             m = self.movers[j]
-            near = np.hypot(*(pos_all - now[i]).T) <= PERCEPTION_RANGE_M
+            if hasattr(m, "track"):
+                if not bool(m.exists_at(t + CROWD_TIME_STEP_S)):
+                    continue  # leaves the scene at its last row
+                _aim_at_recording(b, m, now[i], t)
+            with np.errstate(invalid="ignore"):
+                near = np.hypot(*(pos_all - now[i]).T) <= PERCEPTION_RANGE_M
             near[j] = False
             agents = [seen[o] for o in np.flatnonzero(near) if o not in standing]
             discs = [seen[o] for o in np.flatnonzero(near) if o in standing]
@@ -175,7 +227,7 @@ class MoverWorld:
             cmd = b.compute_cmd(CROWD_TIME_STEP_S, core.Frame.absolute)
             v = np.asarray(cmd.velocity, dtype=float)
             # never overshoot the goal within one grid step: stop on it
-            to_goal = np.asarray(m.goal_m, dtype=float) - now[i]
+            to_goal = np.asarray(b.target.position if hasattr(m, "track") else m.goal_m, dtype=float) - now[i]
             d = math.hypot(*to_goal)
             if math.hypot(*v) * CROWD_TIME_STEP_S > d > 0:
                 v = to_goal / CROWD_TIME_STEP_S
@@ -191,10 +243,26 @@ def _make_behaviour(mover):
     from navground import core
     b = core.Behavior.make_type(BEHAVIOURS[mover.behaviour])
     b.kinematics = core.Kinematics.make_type("Omni")
-    b.kinematics.max_speed = mover.preferred_speed_mps
-    b.max_speed = mover.preferred_speed_mps
-    b.optimal_speed = mover.preferred_speed_mps
+    if hasattr(mover, "track"):
+        top = max(TRACK_SPEED_FACTOR * mover.max_recorded_speed_mps, 0.1)
+        b.kinematics.max_speed = b.max_speed = b.optimal_speed = top
+        goal = mover.recorded_at(mover.start_s + TRACK_LOOKAHEAD_S)
+    else:
+        b.kinematics.max_speed = mover.preferred_speed_mps
+        b.max_speed = mover.preferred_speed_mps
+        b.optimal_speed = mover.preferred_speed_mps
+        goal = mover.goal_m
     b.radius = mover.radius_m
     b.safety_margin = MOVER_SAFETY_MARGIN_M
-    b.target = core.Target.Point(np.asarray(mover.goal_m, dtype=float), GOAL_TOLERANCE_M)
+    b.target = core.Target.Point(np.asarray(goal, dtype=float), GOAL_TOLERANCE_M)
     return b
+
+
+def _aim_at_recording(b, mover, position, t_s: float) -> None:
+    """Point a track walker's behaviour at where its recording is :data:`TRACK_LOOKAHEAD_S`
+    ahead, at the speed that gets it there in that time (within its top speed)."""
+    from navground import core
+    goal = mover.recorded_at(min(t_s + TRACK_LOOKAHEAD_S, mover.end_s))
+    speed = min(float(np.hypot(*(goal - position))) / TRACK_LOOKAHEAD_S, b.max_speed)
+    b.optimal_speed = max(speed, 1e-3)
+    b.target = core.Target.Point(np.asarray(goal, dtype=float), GOAL_TOLERANCE_M)

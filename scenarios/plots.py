@@ -45,21 +45,21 @@ def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 
     n_moving = sum(o["kind"] == "moving" for o in obstacles)
     crowd = n_moving > len(_OBSTACLE_COLOURS)
     for j, ob in enumerate(obstacles):
-        ox, oy = np.asarray(ob["x"]), np.asarray(ob["y"])
+        ox, oy = np.asarray(ob["x"], dtype=float), np.asarray(ob["y"], dtype=float)  # null: not in the scene
         if ob["kind"] == "static":
             ax.add_patch(Circle((ox[0], oy[0]), ob["radius_m"], color="0.3", alpha=0.6))
             continue
         c = mover_colour(j, n_moving)
         ax.plot(ox, oy, color=c, lw=1.0, ls=":", label="moving obstacle" if j == 0 else None)
         for k in marks:
-            if k < len(ox):
+            if k < len(ox) and np.isfinite(ox[k]):
                 # later footprints darker: who was where when, even where paths cross
                 alpha = 0.35 + 0.65 * k / max(len(t) - 1, 1) if crowd else 1.0
                 ax.add_patch(Circle((ox[k], oy[k]), ob["radius_m"], fill=False, color=c, lw=0.8, alpha=alpha))
                 ax.annotate(f"{t[k]:.0f}", (ox[k], oy[k]), fontsize=6, color=c, ha="center", va="center")
         if "goal" in ob:
             ax.plot(*ob["goal"], marker="x", color=c, ms=5, mew=1.2)
-        if crowd or doc.get("outcome") == "collided":
+        if (crowd or doc.get("outcome") == "collided") and np.isfinite(ox[-1]):
             ax.add_patch(Circle((ox[-1], oy[-1]), ob["radius_m"], color=c, alpha=0.35))  # where it was at the end
     if doc.get("outcome") == "collided":
         ax.add_patch(Circle((x[-1], y[-1]), robot_radius_m, color="tab:blue", alpha=0.35))
@@ -91,11 +91,12 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
     tr = doc["trajectory"]
     x, y, h, t = (np.asarray(tr[k]) for k in ("x", "y", "heading_rad", "t"))
     fig, ax = plt.subplots(figsize=(7, 4))
-    obs = doc.get("obstacles", [])
-    allx = np.concatenate([x] + [np.asarray(o["x"]) for o in obs])
-    ally = np.concatenate([y] + [np.asarray(o["y"]) for o in obs])
-    ax.set_xlim(allx.min() - 1, allx.max() + 1)
-    ax.set_ylim(ally.min() - 1, ally.max() + 1)
+    obs = [{**o, "x": np.asarray(o["x"], dtype=float), "y": np.asarray(o["y"], dtype=float)}  # null: not in the scene
+           for o in doc.get("obstacles", [])]
+    allx = np.concatenate([x] + [o["x"] for o in obs])
+    ally = np.concatenate([y] + [o["y"] for o in obs])
+    ax.set_xlim(np.nanmin(allx) - 1, np.nanmax(allx) + 1)
+    ax.set_ylim(np.nanmin(ally) - 1, np.nanmax(ally) + 1)
     ax.set_aspect("equal")
     if "reference_path" in doc:
         rp = np.asarray(doc["reference_path"])
@@ -121,7 +122,10 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
         robot.center = (x[k], y[k])
         for d, tr, o in zip(discs, trails, obs):
             kk = min(k, len(o["x"]) - 1)
-            d.center = (o["x"][kk], o["y"][kk])
+            here = bool(np.isfinite(o["x"][kk]))
+            d.set_visible(here)
+            if here:
+                d.center = (o["x"][kk], o["y"][kk])
             if tr is not None:
                 tr.set_data(o["x"][max(0, kk - trail_len): kk + 1], o["y"][max(0, kk - trail_len): kk + 1])
         state = f"  {doc['outcome']}" if k == len(t) - 1 else ""

@@ -45,18 +45,30 @@ class RunLog:
     fallbacks: int = 0
     clipped_commands: int = 0
     events: dict = field(default_factory=dict)
+    collision: dict | None = None
+    """What was hit and how, for a collided episode (:meth:`Episode._collision`)."""
 
 
 class _Sensor:
-    """Noisy, possibly faulty position measurements of the moving obstacles."""
+    """Noisy, possibly faulty position measurements of the moving obstacles.
+
+    A mover that is not in the scene (a track outside its time) or whose centre is beyond
+    ``[sensing] range_m`` of the robot's is not in the measurement list at all, as a sensor
+    reports only what it sees (the noise is drawn for every mover all the same, so the
+    numbers of the others do not depend on who is seen)."""
 
     def __init__(self, scenario, rng: np.random.Generator, events: dict):
         self.s, self.rng, self.events = scenario, rng, events
         self.queue: deque = deque()
+        self.range_m = scenario.sensing.range_m
 
-    def measure(self, t: float, true_xy: np.ndarray) -> tuple[ObstacleMeasurement, ...]:
+    def measure(self, t: float, true_xy: np.ndarray, robot_xy=None) -> tuple[ObstacleMeasurement, ...]:
         s, f, rng = self.s, self.s.faults, self.rng
         out = []
+        seen = np.isfinite(true_xy[:, 0])
+        if self.range_m is not None and robot_xy is not None:
+            with np.errstate(invalid="ignore"):
+                seen &= np.hypot(true_xy[:, 0] - robot_xy[0], true_xy[:, 1] - robot_xy[1]) <= self.range_m
         for i, m in enumerate(s.moving):
             z = np.array(true_xy[i]) + rng.normal(0.0, s.sensing.position_noise_std_m, 2)
             if f.outlier_prob and rng.random() < f.outlier_prob:
@@ -66,7 +78,10 @@ class _Sensor:
             if f.dropout_prob and rng.random() < f.dropout_prob:
                 z = None
                 self.events["injected_dropouts"] = self.events.get("injected_dropouts", 0) + 1
-            out.append(ObstacleMeasurement(i, None if z is None else (float(z[0]), float(z[1])), m.radius_m))
+            if seen[i]:
+                out.append(ObstacleMeasurement(i, None if z is None else (float(z[0]), float(z[1])), m.radius_m))
+            else:
+                self.events["unseen_measurements"] = self.events.get("unseen_measurements", 0) + 1
         self.queue.append(tuple(out))
         if len(self.queue) <= f.delay_steps:
             return tuple(ObstacleMeasurement(i, None, m.radius_m) for i, m in enumerate(s.moving))
@@ -97,7 +112,8 @@ class Episode:
         self._static_xy = np.array([s.position_m for s in scenario.static], dtype=float).reshape(-1, 2)
         self._radii = np.array([m.radius_m for m in scenario.moving] + [s.radius_m for s in scenario.static])
         self._n_moving = len(scenario.moving)
-        gaps0 = np.hypot(*(self._obstacles_at(0.0) - self.state[:2]).T) - self._radii - scenario.robot.radius_m
+        gaps0 = _absent_far(np.hypot(*(self._obstacles_at(0.0) - self.state[:2]).T) - self._radii
+                            - scenario.robot.radius_m)
         self.log.min_clearance_m = float(gaps0.min()) if gaps0.size else float("inf")
         self._record(0.0)
         if self.n_steps == 0:
@@ -125,7 +141,7 @@ class Episode:
         """What the controller is told at the current sample instant."""
         t = self.t_s
         sc = self.scenario
-        moving = self._sensor.measure(t, self.world.positions(t)) if sc.moving else ()
+        moving = self._sensor.measure(t, self.world.positions(t), self.state[:2]) if sc.moving else ()
         return Observation(t, RobotState(*self.state), sc.reference, moving, sc.static)
 
     def _robot_motion(self, state: np.ndarray, wheels: np.ndarray, t0: float):
@@ -147,7 +163,8 @@ class Episode:
         tau = T * np.arange(1, SUBSTEPS + 1) / SUBSTEPS
         x, y, _ = robot_step(np, st[0], st[1], st[2], wheels[0], wheels[1], tau, self.scenario.robot.wheel_base_m)
         xy = self._obstacles_at(t0 + tau)                                   # (S, n, 2)
-        return np.hypot(xy[..., 0] - x[:, None], xy[..., 1] - y[:, None]) - self._radii - self.scenario.robot.radius_m
+        return _absent_far(np.hypot(xy[..., 0] - x[:, None], xy[..., 1] - y[:, None]) - self._radii
+                           - self.scenario.robot.radius_m)
 
     def step(self, decision: ControlDecision, compute_time_s: float = 0.0) -> str | None:
         """Apply ``decision`` over one interval; the outcome once the episode has ended."""
@@ -178,6 +195,7 @@ class Episode:
         self._record(t + T)
         if gaps.size and gaps.min() < 0.0:
             first = int(np.argmax(gaps.min(axis=1) < 0.0))
+            log.collision = self._collision(first, int(np.argmin(gaps[first])), lim, t)
             return self._finish("collided", t + T * (first + 1) / SUBSTEPS)
         end = sc.reference.end_pose
         if (t + T) >= sc.reference.duration_s - 1e-9 and math.hypot(x - end[0], y - end[1]) <= GOAL_TOLERANCE_M:
@@ -186,6 +204,28 @@ class Episode:
             return self._finish("timed_out", self.n_steps * T)
         return None
 
+    def _collision(self, substep: int, j: int, wheels: np.ndarray, t0: float) -> dict:
+        """What was hit and how, at the first collision-check instant with an overlap
+        (CONTRACT.md, RUN.json's ``collision``): the obstacle's kind and index among its kind,
+        the time, the robot's velocity component towards the obstacle's centre (the point of
+        contact lies on that line), and how long the obstacle had existed."""
+        sc, st = self.scenario, self.state
+        tau = self.sample_time_s * (substep + 1) / SUBSTEPS
+        x, y, h = robot_step(math, st[0], st[1], st[2], wheels[0], wheels[1], tau, sc.robot.wheel_base_m)
+        v = 0.5 * (wheels[0] + wheels[1])
+        t = t0 + tau
+        ox, oy = self._obstacles_at(t)[j]
+        d = math.hypot(ox - x, oy - y)
+        towards = v * (math.cos(h) * (ox - x) + math.sin(h) * (oy - y)) / d if d > 0 else abs(v)
+        if j < self._n_moving:
+            kind, index = "moving", j
+            mover = sc.moving[j]
+            age = t - mover.start_s if hasattr(mover, "track") else t
+        else:
+            kind, index, age = "static", j - self._n_moving, t
+        return {"obstacle": kind, "index": index, "time_s": t, "robot_speed_towards_mps": towards,
+                "obstacle_age_s": age}
+
     def _finish(self, outcome: str, end_time_s: float) -> str:
         self.log.outcome, self.log.end_time_s = outcome, end_time_s
         self.done = True
@@ -193,6 +233,11 @@ class Episode:
             if n:
                 self.log.events[f"movers.{name}"] = n
         return outcome
+
+
+def _absent_far(gaps: np.ndarray) -> np.ndarray:
+    """Gaps to movers that are not in the scene (NaN positions) read as infinitely far."""
+    return np.where(np.isnan(gaps), np.inf, gaps) if np.isnan(gaps).any() else gaps
 
 
 def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:

@@ -55,7 +55,9 @@ class TrackBank:
         seen = []
         counters, filters = self.counters, self.filters
         pending = False  # a ghost to add (checked in the loop: a comprehension costs more)
+        listed = 0
         for m in moving:
+            listed += 1
             ekf = filters.get(m.obstacle_id)
             if ekf is None:
                 ekf = filters[m.obstacle_id] = ObstacleEKF(self.sample_time_s, self.settings)
@@ -74,11 +76,22 @@ class TrackBank:
             seen.append((m, ekf))
             if ekf.pending_z_ is not None:
                 pending = True
+        if listed < len(filters):
+            self._forget(moving)
         if not pending:
             return seen
         ghosts = [(m, ekf.ghost()) for m, ekf in seen if ekf.pending_z_ is not None]
         counters["ghosts"] += len(ghosts)
         return seen + ghosts
+
+    def _forget(self, moving) -> None:
+        """Drop the filters of obstacles the sensor no longer lists (out of range, or gone
+        from the scene): one that comes back starts a new track, not a stale one."""
+        ids = {m.obstacle_id for m in moving}
+        gone = [i for i in self.filters if i not in ids]
+        for i in gone:
+            del self.filters[i]
+        self.counters["dropped_tracks"] = self.counters.get("dropped_tracks", 0) + len(gone)
 
     @staticmethod
     def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int, function=None) -> ObstacleForecast:

@@ -10,6 +10,8 @@ controllers here, so a name means the same thing everywhere:
 ``social_force``          (:mod:`gpcnav.peers.navground_peer`)
 ``mppi``                  pytorch-mppi on the GPC's cost (:mod:`gpcnav.peers.mppi_peer`;
                           needs torch, the ``train`` extra)
+``stand``, ``blind``      baselines: a robot that stands still, one that drives its
+                          reference blind (:mod:`gpcnav.peers.baselines`)
 ``MODULE:CLASS``          any importable class made with no arguments that answers the
                           Policy protocol (``reset()``, ``decide(observation)``,
                           ``sample_time_s``)
@@ -45,7 +47,10 @@ __all__ = ["BUILTIN", "PEERS", "REGISTRY", "SHIELD_MODES", "DEFAULT_SHIELD", "Ki
            "parse_controller_list"]
 
 PEERS = ("orca", "hrvo", "social_force", "mppi")
-BUILTIN = ("gpc", "nn") + PEERS
+BASELINES = ("stand", "blind")
+"""A robot that stands still and one that drives its reference blind (:mod:`gpcnav.peers.baselines`):
+beside every result on recorded people."""
+BUILTIN = ("gpc", "nn") + PEERS + BASELINES
 
 SHIELD_MODES = ("off", "on", "gpc")
 """``off``: the bare controller; ``on``: behind the check layer, which falls back on the
@@ -105,7 +110,7 @@ class Kind:
 REGISTRY = {
     "gpc": Kind("on", _gpc_check),
     "nn": Kind("gpc", _nn_check),
-    **{name: Kind("off", _reactive_check) for name in PEERS},
+    **{name: Kind("off", _reactive_check) for name in PEERS + BASELINES},
 }
 """Every built-in controller by name; a user's ``MODULE:CLASS`` is checked as a peer is."""
 
@@ -245,6 +250,9 @@ def _make_base(spec: ControllerSpec, config, robot):
             raise UsageError(f"--controller nn is not available: {exc}") from None
         except (FileNotFoundError, ValueError) as exc:
             raise UsageError(str(exc)) from None
+    if spec.name in BASELINES:
+        from .peers.baselines import BlindTracker, StandStill
+        return (StandStill if spec.name == "stand" else BlindTracker)(robot)
     return _make_peer(spec.name, config, robot) if spec.name in PEERS else _make_user(spec.name)
 
 
@@ -283,7 +291,7 @@ def check(spec: ControllerSpec, config, robot) -> None:
         raise UsageError(f"unknown shield mode {spec.shield!r} (choose from {', '.join(SHIELD_MODES)})")
     if spec.name == "nn":
         make(ControllerSpec("nn", spec.model, "off", spec.passes), config, robot)  # the model loads
-    elif spec.name in PEERS or spec.is_user_class:
+    elif spec.name in PEERS + BASELINES or spec.is_user_class:
         make(ControllerSpec(spec.name, shield="off"), config, robot)
 
 

@@ -35,16 +35,18 @@ def planner_config(args):
 
 def add_suite_arguments(p: argparse.ArgumentParser) -> None:
     """``--suite NAME --count N --seed S --movers N --behaviour B`` (scenarios.suites)."""
-    from scenarios import CROWD_BEHAVIOURS, SUITES
+    from scenarios.suites import SUITE_BEHAVIOURS, SUITES
     p.add_argument("--suite", choices=SUITES, default=None,
                    help="a seeded suite instead of files (encounters: the family of the paper's Fig. 7; "
-                        "circle-crossing, square-crossing: crowds in CrowdNav's geometry, docs/scenarios.md)")
+                        "circle-crossing, square-crossing: crowds in CrowdNav's geometry, docs/scenarios.md; "
+                        "ucy: the people of the UCY recordings, docs/pedestrians.md)")
     p.add_argument("--count", type=int, default=100, help="episodes of the suite")
     p.add_argument("--seed", type=int, default=0, help="seed of the suite")
     p.add_argument("--movers", type=int, default=5, help="crowd suites: how many movers (default 5)")
-    p.add_argument("--behaviour", choices=CROWD_BEHAVIOURS, default="orca",
+    p.add_argument("--behaviour", choices=SUITE_BEHAVIOURS, default=None,
                    help="crowd suites: what the movers do (default orca: walkers that avoid each other, "
-                        "not the robot)")
+                        "not the robot); ucy: replay (default: the recorded people, open loop) or orca / "
+                        "social_force (walkers that follow their recording and give way to the robot)")
 
 
 def suite_from_args(args):
@@ -65,7 +67,8 @@ def suite_from_args(args):
 def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> None:
     """``--controller NAME`` (``--controllers LIST`` with ``many``), the check layer's and the
     network's options, and the preset's. Names are those of :mod:`gpcnav.controllers`."""
-    names = "gpc, nn, orca, hrvo, social_force, mppi, or MODULE:CLASS (a class of yours, README)"
+    names = ("gpc, nn, orca, hrvo, social_force, mppi, the baselines stand and blind, or MODULE:CLASS "
+             "(a class of yours, README)")
     if many:
         p.add_argument("--controllers", default="gpc,nn", metavar="LIST",
                        help=f"comma-separated controllers: {names}; default gpc,nn")

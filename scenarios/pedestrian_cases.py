@@ -1,0 +1,194 @@
+"""The case protocol: scenarios for our robot among the people of a recording.
+
+Adapted from G-MPC's (Wang, Mavrogiannis, Steinfeld, CoRL 2021; its
+``test_case_generation.py``) to our robot, which is slower and larger than theirs, and to
+recordings it has not seen (no hand-picked region per scene). docs/pedestrians.md gives the
+reasons; in short:
+
+1. **Where.** The focus region is the :data:`REGION_SIDE_M` square (G-MPC's 6 m) centred on
+   the busiest place of the recording: the 1 m cell, smoothed over its 3 x 3 neighbourhood,
+   where people were found most often (sampled every :data:`CANDIDATE_EVERY_S`).
+2. **Which way.** The flow is the principal axis of the people's velocities. The robot's
+   reference is a straight line of :data:`PATH_LENGTH_M` through the region's centre, along
+   the flow or across it, each both ways (G-MPC's four tasks: two crossing, two following).
+3. **When.** Every :data:`CANDIDATE_EVERY_S` (G-MPC's 3 s) an instant is a candidate; it
+   makes a case when at least :data:`MIN_PEOPLE` people (G-MPC's 5) are inside the region
+   then. The robot starts so that its reference point, at :data:`REFERENCE_SPEED_MPS` (the
+   speed of every suite here; G-MPC's robot drives 1.75 m/s, ours reaches 0.8 m/s), reaches
+   the centre at that instant. A start with someone within :data:`START_CLEARANCE_M` of the
+   robot's disc is dropped (G-MPC: 1 m between centres).
+4. **How long.** :data:`DURATION_S` = three times the nominal 20 s (CrowdNav's ratio; G-MPC
+   allows six times, for a robot that needs no detour to be fast).
+5. **Who.** Every track that overlaps the case's time, cut to it (a row interpolated at each
+   end), times from the case's start; discs of :data:`PEDESTRIAN_RADIUS_M`. Sensing: 0.02 m
+   noise (the suites'), within :data:`SENSING_RANGE_M` of the robot.
+
+``behaviour`` ``replay`` replays the people open loop; ``orca`` / ``social_force`` makes
+them walkers that follow their recording and give way to the robot (``sees_robot``: G-MPC's
+reactive mode).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from casadi_gpc.reference import ReferencePath, Segment
+from casadi_gpc.robot import RobotParams, RobotState
+
+from .model import TRACK_BEHAVIOURS, Scenario, Sensing, TrackSpec
+from .recordings import Recording
+
+__all__ = ["CaseSpec", "cases", "case_scenario", "scenario_toml", "TASKS", "PEDESTRIAN_RADIUS_M",
+           "REGION_SIDE_M", "PATH_LENGTH_M", "REFERENCE_SPEED_MPS", "DURATION_S", "MIN_PEOPLE",
+           "CANDIDATE_EVERY_S", "START_CLEARANCE_M", "SENSING_RANGE_M"]
+
+PEDESTRIAN_RADIUS_M = 0.25
+"""A person's disc: half a typical shoulder width (0.45-0.5 m)."""
+REGION_SIDE_M = 6.0
+PATH_LENGTH_M = 8.0
+REFERENCE_SPEED_MPS = 0.4
+DURATION_S = 60.0
+MIN_PEOPLE = 5
+CANDIDATE_EVERY_S = 3.0
+START_CLEARANCE_M = 0.5
+SENSING_RANGE_M = 8.0
+NOISE_STD_M = 0.02
+TASKS = ("along", "along-back", "across", "across-back")
+"""Following the flow (both ways) and crossing it (both ways)."""
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """One case: the recording, the task, when the robot starts in the recording's time, and
+    the robot's start and goal."""
+
+    recording: str
+    task: str
+    index: int
+    start_s: float
+    start_xy: tuple[float, float]
+    goal_xy: tuple[float, float]
+
+    @property
+    def name(self) -> str:
+        return f"{self.recording}-{self.task}-{self.index:03d}"
+
+
+def _busiest_point(rec: Recording) -> np.ndarray:
+    times = np.arange(rec.start_s, rec.end_s, CANDIDATE_EVERY_S)
+    pts = np.concatenate([rec.positions_at(t) for t in times] + [np.zeros((0, 2))])
+    lo = np.floor(pts.min(axis=0))
+    idx = np.floor(pts - lo).astype(int)
+    grid = np.zeros(idx.max(axis=0) + 3)
+    np.add.at(grid, (idx[:, 0] + 1, idx[:, 1] + 1), 1.0)
+    smooth = sum(np.roll(np.roll(grid, dx, 0), dy, 1) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
+    i, j = np.unravel_index(np.argmax(smooth), smooth.shape)
+    return lo + np.array([i - 1, j - 1]) + 0.5
+
+
+def _flow_axis(rec: Recording) -> np.ndarray:
+    v = np.concatenate([np.diff(tr[:, 1:], axis=0) / np.diff(tr[:, 0])[:, None] for tr in rec.tracks])
+    w, vecs = np.linalg.eigh(v.T @ v)
+    axis = vecs[:, int(np.argmax(w))]
+    return axis if axis[0] > 0 or (axis[0] == 0 and axis[1] > 0) else -axis  # a fixed sign: reproducible
+
+
+def cases(rec: Recording) -> list[CaseSpec]:
+    """Every case of the protocol in ``rec``, task by task, in time order."""
+    centre = _busiest_point(rec)
+    along = _flow_axis(rec)
+    across = np.array([-along[1], along[0]])
+    half = REGION_SIDE_M / 2
+    to_centre_s = 0.5 * PATH_LENGTH_M / REFERENCE_SPEED_MPS
+    instants = np.arange(rec.start_s, rec.end_s, CANDIDATE_EVERY_S)
+    busy = [t for t in instants
+            if np.sum(np.all(np.abs(rec.positions_at(t) - centre) < half, axis=1)) >= MIN_PEOPLE]
+    out = []
+    for task, direction in zip(TASKS, (along, -along, across, -across)):
+        start = centre - 0.5 * PATH_LENGTH_M * direction
+        goal = centre + 0.5 * PATH_LENGTH_M * direction
+        k = 0
+        for t in busy:
+            t0 = t - to_centre_s
+            if t0 < rec.start_s:
+                continue
+            people = rec.positions_at(t0)
+            gaps = np.hypot(*(people - start).T) - RobotParams().radius_m - PEDESTRIAN_RADIUS_M
+            if gaps.size and gaps.min() < START_CLEARANCE_M:
+                continue
+            out.append(CaseSpec(rec.name, task, k, float(t0), (float(start[0]), float(start[1])),
+                                (float(goal[0]), float(goal[1]))))
+            k += 1
+    return out
+
+
+def _cut(track: np.ndarray, t0: float, t1: float) -> np.ndarray | None:
+    """The rows of ``track`` within ``[t0, t1]``, with a row interpolated at each end it
+    crosses, times from ``t0``; None when fewer than two rows remain."""
+    t = track[:, 0]
+    if t[-1] <= t0 or t[0] >= t1:
+        return None
+    inside = track[(t > t0) & (t < t1)]
+    rows = []
+    if t[0] <= t0:
+        rows.append([t0, np.interp(t0, t, track[:, 1]), np.interp(t0, t, track[:, 2])])
+    rows.extend(inside.tolist())
+    if t[-1] >= t1:
+        rows.append([t1, np.interp(t1, t, track[:, 1]), np.interp(t1, t, track[:, 2])])
+    rows = np.array(rows, dtype=float)
+    if len(rows) < 2:
+        return None
+    rows[:, 0] -= t0
+    return rows
+
+
+def case_scenario(rec: Recording, case: CaseSpec, behaviour: str = "replay", seed: int = 0) -> Scenario:
+    """The :class:`Scenario` of one case; ``behaviour`` as :data:`~scenarios.model.TRACK_BEHAVIOURS`
+    (``orca`` and ``social_force`` see the robot)."""
+    if behaviour not in TRACK_BEHAVIOURS:
+        raise ValueError(f"unknown behaviour {behaviour!r} (choose from {', '.join(TRACK_BEHAVIOURS)})")
+    heading = math.atan2(case.goal_xy[1] - case.start_xy[1], case.goal_xy[0] - case.start_xy[0])
+    reference = ReferencePath(case.start_xy, heading, (Segment.line(PATH_LENGTH_M),), REFERENCE_SPEED_MPS)
+    movers = []
+    for track in rec.tracks:
+        rows = _cut(track, case.start_s, case.start_s + DURATION_S)
+        if rows is None:
+            continue
+        rows = np.round(rows, 4)
+        if np.any(np.diff(rows[:, 0]) <= 0):
+            continue  # a row within 0.1 ms of the cut: rounding merged it
+        movers.append(TrackSpec(PEDESTRIAN_RADIUS_M, tuple(map(tuple, rows.tolist())), behaviour,
+                                behaviour != "replay"))
+    suffix = "" if behaviour == "replay" else f"-{behaviour}"
+    return Scenario(case.name + suffix, DURATION_S, RobotState(case.start_xy[0], case.start_xy[1], heading),
+                    reference, RobotParams(), tuple(movers), (), Sensing(NOISE_STD_M, int(seed), SENSING_RANGE_M),
+                    description=f"{rec.name}: {case.task}, from {case.start_s:.1f} s of the recording "
+                                f"(case protocol of scenarios.pedestrian_cases)")
+
+
+def _num(v: float) -> str:
+    return repr(float(v))
+
+
+def scenario_toml(sc: Scenario) -> str:
+    """A scenario made by :func:`case_scenario` as a scenario file (CONTRACT.md's format),
+    which :func:`scenarios.load_scenario` reads back into the same scenario."""
+    lines = [f'name = "{sc.name}"', f'description = "{sc.description}"', f"duration_s = {_num(sc.duration_s)}", "",
+             "[robot]", f"position = [{_num(sc.robot_start.x_m)}, {_num(sc.robot_start.y_m)}]",
+             f"heading_deg = {_num(math.degrees(sc.robot_start.heading_rad))}", "",
+             "[reference]", f"position = [{_num(sc.reference.start_xy_m[0])}, {_num(sc.reference.start_xy_m[1])}]",
+             f"heading_deg = {_num(math.degrees(sc.reference.start_heading_rad))}",
+             f"speed_mps = {_num(sc.reference.speed_mps)}"]
+    for seg in sc.reference.segments:
+        lines += ["[[reference.segments]]", f"line_m = {_num(seg.length_m)}"]
+    lines += ["", "[sensing]", f"position_noise_std_m = {_num(sc.sensing.position_noise_std_m)}",
+              f"seed = {sc.sensing.seed}", f"range_m = {_num(sc.sensing.range_m)}"]
+    for m in sc.moving:
+        rows = ", ".join(f"[{_num(t)}, {_num(x)}, {_num(y)}]" for t, x, y in m.track)
+        lines += ["", "[[moving_obstacles]]", f"radius_m = {_num(m.radius_m)}", f'behaviour = "{m.behaviour}"']
+        if m.behaviour != "replay":
+            lines.append(f"sees_robot = {'true' if m.sees_robot else 'false'}")
+        lines.append(f"track = [{rows}]")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,135 @@
+"""Recordings of pedestrians in the ETH/UCY four-column format, read into tracks.
+
+A file holds one row per person and frame: ``frame id x y`` (whitespace-separated, metres),
+the format of the ETH (Pellegrini et al., 2009) and UCY (Lerner, Chrysanthou, Lischinski,
+"Crowds by Example", 2007) recordings as the prediction literature shares them. Frame ids
+count the frames of the recording's video, 10 apart between annotated rows; what a frame
+lasts follows the video (:func:`seconds_per_frame`): the common ``biwi_eth.txt`` was filmed
+at 15 fps (its rows 0.667 s apart, a pitfall reported in several projects' issues), the UCY
+files and ``biwi_hotel.txt`` at 25 fps (rows 0.4 s apart).
+
+The UCY recordings ``crowds_zara01``, ``crowds_zara02`` and ``students003`` ship with the
+package (``scenarios/recordings/*.txt.gz``, as kept by ``StanfordASL/Trajectron-plus-plus``,
+``experiments/pedestrians/raw/raw/all_data/``), used with credit to their authors
+(docs/pedestrians.md).
+"""
+from __future__ import annotations
+
+import gzip
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Recording", "RecordingError", "read_recording", "seconds_per_frame", "SHIPPED", "shipped_recording",
+           "MAX_GAP_S"]
+
+RECORDINGS_DIR = Path(__file__).parent / "recordings"
+SHIPPED = ("crowds_zara01", "crowds_zara02", "students003")
+"""The recordings that ship with the package, by name."""
+MAX_GAP_S = 1.2
+"""A person's rows further apart than this (three missing rows of 0.4 s) split the track in
+two: the person is out of the recording in between, not walking a straight line."""
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be read; the message is one line naming the file and row."""
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A recording's tracks: ``tracks[k]`` is a ``(n, 3)`` array of ``(t_s, x_m, y_m)`` rows,
+    times increasing, of one person (split where rows are missing, :data:`MAX_GAP_S`)."""
+
+    name: str
+    seconds_per_frame: float
+    tracks: tuple[np.ndarray, ...]
+
+    @property
+    def start_s(self) -> float:
+        return min(float(tr[0, 0]) for tr in self.tracks)
+
+    @property
+    def end_s(self) -> float:
+        return max(float(tr[-1, 0]) for tr in self.tracks)
+
+    def positions_at(self, t_s: float) -> np.ndarray:
+        """Where everyone in the scene at ``t_s`` is, ``(m, 2)`` (linear between rows)."""
+        out = [(np.interp(t_s, tr[:, 0], tr[:, 1]), np.interp(t_s, tr[:, 0], tr[:, 2]))
+               for tr in self.tracks if tr[0, 0] <= t_s <= tr[-1, 0]]
+        return np.array(out, dtype=float).reshape(-1, 2)
+
+
+def seconds_per_frame(name: str) -> float:
+    """What one frame id lasts in the recording called ``name``: 1/15 s for ``biwi_eth``
+    (a 15 fps video), 1/25 s for the others (the UCY files, ``biwi_hotel``)."""
+    return 1.0 / 15.0 if Path(name).name.split(".")[0] == "biwi_eth" else 1.0 / 25.0
+
+
+def _text(path: Path) -> str:
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    if raw[:2] == b"\x1f\x8b":
+        try:
+            raw = gzip.decompress(raw)
+        except (OSError, EOFError) as exc:
+            raise RecordingError(f"{path}: not a readable gzip file ({exc})") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise RecordingError(f"{path}: not a text file of rows 'frame id x y'") from None
+
+
+def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
+    """Read an ETH/UCY four-column file (plain or gzip) into a :class:`Recording`; a frame
+    lasts ``seconds_per_frame_s`` (default: :func:`seconds_per_frame` of the file's name).
+    Raises :class:`RecordingError` with one line for a file that is not of that format."""
+    path = Path(path)
+    spf = seconds_per_frame(path.name) if seconds_per_frame_s is None else float(seconds_per_frame_s)
+    if not (math.isfinite(spf) and spf > 0):
+        raise RecordingError(f"{path}: seconds per frame must be a positive number, got {seconds_per_frame_s}")
+    rows = []
+    for n, line in enumerate(_text(path).splitlines(), start=1):
+        parts = line.split()
+        if not parts:
+            continue
+        if len(parts) != 4:
+            raise RecordingError(f"{path}: line {n}: expected four columns 'frame id x y', got {len(parts)}")
+        try:
+            values = [float(p) for p in parts]
+        except ValueError:
+            raise RecordingError(f"{path}: line {n}: not a number in {line.strip()!r}") from None
+        if not all(math.isfinite(v) for v in values):
+            raise RecordingError(f"{path}: line {n}: numbers must be finite, got {line.strip()!r}")
+        if values[0] < 0:
+            raise RecordingError(f"{path}: line {n}: the frame must not be negative, got {parts[0]}")
+        rows.append(values)
+    if not rows:
+        raise RecordingError(f"{path}: no rows (expected 'frame id x y' per line)")
+    data = np.array(rows)
+    tracks = []
+    for pid in np.unique(data[:, 1]):
+        mine = data[data[:, 1] == pid]
+        mine = mine[np.argsort(mine[:, 0], kind="stable")]
+        if np.any(np.diff(mine[:, 0]) == 0):
+            frame = mine[1:, 0][np.diff(mine[:, 0]) == 0][0]
+            raise RecordingError(f"{path}: person {pid:g} has two rows at frame {frame:g}")
+        t = mine[:, 0] * spf
+        breaks = np.flatnonzero(np.diff(t) > MAX_GAP_S + 1e-9) + 1
+        for piece_t, piece_xy in zip(np.split(t, breaks), np.split(mine[:, 2:4], breaks)):
+            if len(piece_t) >= 2:
+                tracks.append(np.column_stack([piece_t, piece_xy]))
+    if not tracks:
+        raise RecordingError(f"{path}: no person has two rows in a row")
+    tracks.sort(key=lambda tr: (tr[0, 0], tr[0, 1], tr[0, 2]))
+    return Recording(path.name.split(".")[0], spf, tuple(tracks))
+
+
+def shipped_recording(name: str) -> Recording:
+    """One of the recordings of :data:`SHIPPED`."""
+    if name not in SHIPPED:
+        raise ValueError(f"unknown recording {name!r} (shipped: {', '.join(SHIPPED)})")
+    return read_recording(RECORDINGS_DIR / f"{name}.txt.gz")

@@ -19,6 +19,7 @@ COMMANDS = {
     "export": "Export a trained network to ONNX.",
     "bench": "The solver benchmark.",
     "reproduce": "The paper end to end.",
+    "import-tracks": "Scenario files from a recording of pedestrians (ETH/UCY format).",
 }
 
 
@@ -31,7 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="gpcnav", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, help_text in COMMANDS.items():
-        module = importlib.import_module(f"gpcnav.commands.{name}")
+        module = importlib.import_module(f"gpcnav.commands.{name.replace('-', '_')}")
         p = sub.add_parser(name, help=help_text, description=(module.__doc__ or help_text).strip())
         module.add_arguments(p)
         p.set_defaults(_run=module.run)

@@ -1,0 +1,56 @@
+"""Read a recording of pedestrians (the ETH/UCY four-column format, 'frame id x y') and write
+one scenario file per case of the case protocol (docs/pedestrians.md), the people as
+movers that follow their recorded tracks."""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+from ..errors import UsageError
+from .common import make_output_folder
+
+
+def add_arguments(p):
+    p.add_argument("recording", type=Path, help="the recording: rows 'frame id x y' (plain text or gzip)")
+    p.add_argument("--out", type=Path, required=True, help="folder for the scenario files (made if missing)")
+    p.add_argument("--seconds-per-frame", type=float, default=None, metavar="S",
+                   help="what one frame id lasts (default: 1/15 s for biwi_eth, a 15 fps video; 1/25 s "
+                        "for the others: the UCY files, biwi_hotel)")
+    p.add_argument("--behaviour", choices=("replay", "orca", "social_force"), default="replay",
+                   help="the people: replayed open loop (default), or walkers that follow their recording "
+                        "and give way to the robot (orca, social_force)")
+    p.add_argument("--max-cases", type=int, default=None, metavar="N",
+                   help="write at most N cases, spread evenly over all of them (default: every case)")
+
+
+def run(args) -> int:
+    from scenarios import load_scenario
+    from scenarios.pedestrian_cases import case_scenario, cases, scenario_toml
+    from scenarios.recordings import RecordingError, read_recording
+    from casadi_gpc.io import write_text
+    if args.seconds_per_frame is not None and not (math.isfinite(args.seconds_per_frame)
+                                                   and args.seconds_per_frame > 0):
+        raise UsageError(f"--seconds-per-frame must be a positive number, got {args.seconds_per_frame}")
+    if args.max_cases is not None and args.max_cases < 1:
+        raise UsageError(f"--max-cases must be at least 1, got {args.max_cases}")
+    try:
+        rec = read_recording(args.recording, args.seconds_per_frame)
+    except RecordingError as exc:
+        raise UsageError(str(exc)) from None
+    found = cases(rec)
+    if not found:
+        raise UsageError(f"{args.recording}: no case of the protocol in this recording (docs/pedestrians.md: at "
+                         f"least 5 people in the busiest 6 m square, the robot's start clear)")
+    if args.max_cases is not None and args.max_cases < len(found):
+        step = len(found) / args.max_cases
+        found = [found[int(k * step)] for k in range(args.max_cases)]
+    make_output_folder(args.out, "--out")
+    for k, case in enumerate(found):
+        sc = case_scenario(rec, case, args.behaviour, seed=k)
+        path = args.out / f"{sc.name}.toml"
+        write_text(path, scenario_toml(sc))
+    load_scenario(path)  # the last one read back: what was written is a valid scenario file
+    print(f"{args.recording}: {len(rec.tracks)} tracks, {rec.end_s - rec.start_s:.0f} s "
+          f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} cases written to {args.out}", file=sys.stdout)
+    return 0

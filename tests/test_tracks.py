@@ -1,0 +1,232 @@
+"""Recorded tracks as movers (scenarios.model.TrackSpec, scenarios.movers), the sensing range,
+the collision's details, the ETH/UCY reader and the case protocol (``gpcnav import-tracks``)."""
+from __future__ import annotations
+
+import gzip
+import math
+import re
+import tomllib
+
+import numpy as np
+import pytest
+
+from casadi_gpc.types import ControlDecision
+from gpcnav.cli import main
+from scenarios import ScenarioError, load_scenario, scenario_from_dict
+from scenarios.metrics import episode_metrics, eval_document, run_document
+from scenarios.simulator import Episode, simulate
+
+BASE = """
+name = "tracks"
+duration_s = 12.0
+[robot]
+position = [0.0, 0.0]
+heading_deg = 0.0
+[reference]
+position = [0.0, 0.0]
+heading_deg = 0.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 4.0
+"""
+
+
+def _scenario(movers: str, extra: str = ""):
+    return scenario_from_dict(tomllib.loads(BASE + extra + movers), "t.toml")
+
+
+class _Still:
+    sample_time_s = 0.5
+
+    def reset(self):
+        pass
+
+    def decide(self, obs):
+        self.seen = getattr(self, "seen", []) + [tuple(m.obstacle_id for m in obs.moving)]
+        return ControlDecision(0.0, 0.0)
+
+
+class _Forward(_Still):
+    def decide(self, obs):
+        r = obs.robot
+        dv = 0.2
+        return ControlDecision(min(r.v_right_mps + dv, 0.4), min(r.v_left_mps + dv, 0.4))
+
+
+# --- bad track files: one line, exit 2 --------------------------------------------------------
+
+BAD = {
+    "one row": ("track = [[0.0, 5.0, 0.0]]", "needs at least two rows"),
+    "times not increasing": ("track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0], [2.0, 3.0, 0.0]]", "increase strictly"),
+    "negative time": ("track = [[-1.0, 5.0, 0.0], [2.0, 4.0, 0.0]]", "must not be negative"),
+    "with position": ("track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]\nposition = [5.0, 0.0]", "not for a mover with a track"),
+    "with goal": ("track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]\ngoal = [5.0, 0.0]", "not for a mover with a track"),
+    "non-finite": ("track = [[0.0, 5.0, nan], [2.0, 4.0, 0.0]]", "must be finite"),
+    "infinite time": ("track = [[0.0, 5.0, 0.0], [inf, 4.0, 0.0]]", "must be finite"),
+    "short row": ("track = [[0.0, 5.0], [2.0, 4.0, 0.0]]", "three numbers"),
+    "text in a row": ("track = [[0.0, 5.0, 'a'], [2.0, 4.0, 0.0]]", "three numbers"),
+    "not a list": ("track = 3", "list of [t_s, x_m, y_m] rows"),
+    "unknown behaviour": ('track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]\nbehaviour = "constant"', "replay, orca, social_force"),
+    "replay that sees": ("track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]\nsees_robot = true", "cannot give way"),
+    "starts on the robot": ("track = [[0.0, 0.3, 0.0], [2.0, 4.0, 0.0]]", "starts overlapping"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_track_refused_in_one_line_with_exit_2(case, tmp_path, capsys):
+    body, words = BAD[case]
+    f = tmp_path / "bad.toml"
+    f.write_text(BASE + "[[moving_obstacles]]\nradius_m = 0.25\n" + body + "\n")
+    with pytest.raises(ScenarioError, match=re.escape(words)):
+        load_scenario(f)
+    assert main(["simulate", str(f), "--controller", "stand"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and words in err and "Traceback" not in err
+
+
+def test_bad_sensing_range_refused():
+    with pytest.raises(ScenarioError, match="range_m: must be positive"):
+        _scenario("", "[sensing]\nrange_m = 0.0\n")
+
+
+# --- the movers ----------------------------------------------------------------------------------
+
+def test_a_replayed_track_is_the_recording_and_exists_only_between_its_rows():
+    sc = _scenario("[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[1.0, 6.0, 2.0], [3.0, 6.0, 4.0], [5.0, 4.0, 4.0]]\n")
+    ep = Episode(sc, 0.5)
+    w = ep.world
+    assert np.allclose(w.positions(2.0)[0], (6.0, 3.0))       # halfway along the first row interval
+    assert np.allclose(w.positions(4.0)[0], (5.0, 4.0))
+    assert np.allclose(w.velocities(4.0)[0], (-1.0, 0.0))
+    assert np.all(np.isnan(w.positions(0.5)[0])) and np.all(np.isnan(w.positions(5.5)[0]))
+    pol = _Still()
+    simulate(sc, pol)
+    present = [k for k, ids in enumerate(pol.seen) if ids]
+    assert present[0] == 2 and present[-1] == 10          # t = 1.0 s to 5.0 s, samples of 0.5 s
+
+
+def test_the_sensor_lists_only_movers_within_range():
+    movers = ("[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 3.0, 2.0], [12.0, 3.0, 2.0]]\n"
+              "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 9.0, 0.0], [12.0, 9.0, 0.0]]\n")
+    pol = _Still()
+    simulate(_scenario(movers, "[sensing]\nrange_m = 5.0\n"), pol)
+    assert set(pol.seen[0]) == {0}
+    pol = _Still()
+    simulate(_scenario(movers), pol)
+    assert set(pol.seen[0]) == {0, 1}
+
+
+def test_a_walker_that_follows_its_recording_keeps_to_it_alone_and_gives_way_to_the_robot():
+    walk = "[[0.0, 6.0, 0.0], [10.0, 2.0, 0.0]]"          # straight at the robot standing at the origin
+    alone = _scenario(f'[[moving_obstacles]]\nradius_m = 0.25\nbehaviour = "orca"\ntrack = [[0.0, 6.0, 3.0], [10.0, 2.0, 3.0]]\n')
+    ep = Episode(alone, 0.5)
+    ep.world.advance(8.0)
+    err = max(np.hypot(*(ep.world.positions(t)[0] - alone.moving[0].recorded_at(t))) for t in np.arange(0.5, 8.0, 0.5))
+    assert err < 0.2
+    sees = _scenario(f'[[moving_obstacles]]\nradius_m = 0.25\nbehaviour = "orca"\nsees_robot = true\ntrack = {walk}\n'
+                     .replace("[10.0, 2.0, 0.0]", "[10.0, -4.0, 0.0]"))
+    log = simulate(sees, _Still())
+    assert log.outcome != "collided" and log.min_clearance_m > 0.0
+    replay = _scenario(f"[[moving_obstacles]]\nradius_m = 0.25\ntrack = {walk.replace('[10.0, 2.0, 0.0]', '[10.0, -4.0, 0.0]')}\n")
+    assert simulate(replay, _Still()).outcome == "collided"
+
+
+# --- the collision's details ---------------------------------------------------------------------
+
+def test_walked_into_is_not_the_robots_doing_and_driving_into_someone_is():
+    walker = "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 4.0, 0.0], [8.0, 0.0, 0.0]]\n"
+    log = simulate(_scenario(walker), _Still())
+    c = log.collision
+    assert log.outcome == "collided" and c["obstacle"] == "moving" and c["index"] == 0
+    assert abs(c["robot_speed_towards_mps"]) < 1e-9 and c["obstacle_age_s"] == pytest.approx(c["time_s"])
+    # the time of first contact: 4 m - 0.6 m of discs at 0.5 m/s
+    assert c["time_s"] == pytest.approx(6.8, abs=0.5 / 20 + 1e-9)
+    standing = "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 2.0, 0.0], [12.0, 2.0, 0.0]]\n"
+    hit = simulate(_scenario(standing), _Forward())
+    assert hit.collision["robot_speed_towards_mps"] == pytest.approx(0.4, abs=1e-6)
+    m1, m2 = episode_metrics(log), episode_metrics(hit)
+    assert not m1.robot_approaching and m2.robot_approaching
+    doc = eval_document("x", [m1, m2], [0.0])
+    assert doc["collided_robot_approaching"] == 1 and doc["collision_rate"] == 1.0
+    run = run_document(hit)
+    assert run["collision"]["obstacle"] == "moving" and run["obstacles"][0]["track_start_s"] == 0.0
+
+
+def test_someone_appearing_on_the_robot_is_a_ghost_not_the_robots_doing():
+    ghost = "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[3.0, 1.0, 0.0], [8.0, 1.0, 0.0]]\n"
+    log = simulate(_scenario(ghost), _Forward())
+    assert log.outcome == "collided" and log.collision["obstacle_age_s"] < 1.0
+    assert not episode_metrics(log).robot_approaching
+    doc = run_document(log)
+    assert doc["obstacles"][0]["x"][0] is None                 # not in the scene at t = 0: null, not NaN
+
+
+# --- the recordings and the case protocol --------------------------------------------------------
+
+def test_frame_time_follows_the_recording():
+    from scenarios.recordings import seconds_per_frame
+    assert seconds_per_frame("biwi_eth.txt") == pytest.approx(1 / 15)
+    assert seconds_per_frame("crowds_zara01.txt") == pytest.approx(1 / 25)
+    assert seconds_per_frame("biwi_hotel.txt") == pytest.approx(1 / 25)
+
+
+def _excerpt(tmp_path, seconds: float = 60.0):
+    """The first ``seconds`` of crowds_zara01, as a plain four-column file."""
+    from scenarios.recordings import RECORDINGS_DIR
+    rows = [r for r in gzip.decompress((RECORDINGS_DIR / "crowds_zara01.txt.gz").read_bytes()).decode().splitlines()
+            if r.split() and float(r.split()[0]) / 25 <= seconds]
+    f = tmp_path / "crowds_zara01.txt"
+    f.write_text("\n".join(rows) + "\n")
+    return f
+
+
+def test_import_tracks_writes_the_protocols_cases_as_scenario_files(tmp_path, capsys):
+    from scenarios.pedestrian_cases import DURATION_S, PATH_LENGTH_M, case_scenario, cases
+    from scenarios.recordings import read_recording
+    f = _excerpt(tmp_path, 150.0)
+    rec = read_recording(f)
+    assert rec.seconds_per_frame == pytest.approx(0.04)
+    expected = cases(rec)
+    assert expected
+    out = tmp_path / "cases"
+    assert main(["import-tracks", str(f), "--out", str(out)]) == 0
+    files = sorted(out.glob("*.toml"))
+    assert len(files) == len(expected)
+    for k, case in enumerate(expected):
+        sc = load_scenario(out / f"{case.name}.toml")
+        assert sc.moving == case_scenario(rec, case, seed=k).moving
+        assert sc.duration_s == DURATION_S and sc.reference.length_m == pytest.approx(PATH_LENGTH_M)
+        assert sc.sensing.range_m == 8.0
+        t0 = case.start_s
+        for m in sc.moving:                              # every person as the recording has them
+            src = min(rec.tracks, key=lambda tr: np.hypot(*(np.interp(t0 + m.start_s, tr[:, 0], tr[:, 1:].T[0]) - m.xy_m[0, 0],
+                                                                np.interp(t0 + m.start_s, tr[:, 0], tr[:, 1:].T[1]) - m.xy_m[0, 1])))
+            tt = t0 + m.times_s
+            assert np.allclose(np.interp(tt, src[:, 0], src[:, 1]), m.xy_m[:, 0], atol=2e-4)
+    assert "cases written" in capsys.readouterr().out
+
+
+def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
+    cases = {"three columns": "0 1 2.0\n", "text": "0 1 a 2\n", "non-finite": "0 1 nan 2\n",
+             "twice at a frame": "0 1 1 1\n0 1 2 2\n", "empty": "\n"}
+    for name, text in cases.items():
+        f = tmp_path / f"{name.replace(' ', '_')}.txt"
+        f.write_text(text)
+        assert main(["import-tracks", str(f), "--out", str(tmp_path / "o")]) == 2, name
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and str(f) in err, name
+    assert not (tmp_path / "o").exists()
+    assert main(["import-tracks", str(_excerpt(tmp_path)), "--out", str(tmp_path / "o"),
+                 "--seconds-per-frame", "-1"]) == 2
+
+
+def test_the_ucy_suite_is_seeded_and_covers_every_case():
+    from scenarios import Suite
+    a, b = Suite("ucy", 3, 1).scenarios(), Suite("ucy", 3, 1).scenarios()
+    assert [s.name for s in a] == [s.name for s in b] and a[0].moving == b[0].moving
+    assert Suite("ucy", 3, 2).scenario(0).name != a[0].name or Suite("ucy", 3, 2).scenario(1).name != a[1].name
+    reactive = Suite("ucy", 1, 1, behaviour="orca").scenario(0)
+    assert reactive.moving[0].behaviour == "orca" and reactive.moving[0].sees_robot
+    with pytest.raises(ValueError, match="behaviour"):
+        Suite("ucy", 1, 1, behaviour="constant")
+    assert math.isclose(a[0].reference.speed_mps, 0.4)

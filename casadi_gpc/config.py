@@ -108,6 +108,10 @@ class PlannerConfig:
     """Starts of one tick solved at once, in this many threads (:mod:`casadi_gpc.planner.lanes`);
     the answers are the same for any number. Solvers that cannot run in threads (IPOPT,
     Powell, the uncompiled SQP) use one."""
+    crowded_guesses: int | None = None
+    """At a tick where more movers matter than the NLP has slots, a full multi-start solves
+    only this many of the fixed guesses, the next ones in turn (None: all of them;
+    :meth:`casadi_gpc.planner.gpc.GPCController.plan_persistent`)."""
     time_budget_s: float | None = None
     """Wall time one control step may spend solving; an answer later than this is not used
     and the step falls back (counted). None: the sample time."""

@@ -1,0 +1,101 @@
+"""The paper's obstacle EKF as a predictor of real people: ADE and FDE over 4.8 s.
+
+The prediction literature's standard (Alahi et al. 2016; Gupta et al. 2018; Schöller et
+al. 2020): every window of 20 consecutive rows of one person, 0.4 s apart (8 observed,
+3.2 s; 12 predicted, 4.8 s); ADE is the mean distance between predicted and recorded
+positions over the 12, FDE the distance at the last. Each recording is read as
+``gpcnav import-tracks`` reads it (frame time per video); only the track pieces with rows
+exactly 0.4 s apart enter (the literature's windows).
+
+Predictors, on the same windows:
+
+- ``ekf``: :class:`casadi_gpc.estimation.ObstacleEKF` at T = 0.4 s (the planner's filter,
+  its settings scaled to the sample time as the check layer scales them), fed the 8
+  recorded positions as measurements, then its 12-step prediction (the mean);
+- ``cv``: the constant-velocity model of Schöller et al.: the last observed displacement
+  repeated.
+
+Usage: ``python tools/forecast_accuracy.py [RECORDING ...] [--out docs/data/pedestrians/forecast_accuracy.json]``
+(default: the three shipped UCY recordings). Prints a Markdown table.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from casadi_gpc.estimation import EKFSettings, ObstacleEKF  # noqa: E402
+from scenarios.recordings import RECORDINGS_DIR, SHIPPED, read_recording  # noqa: E402
+
+OBSERVED, PREDICTED, STEP_S = 8, 12, 0.4
+
+
+def windows(rec):
+    """Every (20, 2) window of consecutive rows 0.4 s apart, per person."""
+    for tr in rec.tracks:
+        ok = np.abs(np.diff(tr[:, 0]) - STEP_S) < 1e-6
+        start = 0
+        for k in range(len(ok) + 1):
+            if k == len(ok) or not ok[k]:
+                piece = tr[start:k + 1, 1:]
+                for s in range(len(piece) - OBSERVED - PREDICTED + 1):
+                    yield piece[s:s + OBSERVED + PREDICTED]
+                start = k + 1
+
+
+def predict_ekf(obs: np.ndarray) -> np.ndarray:
+    ekf = ObstacleEKF(STEP_S, EKFSettings().for_sample_time(STEP_S))
+    for z in obs:
+        ekf.step(z)
+    means, _ = ekf.predict(PREDICTED)
+    return np.asarray(means)[:, :2]
+
+
+def predict_cv(obs: np.ndarray) -> np.ndarray:
+    v = obs[-1] - obs[-2]
+    return obs[-1] + v * np.arange(1, PREDICTED + 1)[:, None]
+
+
+def errors(rec, predictor) -> tuple[float, float, int]:
+    ade, fde = [], []
+    for w in windows(rec):
+        p = predictor(w[:OBSERVED])
+        d = np.hypot(*(p - w[OBSERVED:]).T)
+        ade.append(d.mean())
+        fde.append(d[-1])
+    return float(np.mean(ade)), float(np.mean(fde)), len(ade)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("recordings", nargs="*", type=Path)
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args(argv)
+    paths = args.recordings or [RECORDINGS_DIR / f"{n}.txt.gz" for n in SHIPPED]
+    rows = []
+    for path in paths:
+        rec = read_recording(path)
+        if next(windows(rec), None) is None:
+            print(f"{rec.name}: no window of 20 rows 0.4 s apart (rows {rec.seconds_per_frame * 10:.3f} s apart); "
+                  "left out", file=sys.stderr)
+            continue
+        (ea, ef, n), (ca, cf, _) = errors(rec, predict_ekf), errors(rec, predict_cv)
+        rows.append({"recording": rec.name, "windows": n, "ekf": {"ade_m": ea, "fde_m": ef},
+                     "cv": {"ade_m": ca, "fde_m": cf}})
+    print("| recording | windows | EKF ADE / FDE m | constant velocity ADE / FDE m |")
+    print("|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['recording']} | {r['windows']} | {r['ekf']['ade_m']:.3f} / {r['ekf']['fde_m']:.3f} | "
+              f"{r['cv']['ade_m']:.3f} / {r['cv']['fde_m']:.3f} |")
+    if args.out:
+        from casadi_gpc.io import write_json
+        write_json(args.out, {"observed": OBSERVED, "predicted": PREDICTED, "step_s": STEP_S, "rows": rows})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -58,7 +58,8 @@ def test_make_by_id_alone_with_no_keyword_passes_check_env_and_reproduces_a_seed
 def test_import_gpcnav_registers_the_plain_id_and_imports_nothing_heavy():
     code = ("import sys\nimport gpcnav\nimport gymnasium\n"
             "assert gpcnav.ENV_ID in gymnasium.registry\n"
-            "heavy = [m for m in ('gpcnav.gym_env', 'scenarios', 'casadi', 'onnxruntime', 'torch') if m in sys.modules]\n"
+            "heavy = [m for m in ('gpcnav.gym_env', 'scenarios', 'casadi', 'onnxruntime', 'torch')\n"
+            "         if m in sys.modules]\n"
             "env = gymnasium.make('gpcnav/Navigation-v0', suite='random')\n"
             "obs, info = env.reset(seed=0)\n"
             "print(heavy, type(env.unwrapped).__name__, info['scenario'].startswith('random'))\n")

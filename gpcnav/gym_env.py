@@ -6,15 +6,15 @@ movers, the sensor and the outcome rules the controllers are evaluated with.
 Making it::
 
     import gymnasium
-    env = gymnasium.make("gpcnav/Navigation-v0", suite="circle-crossing", movers=5)
+    env = gymnasium.make("gpcnav:gpcnav/Navigation-v0")     # the default scene, no other import
+    env = gymnasium.make("gpcnav/Navigation-v0", suite="circle-crossing", movers=5)  # after import gpcnav
 
-The id is registered by :func:`register_envs`, which the package declares as its
-``gymnasium.envs`` entry point (honoured by Gymnasium 0.26 to 0.29 at ``import gymnasium``).
-Gymnasium 1.0 removed that plugin loading; there, ``gymnasium.make("gpcnav:gpcnav/Navigation-v0")``
-(Gymnasium imports ``gpcnav``, which registers the id when Gymnasium is loaded) or
-``import gpcnav.gym_env`` first does the same (docs/peers.md).
+The id is registered when the package ``gpcnav`` is imported (:func:`gpcnav.register_envs`,
+Gymnasium's convention since 1.0); ``gymnasium.make("gpcnav:...")`` imports the package
+first, so it needs no other import (docs/gym.md).
 
-Keyword arguments (one of ``scenario`` and ``suite``):
+Keyword arguments (at most one of ``scenario`` and ``suite``; with neither, the default scene:
+:data:`DEFAULT_SUITE`, 5 ORCA walkers, a new episode of the suite at every reset):
 
 - ``scenario=PATH``: a scenario file; every reset runs it, with the sensing noise seeded from
   the environment's generator (``reset(seed=...)`` reproduces it);
@@ -49,9 +49,6 @@ from pathlib import Path
 import numpy as np
 from gymnasium import spaces
 from gymnasium.core import Env
-# registration's own names, not gymnasium's: Gymnasium 0.26-0.29 import this module (the
-# entry point) while ``import gymnasium`` is still running
-from gymnasium.envs.registration import register, registry
 
 from casadi_gpc.config import preset as preset_config
 from casadi_gpc.estimation.ekf import EKFSettings
@@ -60,9 +57,13 @@ from casadi_gpc.estimation.tracking import TrackBank
 from casadi_gpc.types import ControlDecision, Observation
 from nn_export.runtime.features import wrap_pi
 
-__all__ = ["ENV_ID", "NavigationEnv", "ObservationLayout", "RewardSettings", "register_envs"]
+from . import ENV_ID, register_envs
 
-ENV_ID = "gpcnav/Navigation-v0"
+__all__ = ["ENV_ID", "DEFAULT_SUITE", "NavigationEnv", "ObservationLayout", "RewardSettings", "register_envs"]
+
+DEFAULT_SUITE = "circle-crossing"
+"""The scene made with no keyword argument (tools that make environments by id alone):
+CrowdNav's circle crossing with the suite's defaults (5 walkers, ORCA, suite seed 0)."""
 
 
 @dataclass(frozen=True)
@@ -170,8 +171,10 @@ class NavigationEnv(Env):
                  behaviour: str = "orca", suite_seed: int = 0, count: int | None = None, preset: str = "improved",
                  sample_time_s: float | None = None, expert: str | None = None,
                  layout: ObservationLayout = ObservationLayout(), reward: RewardSettings = RewardSettings()):
-        if (scenario is None) == (suite is None):
-            raise ValueError("give scenario=PATH or suite=NAME, not both and not neither")
+        if scenario is not None and suite is not None:
+            raise ValueError("give scenario=PATH or suite=NAME, not both")
+        if scenario is None and suite is None:
+            suite = DEFAULT_SUITE
         self.config = preset_config(preset)
         self.sample_time_s = float(sample_time_s or self.config.sample_time_s)
         if not self.sample_time_s > 0:
@@ -284,12 +287,3 @@ class NavigationEnv(Env):
             reward += rs.collision
         vec, info = self._observe()
         return vec, float(reward), outcome in ("reached_goal", "collided"), outcome == "timed_out", info
-
-
-def register_envs() -> None:
-    """Register ``gpcnav/Navigation-v0`` (the package's ``gymnasium.envs`` entry point)."""
-    if ENV_ID not in registry:
-        register(id=ENV_ID, entry_point="gpcnav.gym_env:NavigationEnv")
-
-
-register_envs()

@@ -1,37 +1,88 @@
-"""The contract's ``gymnasium.make("gpcnav/Navigation-v0")`` with no other import.
-
-The package declares a ``gymnasium.envs`` entry point; Gymnasium 0.26 to 0.29 load such entry
-points at ``import gymnasium`` (1.0 removed the loading, which is why the ``gym`` and ``test``
-extras pin ``gymnasium<1.0``). The test runs a fresh interpreter, so nothing of gpcnav is
-imported before ``gymnasium.make``: it fails if the entry point is not declared, not installed
-(``pip install -e ".[test]"``), or Gymnasium no longer loads it."""
+"""The contract's Gymnasium registration, each in a fresh interpreter (nothing of gpcnav
+imported before): ``gymnasium.make("gpcnav:gpcnav/Navigation-v0")`` by id alone, with no
+keyword argument, passes Gymnasium's ``check_env`` and reproduces a seeded reset;
+``import gpcnav`` registers the plain id without importing the environment or the planner;
+``import gpcnav`` works without Gymnasium; the extras admit Gymnasium 1.x and declare no
+``gymnasium.envs`` entry point (1.0 no longer reads them)."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
-from importlib import metadata
+import tomllib
 
-CODE = """
-import sys
+import pytest
+
+gymnasium = pytest.importorskip("gymnasium")
+
+from conftest import REPO  # noqa: E402
+
+MAKE_BY_ID = """
+import sys, warnings
+import numpy as np
 import gymnasium
-assert "gpcnav.gym_env" in sys.modules, "import gymnasium did not load the entry point"
-env = gymnasium.make("gpcnav/Navigation-v0", suite="circle-crossing", movers=3)
-obs, info = env.reset(seed=0)
-obs, reward, terminated, truncated, info = env.step([0.2, 0.2])
-print(type(env.unwrapped).__name__, obs.shape, info["outcome"], terminated, truncated)
+from gymnasium.utils.env_checker import check_env
+assert "gpcnav" not in sys.modules
+warnings.simplefilter("error")
+env = gymnasium.make("gpcnav:gpcnav/Navigation-v0")
+check_env(env.unwrapped, skip_render_check=True)
+runs = []
+for seed in (11, 11, 12):
+    obs, info = env.reset(seed=seed)
+    trace = [obs]
+    for _ in range(4):
+        obs, reward, terminated, truncated, info = env.step(np.array([0.3, 0.32], dtype=np.float32))
+        trace.append(obs)
+    runs.append((info["scenario"], np.stack(trace)))
+same = runs[0][0] == runs[1][0] and np.array_equal(runs[0][1], runs[1][1])
+print(type(env.unwrapped).__name__, env.unwrapped.suite.name, env.unwrapped.suite.movers, obs.shape, same,
+      runs[2][0] != runs[0][0], gymnasium.__version__.split(".")[0])
 """
 
 
-def test_the_entry_point_is_declared_by_the_installed_package():
-    eps = [ep for ep in metadata.entry_points(group="gymnasium.envs") if ep.name == "gpcnav"]
-    assert [ep.value for ep in eps] == ["gpcnav.gym_env:register_envs"], \
-        "reinstall the project (pip install -e .) so its entry points are current"
+def _run(code: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=REPO,
+                          env=env)
 
 
-def test_gymnasium_make_with_the_plain_id_in_a_fresh_process(tmp_path):
-    import gymnasium
-    assert int(gymnasium.__version__.split(".")[0]) < 1, \
-        f"Gymnasium {gymnasium.__version__} does not load entry points; the extras pin <1.0"
-    r = subprocess.run([sys.executable, "-c", CODE], capture_output=True, text=True, timeout=300, cwd=tmp_path)
-    assert r.returncode == 0, r.stderr[-2000:]
-    assert r.stdout.split() == ["NavigationEnv", "(58,)", "running", "False", "False"]
+def test_make_by_id_alone_with_no_keyword_passes_check_env_and_reproduces_a_seed():
+    r = _run(MAKE_BY_ID)
+    assert r.returncode == 0, r.stderr[-3000:]
+    name, suite, movers, shape, same, differs, major = r.stdout.split()
+    assert (name, suite, movers, shape) == ("NavigationEnv", "circle-crossing", "5", "(58,)")
+    assert same == "True" and differs == "True"
+    assert int(major) >= 1
+
+
+def test_import_gpcnav_registers_the_plain_id_and_imports_nothing_heavy():
+    code = ("import sys\nimport gpcnav\nimport gymnasium\n"
+            "assert gpcnav.ENV_ID in gymnasium.registry\n"
+            "heavy = [m for m in ('gpcnav.gym_env', 'scenarios', 'casadi', 'onnxruntime', 'torch')\n"
+            "         if m in sys.modules]\n"
+            "env = gymnasium.make('gpcnav/Navigation-v0', suite='random')\n"
+            "obs, info = env.reset(seed=0)\n"
+            "print(heavy, type(env.unwrapped).__name__, info['scenario'].startswith('random'))\n")
+    r = _run(code)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.split() == ["[]", "NavigationEnv", "True"]
+
+
+def test_import_gpcnav_needs_no_gymnasium():
+    code = ("import sys\nsys.modules['gymnasium'] = None  # Python's way to make a module unimportable\n"
+            "import gpcnav\nprint(gpcnav.ENV_ID)\n")
+    r = _run(code)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.strip() == "gpcnav/Navigation-v0"
+
+
+def test_the_extras_admit_the_installed_gymnasium_1x_and_no_entry_point_is_declared():
+    from packaging.requirements import Requirement
+    meta = tomllib.loads((REPO / "pyproject.toml").read_text())
+    installed = gymnasium.__version__
+    assert int(installed.split(".")[0]) >= 1
+    for extra in ("gym", "test"):
+        reqs = [Requirement(r) for r in meta["project"]["optional-dependencies"][extra]]
+        gym = [r for r in reqs if r.name == "gymnasium"]
+        assert len(gym) == 1 and gym[0].specifier.contains(installed) and not gym[0].specifier.contains("0.29.1")
+    assert "gymnasium.envs" not in meta["project"].get("entry-points", {})

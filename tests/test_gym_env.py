@@ -1,12 +1,9 @@
 """``gpcnav/Navigation-v0``: Gymnasium's own checker, seeded resets, terminated apart from
 truncated, the observation's known values, an episode driven by the GPC to the goal, and
-the registration (the ``gymnasium.envs`` entry point and the ``gpcnav:`` module form)."""
+the default scene (the registration by id: test_gym_entry_point.py)."""
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
-import tomllib
 import warnings
 
 import numpy as np
@@ -14,8 +11,8 @@ import pytest
 
 gymnasium = pytest.importorskip("gymnasium")
 
-from conftest import PAPER_DIR, REPO  # noqa: E402
-from gpcnav.gym_env import ENV_ID, NavigationEnv, ObservationLayout, register_envs  # noqa: E402
+from conftest import PAPER_DIR  # noqa: E402
+from gpcnav.gym_env import DEFAULT_SUITE, NavigationEnv, ObservationLayout  # noqa: E402
 
 LINE = """
 name = "line"
@@ -139,27 +136,12 @@ def test_any_controller_of_the_protocol_drives_it_through_the_observation():
     assert info["outcome"] == "reached_goal" and 40.0 <= info["t_s"] < 45.0  # 16 m at 0.4 m/s, a detour
 
 
-def test_the_entry_point_registers_the_id_in_its_namespace():
-    """What Gymnasium 0.26-0.29 does with the package's ``gymnasium.envs`` entry point at
-    ``import gymnasium`` (Gymnasium >= 1.0 no longer loads it), done by hand."""
-    meta = tomllib.loads((REPO / "pyproject.toml").read_text())
-    target = meta["project"]["entry-points"]["gymnasium.envs"]["gpcnav"]
-    assert target == "gpcnav.gym_env:register_envs"
-    gymnasium.registry.pop(ENV_ID, None)
-    from gymnasium.envs.registration import namespace
-    with namespace("gpcnav"):
-        register_envs()
-    env = gymnasium.make("gpcnav/Navigation-v0", suite="random")
-    assert isinstance(env.unwrapped, NavigationEnv)
-    obs, _ = env.reset(seed=0)
-    assert env.observation_space.contains(obs)
-
-
-def test_gymnasium_make_needs_no_import_of_gpcnav():
-    code = ("import gymnasium\n"
-            "env = gymnasium.make('gpcnav:gpcnav/Navigation-v0', suite='circle-crossing', movers=2)\n"
-            "obs, info = env.reset(seed=0)\n"
-            "print(type(env.unwrapped).__name__, obs.shape, info['outcome'])\n")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
-    assert r.returncode == 0, r.stderr[-2000:]
-    assert r.stdout.split() == ["NavigationEnv", "(58,)", "running"]
+def test_with_no_keyword_argument_the_default_scene_is_the_crowd_suite():
+    """Tools that make environments by id alone get :data:`DEFAULT_SUITE` with its defaults."""
+    env = NavigationEnv()
+    assert (env.suite.name, env.suite.movers, env.suite.behaviour) == (DEFAULT_SUITE, 5, "orca") == \
+        ("circle-crossing", 5, "orca")
+    _, info = env.reset(seed=4)
+    assert info["scenario"].startswith("circle-crossing-orca-5-0-") and len(env.episode.scenario.moving) == 5
+    with pytest.raises(ValueError):
+        NavigationEnv(scenario=PAPER_DIR / "fig7_2_crossing.toml", suite="random")

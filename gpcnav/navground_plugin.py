@@ -1,0 +1,256 @@
+"""gpcnav's controllers as navground behaviours: ``GPC`` (the planner behind its check layer)
+and ``GPCNetwork`` (the shipped network behind its planner-free check).
+
+navground's tools find them through the package's ``navground_behaviors`` entry points
+(``navground.core.load_plugins()``, which ``navground_py`` calls at start), so an experiment
+or scenario file selects them by name::
+
+    behavior:
+      type: GPC            # or GPCNetwork
+      optimal_speed: 0.4   # the reference speed (m/s)
+      preset: improved     # the planner preset (paper | improved)
+
+What a behaviour does each time navground asks it for a command (docs/navground.md):
+
+1. navground's target becomes the reference the controller follows: the straight line from
+   where the robot is when the target is set to the target's point, or the target's path,
+   at navground's ``optimal_speed``; a new target restarts the controller on a new reference
+   (:mod:`gpcnav.navground_state`);
+2. at the controller's own sample time (the preset's, 0.5 s for ``improved``) it is told
+   navground's state: the robot's pose and the wheel speeds it drives, the neighbours'
+   positions (with ids that last, :class:`~gpcnav.navground_state.NeighbourTracks`; the
+   controller's own filters estimate their velocities, as in gpcnav's simulator), the
+   static discs and line segments; between decisions the last wheel speeds are held, so
+   navground may step at any period (the sample time is best a multiple of navground's step,
+   and the agent's ``control_period`` left at 0);
+3. the wheel speeds, within the acceleration limit (``max_wheel_acceleration``) as gpcnav's
+   robot applies them, become navground's command through the agent's two-wheel kinematics
+   (``2WDiff`` or ``2WDiffDyn``: the wheel base is its ``wheel_axis``, the wheel limit its
+   ``max_speed``, the radius the agent's). gpcnav's robot drives backwards as well as
+   forwards, and its planner uses that (to back away, or to reverse to a target behind it);
+   navground's two-wheel kinematics forbid driving backwards by default, so the behaviour
+   refuses kinematics whose ``max_backward_speed`` is below the wheel limit (a robot held
+   still by its kinematics whenever the planner reverses would be measured, not the planner).
+
+Without a target, or once navground finds it satisfied, the robot brakes to a stop within
+the acceleration limit. navground's ``safety_margin`` and ``horizon`` are not used: the
+preset's margins and the check layer keep the clearance.
+
+Importing this module imports navground's core and the numpy-only parts of gpcnav; CasADi
+and onnxruntime load when a behaviour makes its controller (navground's ``prepare``, or the
+first command).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from navground import core
+
+from casadi_gpc.robot import RobotParams, RobotState, brake_wheels
+from casadi_gpc.types import Observation
+
+from .navground_state import NeighbourTracks, reference_to_target, static_obstacles, target_key
+
+__all__ = ["GPCBehavior", "GPCNetworkBehavior", "WHEELED_KINEMATICS"]
+
+WHEELED_KINEMATICS = ("2WDiff", "2WDiffDyn")
+"""navground's kinematics a gpcnav controller can drive (a two-wheel differential drive)."""
+
+
+def _from_float32(value) -> float:
+    """A length or speed navground stores in single precision, as written in its file
+    (0.35, not 0.3499999940395355): a network checks the robot it was trained for exactly."""
+    return round(float(value), 6)
+
+
+class GPCBehavior(core.Behavior, name="GPC"):
+    """The GPC planner behind its check layer (gpcnav's controller ``gpc``), as a navground
+    behaviour (see the module's documentation).
+
+    *Registered properties*: ``preset`` [str], ``max_wheel_acceleration`` [float].
+
+    *State*: :py:class:`navground.core.GeometricState`.
+    """
+
+    controller_name = "gpc"
+    """The name of the controller in :data:`gpcnav.controllers.REGISTRY`."""
+
+    def __init__(self, kinematics: core.Kinematics | None = None, radius: float = 0.0):
+        core.Behavior.__init__(self, kinematics, radius)
+        self._state = core.GeometricState()
+        self._preset = "improved"
+        self._max_wheel_acceleration = RobotParams().max_wheel_accel_mps2
+        self._controller = None
+        self._robot: RobotParams | None = None
+        self._neighbours = NeighbourTracks()
+        self._clock_s = 0.0
+        self._reset_target()
+
+    # --- navground properties --------------------------------------------------------
+    @property
+    @core.register("improved", "The planner preset (paper | improved)")
+    def preset(self) -> str:
+        """The planner preset: its sample time, horizon, weights (CONTRACT.md, presets)."""
+        return self._preset
+
+    @preset.setter
+    def preset(self, value: str) -> None:
+        self._preset = str(value)
+        self._controller = None
+
+    @property
+    @core.register(0.8, "Each wheel's acceleration limit [m/s^2]", core.schema.positive)
+    def max_wheel_acceleration(self) -> float:
+        """Each wheel's acceleration limit (m/s^2; the contract's robot: 0.8)."""
+        return self._max_wheel_acceleration
+
+    @max_wheel_acceleration.setter
+    def max_wheel_acceleration(self, value: float) -> None:
+        self._max_wheel_acceleration = float(value)
+        self._controller = None
+
+    def get_environment_state(self) -> core.GeometricState:
+        """navground's geometric state: neighbours, static discs and line segments."""
+        return self._state
+
+    # --- the controller --------------------------------------------------------------
+    def robot_params(self) -> RobotParams:
+        """gpcnav's robot of this agent: the kinematics' wheel axis and speed limit, the
+        agent's radius, :attr:`max_wheel_acceleration`."""
+        kin = self.kinematics
+        if kin is None or kin.type not in WHEELED_KINEMATICS:
+            raise ValueError(f"navground behaviour {self._type}: the agent's kinematics must be one of "
+                             f"{', '.join(WHEELED_KINEMATICS)}, got {kin.type if kin is not None else None}")
+        v_max = float(kin.max_speed)
+        if not (math.isfinite(v_max) and v_max > 0.0):
+            raise ValueError(f"navground behaviour {self._type}: set the kinematics' max_speed (the wheel limit, "
+                             f"m/s), got {v_max}")
+        for name in ("max_forward_speed", "max_backward_speed"):
+            if kin.has(name) and float(kin.get(name)) < _from_float32(v_max):
+                raise ValueError(f"navground behaviour {self._type}: gpcnav's robot drives both ways at the wheel "
+                                 f"limit, the kinematics' {name} is {float(kin.get(name)):g} m/s (set it to "
+                                 f"{_from_float32(v_max):g} or more)")
+        if not self.radius > 0.0:
+            raise ValueError(f"navground behaviour {self._type}: set the agent's radius (m)")
+        return RobotParams(wheel_base_m=_from_float32(kin.get("wheel_axis")), radius_m=_from_float32(self.radius),
+                           max_wheel_speed_mps=_from_float32(v_max),
+                           max_wheel_accel_mps2=self._max_wheel_acceleration)
+
+    def controller_spec(self):
+        """The :class:`gpcnav.controllers.ControllerSpec` this behaviour runs."""
+        from .controllers import ControllerSpec
+        return ControllerSpec(self.controller_name)
+
+    def make_controller(self):
+        """The controller, made now (CasADi or onnxruntime load here) for this agent's robot."""
+        from casadi_gpc.config import preset
+        from .controllers import make
+        self._robot = self.robot_params()
+        self._controller = make(self.controller_spec(), preset(self._preset), self._robot)
+        self._reset_target()
+        return self._controller
+
+    @property
+    def controller(self):
+        """The controller behind the behaviour (made on first use)."""
+        if self._controller is None:
+            self.make_controller()
+        return self._controller
+
+    def prepare(self) -> None:
+        """navground's hook before a run: the controller is made here, not in the run."""
+        self.make_controller()
+        self._neighbours.reset()
+        self._clock_s = 0.0
+
+    # --- one command -----------------------------------------------------------------
+    def _reset_target(self) -> None:
+        self._target_key = self._reference = None
+        self._reference_start_s = 0.0
+        self._next_decision_s = 0.0
+        self._wheels: tuple[float, float] | None = None  # (right, left) held between decisions
+        self.last_decision = None
+        """The controller's last :class:`~casadi_gpc.types.ControlDecision`."""
+
+    def _follow(self, now_s: float) -> None:
+        """Restart the controller on a new reference when navground's target changed."""
+        key = target_key(self.target) if self.target.valid else None
+        if key == self._target_key:
+            return
+        self._target_key = key
+        self._reference = None if key is None else reference_to_target(self.target, self.position,
+                                                                        float(self.optimal_speed))
+        self._reference_start_s = self._next_decision_s = now_s
+        self.controller.reset()
+
+    def _limited(self, right: float, left: float, current: tuple[float, float], dt_s: float) -> tuple[float, float]:
+        """The wheel speeds as gpcnav's robot applies them: each within its acceleration
+        limit over ``dt_s`` and the wheel limit."""
+        r = self._robot
+        dv, v = r.max_wheel_accel_mps2 * dt_s, r.max_wheel_speed_mps
+        return (min(v, max(-v, min(current[0] + dv, max(current[0] - dv, right)))),
+                min(v, max(-v, min(current[1] + dv, max(current[1] - dv, left)))))
+
+    def compute_cmd_internal(self, time_step: float) -> core.Twist2:
+        """navground's step: a decision when one is due, else the held wheel speeds."""
+        controller = self.controller
+        dt = float(time_step)
+        now = self._clock_s
+        self._clock_s += dt
+        moving = self._neighbours.update(self._state.neighbors, dt)
+        self._follow(now)
+        left_now, right_now = (float(w) for w in self.actuated_wheel_speeds)
+        current = (right_now, left_now)
+        if self._reference is None or self.check_if_target_satisfied():
+            self._wheels = brake_wheels(*current, self._robot.max_wheel_accel_mps2 * dt)
+        elif now >= self._next_decision_s - 1e-9:
+            T = controller.sample_time_s
+            x, y = (float(c) for c in self.position)
+            obs = Observation(now - self._reference_start_s, RobotState(x, y, float(self.orientation), *current),
+                              self._reference, moving,
+                              static_obstacles(self._state.static_obstacles, self._state.line_obstacles, (x, y)))
+            self.last_decision = d = controller.decide(obs)
+            self._wheels = self._limited(d.v_right_mps, d.v_left_mps, current, T)
+            while self._next_decision_s <= now + 1e-9:
+                self._next_decision_s += T
+        right, left = self._wheels if self._wheels is not None else (0.0, 0.0)
+        return self.twist_from_wheel_speeds([left, right])
+
+
+class GPCNetworkBehavior(GPCBehavior, name="GPCNetwork"):
+    """The network (gpcnav's controller ``nn``) behind its planner-free check (shield mode
+    ``on``: the check layer falls back on its own manoeuvres, no planner on standby, so no
+    CasADi), as a navground behaviour.
+
+    *Registered properties*: ``preset`` [str], ``max_wheel_acceleration`` [float],
+    ``model`` [str].
+
+    *State*: :py:class:`navground.core.GeometricState`.
+    """
+
+    controller_name = "nn"
+
+    # navground registers the properties a class itself declares, not those it inherits
+    preset = GPCBehavior.preset
+    max_wheel_acceleration = GPCBehavior.max_wheel_acceleration
+
+    def __init__(self, kinematics: core.Kinematics | None = None, radius: float = 0.0):
+        GPCBehavior.__init__(self, kinematics, radius)
+        self._model = ""
+
+    @property
+    @core.register("", "The ONNX model's path (empty: the one shipped for the preset)")
+    def model(self) -> str:
+        """The ONNX model file (a path, relative to the current folder; empty: the model
+        shipped for :attr:`preset`)."""
+        return self._model
+
+    @model.setter
+    def model(self, value: str) -> None:
+        self._model = str(value)
+        self._controller = None
+
+    def controller_spec(self):
+        from .controllers import ControllerSpec
+        return ControllerSpec("nn", Path(self._model) if self._model else None, shield="on")

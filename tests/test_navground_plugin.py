@@ -1,0 +1,234 @@
+"""The navground plugin: navground's state as gpcnav's observation (known answers), the
+behaviour's clock (decisions at the controller's sample time, wheels held between, wheel
+speeds into navground's twist), the kinematics it refuses, imports that stay light until a
+behaviour is made, the entry points, and the example experiment run by navground and read
+back from its HDF5 file (the GPC agents reach their targets without a collision)."""
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tomllib
+from importlib import metadata
+
+import numpy as np
+import pytest
+
+core = pytest.importorskip("navground.core")
+sim = pytest.importorskip("navground.sim")
+
+from conftest import REPO  # noqa: E402
+from casadi_gpc.types import ControlDecision  # noqa: E402
+from gpcnav.navground_plugin import GPCBehavior  # noqa: E402
+from gpcnav.navground_state import NeighbourTracks, reference_to_target, static_obstacles  # noqa: E402
+from test_deploy_isolation import BLOCKER  # noqa: E402
+
+EXAMPLE = REPO / "docs" / "navground" / "antipodal_gpc.yaml"
+
+
+def _env() -> dict:
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+
+
+# --- navground's state as gpcnav's observation ------------------------------------------
+def test_a_point_target_is_the_straight_line_from_the_robot_at_the_optimal_speed():
+    ref = reference_to_target(core.Target.Point([4.0, 5.0], 0.3), (1.0, 1.0), 0.4)
+    assert ref.start_xy_m == (1.0, 1.0) and ref.start_heading_rad == pytest.approx(math.atan2(4.0, 3.0))
+    assert (ref.length_m, ref.speed_mps) == pytest.approx((5.0, 0.4))
+    assert ref.end_pose[:2] == pytest.approx((4.0, 5.0))
+    assert reference_to_target(core.Target.Point([1.0, 1.0], 0.3), (1.0, 1.0), 0.4) is None   # on it
+    assert reference_to_target(core.Target(), (1.0, 1.0), 0.4) is None                          # no point
+
+
+def test_a_path_target_is_followed_along_the_path_from_the_robot_s_projection():
+    """A quarter circle of radius 2 m (navground's ``Path``): the reference turns as the
+    path does, from the projection of the robot (at arc length 1 m) to the path's end."""
+    def curve(s):
+        return (np.array([2.0 * math.cos(s / 2.0), 2.0 * math.sin(s / 2.0)], dtype=np.float32),
+                s / 2.0 + math.pi / 2.0, 0.5)
+    path = core.Path(lambda p, s0, s1: 1.0, curve, math.pi)
+    ref = reference_to_target(core.Target.Point([0.0, 2.0], 0.2, path), (1.8, 1.0), 0.3)
+    assert ref.length_m == pytest.approx(math.pi - 1.0)
+    assert ref.start_xy_m == pytest.approx((2.0 * math.cos(0.5), 2.0 * math.sin(0.5)), abs=1e-6)
+    assert ref.end_pose == pytest.approx((0.0, 2.0, math.pi), abs=1e-4)
+    assert {round(s.curvature_1pm, 4) for s in ref.segments} == {0.5}
+
+
+def test_discs_pass_and_a_line_segment_is_its_point_nearest_the_robot():
+    disc, line = core.Disc([3.0, 3.0], 0.4), core.LineSegment([0.0, 0.0], [2.0, 0.0])
+    inside = static_obstacles([disc], [line], (1.0, 1.5))
+    assert [(o.position_m, o.radius_m) for o in inside] == [((3.0, 3.0), pytest.approx(0.4)), ((1.0, 0.0), 0.0)]
+    assert static_obstacles([], [line], (3.0, 1.0))[0].position_m == (2.0, 0.0)    # past its end
+
+
+def test_neighbours_keep_their_ids_whatever_their_order_and_a_newcomer_gets_a_new_one():
+    tracks = NeighbourTracks()
+
+    def n(x, y, vx=0.0):
+        return core.Neighbor([x, y], 0.3, [vx, 0.0], 0)   # navground's id: 0 for every agent
+
+    first = tracks.update([n(0.0, 0.0, 1.0), n(3.0, 0.0)], 0.1)
+    assert [m.obstacle_id for m in first] == [0, 1]
+    again = tracks.update([n(3.0, 0.0), n(0.125, 0.0, 1.0), n(0.0, 5.0)], 0.1)   # order swapped, one more
+    assert [(m.obstacle_id, m.position_m) for m in again] == [(1, (3.0, 0.0)), (0, (0.125, 0.0)), (2, (0.0, 5.0))]
+    jumped = tracks.update([n(3.0, 1.0)], 0.1)   # 1 m from where id 1 was: not the same obstacle
+    assert [m.obstacle_id for m in jumped] == [3]
+
+
+# --- the behaviour's clock, with a controller that records what it is told -----------
+class _Recorder:
+    sample_time_s = 0.5
+
+    def __init__(self):
+        self.observations, self.resets = [], 0
+
+    def reset(self):
+        self.resets += 1
+
+    def decide(self, observation):
+        self.observations.append(observation)
+        return ControlDecision(0.3, 0.2)
+
+
+class _RecordingGPC(GPCBehavior, name="GPCRecordingForTests"):
+    def make_controller(self):
+        self._robot = self.robot_params()
+        self._controller = _Recorder()
+        self._reset_target()
+        return self._controller
+
+
+WORLD = """
+groups:
+  - number: 1
+    position: [0.0, 0.0]
+    orientation: 0.0
+    radius: 0.35
+    kinematics: {type: 2WDiff, wheel_axis: 0.5, max_speed: 0.8, max_backward_speed: 0.8}
+    behavior: {type: GPCRecordingForTests, optimal_speed: 0.4}
+    task: {type: Waypoints, waypoints: [[4.0, 0.0]], tolerance: 0.3, loop: false}
+    state_estimation: {type: Bounded, range: 10.0}
+  - number: 1
+    position: [2.0, 1.0]
+    radius: 0.3
+    kinematics: {type: 2WDiff, wheel_axis: 0.5, max_speed: 0.8}
+    behavior: {type: Dummy, optimal_speed: 0.0}
+"""
+
+
+def test_decisions_at_the_controller_s_sample_time_and_the_wheels_held_between():
+    world = sim.World()
+    sim.load_scenario(WORLD).init_world(world, seed=0)
+    agent = world.agents[0]
+    speeds = []
+    for _ in range(12):                       # navground at 0.1 s: t = 0 .. 1.1 s
+        world.update(0.1)
+        speeds.append((agent.twist.velocity.copy(), agent.twist.angular_speed))
+    recorder = agent.behavior.controller
+    obs = recorder.observations
+    assert [o.t_s for o in obs] == pytest.approx([0.0, 0.5, 1.0], abs=1e-6) and recorder.resets == 1
+    assert (obs[0].robot.v_right_mps, obs[0].robot.v_left_mps) == (0.0, 0.0)
+    assert (obs[1].robot.v_right_mps, obs[1].robot.v_left_mps) == pytest.approx((0.3, 0.2), abs=1e-6)
+    # wheels (0.3, 0.2) on a 0.5 m axis: 0.25 m/s forward, (0.3 - 0.2) / 0.5 = 0.2 rad/s, every step
+    for velocity, omega in speeds:
+        assert (float(np.hypot(*velocity)), omega) == pytest.approx((0.25, 0.2), abs=1e-6)
+    ref = obs[0].reference
+    assert (*ref.start_xy_m, ref.start_heading_rad, ref.length_m, ref.speed_mps) == \
+        pytest.approx((0.0, 0.0, 0.0, 4.0, 0.4), abs=1e-6)
+    assert all(o.reference is ref for o in obs)
+    assert [[(m.obstacle_id, m.position_m, round(m.radius_m, 6)) for m in o.moving] for o in obs] == \
+        [[(0, (2.0, 1.0), 0.3)]] * 3 and not obs[0].static
+    assert obs[2].robot.x_m > 0.2                # it drove (0.25 m/s for 1 s, on an arc)
+
+
+def test_kinematics_the_robot_cannot_be_driven_with_are_refused():
+    b = core.Behavior.make_type("GPC")
+    b.radius = 0.35
+    k = core.Kinematics.make_type("2WDiff")
+    k.wheel_axis, k.max_speed = 0.5, 0.8
+    b.kinematics = k
+    with pytest.raises(ValueError, match="max_backward_speed"):   # navground's default: 0 m/s
+        b.prepare()
+    b.kinematics = core.Kinematics.make_type("Omni")
+    with pytest.raises(ValueError, match="2WDiff"):
+        b.prepare()
+    k.set("max_backward_speed", 0.8)
+    b.kinematics = k
+    robot = b.robot_params()
+    assert (robot.wheel_base_m, robot.radius_m, robot.max_wheel_speed_mps, robot.max_wheel_accel_mps2) == \
+        (0.5, 0.35, 0.8, 0.8)
+
+
+# --- imports, entry points --------------------------------------------------------------
+def test_importing_the_plugin_and_making_its_types_loads_no_solver_and_no_network():
+    code = BLOCKER.replace('"scipy")', '"scipy", "onnxruntime")') + (
+        "from navground import core\nimport gpcnav.navground_plugin\n"
+        "b = core.Behavior.make_type('GPCNetwork')\nb.set('preset', 'paper')\nb.set('model', 'x.onnx')\n"
+        "g = core.Behavior.make_type('GPC')\ng.set('max_wheel_acceleration', 0.5)\n"
+        "print(b.get('preset'), b.get('model'), round(g.get('max_wheel_acceleration'), 3))\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO, env=_env())
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.split() == ["paper", "x.onnx", "0.5"]
+
+
+def test_the_network_drives_without_casadi():
+    code = BLOCKER + (
+        "from navground import sim\nimport gpcnav.navground_plugin\n"
+        f"w = sim.World()\nsim.load_scenario({WORLD!r}.replace('GPCRecordingForTests', 'GPCNetwork'))"
+        ".init_world(w, seed=0)\n"
+        "for _ in range(30):\n    w.update(0.1)\n"
+        "b = w.agents[0].behavior\n"
+        "print(type(b.controller).__name__, b.controller.settings.fallback, w.agents[0].position[0] > 0.3)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO, env=_env())
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.split() == ["Shield", "manoeuvres", "True"]
+
+
+def test_the_entry_points_name_the_classes_registered_under_those_names():
+    import importlib
+    eps = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["entry-points"]["navground_behaviors"]
+    assert set(eps) == {"GPC", "GPCNetwork"}
+    for name, target in eps.items():
+        module, _, cls = target.partition(":")
+        assert getattr(importlib.import_module(module), cls)._type == name
+    for name in eps:
+        assert core.Behavior.make_type(name) is not None
+        assert {"preset", "max_wheel_acceleration"} <= set(core.Behavior.type_properties[name])
+    assert "model" in core.Behavior.type_properties["GPCNetwork"]
+
+
+# --- the example experiment, recorded by navground and read back ----------------------------
+def _check_recorded(path, runs: int):
+    from gpcnav.navground_runs import agent_runs, summarise
+    gpc = [a for a in agent_runs(path) if a.behaviour == "GPC"]
+    assert len(gpc) == 2 * runs and {a.agent for a in gpc} == {0, 1}
+    assert all(a.reached and not a.collided and not a.stuck for a in gpc), gpc
+    # 8 m at 0.4 m/s is 20 s; the crowd costs them a few seconds, a robot held still far more
+    assert all(a.time_to_target_s < 35.0 and a.efficacy > 0.6 for a in gpc), gpc
+    by_type = {s.behaviour: s for s in summarise(path)}
+    assert set(by_type) == {"GPC", "ORCA"} and by_type["ORCA"].agent_runs == 6 * runs
+    assert by_type["ORCA"].collided == 0
+
+
+def test_the_example_experiment_in_navground_s_api_reaches_without_collision(tmp_path):
+    pytest.importorskip("h5py")
+    experiment = sim.load_experiment(EXAMPLE.read_text())
+    experiment.save_directory = str(tmp_path)
+    experiment.run(number_of_runs=2)          # runs 0 and 1 (their seeds)
+    _check_recorded(experiment.path, 2)
+
+
+def test_navground_py_run_knows_the_behaviours_through_the_entry_points(tmp_path):
+    """What a navground user types; needs the installed metadata to declare the entry points."""
+    pytest.importorskip("h5py")
+    declared = {ep.name: ep.value for ep in metadata.entry_points(group="navground_behaviors")}
+    if declared.get("GPC") != "gpcnav.navground_plugin:GPCBehavior":
+        pytest.skip("the installed gpcnav does not declare the navground entry points: pip install -e .")
+    exe = shutil.which("navground_py") or pytest.skip("navground_py is not on PATH")
+    r = subprocess.run([exe, "run", str(EXAMPLE), "--runs", "1", "--run_index", "3", "--save_directory",
+                        str(tmp_path)], capture_output=True, text=True, timeout=300, cwd=tmp_path, env=_env())
+    assert r.returncode == 0, (r.stdout + r.stderr)[-3000:]
+    [path] = list(tmp_path.glob("*/data.h5"))
+    _check_recorded(path, 1)

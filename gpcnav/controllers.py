@@ -70,10 +70,10 @@ def _gpc_check(controller, config, mode: str):
 
 def _nn_check(controller, config, mode: str):
     """A plan network replans as often as the planner: its plans are trusted as the planner's,
-    with its shifted previous plan kept as the safe candidate (docs/nn.md: 2.8-11x fewer
+    with its shifted previous plan kept as the safe candidate (docs/nn-plan.md: 2.8-11x fewer
     interventions than checked over the whole horizon). A one-command network's own roll-out
     is judged as its plan before the check steps in, with the GPC on standby, and passes when
-    it keeps the margin for :data:`casadi_gpc.safety.ROLLOUT_TRUST_S` (docs/nn.md, "The
+    it keeps the margin for :data:`casadi_gpc.safety.ROLLOUT_TRUST_S` (docs/nn-crowds.md, "The
     network's roll-out as its plan": no collision in 2 600 crowd and random episodes, 2.7-5x
     fewer interventions; behind the manoeuvres alone one episode collided, so not there)."""
     from casadi_gpc.safety import ROLLOUT_TRUST_S, CheckSettings

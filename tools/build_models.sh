@@ -4,7 +4,7 @@
 #
 #   tools/build_models.sh [OUT_DIR]        (default out/nn; about 2 h on 2 cores)
 #
-# The recipe (docs/nn.md, "The shipped models"): GPC labels of 20000 sampled situations,
+# The recipe (docs/nn-recipe.md, "The shipped models"): GPC labels of 20000 sampled situations,
 # then on-policy rounds labelled by the GPC:
 #   * DART rounds: the GPC drives with its applied wheel speeds perturbed by N(0, sigma)
 #     (--dagger gpc --dagger-noise), on the random suite with starts up to 1.2 m beside
@@ -13,7 +13,7 @@
 #   * one DAgger round where the bare network drives (its own mistakes, labelled);
 # and a network with three hidden layers of 64 tanh units (Adam), exported to run one pass
 # (the paper's 17-35-2 network with two passes stays the default of gpcnav train/export
-# and of gpcnav reproduce; it imitates the GPC far less well: docs/nn.md).
+# and of gpcnav reproduce; it imitates the GPC far less well: docs/nn-paper-study.md).
 # On-policy episodes use suite seeds 1000 * round (+ 500 for GPC-driven rounds), never the
 # evaluation seed 1; candidates were compared on seed 7. Each model is then measured by
 # tools/evaluate_shipped.py.
@@ -81,10 +81,10 @@ python tools/evaluate_shipped.py --workers "$WORKERS" --multi-model nn_export/mo
 # (--relative). Data: sampled situations, then DART rounds where the GPC drives the crowd suites
 # (ORCA, social-force and constant-velocity walkers), random-multi, random and encounters, then
 # DAgger rounds where a bare network drives the crowds: first the crowd network shipped before
-# this one (m6 in docs/nn.md, built by this script as it stood at commit 100d690, which also
+# this one (m6 in docs/nn-crowds.md, built by this script as it stood at commit 100d690, which also
 # built the m2-m4 and plan networks the docs measure), then two rounds each driven by the
 # network trained on everything before them (r0, d20). The shipped network is d21, trained on
-# all of it (docs/nn.md, "DAgger on the bare network's own mistakes"); d22, one round more,
+# all of it (docs/nn-crowd-dagger.md, "DAgger on the bare network's own mistakes"); d22, one round more,
 # driven by d21, was measured and not chosen (more bare collisions on seed 7).
 D="$OUT/data/improved-set"
 setnet() {  # set network: setnet NAME --parts LIST

@@ -1,5 +1,5 @@
 """The study of issue 15: the paper's network on the paper's training distribution and on
-today's, against networks of other sizes, with one and two passes (docs/nn.md, "The paper's
+today's, against networks of other sizes, with one and two passes (docs/nn-paper-study.md, "The paper's
 network as the paper trained it").
 
     python tools/paper_nn_study.py --data NAME=DIR[:PART,PART][@SAMPLES] ... [--nets 35,64,64x2]

@@ -1,4 +1,4 @@
-"""How often a set network averages the two sides of an obstacle (docs/nn.md, "The crowd network").
+"""How often a set network averages the two sides of an obstacle (docs/nn-crowds.md, "Averaging the two sides").
 
     python tools/side_averaging.py DATASET_DIR MODEL_DIR MODEL.onnx
 

@@ -23,7 +23,7 @@ with 5 and 10 ORCA walkers, square-crossing and random-multi (seeds 1 to 3) and 
 the 2 600, 4 s in 2 and the whole horizon (6 s) in 1 of the 600 among 10 walkers, with up
 to 2.3 times more interventions than 4 s and 2.7-5 times fewer than the whole horizon. 4.5 s was
 chosen on those same episodes. 3 s let one more collision through (seed 1, 10 walkers, the
-planner's former 6 slots). docs/nn.md, "The network's roll-out as its plan"."""
+planner's former 6 slots). docs/nn-crowds.md, "The network's roll-out as its plan"."""
 
 
 SAFER_ALTERNATIVES = {"paper": False, "improved": True}
@@ -148,7 +148,7 @@ class SafetyFilter(QuickScreen):
         (Trusted for 3 s behind the manoeuvres alone, roll-outs let walkers close in: the
         shipped crowd network collided in 2.5 % of 200 crossings among 10 walkers; behind
         the planner on standby, 4.5 s collided in none of 2 600: :data:`ROLLOUT_TRUST_S`;
-        docs/nn.md, "The network's roll-out as its plan").
+        docs/nn-crowds.md, "The network's roll-out as its plan").
         """
         statics = observation.static if statics is None else statics
         r = observation.robot

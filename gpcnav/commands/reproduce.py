@@ -31,7 +31,7 @@ from .reproduce_report import write_report
 @dataclass(frozen=True)
 class Sizes:
     """How much work each stage does, and the recipe of the paper's network (the study behind
-    the choice: docs/nn.md, "The paper's network as the paper trained it")."""
+    the choice: docs/nn-paper-study.md, "The paper's network as the paper trained it")."""
 
     scheme: str
     """The labelled situations: ``two-pass`` (the paper's distribution: first-pass tracking
@@ -55,7 +55,7 @@ QUICK = Sizes(scheme="two-pass", samples=6000, tie_margin=None, dart_random_epis
               epochs=400, suite_count=16, improved=False)
 FULL = Sizes(scheme="two-pass", samples=21000, tie_margin=None, dart_random_episodes=0, dart_encounter_episodes=0,
              epochs=400, suite_count=100, improved=True)
-"""The recipe from the study (docs/nn.md, "The paper's network as the paper trained it"): the
+"""The recipe from the study (docs/nn-paper-study.md, "The paper's network as the paper trained it"): the
 paper's two-pass distribution, two passes, the planner's own choice at near ties (with the
 1 % margin the 17-35-2 passed Fig. 7.1's obstacle on the other side in both training seeds,
 without it on the GPC's), 21000 samples (100000 brought it no closer to the GPC, and L-BFGS

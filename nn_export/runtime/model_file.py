@@ -39,7 +39,7 @@ def float32_bound(limit_mps: float) -> float:
     saturated output read in float64 would then exceed the wheel limit by 1e-8, which the
     robot holds, and the check (``candidate_limited``) and the simulator
     (``clipped_commands``) count as clipped: 34 of 38 clipped commands in 10 crowd episodes
-    were that rounding alone (docs/nn.md)."""
+    were that rounding alone (docs/nn-training.md)."""
     b = np.float32(limit_mps)
     if float(b) > limit_mps:
         b = np.nextafter(b, np.float32(0.0))

@@ -55,7 +55,7 @@ __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_mode
 
 MODELS_DIR = Path(__file__).parents[1] / "models"
 DEFAULT_SAFETY_DISTANCE_M = {"paper": 1.0, "improved": 1.0}
-"""Clearance below which the second pass runs, per preset (measured: docs/nn.md)."""
+"""Clearance below which the second pass runs, per preset (measured: docs/nn-policy.md)."""
 
 
 def shipped_model_path(preset: str) -> Path:

@@ -73,7 +73,7 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
     ``decision_passes`` (metadata ``decision_passes``) is how :class:`~nn_export.OnnxPolicy`
     runs the network by default: 2, the paper's two passes, or 1, one pass with the real
     reference (a network trained on the GPC's own closed-loop states imitates it better that
-    way: docs/nn.md). A caller can still choose either.
+    way: docs/nn-recipe.md). A caller can still choose either.
 
     The file is checked with ``onnx.checker`` and, on ``parity_X`` (default: a seeded set of
     points spread over the training normalisation), run with onnxruntime and compared with

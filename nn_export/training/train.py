@@ -99,7 +99,7 @@ class WheelSpeedMLP:
         to the wheels by a fixed matrix in the graph; ``wheels`` the two wheel speeds. The
         turning part of a swerve is small beside the speed; standardised alone it weighs as
         much as the speed in the loss, and the network learns the swerves (measured:
-        docs/nn.md).
+        docs/nn-training.md).
     optimizer : {"lbfgs", "adam"}
         ``lbfgs`` (default): full-batch L-BFGS with a strong-Wolfe line search, 10
         iterations per step and per curve point (a 17-35-2 net has ~700 weights: second-order steps reach
@@ -132,7 +132,7 @@ class WheelSpeedMLP:
         the exported graph too. Most labels lie close to the current speeds (the GPC's cost
         charges every increment), so an absolute network spends its fit on reproducing them;
         a relative one fits the increments the GPC decides, as the GPC's own decision
-        variables are (measured: docs/nn.md).
+        variables are (measured: docs/nn-crowds.md, "The relative target").
     """
 
     def __init__(self, hidden: int = 35, activation: str = "tanh", output_basis: str = "speed_turn",

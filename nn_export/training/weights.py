@@ -4,7 +4,7 @@ Plain regression averages the answers of two optima that cost nearly the same: w
 GPC's multi-start finds passing left and passing right (or braking and going on) within a
 hair of each other, neighbouring situations are labelled with either, and a network that
 fits both answers in between, straight into the obstacle (Milios et al. 2025; measured in
-``docs/nn.md``, "Averaging the two sides"). The datasets keep every start's cost
+``docs/nn-crowds.md``, "Averaging the two sides"). The datasets keep every start's cost
 (``candidate_costs``), so how close the runner-up optimum came is known for each label.
 
 :func:`cost_gap_weights` gives such near-tie labels less weight, so that the clear answers

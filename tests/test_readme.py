@@ -174,6 +174,11 @@ def _check_outputs(cmd: str, comment: str, proc: subprocess.CompletedProcess, ro
         elif sub == "bench":
             doc = json.loads(path.read_text())
             assert doc["chosen"]["name"] in [r["name"] for r in doc["results"]]
+        elif sub == "import-tracks":
+            from scenarios import load_scenario
+            files = sorted(path.glob("*.toml"))
+            assert len(files) == int(_option(cmd, "--max-cases"))
+            assert all(load_scenario(f).moving for f in files)
     plot = _option(cmd, "--plot")
     if plot:
         assert (root / plot).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", (cmd, plot)
@@ -264,8 +269,8 @@ def test_the_readme_is_short_and_speaks_to_a_new_user():
 
 
 def test_every_project_path_the_readme_names_exists():
-    project = r'(?<![\w/."])((?:docs|scenarios|tools|nn_export|casadi_gpc|gpcnav|tests|\.ci)/[\w./-]*\w)'
-    named = set(re.findall(project, TEXT))  # a quoted "gpcnav/..." is an id, not a path
+    project = r'(?<![\w/.":])((?:docs|scenarios|tools|nn_export|casadi_gpc|gpcnav|tests|\.ci)/[\w./-]*\w)'
+    named = set(re.findall(project, TEXT))  # a quoted "gpcnav/..." (or "gpcnav:gpcnav/...") is an id, not a path
     named |= set(re.findall(r"\]\(([^)\s]+)\)", TEXT))
     assert len(named) >= 10
     missing = sorted(p for p in named if not (REPO / p).exists())

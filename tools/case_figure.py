@@ -1,0 +1,50 @@
+"""One scenario, several controllers, side by side: each run drawn as `gpcnav simulate --plot`
+draws it (scenarios.plots.plot_run), so a reader sees where the planners differ.
+
+Usage: ``python tools/case_figure.py SCENARIO.toml --controllers gpc,nn,mppi --out FIG.png``
+(the controllers as the registry names them, each as ``gpcnav simulate`` makes it).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import matplotlib.pyplot as plt  # noqa: E402
+
+from casadi_gpc.config import preset  # noqa: E402
+from casadi_gpc.io import save_figure  # noqa: E402
+from gpcnav.commands.simulate import run_one  # noqa: E402
+from scenarios import load_scenario  # noqa: E402
+from scenarios.plots import plot_run  # noqa: E402
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scenario", type=Path)
+    ap.add_argument("--controllers", default="gpc,nn,mppi")
+    ap.add_argument("--preset", default="improved")
+    ap.add_argument("--out", type=Path, required=True)
+    args = ap.parse_args(argv)
+    sc = load_scenario(args.scenario)
+    names = args.controllers.split(",")
+    cols = min(2, len(names))
+    rows = -(-len(names) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(7.0 * cols, 5.2 * rows), squeeze=False)
+    for ax in axes.flat[len(names):]:
+        ax.set_visible(False)
+    for ax, name in zip(axes.flat, names):
+        doc = run_one(sc, name, preset(args.preset))
+        clr = doc["min_clearance_m"]
+        plot_run(ax, doc, sc.robot.radius_m, mark_every_s=4.0,
+                 title=f"{name}: {doc['outcome']}, smallest clearance {clr:.2f} m")
+        print(name, doc["outcome"], round(clr, 3), doc.get("collision"))
+    fig.suptitle(f"{sc.name}: {sc.description}", fontsize=9)
+    fig.tight_layout()
+    save_figure(fig, args.out, dpi=110)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

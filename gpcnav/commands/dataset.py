@@ -19,8 +19,9 @@ from ..errors import UsageError
 from .common import add_preset_arguments, check_seed, connected, planner_config, progress
 
 MAX_SAMPLES = 100_000_000
-"""The most samples one ``--samples`` asks for: labelling runs at 100-400 samples/s on a
-2-core machine (docs/solvers.md), so 10^8 samples are weeks of it, and tens of GB of shards."""
+"""The most samples one ``--samples`` asks for: labelling runs at 100-1000 samples/s on a
+2-core machine (docs/solvers.md), so 10^8 samples are days to weeks of it, and tens of GB of
+shards (docs/evaluation.md)."""
 
 
 def add_arguments(p):
@@ -109,8 +110,8 @@ def run(args) -> int:
     if args.samples < 1:
         raise UsageError(f"--samples must be at least 1, got {args.samples}")
     if args.samples > MAX_SAMPLES:
-        raise UsageError(f"--samples must be at most {MAX_SAMPLES}, got {args.samples} (labelling runs at 100-400 "
-                         f"samples/s on a 2-core machine: {args.samples / 400 / 86400:.3g} days at best there)")
+        raise UsageError(f"--samples must be at most {MAX_SAMPLES}, got {args.samples} (labelling runs at 100-1000 "
+                         f"samples/s on a 2-core machine: {args.samples / 1000 / 86400:.3g} days at best there)")
     if args.shard_size < 2 or args.shard_size % 2 or args.shard_size > 1_000_000:
         raise UsageError(f"--shard-size must be an even number from 2 to 1000000, got {args.shard_size}")
     if args.mirror_check_every < 0:

@@ -22,6 +22,10 @@ COMMANDS = {
 }
 
 
+RESUMABLE = ("evaluate", "compare", "dataset")
+"""The subcommands whose finished work survives an interruption (docs/evaluation.md)."""
+
+
 class DefaultsFormatter(argparse.HelpFormatter):
     """Every option's help ends with its default (argparse's ArgumentDefaultsHelpFormatter,
     which would repeat one the help already names, and print ``None`` and ``False``)."""
@@ -64,7 +68,8 @@ def main(argv=None) -> int:
         print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"gpcnav {args.command}: interrupted", file=sys.stderr)
+        resumes = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
+        print(f"gpcnav {args.command}: interrupted{resumes}", file=sys.stderr)
         return 130
 
 

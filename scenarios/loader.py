@@ -21,10 +21,11 @@ from .model import Faults, MovingObstacleSpec, Scenario, Sensing, WalkerSpec
 __all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "BEHAVIOURS"]
 
 _NAME = re.compile(r"^[A-Za-z0-9_-]+$")
-LARGEST = 1e6
+LARGEST = 1e9
 """The largest magnitude of a number in a scenario (m, s, degrees, m/s): beyond it a place,
-length or time is no scene a robot drives in, and sums and squares of such numbers would
-overflow to infinity. Integers (a seed) may be up to 2^63 - 1."""
+length or time is no scene a robot drives in (map coordinates such as UTM northings, up to
+1e7 m, pass), and sums and squares of such numbers overflow to infinity. Integers (a seed)
+may be up to 2^63 - 1."""
 _LARGEST_INT = 2 ** 63 - 1
 
 

@@ -131,7 +131,7 @@ def mutated(draw):
     return doc
 
 
-def _finite_numbers(obj, seen=None) -> bool:
+def _finite_numbers(obj) -> bool:
     """Every number inside a loaded scenario is finite."""
     from dataclasses import fields, is_dataclass
     if isinstance(obj, bool) or obj is None or isinstance(obj, str):

@@ -1,6 +1,12 @@
 """One worker pool for every batch of independent tasks (dataset shards, on-policy
 chunks, evaluation episodes): local worker processes, or a Ray cluster.
 
+A Ray cluster named by an address is first reached with a plain TCP connection that gives
+up after :data:`CONNECT_TIMEOUT_S` (``$GPCNAV_RAY_CONNECT_TIMEOUT_S``, default 5 s): a cluster
+that is not there is a one-line :class:`ClusterUnavailable` within seconds, not Ray's own
+retry loop (minutes). :meth:`WorkerPool.connected` connects before any work, so a command can
+refuse an absent cluster before it makes a folder or builds a solver.
+
 Tasks are ``fn(*args)`` calls whose results come back to the calling process, which writes
 every file itself: workers only compute, so a killed run leaves nothing half-written (and,
 on Linux, local workers die with their parent). Results are yielded as they finish, in any
@@ -10,13 +16,24 @@ flight, so a long queue costs no memory. The standard library only (Ray if asked
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
+import socket
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
-__all__ = ["WorkerPool", "BACKENDS"]
+__all__ = ["WorkerPool", "BACKENDS", "ClusterUnavailable", "CONNECT_TIMEOUT_S", "check_reachable"]
 
 BACKENDS = ("local", "ray")
+
+CONNECT_TIMEOUT_S = float(os.environ.get("GPCNAV_RAY_CONNECT_TIMEOUT_S") or 5.0)
+"""How long a Ray cluster's address may take to accept a TCP connection before the run is
+refused (s). A cluster on a network answers in milliseconds; Ray itself retries for minutes."""
+
+
+class ClusterUnavailable(RuntimeError):
+    """The Ray cluster of ``--address`` cannot be reached (or Ray cannot start); the message
+    is one line."""
 
 
 @dataclass(frozen=True)
@@ -45,6 +62,72 @@ class WorkerPool:
         if self.backend == "ray":
             return _run_ray(fn, list(tasks), self.workers, self.address)
         raise ValueError(f"unknown backend {self.backend!r} (local or ray)")
+
+    @contextlib.contextmanager
+    def connected(self):
+        """Connect to the Ray cluster (or start a local Ray instance) now, and shut it down
+        on leaving; for local processes, nothing. Raises :class:`ClusterUnavailable` (one
+        line, within :data:`CONNECT_TIMEOUT_S` for an address) before any work."""
+        if self.backend != "ray":
+            yield self
+            return
+        started = _ray_init(self.workers, self.address)
+        try:
+            yield self
+        finally:
+            if started:
+                import ray
+                ray.shutdown()
+
+
+def _host_port(address: str) -> tuple[str, int] | None:
+    """``(host, port)`` of a Ray address (``host:port``, ``ray://host:port``, ``[v6]:port``),
+    or None for the words Ray knows (``auto``, ``local``) and anything without a port."""
+    rest = address.split("://", 1)[-1].rstrip("/")
+    host, sep, port = rest.rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        return None
+    return host.strip("[]"), int(port)
+
+
+def check_reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    """Refuse (:class:`ClusterUnavailable`) an address where nothing accepts a TCP connection
+    within ``timeout_s``."""
+    hp = _host_port(address)
+    if hp is None:
+        return
+    try:
+        with socket.create_connection(hp, timeout=timeout_s):
+            pass
+    except socket.timeout:
+        raise ClusterUnavailable(f"no Ray cluster at {address}: no answer within {timeout_s:g} s "
+                                 "($GPCNAV_RAY_CONNECT_TIMEOUT_S)") from None
+    except OSError as exc:
+        raise ClusterUnavailable(f"no Ray cluster at {address}: {exc.strerror or exc}") from None
+
+
+def _ray_init(workers: int, address: str | None) -> bool:
+    """Connect to Ray (or start it) unless already connected; True if this call did."""
+    try:
+        import ray
+    except ImportError:
+        raise ClusterUnavailable("--backend ray needs Ray (pip install 'gpcnav[distributed]')") from None
+    if ray.is_initialized():
+        return False
+    import logging
+    kw = dict(include_dashboard=False, logging_level=logging.ERROR, log_to_driver=False)
+    if address:
+        check_reachable(address)
+    try:
+        if address:
+            ray.init(address=address, **kw)
+        else:
+            ray.init(num_cpus=workers, **kw)
+    except Exception as exc:  # noqa: BLE001 - whatever Ray raises, the user gets one line
+        text = " ".join(str(exc).split()) or type(exc).__name__
+        where = f"the Ray cluster at {address}" if address else "a local Ray instance"
+        raise ClusterUnavailable(f"cannot use {where}: {text}") from None
+    return True
 
 
 def _worker_init():
@@ -88,19 +171,8 @@ def _run_local(fn, tasks: list, workers: int):
 
 
 def _run_ray(fn, tasks: list, workers: int, address: str | None):
-    try:
-        import ray
-    except ImportError:
-        raise RuntimeError("--backend ray needs Ray (pip install 'gpcnav[distributed]')") from None
-    started = False
-    if not ray.is_initialized():
-        import logging
-        kw = dict(include_dashboard=False, logging_level=logging.ERROR, log_to_driver=False)
-        if address:
-            ray.init(address=address, **kw)
-        else:
-            ray.init(num_cpus=workers, **kw)
-        started = True
+    started = _ray_init(workers, address)
+    import ray
     remote = ray.remote(num_cpus=1, max_retries=2)(fn)
     capacity = max(1, int(ray.cluster_resources().get("CPU", workers)))
     pending, queue = [], list(tasks)

@@ -23,6 +23,26 @@ COMMANDS = {
 }
 
 
+RESUMABLE = ("evaluate", "compare", "dataset")
+"""The subcommands whose finished work survives an interruption (docs/evaluation.md)."""
+
+
+class DefaultsFormatter(argparse.HelpFormatter):
+    """Every option's help ends with its default (argparse's ArgumentDefaultsHelpFormatter,
+    which would repeat one the help already names, and print ``None`` and ``False``)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if (not action.option_strings or action.default is argparse.SUPPRESS or action.required
+                or "default" in text.lower() or "%(default)" in text):
+            return text
+        if action.default is None or action.default is False:
+            shown = "off" if action.default is False or action.nargs == 0 else "none"
+        else:
+            shown = "%(default)s"
+        return f"{text} (default: {shown})" if text else f"default: {shown}"
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit 2 (argparse prints usage too)
         self.exit(2, f"{self.prog}: error: {message}\n")
@@ -33,7 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, help_text in COMMANDS.items():
         module = importlib.import_module(f"gpcnav.commands.{name.replace('-', '_')}")
-        p = sub.add_parser(name, help=help_text, description=(module.__doc__ or help_text).strip())
+        p = sub.add_parser(name, help=help_text, description=(module.__doc__ or help_text).strip(),
+                           formatter_class=DefaultsFormatter)
         module.add_arguments(p)
         p.set_defaults(_run=module.run)
     return parser
@@ -48,7 +69,8 @@ def main(argv=None) -> int:
         print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"gpcnav {args.command}: interrupted", file=sys.stderr)
+        resumes = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
+        print(f"gpcnav {args.command}: interrupted{resumes}", file=sys.stderr)
         return 130
 
 

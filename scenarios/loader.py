@@ -21,6 +21,12 @@ from .model import TRACK_BEHAVIOURS, Faults, MovingObstacleSpec, Scenario, Sensi
 __all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "BEHAVIOURS"]
 
 _NAME = re.compile(r"^[A-Za-z0-9_-]+$")
+LARGEST = 1e9
+"""The largest magnitude of a number in a scenario (m, s, degrees, m/s): beyond it a place,
+length or time is no scene a robot drives in (map coordinates such as UTM northings, up to
+1e7 m, pass), and sums and squares of such numbers overflow to infinity. Integers (a seed)
+may be up to 2^63 - 1."""
+_LARGEST_INT = 2 ** 63 - 1
 
 
 class ScenarioError(ValueError):
@@ -32,7 +38,10 @@ class _Reader:
         self.source = source
 
     def fail(self, field: str, what: str):
-        raise ScenarioError(f"{self.source}: {field}: {what}")
+        text = f"{self.source}: {field}: {what}"
+        if len(text.splitlines()) > 1:  # a key or a path with a line break in it: escaped, one line
+            text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+        raise ScenarioError(text)
 
     def table(self, data, field: str, allowed: set[str], required: set[str]) -> dict:
         if not isinstance(data, dict):
@@ -57,8 +66,7 @@ class _Reader:
             self.fail(name, f"must be a number, got {type(v).__name__}")
         if integer and not isinstance(v, int):
             self.fail(name, "must be an integer")
-        if not math.isfinite(v):
-            self.fail(name, f"must be finite, got {v}")
+        self._bounded(name, v, _LARGEST_INT if integer else LARGEST)
         if positive and not v > 0:
             self.fail(name, f"must be positive, got {v}")
         if nonnegative and v < 0:
@@ -77,9 +85,19 @@ class _Reader:
         for c in v:
             if isinstance(c, bool) or not isinstance(c, (int, float)):
                 self.fail(name, "must be a list of two numbers [x, y]")
-            if not math.isfinite(c):
-                self.fail(name, f"must be finite, got {c}")
+            self._bounded(name, c, LARGEST)
         return float(v[0]), float(v[1])
+
+    def _bounded(self, name: str, v, largest) -> None:
+        """Refuse a number that is not finite or larger in magnitude than ``largest`` (an
+        integer too large for a float included)."""
+        if isinstance(v, int) and abs(v) > largest:
+            self.fail(name, f"must be at most {largest:g} in magnitude, got about "
+                            f"{'-' if v < 0 else ''}10^{int(abs(v).bit_length() * math.log10(2))}")
+        if not math.isfinite(v):
+            self.fail(name, f"must be finite, got {v}")
+        if abs(v) > largest:
+            self.fail(name, f"must be at most {largest:g} in magnitude, got {v:g}")
 
     def array_of_tables(self, data: dict, key: str) -> list:
         v = data.get(key, [])

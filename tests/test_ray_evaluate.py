@@ -58,3 +58,20 @@ def test_address_without_ray_backend_is_refused(tmp_path):
                         "--controller", "orca", "--address", "127.0.0.1:6379"], capture_output=True, text=True,
                        timeout=120, cwd=tmp_path, env=env)
     assert r.returncode == 2 and "--address needs --backend ray" in r.stderr
+
+
+def test_evaluate_on_ray_killed_partway_resumes_to_the_uninterrupted_document(tmp_path, local_ray):
+    """The finished episodes are kept by the driver as they come back from the cluster: a
+    driver killed with kill -9 and started again reuses them, on Ray as on local workers."""
+    from test_resume import _kill_partway, _reused_line, _same_document
+    argv = ["evaluate", "--suite", "circle-crossing", "--movers", "10", "--count", "8", "--workers", "2",
+            "--backend", "ray", "--address", local_ray]
+    _cli(tmp_path, *argv, "--out", "W.json")
+    kept = _kill_partway(tmp_path, tmp_path / "E.json.episodes", [*argv, "--out", "E.json"], 3)
+    n_kept = sum(len(v) for v in kept.values())
+    assert 3 <= n_kept < 8
+    again = _cli(tmp_path, *argv, "--out", "E.json")
+    assert _reused_line(again.stderr, "evaluate") == n_kept
+    resumed, whole = (json.loads((tmp_path / f"{n}.json").read_text()) for n in ("E", "W"))
+    _same_document(resumed, whole, kept)
+    assert resumed["backend"] == "ray"

@@ -2,7 +2,12 @@
 compiler (``$CC``, default ``gcc``) into a shared library cached under
 ``$GPCNAV_CACHE_DIR`` (default ``~/.cache/gpcnav``), named by a hash of the problem, so only
 the first run pays the compile. Without a compiler a backend keeps CasADi's uncompiled
-functions, says so in ``Backend.notes`` and counts it in :data:`COMPILE_EVENTS`."""
+functions, says so in ``Backend.notes`` and counts it in :data:`COMPILE_EVENTS`.
+
+A compile takes seconds to minutes (the improved preset's H = 12 problem: 10-40 s, H = 24
+about 4 min on a busy 2-core machine), so it is announced on stderr in one line, with the
+elapsed time ticking on a terminal, and a process that waits for another one's compile of
+the same library says so too (:data:`ANNOUNCE`)."""
 from __future__ import annotations
 
 import contextlib
@@ -11,19 +16,24 @@ import hashlib
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
+import threading
+import time
 import warnings
 from pathlib import Path
 
 import casadi as ca
 
-__all__ = ["CFLAGS", "COMPILE_EVENTS", "cache_dir", "c_compiler", "compiled_library", "build_nlpsol"]
+__all__ = ["CFLAGS", "COMPILE_EVENTS", "ANNOUNCE", "cache_dir", "c_compiler", "compiled_library", "build_nlpsol"]
 
 CFLAGS = ("-O1", "-fPIC", "-shared")
 """-O1: the generated code of the H = 12 problem takes ~100 s to compile at -O2 and ~8 s at
 -O1, and runs within a few per cent as fast."""
 COMPILE_EVENTS = {"compiled": 0, "cache_hits": 0, "fallbacks": 0}
 """Process-wide counts: libraries compiled, found in the cache, and backends left uncompiled."""
+ANNOUNCE = True
+"""Announce compiles (and waits for another process's compile) on stderr."""
 
 def cache_dir() -> Path:
     """Where compiled libraries are kept: ``$GPCNAV_CACHE_DIR`` or ``~/.cache/gpcnav``."""
@@ -36,14 +46,52 @@ def c_compiler() -> str | None:
 
 
 @contextlib.contextmanager
-def _locked(path: Path):
-    """An exclusive lock, so parallel workers compile a library once, not once each."""
+def _locked(path: Path, name: str):
+    """An exclusive lock, so parallel workers compile a library once, not once each; a
+    process that has to wait for it says so."""
     with open(path, "a") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            with _announced(f"waiting for another process to compile {name}"):
+                fcntl.flock(fh, fcntl.LOCK_EX)
         try:
             yield
         finally:
             fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+@contextlib.contextmanager
+def _announced(what: str):
+    """One line on stderr saying what is under way (``gpcnav: <what> ...``), the seconds
+    ticking on the same line while it lasts when stderr is a terminal, and how long it took.
+    The ticker thread ends before this returns (worker processes are forked afterwards)."""
+    if not ANNOUNCE:
+        yield
+        return
+    stream, start = sys.stderr, time.monotonic()
+    stream.write(f"gpcnav: {what} ...")
+    stream.flush()
+    live = stream.isatty()
+    stop = threading.Event()
+
+    def tick():
+        while not stop.wait(1.0):
+            stream.write(f"\rgpcnav: {what} ... {time.monotonic() - start:.0f} s")
+            stream.flush()
+
+    ticker = threading.Thread(target=tick, daemon=True) if live else None
+    if ticker:
+        ticker.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        if ticker:
+            ticker.join()
+        end = f"done in {time.monotonic() - start:.0f} s"
+        stream.write(f"\rgpcnav: {what} ... {end}\n" if live else f" {end}\n")
+        stream.flush()
 
 
 def _library_key(plugin: str, nlp: dict, compiler: str, extra: dict) -> str:
@@ -72,11 +120,12 @@ def compiled_library(solver: ca.Function, plugin: str, nlp: dict, extra: dict | 
     if lib.exists():
         COMPILE_EVENTS["cache_hits"] += 1
         return str(lib), f"compiled functions (cached {lib.name})"
-    with _locked(folder / f"gpc_{plugin}_{key}.lock"):
+    with _locked(folder / f"gpc_{plugin}_{key}.lock", lib.name):
         if lib.exists():  # another process compiled it while we waited
             COMPILE_EVENTS["cache_hits"] += 1
             return str(lib), f"compiled functions (cached {lib.name})"
-        with tempfile.TemporaryDirectory(dir=folder) as tmp:
+        with _announced(f"compiling the planner's NLP ({plugin}) to C with {Path(cc).name} {CFLAGS[0]}, once "
+                        f"(kept in {folder}, $GPCNAV_CACHE_DIR)"), tempfile.TemporaryDirectory(dir=folder) as tmp:
             src = Path(tmp) / f"gpc_{plugin}_{key}.c"
             cwd = os.getcwd()
             try:

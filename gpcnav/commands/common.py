@@ -2,6 +2,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import math
+import os
+import tempfile
 from pathlib import Path
 
 from casadi_gpc.config import DEFAULT_PRESET, PRESETS, preset
@@ -9,20 +13,44 @@ from casadi_gpc.config import DEFAULT_PRESET, PRESETS, preset
 from ..errors import UsageError
 
 
+MAX_HORIZON = 24
+"""The longest horizon the command line takes. The planner's NLP is compiled to C once per
+problem, and that compile grows steeply with H: measured on a busy 2-core machine, H = 12
+(the improved preset) 10-40 s, H = 24 about 4 min, H = 30 over 15 min; H = 5000 would not
+finish building. The presets use 6 and 12 (docs/assumptions.md)."""
+MIN_SAMPLE_TIME_S = 0.05
+"""The shortest sample time the command line takes: an episode is one planner decision per
+sample, so shorter ones multiply its length (a 40 s scenario at 0.05 s is 800 decisions, at
+1e-6 s forty million); the presets use 0.5 and 1.5 s."""
+MAX_COUNT = 100_000
+"""The most episodes one ``--count`` asks for: the scenarios are made before the first
+episode runs and every episode's measures are kept until the document is written; 100 000
+episodes of the planner are about a core-month."""
+
+
 def add_preset_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--preset", choices=sorted(PRESETS), default=DEFAULT_PRESET,
                    help=f"planner preset (default {DEFAULT_PRESET})")
     p.add_argument("--sample-time", type=float, default=None, metavar="T",
-                   help="override the preset's sample time, s")
-    p.add_argument("--horizon", type=int, default=None, metavar="H", help="override the preset's horizon")
+                   help=f"override the preset's sample time, s (at least {MIN_SAMPLE_TIME_S}; default: the preset's)")
+    p.add_argument("--horizon", type=int, default=None, metavar="H",
+                   help=f"override the preset's horizon (1 to {MAX_HORIZON}; default: the preset's)")
 
 
 def planner_config(args):
     cfg = preset(args.preset)
     if args.sample_time is not None and not args.sample_time > 0:
         raise UsageError(f"--sample-time must be positive, got {args.sample_time}")
+    if args.sample_time is not None and not args.sample_time >= MIN_SAMPLE_TIME_S:
+        raise UsageError(f"--sample-time must be at least {MIN_SAMPLE_TIME_S} s, got {args.sample_time} (one planner "
+                         f"decision per sample: a 40 s scenario would take {40 / args.sample_time:.3g} of them)")
+    if args.sample_time is not None and not math.isfinite(args.sample_time):
+        raise UsageError(f"--sample-time must be finite, got {args.sample_time}")
     if args.horizon is not None and args.horizon < 1:
         raise UsageError(f"--horizon must be at least 1, got {args.horizon}")
+    if args.horizon is not None and args.horizon > MAX_HORIZON:
+        raise UsageError(f"--horizon must be at most {MAX_HORIZON}, got {args.horizon} (the planner's NLP is compiled "
+                         f"to C, and the compile grows steeply with H: about 4 min at H = 24 on a 2-core machine)")
     solver = getattr(args, "solver", None)
     if solver is not None:
         from casadi_gpc.solvers import canonical_name
@@ -40,7 +68,7 @@ def add_suite_arguments(p: argparse.ArgumentParser) -> None:
                    help="a seeded suite instead of files (encounters: the family of the paper's Fig. 7; "
                         "circle-crossing, square-crossing: crowds in CrowdNav's geometry, docs/scenarios.md; "
                         "ucy: the people of the UCY recordings, docs/pedestrians.md)")
-    p.add_argument("--count", type=int, default=100, help="episodes of the suite")
+    p.add_argument("--count", type=int, default=100, help=f"episodes of the suite (1 to {MAX_COUNT})")
     p.add_argument("--seed", type=int, default=0, help="seed of the suite")
     p.add_argument("--movers", type=int, default=5, help="crowd suites: how many movers (default 5)")
     p.add_argument("--behaviour", choices=SUITE_BEHAVIOURS, default=None,
@@ -58,6 +86,9 @@ def suite_from_args(args):
     for name, low in (("count", 1), ("seed", 0), ("movers", 0)):
         if getattr(args, name) < low:
             raise UsageError(f"--{name} must be at least {low}, got {getattr(args, name)}")
+    if args.count > MAX_COUNT:
+        raise UsageError(f"--count must be at most {MAX_COUNT}, got {args.count} (the scenarios are made before the "
+                         f"first episode and every episode is kept until the end; split a larger study by --seed)")
     try:
         return Suite(args.suite, args.count, args.seed, args.movers, args.behaviour)
     except ValueError as exc:
@@ -80,7 +111,8 @@ def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> 
                    help="put the controller behind the safety check layer (the default for gpc and nn; "
                         "docs/faults.md)")
     p.add_argument("--no-shield", "--no-safety-filter", dest="shield", action="store_const", const="off",
-                   help="run the bare controller, without the safety check layer")
+                   help="run the bare controller, without the safety check layer (default: the controller's own, "
+                        "see --shield)")
     p.add_argument("--shield-fallback", "--safety-fallback", choices=("gpc", "brake"), default=None,
                    help="what the check layer hands over to when the controller's answer fails: the GPC on "
                         "standby (the default for nn) or only its braking/turning manoeuvres (brake)")
@@ -105,15 +137,48 @@ def make_output_folder(path: Path, option: str) -> None:
 
 
 def check_output_files(**paths) -> None:
-    """Make the folder of each output file given (option name -> path or None), or refuse
-    in one line (exit 2); a path that is a folder is refused too."""
+    """Refuse in one line (exit 2), before any work, an output file (option name -> path or
+    None) that could not be written: a path that is a folder, or whose folder cannot be made
+    or written in (``/proc/x.png``). Nothing is left behind: a missing folder is made when the
+    file is written."""
     for option, path in paths.items():
         if path is None:
             continue
         what = f"--{option.replace('_', '-')} {path}"
         if path.is_dir():
             raise UsageError(f"{what} is a folder, not a file")
-        _make_folder(path.parent, f"{what}: its folder {path.parent}")
+        check_writable_folder(path.parent, f"{what}: its folder {path.parent}")
+
+
+def check_writable_folder(folder: Path, what: str) -> None:
+    """Refuse in one line a folder that cannot be made or written in: its nearest existing
+    ancestor must be a folder where a file can be made (tried, and removed at once: write
+    permission bits do not tell for ``/proc`` or a read-only mount, nor for root)."""
+    probe = Path(folder)
+    while not probe.exists() and probe.parent != probe:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UsageError(f"{what}: {probe} exists and is not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".gpcnav-write-check-", dir=probe)
+    except OSError as exc:
+        raise UsageError(f"{what}: cannot write files in {probe} ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
+@contextlib.contextmanager
+def connected(pool):
+    """``pool.connected()`` (:meth:`casadi_gpc.pool.WorkerPool.connected`: Ray reached or
+    started now, shut down on leaving) with an absent cluster as a one-line
+    :class:`UsageError`."""
+    from casadi_gpc.pool import ClusterUnavailable
+    with contextlib.ExitStack() as stack:
+        try:
+            stack.enter_context(pool.connected())
+        except ClusterUnavailable as exc:
+            raise UsageError(str(exc)) from None
+        yield pool
 
 
 def _make_folder(folder: Path, what: str) -> None:

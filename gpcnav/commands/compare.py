@@ -1,14 +1,20 @@
 """Run several controllers on the very same episodes (scenario files or a seeded suite) and
 write COMPARE.json (one EVAL document per controller, the episodes in the same order), a
-Markdown table and a figure beside it (docs/peers.md)."""
+Markdown table and a figure beside it (docs/peers.md).
+
+Each finished episode is kept on disk as it finishes (beside --out, in OUT.episodes/), so
+the same command run again after an interruption, kill -9 included, reuses them and runs
+only the rest (docs/evaluation.md)."""
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
 from ..controllers import check, parse_controller_list, spec_from_args
-from .common import add_controller_arguments, add_suite_arguments, check_output_files, planner_config
-from .evaluate import add_pool_arguments, controller_extra, eval_doc, pool_from_args, run_episodes, scenarios_from_args
+from ..errors import UsageError
+from .common import add_controller_arguments, add_suite_arguments, check_output_files, connected, planner_config
+from .evaluate import (add_pool_arguments, add_resume_arguments, close_store, controller_extra, eval_doc, log_to_stderr,
+                       open_store, pool_from_args, run_episodes, scenarios_from_args)
 
 
 def add_arguments(p):
@@ -18,6 +24,7 @@ def add_arguments(p):
     add_pool_arguments(p)
     p.add_argument("--out", type=Path, default=None,
                    help="write COMPARE.json here, with COMPARE.md (the table) and COMPARE.png (the figure) beside it")
+    add_resume_arguments(p)
 
 
 def compare_document(specs, results, config, suite, seed, scenarios, extras, backend) -> dict:
@@ -28,6 +35,16 @@ def compare_document(specs, results, config, suite, seed, scenarios, extras, bac
             "suite_spec": suite.describe() if suite else None}
 
 
+def check_compare_outputs(out) -> None:
+    """``--out`` and the table and figure beside it: each writable, none a folder."""
+    check_output_files(out=out)
+    if out is not None:
+        for beside in (out.with_suffix(".md"), out.with_suffix(".png")):
+            if beside.is_dir() or beside == out:
+                raise UsageError(f"--out {out}: the {'table' if beside.suffix == '.md' else 'figure'} beside it, "
+                                 f"{beside}, {'is a folder' if beside.is_dir() else 'would overwrite it'}")
+
+
 def run(args) -> int:
     from casadi_gpc.io import save_figure, write_json, write_text
 
@@ -35,13 +52,16 @@ def run(args) -> int:
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
     config = planner_config(args)
-    check_output_files(out=args.out)
+    check_compare_outputs(args.out)
     specs = [spec_from_args(args, name) for name in parse_controller_list(args.controllers)]
     robot = scenarios[0].robot
     for spec in specs:
         check(spec, config, robot)
-    extras = [controller_extra(spec, config, robot) for spec in specs]
-    results = run_episodes(scenarios, specs, config, pool, desc=f"{len(specs)} controllers")
+    with connected(pool):
+        extras = [controller_extra(spec, config, robot) for spec in specs]
+        store, keys = open_store(args, specs, config, extras, scenarios)
+        results = run_episodes(scenarios, specs, config, pool, desc=f"{len(specs)} controllers", store=store,
+                               keys=keys, log=log_to_stderr("compare"))
     doc = compare_document(specs, results, config, suite, args.seed, scenarios, extras, args.backend)
     table = compare_table(doc)
     if args.out:
@@ -51,5 +71,6 @@ def run(args) -> int:
         fig = compare_figure(doc)
         save_figure(fig, args.out.with_suffix(".png"), dpi=130)
         plt.close(fig)
+    close_store(args, store, keys)
     print(table, file=sys.stdout)
     return 0

@@ -16,7 +16,12 @@ from pathlib import Path
 from scenarios import CROWD_BEHAVIOURS, CROWD_SUITES, SUITES
 
 from ..errors import UsageError
-from .common import add_preset_arguments, check_seed, planner_config, progress
+from .common import add_preset_arguments, check_seed, connected, planner_config, progress
+
+MAX_SAMPLES = 100_000_000
+"""The most samples one ``--samples`` asks for: labelling runs at 100-1000 samples/s on a
+2-core machine (docs/solvers.md), so 10^8 samples are days to weeks of it, and tens of GB of
+shards (docs/evaluation.md)."""
 
 
 def add_arguments(p):
@@ -104,6 +109,9 @@ def run(args) -> int:
         raise UsageError("--samples is required")
     if args.samples < 1:
         raise UsageError(f"--samples must be at least 1, got {args.samples}")
+    if args.samples > MAX_SAMPLES:
+        raise UsageError(f"--samples must be at most {MAX_SAMPLES}, got {args.samples} (labelling runs at 100-1000 "
+                         f"samples/s on a 2-core machine: {args.samples / 1000 / 86400:.3g} days at best there)")
     if args.shard_size < 2 or args.shard_size % 2 or args.shard_size > 1_000_000:
         raise UsageError(f"--shard-size must be an even number from 2 to 1000000, got {args.shard_size}")
     if args.mirror_check_every < 0:
@@ -115,6 +123,7 @@ def run(args) -> int:
             import ray  # noqa: F401
         except ImportError:
             raise UsageError("--backend ray needs Ray: pip install 'gpcnav[distributed]'") from None
+    from casadi_gpc.pool import WorkerPool
     config, layout = _layout_and_config(args)
     if args.scheme == "two-pass" and layout.name != "paper":
         raise UsageError("--scheme two-pass needs --layout paper (one moving obstacle)")
@@ -122,22 +131,23 @@ def run(args) -> int:
                        solver=args.solver or label_solver(config), shard_size=args.shard_size,
                        mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
                        scheme=args.scheme, tie_margin=args.tie_margin, **_sampler(args.scheme))
-    _check_solver(spec)
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-        if not os.access(args.out, os.W_OK):
-            raise PermissionError(13, "not writable")
-    except OSError as exc:
-        raise UsageError(f"--out {args.out}: cannot write there ({exc.strerror or exc})") from None
+    with connected(WorkerPool(args.workers, args.backend, args.address)):  # an absent cluster: before any folder
+        _check_solver(spec)
+        try:
+            args.out.mkdir(parents=True, exist_ok=True)
+            if not os.access(args.out, os.W_OK):
+                raise PermissionError(13, "not writable")
+        except OSError as exc:
+            raise UsageError(f"--out {args.out}: cannot write there ({exc.strerror or exc})") from None
 
-    def log(msg):
-        print(f"gpcnav dataset: {msg}", file=sys.stderr)
+        def log(msg):
+            print(f"gpcnav dataset: {msg}", file=sys.stderr)
 
-    try:
-        man = generate(args.out, spec, args.workers, args.backend, args.address,
-                       progress=lambda **kw: progress(desc="labelling", **kw), log=log)
-    except DatasetMismatch as exc:
-        raise UsageError(str(exc)) from None
+        try:
+            man = generate(args.out, spec, args.workers, args.backend, args.address,
+                           progress=lambda **kw: progress(desc="labelling", **kw), log=log)
+        except DatasetMismatch as exc:
+            raise UsageError(str(exc)) from None
     part = man["parts"]["offpolicy"]
     last, st = part["last_run"], part["stats"]
     rate = f"{last['samples_per_s']:.0f} samples/s" if last["samples_per_s"] else "nothing left to do"
@@ -201,9 +211,10 @@ def _dagger(args) -> int:
                               mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
                               noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE,
                               tie_margin=args.tie_margin)
-    arrays, stats = collect_on_policy_parallel(factory, scenarios, options,
-                                               WorkerPool(args.workers, args.backend, args.address),
-                                               progress=lambda **kw: progress(desc=f"{part}", **kw))
+    pool = WorkerPool(args.workers, args.backend, args.address)
+    with connected(pool):
+        arrays, stats = collect_on_policy_parallel(factory, scenarios, options, pool,
+                                                   progress=lambda **kw: progress(desc=f"{part}", **kw))
     crowd = {"movers": args.movers, "behaviour": args.behaviour} if suite in CROWD_SUITES else {}
     info = {"round": args.round, "model": str(args.dagger), "suite": suite, **crowd, "episodes": args.episodes,
             "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety,

@@ -1,5 +1,9 @@
 """Run many episodes (scenario files or a seeded suite) in parallel worker processes, or on
-a Ray cluster, and write aggregate metrics (EVAL.json)."""
+a Ray cluster, and write aggregate metrics (EVAL.json).
+
+Each finished episode is kept on disk as it finishes (beside --out, in OUT.episodes/), so
+the same command run again after an interruption, kill -9 included, reuses them and runs
+only the rest; the document is the one an uninterrupted run writes (docs/evaluation.md)."""
 from __future__ import annotations
 
 import os
@@ -8,7 +12,8 @@ from pathlib import Path
 
 from ..controllers import ControllerSpec, check, spec_from_args
 from ..errors import UsageError
-from .common import add_controller_arguments, add_suite_arguments, check_seed, planner_config, progress, suite_from_args
+from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
+                     connected, planner_config, progress, suite_from_args)
 
 _WORKER = {}
 
@@ -21,6 +26,15 @@ def add_arguments(p):
     p.add_argument("--out", type=Path, default=None, help="write EVAL.json here")
     p.add_argument("--faults", default=None, metavar="SPEC",
                    help="inject faults into every episode, e.g. 'dropout_prob=0.1,outlier_prob=0.02'")
+    add_resume_arguments(p)
+
+
+def add_resume_arguments(p) -> None:
+    """``--keep-episodes``: the finished episodes stay on disk after a successful run."""
+    p.add_argument("--keep-episodes", action="store_true",
+                   help="keep the finished episodes (OUT.episodes/ beside --out, or $GPCNAV_CACHE_DIR/episodes) "
+                        "after the document is written; by default a successful run removes its own, and a run "
+                        "that is stopped leaves them for the same command to reuse")
 
 
 def add_pool_arguments(p) -> None:
@@ -62,18 +76,38 @@ def _episode(index, job):
     return index, (episode_metrics(log), log.compute_time_s, dict(log.events))
 
 
-def run_episodes(scenarios, specs, config, pool, desc: str = "episodes") -> list[tuple]:
+def run_episodes(scenarios, specs, config, pool, desc: str = "episodes", store=None, keys=None,
+                 log=None) -> list[tuple]:
     """Every controller of ``specs`` on every scenario, all episodes in one pool (episode by
     episode, each controller in turn, so that the controllers finish together).
+
+    ``store``: an :class:`~gpcnav.commands.episode_store.EpisodeStore` with ``keys[k][i]``,
+    the key of controller ``k`` on scenario ``i``: episodes found there are reused (``log``
+    gets one line saying how many), the others kept there as they finish.
 
     Returns one ``(metrics, compute times, summed events)`` per spec, the metrics in the
     scenarios' order."""
     from dataclasses import replace
-    pool = replace(pool, workers=max(1, min(pool.workers, len(scenarios) * len(specs))))
-    jobs = [((k, i), (s, spec, config)) for i, s in enumerate(scenarios) for k, spec in enumerate(specs)]
     results = [[None] * len(scenarios) for _ in specs]
-    for (k, i), result in progress(pool.imap_unordered(_episode, jobs), total=len(jobs), desc=desc, unit="ep"):
-        results[k][i] = result
+    reused = 0
+    if store is not None:
+        for k in range(len(specs)):
+            for i in range(len(scenarios)):
+                results[k][i] = store.get(keys[k][i])
+                reused += results[k][i] is not None
+    jobs = [((k, i), (s, spec, config)) for i, s in enumerate(scenarios) for k, spec in enumerate(specs)
+            if results[k][i] is None]
+    total = len(scenarios) * len(specs)
+    if reused and log:
+        log(f"reused {reused} of {total} episodes finished earlier ({store.folder}); running the other {len(jobs)}")
+    if jobs:
+        _prepare_planner(jobs, pool)
+        pool = replace(pool, workers=max(1, min(pool.workers, len(jobs))))
+        for (k, i), result in progress(pool.imap_unordered(_episode, jobs), total=total, initial=reused, desc=desc,
+                                       unit="ep"):
+            results[k][i] = result
+            if store is not None:
+                store.put(keys[k][i], result)
     out = []
     for per_spec in results:
         metrics, times, events = [], [], {}
@@ -84,6 +118,38 @@ def run_episodes(scenarios, specs, config, pool, desc: str = "episodes") -> list
                 events[key] = events.get(key, 0) + v
         out.append((metrics, times, events))
     return out
+
+
+def _prepare_planner(jobs, pool) -> None:
+    """Make every controller that runs the planner once here, before the workers start: a
+    first run's compile (announced, casadi_gpc.solvers.compiling) happens once, in view, and
+    not in every worker at once behind the progress bar. Local workers are forked afterwards
+    and inherit the made controller."""
+    from .. import controllers
+    for _, (scenario, spec, config) in jobs:
+        key = (spec, config, scenario.robot)
+        if (spec.name == "gpc" or spec.mode == "gpc") and key not in _WORKER:
+            _WORKER[key] = controllers.make(spec, config, scenario.robot)
+
+
+def open_store(args, specs, config, extras, scenarios):
+    """The episode store of this run (beside ``--out``) and every episode's key, after
+    checking, before any work, that the store's folder can be written."""
+    from .episode_store import EpisodeStore, episode_key, run_key, store_folder
+    store = EpisodeStore(store_folder(args.out))
+    check_writable_folder(store.folder, f"the finished episodes' folder {store.folder}")
+    runs = [run_key(spec, config, extra) for spec, extra in zip(specs, extras)]
+    return store, [[episode_key(r, s) for s in scenarios] for r in runs]
+
+
+def close_store(args, store, keys) -> None:
+    """After a successful run: remove its episodes (unless ``--keep-episodes``)."""
+    if not args.keep_episodes:
+        store.remove(key for per_spec in keys for key in per_spec)
+
+
+def log_to_stderr(command: str):
+    return lambda msg: print(f"gpcnav {command}: {msg}", file=sys.stderr, flush=True)
 
 
 def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", shield=None, passes=None,
@@ -124,7 +190,13 @@ def scenarios_from_args(args) -> tuple[list, object]:
     suite = suite_from_args(args)
     check_seed(args.seed)
     faults = parse_faults(getattr(args, "faults", None))
-    scenarios = suite.scenarios() if suite is not None else [load_scenario(p) for p in args.scenarios]
+    if suite is not None:
+        try:
+            scenarios = suite.scenarios()
+        except ValueError as exc:  # e.g. more movers than the crowd's geometry can place
+            raise UsageError(f"--suite {suite.name}: {exc}") from None
+    else:
+        scenarios = [load_scenario(p) for p in args.scenarios]
     if faults is not None:
         scenarios = [replace(s, faults=faults) for s in scenarios]
     return scenarios, suite
@@ -163,13 +235,17 @@ def run(args) -> int:
     config = planner_config(args)
     spec = spec_from_args(args)
     check(spec, config, scenarios[0].robot)
-    extra = controller_extra(spec, config, scenarios[0].robot)
-    faults = scenarios[0].faults if args.faults else None
-    result = run_episodes(scenarios, [spec], config, pool)[0]
+    check_output_files(out=args.out)
+    with connected(pool):
+        extra = controller_extra(spec, config, scenarios[0].robot)
+        store, keys = open_store(args, [spec], config, [extra], scenarios)
+        faults = scenarios[0].faults if args.faults else None
+        result = run_episodes(scenarios, [spec], config, pool, store=store, keys=keys, log=log_to_stderr("evaluate"))[0]
     doc = eval_doc(spec, result, config, suite, args.seed, {
         **extra, "faults": None if faults is None else faults.__dict__, "backend": args.backend})
     if args.out:
         write_json(args.out, doc)
+    close_store(args, store, keys)
     ct = doc["compute_time_s"]
     print(f"{spec.label} [preset {config.name}] on {doc['episodes']} episodes: success "
           f"{doc['success_rate']:.3f}  collision {doc['collision_rate']:.3f}  timeout {doc['timeout_rate']:.3f}  "

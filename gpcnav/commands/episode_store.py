@@ -1,0 +1,212 @@
+"""The finished episodes of an evaluation, kept on disk as they finish, so that ``evaluate``
+and ``compare`` stopped at any point (kill -9 included) and run again with the same command
+reuse them and run only the rest (docs/evaluation.md, "Runs that resume").
+
+Where: ``OUT.episodes/`` beside ``--out OUT`` (without ``--out``:
+``$GPCNAV_CACHE_DIR/episodes``, default ``~/.cache/gpcnav/episodes``). One JSON file per
+finished episode, named by its key and written whole or not at all (a temporary file,
+fsync, rename: :func:`casadi_gpc.io.atomic_file`) by the parent process alone, so a killed
+run leaves finished episodes and nothing half-written; the backend (local processes or Ray)
+makes no difference. After the document is written the run removes its own episodes, and the
+folder if that leaves it empty (``--keep-episodes`` keeps them).
+
+The key of an episode is a SHA-256 of everything that decides it (:func:`run_key`,
+:func:`episode_key`): the scenario's whole content (robot, reference, movers, sensing and its
+seed, injected faults, name; not the file's path or description), the controller (name,
+check-layer mode, passes, the model file's bytes, a user class's module source, what
+``controller_extra`` records: solver, peers' settings and library versions), the planner
+configuration after every override (``PlannerConfig.to_dict``), and a stamp of the code
+(:func:`code_stamp`: the bytes of every source file of ``casadi_gpc``, ``scenarios``,
+``nn_export/runtime``, the shipped models, ``gpcnav/controllers.py``, ``gpcnav/peers`` and the
+episode runner, and the versions of the numerical libraries). A changed setting or an edited
+planner gives other keys: old episodes are never mixed in, only left unused. The worker
+count and the backend are not in the key: they do not change an episode's outcome.
+
+What an episode's file holds is what the documents are made from: its
+:class:`~scenarios.metrics.EpisodeMetrics`, its decision times and its event counts. Decision
+times are measurements: a reused episode keeps those measured when it ran, and the
+document's ``compute_time_s`` is over the measurements of all its episodes, old and new.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import os
+import platform
+import time
+from dataclasses import asdict, fields, is_dataclass
+from enum import Enum
+from pathlib import Path
+
+import numpy as np
+
+from casadi_gpc.io import write_text
+
+__all__ = ["EpisodeStore", "store_folder", "code_stamp", "run_key", "episode_key", "canonical", "STORE_FORMAT"]
+
+STORE_FORMAT = 1
+"""Bumped when what an episode's file holds changes."""
+
+_CODE = ("casadi_gpc", "scenarios", "nn_export/runtime", "nn_export/models", "gpcnav/peers", "gpcnav/controllers.py",
+         "gpcnav/commands/evaluate.py")
+"""The sources an episode's result depends on (paths under the folder holding the packages)."""
+_LIBRARIES = ("numpy", "scipy", "casadi", "onnxruntime", "navground", "torch", "pytorch-mppi")
+
+
+def store_folder(out: Path | None) -> Path:
+    """Where the episodes of a run writing ``out`` are kept."""
+    if out is not None:
+        return out.with_name(out.name + ".episodes")
+    from casadi_gpc.solvers.compiling import cache_dir
+    return cache_dir() / "episodes"
+
+
+def canonical(obj):
+    """``obj`` as plain JSON data, the same in every process: dataclasses as their fields
+    (with the class name), tuples as lists, arrays as lists, floats as they are (JSON keeps
+    every bit of a float)."""
+    if is_dataclass(obj) and not isinstance(obj, type):
+        return {"__class__": type(obj).__qualname__, **{f.name: canonical(getattr(obj, f.name)) for f in fields(obj)}}
+    if isinstance(obj, dict):
+        return {str(k): canonical(v) for k, v in sorted(obj.items(), key=lambda kv: str(kv[0]))}
+    if isinstance(obj, (list, tuple)):
+        return [canonical(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return {"__array__": list(obj.shape), "dtype": str(obj.dtype), "data": canonical(obj.tolist())}
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, Enum):
+        return canonical(obj.value)
+    if isinstance(obj, Path):
+        return str(obj)
+    if obj is None or isinstance(obj, (bool, int, float, str)):
+        return obj
+    text = repr(obj)
+    if " at 0x" in text:  # an address differs from run to run: such an object cannot be a key
+        raise TypeError(f"cannot key an episode on a {type(obj).__name__}")
+    return text
+
+
+def _digest(data) -> str:
+    text = json.dumps(canonical(data), sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _file_digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+_STAMP: dict[str, str] = {}
+
+
+def code_stamp() -> str:
+    """A digest of the code and libraries an episode's result depends on (computed once per
+    process: a few milliseconds)."""
+    if "stamp" not in _STAMP:
+        root = Path(importlib.util.find_spec("casadi_gpc").origin).parents[1]
+        h = hashlib.sha256()
+        for rel in _CODE:
+            base = root / rel
+            files = sorted(p for p in base.rglob("*") if p.is_file() and "__pycache__" not in p.parts) \
+                if base.is_dir() else [base]
+            for p in files:
+                if p.suffix in (".py", ".onnx", ".json", ".toml") and p.exists():
+                    h.update(str(p.relative_to(root)).encode() + b"\0" + p.read_bytes() + b"\0")
+        from importlib.metadata import PackageNotFoundError, version
+        for dist in _LIBRARIES:
+            try:
+                h.update(f"{dist}={version(dist)}\0".encode())
+            except PackageNotFoundError:
+                h.update(f"{dist}=-\0".encode())
+        h.update(f"python={platform.python_version()}\0".encode())
+        _STAMP["stamp"] = h.hexdigest()
+    return _STAMP["stamp"]
+
+
+def _user_module_digest(name: str) -> str | None:
+    """The source of a user's ``MODULE:CLASS`` module (None if it has no file)."""
+    module = name.partition(":")[0]
+    try:
+        spec = importlib.util.find_spec(module)
+    except (ImportError, ValueError):
+        return None
+    origin = getattr(spec, "origin", None)
+    return _file_digest(Path(origin)) if origin and Path(origin).is_file() else None
+
+
+def run_key(spec, config, extra: dict) -> str:
+    """The part of every episode's key that one controller's run shares: the controller
+    (``spec``: a :class:`gpcnav.controllers.ControllerSpec`; ``extra``: what the document
+    records of how it was made), the planner configuration and the code."""
+    model = spec.model
+    return _digest({
+        "format": STORE_FORMAT, "code": code_stamp(), "config": config.to_dict(),
+        "controller": {"name": spec.name, "mode": spec.mode, "passes": spec.passes, "label": spec.label,
+                       "model": _file_digest(Path(model)) if model is not None and Path(model).is_file() else model,
+                       "user_module": _user_module_digest(spec.name) if spec.is_user_class else None},
+        "extra": extra,
+    })
+
+
+def episode_key(run: str, scenario) -> str:
+    """The key of one episode: the run's key and the scenario's content (not the path of the
+    file it came from, nor its description)."""
+    from dataclasses import replace
+    return _digest({"run": run, "scenario": replace(scenario, source="", description="")})
+
+
+class EpisodeStore:
+    """The finished episodes in ``folder``, one file ``<key>.json`` each.
+
+    Results are ``(EpisodeMetrics, compute times, events)`` as the worker returns them."""
+
+    def __init__(self, folder: Path):
+        self.folder = Path(folder)
+        self.written: list[Path] = []
+
+    def _path(self, key: str) -> Path:
+        return self.folder / f"{key}.json"
+
+    def get(self, key: str):
+        """The stored result of ``key``, or None (absent, or unreadable: then it is redone)."""
+        from scenarios.metrics import EpisodeMetrics
+        path = self._path(key)
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+            if doc.get("format") != STORE_FORMAT or doc.get("key") != key:
+                return None
+            metrics = EpisodeMetrics(**doc["metrics"])
+            times = [float(t) for t in doc["compute_time_s"]]
+            events = {str(k): int(v) for k, v in doc["events"].items()}
+        except (OSError, ValueError, TypeError, KeyError, AttributeError):
+            return None
+        return metrics, times, events
+
+    def put(self, key: str, result) -> None:
+        """Keep one finished episode (whole or not at all)."""
+        metrics, times, events = result
+        doc = {"format": STORE_FORMAT, "key": key, "scenario": metrics.scenario, "controller": metrics.controller,
+               "metrics": asdict(metrics), "compute_time_s": [float(t) for t in times],
+               "events": {k: int(v) for k, v in events.items()}}
+        path = self._path(key)
+        write_text(path, json.dumps(doc, allow_nan=True, default=_plain) + "\n")
+        self.written.append(path)
+
+    def remove(self, keys) -> None:
+        """Remove the episodes ``keys`` (a finished run's), then the folder if it is empty."""
+        for key in keys:
+            self._path(key).unlink(missing_ok=True)
+        try:
+            for stale in self.folder.glob(".*.json"):  # a killed write's temporary, not a running one's
+                if time.time() - stale.stat().st_mtime > 600:
+                    stale.unlink(missing_ok=True)
+            os.rmdir(self.folder)
+        except OSError:
+            pass  # other runs' episodes are still there, or it was never made
+
+
+def _plain(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

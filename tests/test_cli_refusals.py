@@ -1,0 +1,142 @@
+"""The last bad inputs of issue 33 end in one line on stderr and exit status 2, within
+seconds, before any episode runs, and leave nothing behind: outputs that cannot be written
+(``/proc/x.png``), a Ray cluster that is not there, settings that would make a run absurdly
+long. And nothing looks hung: ``--help`` shows every option's default, a compile says so."""
+from __future__ import annotations
+
+import argparse
+import os
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+from conftest import PAPER_DIR, REPO
+
+SCENE = PAPER_DIR / "fig7_1_head_on.toml"
+
+
+def _free_port() -> int:
+    """A port of 127.0.0.1 where nothing listens (bound, then released)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+FREE = _free_port()
+CASES = [
+    (["simulate", SCENE, "--plot", "/proc/x.png"], "--plot /proc/x.png"),
+    (["simulate", SCENE, "--animate", "/proc/x.gif"], "--animate /proc/x.gif"),
+    (["simulate", SCENE, "--out", "/proc/run.json"], "--out /proc/run.json"),
+    (["simulate", SCENE, "--horizon", "5000"], "--horizon must be at most 24"),
+    (["simulate", SCENE, "--sample-time", "1e-6"], "--sample-time must be at least"),
+    (["evaluate", "--suite", "random", "--count", "2", "--backend", "ray", "--address", "127.0.0.1:1"],
+     "no Ray cluster at 127.0.0.1:1"),
+    (["evaluate", "--suite", "random", "--count", "2", "--backend", "ray", "--address", f"127.0.0.1:{FREE}",
+      "--out", "{tmp}/out/E.json"], f"no Ray cluster at 127.0.0.1:{FREE}"),
+    (["compare", "--suite", "random", "--count", "2", "--controllers", "orca,hrvo", "--backend", "ray",
+      "--address", f"ray://127.0.0.1:{FREE}", "--out", "{tmp}/out/C.json"], "no Ray cluster"),
+    (["dataset", "--out", "{tmp}/ds", "--samples", "10", "--backend", "ray", "--address", "127.0.0.1:1"],
+     "no Ray cluster at 127.0.0.1:1"),
+    (["dataset", "--out", "{tmp}/ds", "--samples", "10", "--backend", "ray", "--address", f"127.0.0.1:{FREE}"],
+     "no Ray cluster"),
+    (["dataset", "--out", "{tmp}/ds", "--samples", "10000000000"], "--samples must be at most"),
+    (["evaluate", "--suite", "random", "--count", "2", "--controller", "orca", "--out", "/proc/E.json"],
+     "--out /proc/E.json"),
+    (["compare", "--suite", "random", "--count", "2", "--controllers", "orca,hrvo", "--out", "/proc/C.json"],
+     "--out /proc/C.json"),
+    (["compare", "--suite", "random", "--count", "2", "--controllers", "orca,hrvo", "--out", "{tmp}/C.png"],
+     "would overwrite it"),
+    (["evaluate", "--suite", "random", "--count", "1000000"], "--count must be at most"),
+    (["evaluate", "--suite", "circle-crossing", "--movers", "60", "--count", "2"], "cannot place 60 movers"),
+]
+
+
+@pytest.mark.parametrize("argv, words", CASES, ids=[" ".join(map(str, a[:1] + a[-2:])) for a, _ in CASES])
+def test_refused_in_one_line_within_seconds_leaving_nothing(argv, words, tmp_path):
+    argv = [str(a).format(tmp=tmp_path) for a in argv]
+    work = tmp_path / "cwd"
+    work.mkdir()
+    t0 = time.monotonic()
+    proc = subprocess.run([sys.executable, "-m", "gpcnav", *argv], capture_output=True, text=True, timeout=60,
+                          cwd=work, env={**os.environ, "PYTHONPATH": str(REPO)})
+    elapsed = time.monotonic() - t0
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"gpcnav {argv[0]}: error: ") and words in lines[0], proc.stderr
+    assert "Traceback" not in proc.stderr and not proc.stdout
+    assert elapsed < 30
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cwd"] and not list(work.iterdir())  # nothing left
+
+
+def test_every_option_shows_its_default_in_help():
+    """``--help`` of every subcommand shows each option's default (or names it in words),
+    so that ``--suite random`` is seen to run 100 episodes."""
+    from gpcnav.cli import DefaultsFormatter, build_parser
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    missing = []
+    for name, p in sub.choices.items():
+        assert p.formatter_class is DefaultsFormatter
+        formatter = p._get_formatter()
+        for a in p._actions:
+            if a.option_strings and not isinstance(a, argparse._HelpAction) and not a.required:
+                if "default" not in formatter._get_help_string(a).lower():
+                    missing.append((name, a.option_strings[0]))
+    assert not missing
+    help_text = sub.choices["evaluate"].format_help()
+    assert "(default: 100)" in " ".join(help_text.split())  # --count
+
+
+def test_a_compile_says_so_in_one_line_and_a_cached_library_is_silent(tmp_path, monkeypatch, capsys):
+    ca = pytest.importorskip("casadi")
+    from casadi_gpc.solvers import compiling
+    if compiling.c_compiler() is None:
+        pytest.skip("no C compiler")
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
+    x = ca.SX.sym("x", 2)
+    nlp = {"x": x, "p": ca.SX.sym("p", 0), "f": ca.sumsqr(x - 1), "g": ca.SX(0, 1)}
+    solver = ca.nlpsol("tiny", "ipopt", nlp, {"print_time": False, "ipopt.print_level": 0})
+    lib, _ = compiling.compiled_library(solver, "ipopt", nlp)
+    assert lib is not None
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("gpcnav: compiling the planner's NLP (ipopt) to C with ")
+    assert str(tmp_path) in lines[0] and "GPCNAV_CACHE_DIR" in lines[0] and " done in " in lines[0]
+    compiling.compiled_library(solver, "ipopt", nlp)  # the cache: nothing to say
+    assert capsys.readouterr().err == ""
+
+
+# --- the pool's connection check --------------------------------------------------------------------
+def test_addresses_are_read_as_ray_writes_them():
+    from casadi_gpc.pool import _host_port
+    assert _host_port("127.0.0.1:6379") == ("127.0.0.1", 6379)
+    assert _host_port("ray://head.example:10001") == ("head.example", 10001)
+    assert _host_port("[::1]:6379") == ("::1", 6379)
+    assert _host_port("auto") is None and _host_port("local") is None and _host_port("host") is None
+
+
+def test_an_absent_cluster_is_refused_at_once_and_a_silent_one_after_the_timeout(monkeypatch):
+    from casadi_gpc import pool
+    t0 = time.monotonic()
+    with pytest.raises(pool.ClusterUnavailable, match="no Ray cluster at 127.0.0.1:"):
+        pool.check_reachable(f"127.0.0.1:{_free_port()}")
+    assert time.monotonic() - t0 < 5
+
+    def silent(address, timeout):  # what an unroutable address does, without sending anything anywhere
+        assert timeout == pool.CONNECT_TIMEOUT_S
+        raise socket.timeout("timed out")
+
+    monkeypatch.setattr(pool.socket, "create_connection", silent)
+    with pytest.raises(pool.ClusterUnavailable, match=r"no answer within 5 s \(\$GPCNAV_RAY_CONNECT_TIMEOUT_S\)"):
+        pool.check_reachable("192.0.2.1:6379")
+
+
+def test_a_reachable_port_passes_the_check():
+    from casadi_gpc.pool import check_reachable
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        check_reachable(f"127.0.0.1:{s.getsockname()[1]}")

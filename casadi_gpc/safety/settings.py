@@ -45,10 +45,14 @@ class CheckSettings:
         Keep the plan let through at each sample, shifted by one step, and offer it after the
         controller's own alternatives when its answer fails (the safe candidate of Hose et
         al.'s safety-augmented approximate MPC, for a controller that outputs whole plans).
+        Taken, it is the controller's answer (not a fallback), with source ``previous_plan``,
+        counted in ``shield_previous_plan_used`` (and, as every alternative, in
+        ``shield_alternative_used``).
     rollouts : bool
         For a controller that answers one command and can roll itself forward (a
         ``rollout()`` method): when the command alone fails, its roll-out is judged as its
-        plan before the check steps in (counted ``shield_rollouts``, ``shield_rollout_passed``).
+        plan before the check steps in (counted ``shield_rollouts``, ``shield_rollout_passed``;
+        the plan let through is in the decision's ``info["rollout_wheels_mps"]``).
     trust_rollout_s : float or None
         With :attr:`rollouts`: a roll-out that keeps the margin this long passes (counted
         ``shield_rollout_trusted``); None: the whole horizon.

@@ -168,3 +168,26 @@ def test_the_memory_forgets_obstacles_that_left_long_ago():
         assert cs.full_multistart_due(True, frozenset({k}))
         cs.update([plan("swerve_right", 3.0)], full=False, tie_relative=1e-7)
     assert len(cs._seen) <= 34
+
+
+def test_a_crowded_tick_solves_the_fixed_guesses_in_turn():
+    """``crowded_guesses``: where more movers matter than the NLP has slots, a full
+    multi-start solves only that many of the fixed guesses, the next ones at each tick;
+    elsewhere all of them, as before."""
+    pytest.importorskip("casadi")
+    from casadi_gpc.config import preset
+    from casadi_gpc.planner.gpc import GPCController
+    from casadi_gpc.robot import RobotParams
+    from scenarios import load_scenario
+    from scenarios.simulator import Episode
+    sc = load_scenario("scenarios/paper/fig7_1_head_on.toml")
+    gpc = GPCController(preset("improved").with_overrides(crowded_guesses=2), RobotParams())
+    obs = Episode(sc, gpc.sample_time_s).observation()
+    tick, _ = gpc.pose(obs, gpc.estimate(obs))
+    every = [s[0] for s in gpc._guess_starts(tick.p, tick.x0, tick.ref_speed_mps)]
+    assert len(every) == len(preset("improved").guesses) == 6
+    turns = [[s[0] for s in gpc._guess_starts(tick.p, tick.x0, tick.ref_speed_mps, crowded=True)] for _ in range(4)]
+    assert turns == [every[0:2], every[2:4], every[4:6], every[0:2]]
+    assert gpc.counters["crowded_guess_skips"] == 4 * 4
+    off = GPCController(preset("improved"), RobotParams())
+    assert [s[0] for s in off._guess_starts(tick.p, tick.x0, tick.ref_speed_mps, crowded=True)] == every

@@ -1,0 +1,83 @@
+"""The check layer's one settings object (casadi_gpc.safety.CheckSettings) and the registry
+that declares it per controller (gpcnav.controllers.REGISTRY)."""
+from __future__ import annotations
+
+import pytest
+
+from casadi_gpc.config import preset
+from casadi_gpc.robot import RobotParams
+from casadi_gpc.safety import ROLLOUT_TRUST_S, SAFER_ALTERNATIVES, CheckSettings, Shield
+from gpcnav.controllers import DEFAULT_SHIELD, REGISTRY, check_settings
+
+
+@pytest.mark.parametrize("bad, words", [
+    (dict(fallback="gpc"), "fallback must be one of"),
+    (dict(trust_planner_s=-1.0), "trust_planner_s"),
+    (dict(rollouts=True, trust_rollout_s=float("nan")), "trust_rollout_s"),
+    (dict(margin_m=-0.1), "margin_m"),
+    (dict(substeps=0), "substeps"),
+    (dict(horizon=0), "horizon"),
+    (dict(safer_alternatives=True), "set trust_plans too"),
+    (dict(trust_rollout_s=3.0), "set rollouts too"),
+])
+def test_bad_settings_are_refused(bad, words):
+    with pytest.raises(ValueError, match=words):
+        CheckSettings(**bad)
+
+
+def test_settings_are_frozen_and_hashable():
+    s = CheckSettings(trust_plans=True)
+    with pytest.raises(AttributeError):
+        s.trust_plans = False
+    assert hash(s) == hash(CheckSettings(trust_plans=True))
+
+
+class _Net:
+    """A one-command network with a roll-out (as OnnxPolicy is to the registry)."""
+    outputs_plans = False
+
+
+class _PlanNet:
+    outputs_plans = True
+
+
+@pytest.mark.parametrize("name", ["paper", "improved"])
+def test_the_registry_declares_what_each_controller_is_trusted_with(name):
+    cfg = preset(name)
+    gpc = check_settings("gpc", object(), cfg, "on")
+    assert gpc.trust_plans and gpc.fallback == "manoeuvres" and not gpc.rollouts
+    assert gpc.safer_alternatives is SAFER_ALTERNATIVES[name]
+    assert check_settings("gpc", object(), cfg, "gpc") == gpc        # its own alternatives come first
+    nn = check_settings("nn", _Net(), cfg, "gpc")
+    assert nn.rollouts and nn.trust_rollout_s == ROLLOUT_TRUST_S and nn.fallback == "planner"
+    assert not nn.trust_plans and not nn.safer_alternatives
+    bare = check_settings("nn", _Net(), cfg, "on")                     # the planner-free check
+    assert not bare.rollouts and bare.fallback == "manoeuvres"
+    plans = check_settings("nn", _PlanNet(), cfg, "on")
+    assert plans.trust_plans and plans.previous_plan and not plans.rollouts
+    for peer in ("orca", "hrvo", "social_force", "mppi", "stand", "blind", "mymod:Mine"):
+        assert check_settings(peer, object(), cfg, "on") == CheckSettings()
+        assert check_settings(peer, object(), cfg, "gpc") == CheckSettings(fallback="planner")
+    assert DEFAULT_SHIELD == {n: k.default_shield for n, k in REGISTRY.items()}
+    assert DEFAULT_SHIELD["gpc"] == "on" and DEFAULT_SHIELD["nn"] == "gpc" and DEFAULT_SHIELD["orca"] == "off"
+
+
+class _Scripted:
+    sample_time_s = 0.5
+
+    def reset(self):
+        pass
+
+    def decide(self, obs):
+        raise AssertionError("not called here")
+
+
+def test_shield_takes_its_flags_from_the_settings():
+    s = CheckSettings(margin_m=0.2, sigmas=1.0, substeps=3, horizon=7, trust_planner_s=2.0)
+    sh = Shield(_Scripted(), RobotParams(), s)
+    assert sh.settings is s and sh.horizon == 7 and sh.filter.fallback is None
+    assert (sh.filter.margin_m, sh.filter.sigmas, sh.filter.substeps, sh.filter.trust_planner_s) == (0.2, 1.0, 3, 2.0)
+    with pytest.raises(ValueError, match="planner_config"):
+        Shield(_Scripted(), RobotParams(), CheckSettings(fallback="planner"))
+    with pytest.raises(ValueError, match="not 'planner'"):
+        Shield(_Scripted(), RobotParams(), CheckSettings(), standby=_Scripted())

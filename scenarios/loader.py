@@ -16,7 +16,7 @@ from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState
 from casadi_gpc.types import StaticObstacle
 
-from .model import TRACK_BEHAVIOURS, Faults, MovingObstacleSpec, Scenario, Sensing, TrackSpec, WalkerSpec
+from .model import TRACK_BEHAVIOURS, Faults, MovingObstacleSpec, Scenario, Sensing, TrackSpec, WalkerSpec, Wall
 
 __all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "BEHAVIOURS"]
 
@@ -107,7 +107,7 @@ class _Reader:
 
 
 _TOP_KEYS = {"name", "description", "duration_s", "robot", "reference", "moving_obstacles", "static_obstacles",
-             "sensing", "faults"}
+             "sensing", "faults", "walls"}
 _CONSTANT_KEYS = {"position", "heading_deg", "speed_mps", "turn_rate_deg_s", "radius_m", "behaviour"}
 _WALKER_KEYS = {"position", "radius_m", "behaviour", "goal", "preferred_speed_mps", "sees_robot"}
 _TRACK_KEYS = {"track", "radius_m", "behaviour", "sees_robot"}
@@ -130,6 +130,7 @@ def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
     reference = _reference(r, data["reference"], params)
     moving = [_moving(r, ob, f"moving_obstacles[{i}]") for i, ob in enumerate(r.array_of_tables(data, "moving_obstacles"))]
     static = [_static(r, ob, f"static_obstacles[{i}]") for i, ob in enumerate(r.array_of_tables(data, "static_obstacles"))]
+    walls = [_wall(r, w, f"walls[{i}]") for i, w in enumerate(r.array_of_tables(data, "walls"))]
     sensing = _sensing(r, data["sensing"]) if "sensing" in data else Sensing()
     faults = _faults(r, data["faults"]) if "faults" in data else Faults()
     for kind, obstacles in (("moving_obstacles", moving), ("static_obstacles", static)):
@@ -145,8 +146,12 @@ def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
             gap = math.hypot(ob.position_m[0] - start.x_m, ob.position_m[1] - start.y_m) - params.radius_m - ob.radius_m
             if gap < 0:
                 r.fail(f"{kind}[{i}].position", f"the robot starts overlapping this obstacle (gap {gap:.3f} m)")
+    for i, w in enumerate(walls):
+        gap = float(w.distance_m((start.x_m, start.y_m))) - params.radius_m
+        if gap <= 0:
+            r.fail(f"walls[{i}].points", f"the robot starts touching this wall (gap {gap:.3f} m)")
     return Scenario(name, duration, start, reference, params, tuple(moving), tuple(static), sensing, faults,
-                    description, source)
+                    description, source, tuple(walls))
 
 
 def _robot(r: _Reader, table) -> tuple[RobotParams, RobotState]:
@@ -249,14 +254,35 @@ def _track_mover(r: _Reader, ob: dict, f: str) -> TrackSpec:
         for c in row:
             if isinstance(c, bool) or not isinstance(c, (int, float)):
                 r.fail(f"{name}[{k}]", "must be a row of three numbers [t_s, x_m, y_m]")
-            if not math.isfinite(c):
-                r.fail(f"{name}[{k}]", f"must be finite, got {c}")
+            r._bounded(f"{name}[{k}]", c, LARGEST)
         if row[0] < 0:
             r.fail(f"{name}[{k}]", f"time must not be negative, got {row[0]}")
         if out and not row[0] > out[-1][0]:
             r.fail(f"{name}[{k}]", f"times must increase strictly ({row[0]} after {out[-1][0]})")
         out.append((float(row[0]), float(row[1]), float(row[2])))
     return TrackSpec(float(r.number(ob, "radius_m", f, positive=True)), tuple(out), behaviour, sees)
+
+
+def _wall(r: _Reader, table, f: str) -> Wall:
+    """One ``[[walls]]`` table: a polyline of at least two points, no segment of zero length."""
+    r.table(table, f, {"points"}, {"points"})
+    pts = table["points"]
+    name = f"{f}.points"
+    if not isinstance(pts, list):
+        r.fail(name, "must be a list of [x, y] points")
+    if len(pts) < 2:
+        r.fail(name, f"needs at least two points, got {len(pts)}")
+    out = []
+    for k, pt in enumerate(pts):
+        if not isinstance(pt, list) or len(pt) != 2 or any(isinstance(c, bool) or not isinstance(c, (int, float))
+                                                           for c in pt):
+            r.fail(f"{name}[{k}]", "must be a point of two numbers [x, y]")
+        for c in pt:
+            r._bounded(f"{name}[{k}]", c, LARGEST)
+        if out and math.hypot(pt[0] - out[-1][0], pt[1] - out[-1][1]) == 0.0:
+            r.fail(f"{name}[{k}]", "a segment of zero length (the same point twice in a row)")
+        out.append((float(pt[0]), float(pt[1])))
+    return Wall(tuple(out))
 
 
 def _static(r: _Reader, ob, f: str) -> StaticObstacle:

@@ -230,6 +230,7 @@ def run_document(log: RunLog, extra: dict | None = None) -> dict:
         },
         "reference": {"x": np.asarray(log.ref_poses)[:, 0].tolist(), "y": np.asarray(log.ref_poses)[:, 1].tolist()},
         "obstacles": obstacles,
+        "walls": [{"points": [list(pt) for pt in w.points]} for w in getattr(sc, "walls", ())],
     }
     doc.update(extra or {})
     return doc

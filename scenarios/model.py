@@ -9,7 +9,7 @@ from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotParams, RobotState, arc_step
 from casadi_gpc.types import StaticObstacle
 
-__all__ = ["MovingObstacleSpec", "WalkerSpec", "TrackSpec", "Sensing", "Faults", "Scenario", "TRACK_BEHAVIOURS"]
+__all__ = ["MovingObstacleSpec", "WalkerSpec", "TrackSpec", "Wall", "Sensing", "Faults", "Scenario", "TRACK_BEHAVIOURS"]
 
 
 @dataclass(frozen=True)
@@ -123,6 +123,37 @@ class TrackSpec:
 
 
 @dataclass(frozen=True)
+class Wall:
+    """A thin wall, known exactly (a map): the polyline through ``points`` (at least two,
+    no segment of zero length). The robot collides when its disc touches a segment; walkers
+    (orca, social_force) avoid it; constant and replayed movers ignore it."""
+
+    points: tuple[tuple[float, float], ...]
+
+    @property
+    def segments(self) -> np.ndarray:
+        """``(n, 2, 2)``: each segment's two end points."""
+        pts = np.asarray(self.points, dtype=float)
+        return np.stack([pts[:-1], pts[1:]], axis=1)
+
+    def nearest_point(self, xy) -> np.ndarray:
+        """The point of the polyline nearest to each point of ``xy`` (``(..., 2)``)."""
+        q = np.asarray(xy, dtype=float)[..., None, :]                       # (..., 1, 2)
+        seg = self.segments
+        a, ab = seg[:, 0], seg[:, 1] - seg[:, 0]                            # (n, 2)
+        t = np.clip(((q - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)   # (..., n)
+        near = a + t[..., None] * ab                                        # (..., n, 2)
+        d = ((q - near) ** 2).sum(-1)
+        k = np.argmin(d, axis=-1)[..., None, None]
+        return np.take_along_axis(near, np.broadcast_to(k, k.shape[:-2] + (1, 2)), axis=-2)[..., 0, :]
+
+    def distance_m(self, xy) -> np.ndarray:
+        """Distance from each point of ``xy`` (``(..., 2)``) to the polyline."""
+        q = np.asarray(xy, dtype=float)
+        return np.hypot(*np.moveaxis(q - self.nearest_point(q), -1, 0))
+
+
+@dataclass(frozen=True)
 class Sensing:
     position_noise_std_m: float = 0.02
     seed: int = 0
@@ -164,6 +195,7 @@ class Scenario:
     description: str = ""
     source: str = ""
     """The file it was read from, if any."""
+    walls: tuple[Wall, ...] = ()
 
     def with_seed(self, seed: int) -> "Scenario":
         from dataclasses import replace

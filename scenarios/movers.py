@@ -73,9 +73,12 @@ class MoverWorld:
         What walkers also avoid.
     robot_radius_m : float
         The robot's disc, for walkers that see it.
+    walls : sequence of Wall
+        Polylines the walkers avoid (navground's line obstacles).
     """
 
-    def __init__(self, movers: Sequence, statics: Sequence = (), robot_radius_m: float = 0.35):
+    def __init__(self, movers: Sequence, statics: Sequence = (), robot_radius_m: float = 0.35,
+                 walls: Sequence = ()):
         self.movers = tuple(movers)
         self.n = len(self.movers)
         self.radii = np.array([m.radius_m for m in self.movers], dtype=float)
@@ -94,6 +97,8 @@ class MoverWorld:
             from navground import core
             self._behaviours = [_make_behaviour(self.movers[j]) for j in self._walkers]
             self._static_discs = [core.Disc(np.asarray(s.position_m, float), s.radius_m) for s in self._statics]
+            self._lines = [core.LineSegment(np.asarray(a, float), np.asarray(b, float))
+                           for w in walls for a, b in zip(w.points[:-1], w.points[1:])]
             start = np.array([self.movers[j].position_m for j in self._walkers], dtype=float)
             self._grid = [start]                       # walker positions at grid instants 0, 1, ...
             self._vel = np.zeros_like(start)            # velocity over the current grid step
@@ -224,6 +229,7 @@ class MoverWorld:
             b.velocity = self._vel[i]
             b.environment_state.neighbors = agents
             b.environment_state.static_obstacles = self._static_discs + discs
+            b.environment_state.line_obstacles = self._lines
             cmd = b.compute_cmd(CROWD_TIME_STEP_S, core.Frame.absolute)
             v = np.asarray(cmd.velocity, dtype=float)
             # never overshoot the goal within one grid step: stop on it

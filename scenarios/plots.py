@@ -41,6 +41,9 @@ def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 
         ax.plot([x[k], x[k] + robot_radius_m * np.cos(h[k])], [y[k], y[k] + robot_radius_m * np.sin(h[k])],
                 color="tab:blue", lw=0.8)
         ax.annotate(f"{t[k]:.0f}", (x[k], y[k]), fontsize=6, color="tab:blue", ha="center", va="center")
+    for k, wall in enumerate(doc.get("walls", [])):
+        pts = np.asarray(wall["points"], dtype=float)
+        ax.plot(pts[:, 0], pts[:, 1], color="0.25", lw=3.0, solid_capstyle="butt", label="wall" if k == 0 else None)
     obstacles = doc.get("obstacles", [])
     n_moving = sum(o["kind"] == "moving" for o in obstacles)
     crowd = n_moving > len(_OBSTACLE_COLOURS)
@@ -101,6 +104,9 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
     if "reference_path" in doc:
         rp = np.asarray(doc["reference_path"])
         ax.plot(rp[:, 0], rp[:, 1], color="0.6", lw=1.0, ls="--")
+    for wall in doc.get("walls", []):
+        pts = np.asarray(wall["points"], dtype=float)
+        ax.plot(pts[:, 0], pts[:, 1], color="0.25", lw=3.0, solid_capstyle="butt")
     path_line, = ax.plot([], [], color="tab:blue", lw=1.2)
     robot = Circle((x[0], y[0]), robot_radius_m, fill=False, color="tab:blue")
     ax.add_patch(robot)

@@ -102,7 +102,7 @@ class Episode:
         self.scenario = scenario
         self.sample_time_s = T = float(sample_time_s)
         self.log = RunLog(scenario, controller_name, T)
-        self.world = MoverWorld(scenario.moving, scenario.static, scenario.robot.radius_m)
+        self.world = MoverWorld(scenario.moving, scenario.static, scenario.robot.radius_m, scenario.walls)
         self._sensor = _Sensor(scenario, np.random.default_rng(scenario.sensing.seed), self.log.events)
         self.state = scenario.robot_start.as_array().astype(float)
         self.state[3:] = 0.0
@@ -112,8 +112,9 @@ class Episode:
         self._static_xy = np.array([s.position_m for s in scenario.static], dtype=float).reshape(-1, 2)
         self._radii = np.array([m.radius_m for m in scenario.moving] + [s.radius_m for s in scenario.static])
         self._n_moving = len(scenario.moving)
-        gaps0 = _absent_far(np.hypot(*(self._obstacles_at(0.0) - self.state[:2]).T) - self._radii
-                            - scenario.robot.radius_m)
+        self._walls = tuple(w.points for w in scenario.walls)
+        gaps0 = np.concatenate([_absent_far(np.hypot(*(self._obstacles_at(0.0) - self.state[:2]).T) - self._radii
+                                             - scenario.robot.radius_m), self._wall_gaps(self.state[None, :2])[0]])
         self.log.min_clearance_m = float(gaps0.min()) if gaps0.size else float("inf")
         self._record(0.0)
         if self.n_steps == 0:
@@ -142,7 +143,7 @@ class Episode:
         t = self.t_s
         sc = self.scenario
         moving = self._sensor.measure(t, self.world.positions(t), self.state[:2]) if sc.moving else ()
-        return Observation(t, RobotState(*self.state), sc.reference, moving, sc.static)
+        return Observation(t, RobotState(*self.state), sc.reference, moving, sc.static, self._walls)
 
     def _robot_motion(self, state: np.ndarray, wheels: np.ndarray, t0: float):
         """The robot's position and velocity at a time in the coming interval (for walkers
@@ -156,15 +157,24 @@ class Episode:
         return at
 
     def interval_clearances(self, wheels: np.ndarray) -> np.ndarray:
-        """Disc-to-disc gaps to every obstacle at :data:`SUBSTEPS` evenly spaced instants
-        inside the coming interval, shape ``(SUBSTEPS, n_obstacles)``, with the robot
-        driving ``wheels`` (exact arcs)."""
+        """Gaps to every obstacle at :data:`SUBSTEPS` evenly spaced instants inside the
+        coming interval, shape ``(SUBSTEPS, n_obstacles)`` (moving, static, then the walls:
+        the robot's disc to the polyline), with the robot driving ``wheels`` (exact arcs)."""
         T, t0, st = self.sample_time_s, self.t_s, self.state
         tau = T * np.arange(1, SUBSTEPS + 1) / SUBSTEPS
         x, y, _ = robot_step(np, st[0], st[1], st[2], wheels[0], wheels[1], tau, self.scenario.robot.wheel_base_m)
         xy = self._obstacles_at(t0 + tau)                                   # (S, n, 2)
-        return _absent_far(np.hypot(xy[..., 0] - x[:, None], xy[..., 1] - y[:, None]) - self._radii
-                           - self.scenario.robot.radius_m)
+        discs = _absent_far(np.hypot(xy[..., 0] - x[:, None], xy[..., 1] - y[:, None]) - self._radii
+                            - self.scenario.robot.radius_m)
+        if not self.scenario.walls:
+            return discs
+        return np.concatenate([discs, self._wall_gaps(np.stack([x, y], axis=-1))], axis=1)
+
+    def _wall_gaps(self, robot_xy: np.ndarray) -> np.ndarray:
+        """Gaps between the robot's disc at ``robot_xy`` (``(S, 2)``) and each wall, ``(S, n_walls)``."""
+        r = self.scenario.robot.radius_m
+        return np.stack([w.distance_m(robot_xy) - r for w in self.scenario.walls], axis=-1) if self.scenario.walls \
+            else np.zeros((len(robot_xy), 0))
 
     def step(self, decision: ControlDecision, compute_time_s: float = 0.0) -> str | None:
         """Apply ``decision`` over one interval; the outcome once the episode has ended."""
@@ -207,22 +217,27 @@ class Episode:
     def _collision(self, substep: int, j: int, wheels: np.ndarray, t0: float) -> dict:
         """What was hit and how, at the first collision-check instant with an overlap
         (CONTRACT.md, RUN.json's ``collision``): the obstacle's kind and index among its kind,
-        the time, the robot's velocity component towards the obstacle's centre (the point of
-        contact lies on that line), and how long the obstacle had existed."""
+        the time, the robot's velocity component towards the obstacle's centre or the wall's
+        nearest point (the point of contact lies on that line), and how long the obstacle had
+        existed."""
         sc, st = self.scenario, self.state
         tau = self.sample_time_s * (substep + 1) / SUBSTEPS
         x, y, h = robot_step(math, st[0], st[1], st[2], wheels[0], wheels[1], tau, sc.robot.wheel_base_m)
         v = 0.5 * (wheels[0] + wheels[1])
         t = t0 + tau
-        ox, oy = self._obstacles_at(t)[j]
+        n_discs = len(self._radii)
+        # a disc's centre, or a wall's point nearest the robot: the point of contact is on that line
+        ox, oy = self._obstacles_at(t)[j] if j < n_discs else sc.walls[j - n_discs].nearest_point((x, y))
         d = math.hypot(ox - x, oy - y)
         towards = v * (math.cos(h) * (ox - x) + math.sin(h) * (oy - y)) / d if d > 0 else abs(v)
         if j < self._n_moving:
             kind, index = "moving", j
             mover = sc.moving[j]
             age = t - mover.start_s if hasattr(mover, "track") else t
-        else:
+        elif j < n_discs:
             kind, index, age = "static", j - self._n_moving, t
+        else:
+            kind, index, age = "wall", j - n_discs, t
         return {"obstacle": kind, "index": index, "time_s": t, "robot_speed_towards_mps": towards,
                 "obstacle_age_s": age}
 

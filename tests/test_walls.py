@@ -1,0 +1,119 @@
+"""Walls in the world (CONTRACT.md, "Walls"): the format and its refusals, the collision
+check against the polyline, walkers that avoid walls (navground's line obstacles), the RUN
+document and the plots. The controllers' side of walls is not here yet (issue: walls)."""
+from __future__ import annotations
+
+import re
+import tomllib
+
+import numpy as np
+import pytest
+
+from casadi_gpc.types import ControlDecision
+from gpcnav.cli import main
+from scenarios import ScenarioError, load_scenario, scenario_from_dict
+from scenarios.metrics import run_document
+from scenarios.model import Wall
+from scenarios.simulator import Episode, simulate
+
+BASE = """
+name = "walls"
+duration_s = 20.0
+[robot]
+position = [0.0, 0.0]
+heading_deg = 0.0
+[reference]
+position = [0.0, 0.0]
+heading_deg = 0.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 6.0
+"""
+
+
+class _Drive:
+    """Straight ahead at 0.4 m/s, blind."""
+    sample_time_s = 0.5
+
+    def reset(self):
+        pass
+
+    def decide(self, obs):
+        r = obs.robot
+        return ControlDecision(min(r.v_right_mps + 0.4, 0.4), min(r.v_left_mps + 0.4, 0.4))
+
+
+BAD = {
+    "one point": ("points = [[1.0, 1.0]]", "needs at least two points"),
+    "zero-length segment": ("points = [[1.0, 1.0], [2.0, 1.0], [2.0, 1.0]]", "zero length"),
+    "non-finite": ("points = [[1.0, 1.0], [nan, 2.0]]", "must be finite"),
+    "a point of three": ("points = [[1.0, 1.0, 0.0], [2.0, 1.0]]", "two numbers"),
+    "not a list": ('points = "a wall"', "list of [x, y] points"),
+    "unknown key": ("points = [[1.0, 1.0], [2.0, 1.0]]\nthickness_m = 0.1", "unknown key"),
+    "robot on the wall": ("points = [[-1.0, 0.2], [1.0, 0.2]]", "starts touching this wall"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_wall_refused_in_one_line_with_exit_2(case, tmp_path, capsys):
+    body, words = BAD[case]
+    f = tmp_path / "bad.toml"
+    f.write_text(BASE + "[[walls]]\n" + body + "\n")
+    with pytest.raises(ScenarioError, match=re.escape(words)):
+        load_scenario(f)
+    assert main(["simulate", str(f), "--controller", "stand"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and words in err and "Traceback" not in err
+
+
+def test_distance_to_a_polyline_is_exact():
+    w = Wall(((0.0, 0.0), (4.0, 0.0), (4.0, 3.0)))
+    assert np.allclose(w.distance_m([(2.0, 1.0), (5.0, 1.0), (-1.0, -1.0), (4.0, 4.0)]), [1.0, 1.0, 2 ** 0.5, 1.0])
+    assert np.allclose(w.nearest_point((2.0, -3.0)), (2.0, 0.0))
+
+
+def test_driving_into_a_wall_is_a_collision_with_the_wall_at_the_right_time():
+    sc = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[3.0, -2.0], [3.0, 2.0]]\n"), "t")
+    log = simulate(sc, _Drive())
+    c = log.collision
+    assert log.outcome == "collided" and c["obstacle"] == "wall" and c["index"] == 0
+    # the disc (0.35 m) touches x = 3 when its centre reaches 2.65 m, at 0.4 m/s from rest reached at once
+    assert c["time_s"] == pytest.approx(2.65 / 0.4, abs=0.5 / 20 + 1e-9)
+    assert c["robot_speed_towards_mps"] == pytest.approx(0.4)
+    doc = run_document(log)
+    assert doc["walls"] == [{"points": [[3.0, -2.0], [3.0, 2.0]]}] and doc["collision"]["obstacle"] == "wall"
+
+
+def test_a_wall_beside_the_path_is_passed_and_measured():
+    sc = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[-1.0, 0.6], [8.0, 0.6]]\n"), "t")
+    log = simulate(sc, _Drive())
+    assert log.outcome == "reached_goal"
+    assert log.min_clearance_m == pytest.approx(0.6 - 0.35, abs=1e-9)
+
+
+def test_walkers_do_not_walk_through_walls():
+    """A walker whose goal lies behind a wall does not cross it (navground's line obstacles);
+    without the wall it walks straight there."""
+    walker = ('[[moving_obstacles]]\nposition = [3.0, -3.0]\nradius_m = 0.3\nbehaviour = "orca"\n'
+              'goal = [3.0, 3.0]\npreferred_speed_mps = 0.5\n')
+    wall = "[[walls]]\npoints = [[1.0, 0.0], [5.0, 0.0]]\n"
+    for with_wall in (False, True):
+        sc = scenario_from_dict(tomllib.loads(BASE.replace("line_m = 6.0", "line_m = 0.5") + walker
+                                              + (wall if with_wall else "")), "t")
+        ep = Episode(sc, 0.5)
+        ep.world.advance(16.0)
+        path = ep.world.positions(np.arange(0.0, 16.0, 0.1))[:, 0]
+        if with_wall:   # never closer to the wall than its own disc
+            assert min(sc.walls[0].distance_m(path)) >= 0.3 - 1e-6
+        else:
+            assert np.allclose(path[-1], (3.0, 3.0), atol=0.06)
+
+
+def test_plots_draw_the_walls(tmp_path):
+    f = tmp_path / "w.toml"
+    f.write_text(BASE + "[[walls]]\npoints = [[-1.0, 1.0], [8.0, 1.0]]\n[[walls]]\npoints = [[-1.0, -1.0], [8.0, -1.0]]\n")
+    png = tmp_path / "w.png"
+    assert main(["simulate", str(f), "--controller", "blind", "--plot", str(png), "--out", str(tmp_path / "r.json")]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    import json
+    assert len(json.loads((tmp_path / "r.json").read_text())["walls"]) == 2

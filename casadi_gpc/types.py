@@ -51,8 +51,9 @@ class Observation:
     moving: tuple[ObstacleMeasurement, ...] = ()
     static: tuple[StaticObstacle, ...] = ()
     walls: tuple[tuple[tuple[float, float], ...], ...] = ()
-    """The map's walls, each a polyline of ``(x_m, y_m)`` points, known exactly. The
-    planner, the networks and the check layer do not read them yet (docs/scenarios.md)."""
+    """The map's walls, each a polyline of ``(x_m, y_m)`` points, known exactly. The check
+    layer judges every option against them (:mod:`casadi_gpc.safety.walls`); the planner and
+    the networks do not read them yet (docs/scenarios.md)."""
 
     def __post_init__(self):
         r = self.robot

@@ -117,3 +117,30 @@ def test_plots_draw_the_walls(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     import json
     assert len(json.loads((tmp_path / "r.json").read_text())["walls"]) == 2
+
+
+def test_the_check_layers_wall_discs_never_claim_more_room_than_the_wall_leaves():
+    from casadi_gpc.safety.walls import WALL_SPACING_M, wall_discs
+    pts = ((0.0, 0.0), (3.0, 0.0), (3.0, 2.05))
+    discs = wall_discs((pts,))
+    centres = np.array([d.position_m for d in discs])
+    rng = np.random.default_rng(0)
+    q = rng.uniform((-1, -2), (5, 4), size=(2000, 2))
+    disc_gap = (np.hypot(*(q[:, None, :] - centres[None]).transpose(2, 0, 1)) - discs[0].radius_m).min(axis=1)
+    true_gap = Wall(pts).distance_m(q)
+    assert np.all(disc_gap <= true_gap + 1e-12)
+    assert np.all(disc_gap >= true_gap - WALL_SPACING_M / 2 - 1e-12)
+
+
+def test_behind_the_check_layer_a_controller_does_not_drive_into_a_wall():
+    """Every controller behind the check layer is checked against the walls: one that drives
+    blind at a wall is stopped short of it; beside a wall it is left alone."""
+    from casadi_gpc.safety import Shield
+    ahead = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[3.0, -2.0], [3.0, 2.0]]\n"), "t")
+    sh = Shield(_Drive())
+    log = simulate(ahead, sh)
+    assert log.outcome != "collided" and log.min_clearance_m > 0.0
+    assert sh.counters["interventions"] > 0
+    beside = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[-1.0, 0.7], [8.0, 0.7]]\n"), "t")
+    sh = Shield(_Drive())
+    assert simulate(beside, sh).outcome == "reached_goal" and sh.counters["interventions"] == 0

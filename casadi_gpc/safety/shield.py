@@ -35,6 +35,7 @@ from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
 from .standby import StandbyPlanner
+from .walls import wall_discs
 
 __all__ = ["Shield", "DEFAULT_HORIZON_S"]
 
@@ -190,7 +191,8 @@ class Shield:
         plan = dec.planned_wheels_mps
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
         cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
-        v = self.filter.filter(obs, cand, forecasts, obs.static, dec.planned_poses if own else None,
+        statics = obs.static + wall_discs(obs.walls) if obs.walls else obs.static  # walls: every option judged against them
+        v = self.filter.filter(obs, cand, forecasts, statics, dec.planned_poses if own else None,
                                dec.alternatives, self.filter.trust_planner_s if self.trust_plans else None,
                                self._kept, None if own else self._rollout)
         if self.previous_plan:

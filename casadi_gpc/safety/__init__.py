@@ -69,9 +69,8 @@ manoeuvres), ``screen`` (the quick screen in plain floats in front of the check)
 ``filter`` (:class:`SafetyFilter`: the interventions and their counters), ``settings``
 (:class:`CheckSettings`: what the check trusts from a controller and what it falls back
 on, one frozen object per controller), ``shield`` (:class:`Shield`: any controller behind
-the filter, its forecasts or the shield's own) and
-``standby`` (:class:`StandbyPlanner`, the planner kept in step behind the filter) and
-``walls`` (the observation's walls as chains of static discs the check judges against).
+the filter, its forecasts or the shield's own), ``standby`` (:class:`StandbyPlanner`, the
+planner kept in step behind the filter) and ``walls`` (the observation's walls as chains of static discs the check judges against).
 """
 from .check import MANOEUVRES, SafetyCheck, TrajectoryCheck
 from .filter import ROLLOUT_TRUST_S, SAFER_ALTERNATIVES, SafetyFilter, SafetyVerdict, safer_alternatives_for

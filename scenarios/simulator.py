@@ -52,8 +52,9 @@ class RunLog:
 class _Sensor:
     """Noisy, possibly faulty position measurements of the moving obstacles.
 
-    A mover that is not in the scene (a track outside its time) or whose centre is beyond
-    ``[sensing] range_m`` of the robot's is not in the measurement list at all, as a sensor
+    A mover that is not in the scene (a track outside its time), whose centre is beyond
+    ``[sensing] range_m`` of the robot's, or whose centre a wall hides from the robot's (the
+    line between them crosses a wall) is not in the measurement list at all, as a sensor
     reports only what it sees (the noise is drawn for every mover all the same, so the
     numbers of the others do not depend on who is seen)."""
 
@@ -61,6 +62,8 @@ class _Sensor:
         self.s, self.rng, self.events = scenario, rng, events
         self.queue: deque = deque()
         self.range_m = scenario.sensing.range_m
+        segs = [w.segments for w in getattr(scenario, "walls", ())]
+        self._wall_segments = np.concatenate(segs) if segs else None  # (m, 2, 2): walls hide what is behind them
 
     def measure(self, t: float, true_xy: np.ndarray, robot_xy=None) -> tuple[ObstacleMeasurement, ...]:
         s, f, rng = self.s, self.s.faults, self.rng
@@ -69,6 +72,8 @@ class _Sensor:
         if self.range_m is not None and robot_xy is not None:
             with np.errstate(invalid="ignore"):
                 seen &= np.hypot(true_xy[:, 0] - robot_xy[0], true_xy[:, 1] - robot_xy[1]) <= self.range_m
+        if self._wall_segments is not None and robot_xy is not None:
+            seen &= ~_blocked(np.asarray(robot_xy, dtype=float), true_xy, self._wall_segments)
         for i, m in enumerate(s.moving):
             z = np.array(true_xy[i]) + rng.normal(0.0, s.sensing.position_noise_std_m, 2)
             if f.outlier_prob and rng.random() < f.outlier_prob:
@@ -248,6 +253,21 @@ class Episode:
             if n:
                 self.log.events[f"movers.{name}"] = n
         return outcome
+
+
+def _blocked(p: np.ndarray, q: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """Whether the line from ``p`` (2,) to each point of ``q`` (n, 2) crosses one of the
+    ``segments`` (m, 2, 2): both orientation tests change sign (touching counts as crossing)."""
+    a, b = segments[:, 0], segments[:, 1]                                   # (m, 2)
+
+    def cross(o, u, v):  # z of (u - o) x (v - o), broadcast
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+    qq = q[:, None, :]                                                      # (n, 1, 2)
+    d1, d2 = cross(a, b, p[None, :]), cross(a, b, qq)                       # (m,), (n, m)
+    d3, d4 = cross(p[None, None, :], qq, a[None]), cross(p[None, None, :], qq, b[None])
+    with np.errstate(invalid="ignore"):
+        hit = (d1[None, :] * d2 <= 0) & (d3 * d4 <= 0)
+    return hit.any(axis=1)
 
 
 def _absent_far(gaps: np.ndarray) -> np.ndarray:

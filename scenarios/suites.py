@@ -7,7 +7,9 @@ ignore ``movers`` and ``behaviour``; the crowd suites (``circle-crossing``,
 recordings that ship with the package, :mod:`scenarios.pedestrian_cases`) ignores
 ``movers`` and takes ``behaviour`` ``replay`` (its default: the people replayed open loop),
 ``orca`` or ``social_force`` (walkers that follow their recording and give way to the
-robot)."""
+robot); the building suites (``corridor``, ``doorway``, ``corner``:
+:mod:`scenarios.building_suite`) take ``movers`` and ``behaviour`` ``orca`` or
+``social_force``."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -16,16 +18,17 @@ from functools import lru_cache
 
 import numpy as np
 
+from .building_suite import BUILDING_BEHAVIOURS, BUILDING_SUITES, building_scenario
 from .crowd_suite import CROWD_BEHAVIOURS, CROWD_SUITES, crowd_scenario
 from .model import TRACK_BEHAVIOURS, Scenario
 from .random_suite import SUITES as RANDOM_SUITES
 from .random_suite import random_scenario
 
-__all__ = ["SUITES", "RANDOM_SUITES", "CROWD_SUITES", "RECORDED_SUITES", "CROWD_BEHAVIOURS", "SUITE_BEHAVIOURS",
+__all__ = ["SUITES", "RANDOM_SUITES", "CROWD_SUITES", "BUILDING_SUITES", "RECORDED_SUITES", "CROWD_BEHAVIOURS", "SUITE_BEHAVIOURS",
            "Suite", "suite_scenario", "default_behaviour"]
 
 RECORDED_SUITES = ("ucy",)
-SUITES = RANDOM_SUITES + CROWD_SUITES + RECORDED_SUITES
+SUITES = RANDOM_SUITES + CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES
 SUITE_BEHAVIOURS = tuple(dict.fromkeys(CROWD_BEHAVIOURS + TRACK_BEHAVIOURS))
 """Every ``behaviour`` a suite takes (the crowd suites: ``constant``, ``orca``,
 ``social_force``; ``ucy``: ``replay``, ``orca``, ``social_force``)."""
@@ -60,7 +63,8 @@ class Suite:
             raise ValueError(f"movers must not be negative, got {self.movers}")
         if self.behaviour is None:
             object.__setattr__(self, "behaviour", default_behaviour(self.name))
-        allowed = TRACK_BEHAVIOURS if self.name in RECORDED_SUITES else CROWD_BEHAVIOURS
+        allowed = (TRACK_BEHAVIOURS if self.name in RECORDED_SUITES else
+                   BUILDING_BEHAVIOURS if self.name in BUILDING_SUITES else CROWD_BEHAVIOURS)
         if self.behaviour not in allowed:
             raise ValueError(f"suite {self.name}: unknown behaviour {self.behaviour!r} "
                              f"(choose from {', '.join(allowed)})")
@@ -79,7 +83,7 @@ class Suite:
     def describe(self) -> dict:
         """What an EVAL document records of the suite."""
         d = {"suite": self.name, "count": self.count, "seed": self.seed}
-        if self.is_crowd:
+        if self.is_crowd or self.name in BUILDING_SUITES:
             d.update(movers=self.movers, behaviour=self.behaviour)
         elif self.name in RECORDED_SUITES:
             d.update(behaviour=self.behaviour, cases=len(_recorded_cases()))
@@ -115,4 +119,6 @@ def suite_scenario(suite: Suite, index: int) -> Scenario:
         return crowd_scenario(suite.name, index, suite.seed, suite.movers, suite.behaviour)
     if suite.name in RECORDED_SUITES:
         return _recorded_scenario(index, suite.seed, suite.behaviour)
+    if suite.name in BUILDING_SUITES:
+        return building_scenario(suite.name, index, suite.seed, suite.movers, suite.behaviour)
     return random_scenario(suite.name, index, suite.seed)

@@ -144,3 +144,55 @@ def test_behind_the_check_layer_a_controller_does_not_drive_into_a_wall():
     beside = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[-1.0, 0.7], [8.0, 0.7]]\n"), "t")
     sh = Shield(_Drive())
     assert simulate(beside, sh).outcome == "reached_goal" and sh.counters["interventions"] == 0
+
+
+def test_walls_hide_what_is_behind_them():
+    """The sensor does not see through walls: a mover behind a wall is not measured until the
+    line from the robot to it is clear."""
+    from scenarios.simulator import _blocked
+    seg = np.array([[[1.0, -1.0], [1.0, 1.0]]])
+    seen = ~_blocked(np.array([0.0, 0.0]), np.array([[2.0, 0.0], [0.5, 3.0], [2.0, 3.0], [0.5, 0.0]]), seg)
+    assert seen.tolist() == [False, True, True, True]
+
+    class _Still:
+        sample_time_s = 0.5
+        seen: list = []
+
+        def reset(self):
+            pass
+
+        def decide(self, obs):
+            self.seen.append(tuple(m.obstacle_id for m in obs.moving))
+            return ControlDecision(0.0, 0.0)
+    # a person walks up behind a wall (x = 2, y from -1 to 1) and comes out at its end
+    body = (BASE.replace("line_m = 6.0", "line_m = 0.5") + "[[walls]]\npoints = [[2.0, -1.0], [2.0, 1.0]]\n"
+            + "[[moving_obstacles]]\nradius_m = 0.3\ntrack = [[0.0, 4.0, -0.5], [6.0, 4.0, 2.5]]\n")
+    pol = _Still()
+    simulate(scenario_from_dict(tomllib.loads(body), "t"), pol)
+    first = next(k for k, ids in enumerate(pol.seen) if ids)
+    # the line from (0, 0) to (4, y) leaves the wall's end (2, 1) behind once y > 2
+    assert 0 < first and (-0.5 + 0.5 * first * 0.5) > 2.0 - 0.25
+
+
+@pytest.mark.parametrize("kind", ["corridor", "doorway", "corner"])
+def test_the_building_suites_are_seeded_buildings_with_people_in_them(kind):
+    from scenarios import Suite
+    from scenarios.building_suite import CORRIDOR_WIDTH_M, DOOR_WIDTH_M
+    a, b = Suite(kind, 3, 1, 6).scenario(2), Suite(kind, 9, 1, 6).scenario(2)
+    assert a.name == b.name and a.moving == b.moving and a.walls == b.walls and len(a.moving) == 6
+    assert Suite(kind, 3, 2, 6).scenario(2).moving != a.moving
+    assert all(m.behaviour == "orca" and not m.sees_robot for m in a.moving)
+    pts = np.concatenate([np.asarray(w.points) for w in a.walls])
+    if kind == "corridor":
+        assert np.ptp(pts[:, 1]) == pytest.approx(CORRIDOR_WIDTH_M)
+    if kind == "doorway":
+        ends = sorted(abs(p[1]) for w in a.walls for p in w.points)
+        assert 2 * ends[0] == pytest.approx(DOOR_WIDTH_M)
+    for m in a.moving:   # every leg of every person's path keeps its disc off the walls
+        legs = np.linspace(m.xy_m[:-1], m.xy_m[1:], 50).reshape(-1, 2)
+        assert min(w.distance_m(legs).min() for w in a.walls) >= m.radius_m
+    ep = Episode(a, 0.5)
+    ep.world.advance(20.0)
+    xy = ep.world.positions(np.arange(0.0, 20.0, 0.1)).reshape(-1, 2)
+    xy = xy[np.isfinite(xy[:, 0])]
+    assert min(w.distance_m(xy).min() for w in a.walls) >= 0.3 - 0.02   # the walkers keep off the walls

@@ -67,7 +67,8 @@ def add_suite_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--suite", choices=SUITES, default=None,
                    help="a seeded suite instead of files (encounters: the family of the paper's Fig. 7; "
                         "circle-crossing, square-crossing: crowds in CrowdNav's geometry, docs/scenarios.md; "
-                        "ucy: the people of the UCY recordings, docs/pedestrians.md)")
+                        "corridor, doorway, corner: people in buildings, walls; ucy: the people of the UCY recordings, "
+                        "docs/pedestrians.md)")
     p.add_argument("--count", type=int, default=100, help=f"episodes of the suite (1 to {MAX_COUNT})")
     p.add_argument("--seed", type=int, default=0, help="seed of the suite")
     p.add_argument("--movers", type=int, default=5, help="crowd suites: how many movers (default 5)")

@@ -35,7 +35,7 @@ from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
 from .standby import StandbyPlanner
-from .walls import wall_discs
+from .walls import wall_discs_within
 
 __all__ = ["Shield", "DEFAULT_HORIZON_S"]
 
@@ -123,6 +123,13 @@ class Shield:
             standby = GPCController(config, self.robot)
         return standby if isinstance(standby, StandbyPlanner) else StandbyPlanner(standby)
 
+    def _walls_near(self, obs: Observation) -> tuple:
+        """The walls' discs the robot could reach within the check's horizon (its top speed
+        for the whole horizon, its radius, and a margin of a metre beyond)."""
+        r = self.robot
+        reach = r.max_wheel_speed_mps * self.horizon * self.sample_time_s + r.radius_m + 1.0
+        return wall_discs_within(obs.walls, (obs.robot.x_m, obs.robot.y_m), reach)
+
     @property
     def config(self):
         """The shielded controller's planner settings, when it has them."""
@@ -191,7 +198,7 @@ class Shield:
         plan = dec.planned_wheels_mps
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
         cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
-        statics = obs.static + wall_discs(obs.walls) if obs.walls else obs.static  # walls: every option judged against them
+        statics = obs.static + self._walls_near(obs) if obs.walls else obs.static  # every option judged against walls
         v = self.filter.filter(obs, cand, forecasts, statics, dec.planned_poses if own else None,
                                dec.alternatives, self.filter.trust_planner_s if self.trust_plans else None,
                                self._kept, None if own else self._rollout)

@@ -14,9 +14,11 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
+import numpy as np
+
 from ..types import StaticObstacle
 
-__all__ = ["WALL_SPACING_M", "wall_discs"]
+__all__ = ["WALL_SPACING_M", "wall_discs", "wall_discs_within"]
 
 WALL_SPACING_M = 0.1
 """Disc spacing along a wall: the check's clearance to a wall is at most half this below the
@@ -35,3 +37,18 @@ def wall_discs(walls: tuple, spacing_m: float = WALL_SPACING_M) -> tuple[StaticO
                 t = k / n
                 out.append(StaticObstacle((ax + t * (bx - ax), ay + t * (by - ay)), 0.5 * spacing_m))
     return tuple(out)
+
+
+@lru_cache(maxsize=32)
+def _centres(walls: tuple, spacing_m: float) -> np.ndarray:
+    return np.array([d.position_m for d in wall_discs(walls, spacing_m)], dtype=float).reshape(-1, 2)
+
+
+def wall_discs_within(walls: tuple, xy, reach_m: float, spacing_m: float = WALL_SPACING_M) -> tuple:
+    """The discs of :func:`wall_discs` whose centres lie within ``reach_m`` of ``xy``: the
+    only ones a robot that moves at most ``reach_m`` minus its radius over the horizon can
+    touch (the check's cost grows with every disc it is given)."""
+    discs = wall_discs(walls, spacing_m)
+    c = _centres(walls, spacing_m)
+    near = np.flatnonzero(np.hypot(c[:, 0] - xy[0], c[:, 1] - xy[1]) <= reach_m)
+    return tuple(discs[k] for k in near)

@@ -1,7 +1,8 @@
 """One scenario, several controllers, side by side: each run drawn as `gpcnav simulate --plot`
 draws it (scenarios.plots.plot_run), so a reader sees where the planners differ.
 
-Usage: ``python tools/case_figure.py SCENARIO.toml --controllers gpc,nn,mppi --out FIG.png``
+Usage: ``python tools/case_figure.py SCENARIO.toml --controllers gpc,nn,mppi --out FIG.png``, or
+``--suite corridor --index 0 [--seed 1] [--movers 5]`` for a suite's scenario instead of a file
 (the controllers as the registry names them, each as ``gpcnav simulate`` makes it).
 """
 from __future__ import annotations
@@ -22,12 +23,20 @@ from scenarios.plots import plot_run  # noqa: E402
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("scenario", type=Path)
+    ap.add_argument("scenario", type=Path, nargs="?")
+    ap.add_argument("--suite", default=None)
+    ap.add_argument("--index", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--movers", type=int, default=5)
     ap.add_argument("--controllers", default="gpc,nn,mppi")
     ap.add_argument("--preset", default="improved")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args(argv)
-    sc = load_scenario(args.scenario)
+    if args.suite:
+        from scenarios import Suite
+        sc = Suite(args.suite, args.index + 1, args.seed, args.movers).scenario(args.index)
+    else:
+        sc = load_scenario(args.scenario)
     names = args.controllers.split(",")
     cols = min(2, len(names))
     rows = -(-len(names) // cols)

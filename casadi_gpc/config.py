@@ -73,6 +73,11 @@ class PlannerConfig:
     it within 0.15 m (docs/model.md)."""
     max_static: int = 3
     """Static-obstacle slots of the NLP."""
+    max_walls: int = 0
+    """Wall-segment slots of the NLP: the robot's clearance to each segment, penalised as the
+    paper penalises a static obstacle, with the same margin. 0 (the presets): the NLP knows
+    no walls, and is the one it always was; the command line gives a run whose scenarios
+    have walls :data:`WALL_SLOTS` (the nearest segments to the predicted path fill them)."""
     multistart_range_m: float = 3.0
     """Extra range, beyond the robot's reach in one horizon, within which an obstacle makes
     the GPC solve from several initial guesses."""
@@ -121,6 +126,11 @@ class PlannerConfig:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+WALL_SLOTS = 6
+"""The wall-segment slots a planner gets where the map has walls (``max_walls``): a corner
+of two corridors is four segments, a doorway two, with two to spare."""
 
 
 PRESETS: dict[str, PlannerConfig] = {

@@ -14,7 +14,7 @@ from ..config import PlannerConfig, preset
 from ..problem.cost import GPCProblem, build_problem
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
-from .guesses import TIE_ORDER, initial_guesses, swerve_guesses
+from .guesses import TIE_ORDER, crosses_walls, initial_guesses, swerve_guesses
 from .lanes import SolveLanes
 from ..progress import ReferenceClock
 from ..robot import RobotParams, brake_wheels
@@ -128,6 +128,7 @@ class GPCController:
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self._warm: Plan | None = None
         self._guess_turn = 0
+        self._walls_in_slots: list = []
         self._last_wheels: np.ndarray | None = None
         self._path_xy: np.ndarray | None = None
         """The robot's predicted positions at steps 1..H of the last plan (for relevance)."""
@@ -288,6 +289,12 @@ class GPCController:
         ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
         starts = [(name, u0, None, None) for name, u0 in initial_guesses(self.problem, x0, ref_speed_mps,
                                                                            ref_poses).items()]
+        if self._walls_in_slots:  # a guess through a wall is no start: the wall is not passed on either side
+            kept = [s for s in starts if not crosses_walls(self.config, self.robot, x0, s[1], self._walls_in_slots)]
+            if kept:
+                self.counters["guesses_through_walls"] = self.counters.get("guesses_through_walls", 0) + \
+                    len(starts) - len(kept)
+                starts = kept
         limit = self.config.crowded_guesses
         if not crowded or limit is None or limit >= len(starts):
             return starts
@@ -313,8 +320,11 @@ class GPCController:
         ref = self.desired_poses(obs)
         x0 = obs.robot.as_array()
         p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.config,
-                                    self._predicted_path(ref))
+                                    self._predicted_path(ref), obs.walls)
         self.counters["left_out"] += sel.left_out
+        self._walls_in_slots = sel.walls
+        if sel.walls_left_out:
+            self.counters["walls_left_out"] = self.counters.get("walls_left_out", 0) + sel.walls_left_out
         near_ids = self.near_obstacles(x0, sel.forecasts, sel.statics)
         if near_ids:
             self.counters["multistart"] += 1

@@ -15,7 +15,8 @@ import numpy as np
 
 from ..robot import robot_step_float
 
-__all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "brake_guess", "initial_guesses"]
+__all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "brake_guess", "initial_guesses",
+           "crosses_walls"]
 
 TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake")
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
@@ -95,3 +96,27 @@ def initial_guesses(problem, x0, ref_speed_mps: float, ref_poses=None) -> dict[s
     if "brake" in wanted:
         guesses["brake"] = brake_guess(cfg, problem.robot, x0)
     return {k: guesses[k] for k in TIE_ORDER if k in guesses and k in wanted}
+
+
+def crosses_walls(config, robot, x0, u0, segments) -> bool:
+    """Whether the path the increments ``u0`` roll out to from ``x0`` (straight chords between
+    the samples) crosses one of the wall ``segments`` (``(ax, ay, bx, by)`` each). A wall,
+    unlike a disc, cannot be passed on either side: a guess through it starts the solver
+    deep inside a penalty it cannot leave."""
+    if not len(segments):
+        return False
+    x, y, th, vr, vl = (float(v) for v in x0)
+    pts = [(x, y)]
+    for k in range(config.horizon):
+        vr, vl = vr + float(u0[2 * k]), vl + float(u0[2 * k + 1])
+        x, y, th = robot_step_float(x, y, th, vr, vl, config.sample_time_s, robot.wheel_base_m)
+        pts.append((x, y))
+    p, q = np.array(pts[:-1]), np.array(pts[1:])                            # (H, 2) chords
+    seg = np.asarray(segments, dtype=float).reshape(-1, 4)
+    a, b = seg[:, :2], seg[:, 2:]
+
+    def cross(o, u, v):
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+    d1, d2 = cross(a[None], b[None], p[:, None]), cross(a[None], b[None], q[:, None])
+    d3, d4 = cross(p[:, None], q[:, None], a[None]), cross(p[:, None], q[:, None], b[None])
+    return bool(np.any((d1 * d2 <= 0) & (d3 * d4 <= 0)))

@@ -41,10 +41,12 @@ class ParameterLayout:
     horizon: int
     max_moving: int
     max_static: int
+    max_walls: int = 0
 
     @property
     def blocks(self) -> dict[str, tuple[int, ...]]:
-        H, M, S = self.horizon, self.max_moving, self.max_static
+        H, M, S, W = self.horizon, self.max_moving, self.max_static, self.max_walls
+        walls = {"wall_ab": (W, 4), "wall_on": (W,)} if W else {}  # segment ends (ax, ay, bx, by)
         return {
             "x0": (5,),                  # x, y, heading, v_right, v_left
             "ref": (H, 3),               # desired x, y, heading at steps 1..H
@@ -57,6 +59,7 @@ class ParameterLayout:
             "sta_xy": (S, 2),
             "sta_r": (S,),
             "sta_on": (S,),
+            **walls,
         }
 
     @cached_property
@@ -85,6 +88,7 @@ class ParameterLayout:
         statics: list[StaticObstacle] | tuple = (),
         uncertainty_scale_m: float = 0.5,
         ref_weights: np.ndarray | None = None,
+        walls=(),
     ) -> np.ndarray:
         """Parameter vector for one tick, the obstacles in the order given
         (:mod:`casadi_gpc.problem.selection` chooses them). ``ref_weights``: the tracking weight
@@ -111,6 +115,11 @@ class ParameterLayout:
                 sta_xy[2 * j:2 * j + 2] = st.position_m
                 sta_r[j] = st.radius_m
                 sta_on[j] = 1.0
+        if len(walls):
+            if len(walls) > self.max_walls:
+                raise ValueError(f"at most {self.max_walls} wall segments fit this NLP")
+            p[sl["wall_ab"]][:4 * len(walls)] = np.asarray(walls, dtype=float).reshape(-1)
+            p[sl["wall_on"]][:len(walls)] = 1.0
         return p
 
     @cached_property
@@ -122,6 +131,8 @@ class ParameterLayout:
         for name in ("mov_xy", "sta_xy"):
             p[sl[name]] = FAR_AWAY_M
         p[sl["mov_p"]] = 1.0
+        if self.max_walls:  # a segment of 1 m, far away
+            p[sl["wall_ab"]] = np.tile([FAR_AWAY_M, FAR_AWAY_M, FAR_AWAY_M + 1.0, FAR_AWAY_M], self.max_walls)
         return p
 
     def unpack(self, p: np.ndarray) -> dict[str, np.ndarray]:
@@ -189,6 +200,11 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
     for j in range(S):
         obstacles.append((P["sta_xy"][2 * j], P["sta_xy"][2 * j + 1], P["sta_r"][j], P["sta_on"][j],
                           1.0, 0.0, config.xi_static))
+    for j in range(config.max_walls):  # a wall: a static obstacle of no radius at its point nearest the robot
+        ax, ay, bx, by = (P["wall_ab"][4 * j + k] for k in range(4))
+        dx, dy = bx - ax, by - ay
+        t = ca.fmin(ca.fmax(((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy + 1e-12), 0.0), 1.0)
+        obstacles.append((ax + t * dx, ay + t * dy, 0.0, P["wall_on"][j], 1.0, 0.0, config.xi_static))
     for ox, oy, r_o, on, p_unc, sigma, xi in obstacles:
         centre = ca.sqrt((x - ox) ** 2 + (y - oy) ** 2 + 1e-12)
         d = centre - robot.radius_m - r_o
@@ -223,7 +239,7 @@ def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GP
     """Build the NLP of ``config`` for ``robot`` (CasADi SX, single shooting)."""
     robot = robot or RobotParams()
     H, T = config.horizon, config.sample_time_s
-    layout = ParameterLayout(H, config.max_moving, config.max_static)
+    layout = ParameterLayout(H, config.max_moving, config.max_static, config.max_walls)
     u = ca.SX.sym("u", 2 * H)
     p = ca.SX.sym("p", layout.size)
     P = parameter_blocks(layout, p)

@@ -28,7 +28,7 @@ import numpy as np
 from ..config import PlannerConfig
 from ..types import ObstacleForecast, StaticObstacle
 
-__all__ = ["Selection", "select_obstacles", "planner_parameters", "pack_selection", "goal_weights",
+__all__ = ["Selection", "select_obstacles", "select_walls", "planner_parameters", "pack_selection", "goal_weights",
            "relevance_m"]
 
 
@@ -46,13 +46,36 @@ def relevance_m(forecasts, x0: np.ndarray, path_xy: np.ndarray | None) -> np.nda
 
 class Selection:
     """What :func:`select_obstacles` chose: the forecasts and static obstacles in the slots,
-    how many relevant movers did not fit (``left_out``), and the ids of every mover within
-    ``relevance_range_m`` of the predicted path (``relevant``)."""
+    how many relevant movers did not fit (``left_out``), the ids of every mover within
+    ``relevance_range_m`` of the predicted path (``relevant``), the wall segments in the
+    slots (``walls``: ``(ax, ay, bx, by)`` each) and how many segments within the relevance
+    range did not fit (``walls_left_out``)."""
 
-    __slots__ = ("forecasts", "statics", "left_out", "relevant")
+    __slots__ = ("forecasts", "statics", "left_out", "relevant", "walls", "walls_left_out")
 
-    def __init__(self, forecasts, statics, left_out: int, relevant: frozenset = frozenset()):
+    def __init__(self, forecasts, statics, left_out: int, relevant: frozenset = frozenset(), walls=(),
+                 walls_left_out: int = 0):
         self.forecasts, self.statics, self.left_out, self.relevant = forecasts, statics, left_out, relevant
+        self.walls, self.walls_left_out = walls, walls_left_out
+
+
+def select_walls(x0: np.ndarray, walls, config: PlannerConfig, path_xy: np.ndarray | None = None
+                 ) -> tuple[list, int]:
+    """The wall segments that fill the NLP's ``max_walls`` slots: every segment of the
+    polylines ``walls`` (``(x, y)`` points each), the nearest to the robot's predicted path
+    (and to the robot now) first; and how many within ``relevance_range_m`` of it did not
+    fit (counted: they are still in the check layer)."""
+    segs = np.array([(*a, *b) for pts in walls for a, b in zip(pts[:-1], pts[1:])], dtype=float).reshape(-1, 4)
+    if not len(segs) or config.max_walls == 0:
+        return [], 0
+    pts = np.asarray(x0[:2], dtype=float)[None] if path_xy is None else np.vstack([x0[:2], np.asarray(path_xy)[:, :2]])
+    a, ab = segs[:, :2], segs[:, 2:] - segs[:, :2]
+    t = np.clip(((pts[:, None, :] - a) * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12), 0.0, 1.0)
+    d = np.hypot(*(pts[:, None, :] - (a + t[..., None] * ab)).transpose(2, 0, 1)).min(axis=0)
+    order = np.argsort(d, kind="stable")
+    chosen = order[:config.max_walls]
+    left_out = int(np.count_nonzero(d[order[config.max_walls:]] < config.relevance_range_m))
+    return [tuple(segs[k]) for k in chosen], left_out
 
 
 def select_obstacles(x0: np.ndarray, forecasts, statics, config: PlannerConfig,
@@ -105,15 +128,18 @@ def goal_weights(ref_poses: np.ndarray, config: PlannerConfig) -> np.ndarray | N
 
 
 def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts, statics, config: PlannerConfig,
-                       path_xy: np.ndarray | None = None) -> tuple[np.ndarray, Selection]:
+                       path_xy: np.ndarray | None = None, walls=()) -> tuple[np.ndarray, Selection]:
     """The NLP parameter vector of one tick and the obstacles in it: :func:`select_obstacles`,
     packed by the problem's parameter ``layout`` (:meth:`casadi_gpc.problem.cost.ParameterLayout.pack`).
 
     ``ref_poses``: the desired poses ``[x_m, y_m, heading_rad]`` at steps 0..H, shape
-    (H + 1, 3) (step 0: where the reference point is now). Returns the parameters and the
-    selection.
+    (H + 1, 3) (step 0: where the reference point is now). ``walls``: the map's polylines
+    (:attr:`casadi_gpc.types.Observation.walls`), for an NLP with wall slots. Returns the
+    parameters and the selection.
     """
     sel = select_obstacles(x0, forecasts, statics, config, path_xy)
+    if walls and config.max_walls:
+        sel.walls, sel.walls_left_out = select_walls(x0, walls, config, path_xy)
     return pack_selection(layout, x0, ref_poses, sel, config), sel
 
 
@@ -125,4 +151,4 @@ def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Sel
     NLP: an empty slot's terms are exact zeros, so the answer is the same)."""
     ref = np.asarray(ref_poses, dtype=float)
     return layout.pack(x0, ref[1:], selection.forecasts, selection.statics, config.uncertainty_scale_m,
-                       goal_weights(ref, config))
+                       goal_weights(ref, config), getattr(selection, "walls", ()))

@@ -37,6 +37,15 @@ def add_preset_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"override the preset's horizon (1 to {MAX_HORIZON}; default: the preset's)")
 
 
+def with_wall_slots(config, scenarios):
+    """``config`` with the NLP's wall slots (:data:`casadi_gpc.config.WALL_SLOTS`) when any
+    of ``scenarios`` has walls: a run without walls keeps the NLP it always had."""
+    from casadi_gpc.config import WALL_SLOTS
+    if config.max_walls or not any(getattr(s, "walls", ()) for s in scenarios):
+        return config
+    return config.with_overrides(max_walls=WALL_SLOTS)
+
+
 def planner_config(args):
     cfg = preset(args.preset)
     if args.sample_time is not None and not args.sample_time > 0:

@@ -1,0 +1,98 @@
+"""The planner's NLP and walls: wall-segment slots only where a run has walls, the penalty at
+the segment's nearest point (the same as a static disc of no radius there), the nearest
+segments chosen, and no fixed guess through a wall."""
+from __future__ import annotations
+
+import tomllib
+
+import numpy as np
+import pytest
+
+casadi = pytest.importorskip("casadi")
+
+from casadi_gpc.config import WALL_SLOTS, preset  # noqa: E402
+from casadi_gpc.planner.guesses import crosses_walls  # noqa: E402
+from casadi_gpc.problem.cost import ParameterLayout, build_problem  # noqa: E402
+from casadi_gpc.problem.selection import select_walls  # noqa: E402
+from casadi_gpc.robot import RobotParams  # noqa: E402
+from casadi_gpc.types import StaticObstacle  # noqa: E402
+from gpcnav.commands.common import with_wall_slots  # noqa: E402
+from scenarios import scenario_from_dict  # noqa: E402
+
+CFG = preset("improved")
+
+
+def test_a_run_without_walls_keeps_its_nlp():
+    assert CFG.max_walls == 0 and preset("paper").max_walls == 0
+    assert ParameterLayout(12, 10, 3).size == ParameterLayout(12, 10, 3, 0).size
+    assert "wall_ab" not in ParameterLayout(12, 10, 3).blocks
+    plain = scenario_from_dict(tomllib.loads(BASE), "t")
+    walled = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[-1.0, 1.2], [9.0, 1.2]]\n"), "t")
+    assert with_wall_slots(CFG, [plain]) is CFG
+    assert with_wall_slots(CFG, [plain, walled]).max_walls == WALL_SLOTS
+
+
+BASE = """
+name = "w"
+duration_s = 30.0
+[robot]
+position = [0.0, 0.0]
+heading_deg = 0.0
+[reference]
+position = [0.0, 0.0]
+heading_deg = 0.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 6.0
+"""
+
+
+def test_a_wall_costs_what_a_static_point_costs_at_its_nearest_point():
+    """The same robot path, priced once with a wall segment and once with a static obstacle of
+    no radius at the segment's point nearest each state: the obstacle terms agree (the wall's
+    nearest point moves with the robot, so the comparison is made one state at a time)."""
+    cfg = CFG.with_overrides(horizon=1, max_walls=1, max_moving=1, max_static=1)
+    prob = build_problem(cfg, RobotParams())
+    x0 = np.array([0.0, 0.0, 0.0, 0.3, 0.3])
+    ref = np.array([[0.2, 0.0, 0.0]])
+    u = np.array([0.05, 0.02])
+    wall = [(1.0, -1.0, 1.0, 2.0)]
+    pw = prob.layout.pack(x0, ref, walls=wall)
+    poses = np.asarray(prob.rollout_fn(u, pw)[0]).reshape(-1, 3)
+    nearest = (1.0, float(np.clip(poses[0, 1], -1.0, 2.0)))
+    ps = prob.layout.pack(x0, ref, statics=[StaticObstacle(nearest, 1e-9)])
+    tw, ts = prob.terms_fn(u, pw), prob.terms_fn(u, ps)
+    assert float(tw[3]) == pytest.approx(float(ts[3]), rel=1e-6)       # obstacle term
+    assert float(tw[4]) == pytest.approx(float(ts[4]), rel=1e-6, abs=1e-12)  # margin term
+    assert float(tw[3]) > 0.0
+
+
+def test_the_nearest_segments_fill_the_slots_and_the_rest_are_counted():
+    cfg = CFG.with_overrides(max_walls=2)
+    walls = (((0.0, 1.0), (10.0, 1.0), (10.0, 5.0)), ((0.0, -1.0), (10.0, -1.0)), ((30.0, 0.0), (31.0, 0.0)))
+    chosen, left_out = select_walls(np.zeros(5), walls, cfg)
+    assert sorted(chosen) == sorted([(0.0, 1.0, 10.0, 1.0), (0.0, -1.0, 10.0, -1.0)])
+    assert left_out == 0
+    chosen, left_out = select_walls(np.zeros(5), walls, CFG.with_overrides(max_walls=1))
+    assert len(chosen) == 1 and left_out == 1        # the other 1 m away is relevant and left out
+
+
+def test_a_guess_through_a_wall_is_known():
+    robot = RobotParams()
+    x0 = np.array([0.0, 0.0, 0.0, 0.4, 0.4])
+    straight = np.zeros(2 * CFG.horizon)            # 0.4 m/s for 6 s: to x = 2.4
+    assert crosses_walls(CFG, robot, x0, straight, [(2.0, -1.0, 2.0, 1.0)])
+    assert not crosses_walls(CFG, robot, x0, straight, [(3.0, -1.0, 3.0, 1.0)])
+    assert not crosses_walls(CFG, robot, x0, straight, [(0.0, 1.0, 5.0, 1.0)])
+
+
+def test_the_planner_keeps_off_a_wall_it_is_driven_at():
+    """A corridor that narrows: the reference runs 0.2 m from a wall that juts in; with the
+    wall in its NLP the GPC (bare, no check layer) keeps its disc off it."""
+    from casadi_gpc.planner.gpc import GPCController
+    from scenarios.simulator import simulate
+    sc = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[2.0, 0.55], [4.0, 0.55]]\n"), "t")
+    log = simulate(sc, GPCController(with_wall_slots(CFG, [sc]), sc.robot))
+    assert log.outcome == "reached_goal" and log.min_clearance_m > 0.05
+    blind = simulate(sc, GPCController(CFG, sc.robot))
+    assert blind.min_clearance_m < log.min_clearance_m

@@ -3,7 +3,8 @@
 Dimensions are a building's, not a toy's (docs/scenarios.md gives the reasons):
 
 - ``corridor``: two walls 2.5 m apart (corridors of offices and hospitals are 1.8 to 3 m
-  wide), 16 m long; the robot drives 10 m down the middle. The people walk the corridor both
+  wide), 30 m long; the robot drives 10 m down the middle. Every wall runs on well beyond
+  where anyone goes, as a building's do: there is no way round it within the time limit. The people walk the corridor both
   ways: half towards the robot, half its way ahead of it.
 - ``doorway``: a wall across the robot's 10 m path with a 1.2 m gap at its middle (a wide
   door, or a double door half open: wide enough for the robot and one person, not two). The
@@ -51,7 +52,7 @@ start."""
 
 def _corridor(rng, k: int, n: int):
     half = CORRIDOR_WIDTH_M / 2
-    walls = (Wall(((-3.0, half), (13.0, half))), Wall(((-3.0, -half), (13.0, -half))))
+    walls = (Wall(((-10.0, half), (20.0, half))), Wall(((-10.0, -half), (20.0, -half))))
     lane = half - PERSON_RADIUS_M - WALL_GAP_M
     if k % 2 == 0:   # towards the robot
         path = [(rng.uniform(2.0, 12.0), rng.uniform(-lane, lane)), (-2.5, rng.uniform(-lane, lane))]
@@ -62,7 +63,7 @@ def _corridor(rng, k: int, n: int):
 
 def _doorway(rng, k: int, n: int):
     gap = DOOR_WIDTH_M / 2
-    walls = (Wall(((5.0, -6.0), (5.0, -gap))), Wall(((5.0, gap), (5.0, 6.0))))
+    walls = (Wall(((5.0, -15.0), (5.0, -gap))), Wall(((5.0, gap), (5.0, 15.0))))
     side = -1.0 if k % 2 == 0 else 1.0   # which side of the wall the person starts on
     lane = gap - PERSON_RADIUS_M        # through the door, clear of its posts
     start = (5.0 + side * rng.uniform(1.0, 4.5), rng.uniform(-4.0, 4.0))
@@ -73,8 +74,8 @@ def _doorway(rng, k: int, n: int):
 
 def _corner(rng, k: int, n: int):
     w = CORRIDOR_WIDTH_M
-    outer = Wall(((-1.5, -w / 2), (5.0 + w / 2, -w / 2), (5.0 + w / 2, 10.0)))
-    inner = Wall(((-1.5, w / 2), (5.0 - w / 2, w / 2), (5.0 - w / 2, 10.0)))
+    outer = Wall(((-10.0, -w / 2), (5.0 + w / 2, -w / 2), (5.0 + w / 2, 18.0)))
+    inner = Wall(((-10.0, w / 2), (5.0 - w / 2, w / 2), (5.0 - w / 2, 18.0)))
     lane = w / 2 - PERSON_RADIUS_M - WALL_GAP_M
     turn = (5.0 + rng.uniform(-lane, lane), rng.uniform(-lane, lane))
     if k % 2 == 0:   # comes round the corner towards the robot

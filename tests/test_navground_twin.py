@@ -75,3 +75,16 @@ def test_the_acceleration_limit_bounds_each_wheel(write_scenario):
         assert np.all(np.abs(wheels - last) <= a * TIME_STEP_S + 1e-4)
         last = wheels
     assert last.mean() > 0.3  # and it does speed up
+
+
+def test_the_orca_peer_runs_navground_s_own_time_horizons():
+    """gpcnav's `orca` and navground's ORCA as a navground user runs it share their horizons
+    (10 s for agents and static obstacles): CrowdNav's 5 s made the peer collide with blind
+    walkers several times as often as navground's ORCA (docs/peers.md)."""
+    from navground import core
+
+    from gpcnav.peers.navground_peer import OrcaSettings
+    orca = core.Behavior.make_type("ORCA")
+    settings = OrcaSettings()
+    assert settings.time_horizon_s == pytest.approx(orca.get("time_horizon"))
+    assert settings.static_time_horizon_s == pytest.approx(orca.get("static_time_horizon"))

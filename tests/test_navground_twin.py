@@ -88,3 +88,30 @@ def test_the_orca_peer_runs_navground_s_own_time_horizons():
     settings = OrcaSettings()
     assert settings.time_horizon_s == pytest.approx(orca.get("time_horizon"))
     assert settings.static_time_horizon_s == pytest.approx(orca.get("static_time_horizon"))
+
+
+def test_navground_s_own_gpc_experiment_is_the_exported_scene():
+    """docs/navground/antipodal_gpc_robot.yaml (navground's runner, agent 0 ``type: GPC``) puts
+    every agent of run s where tools/export_navground_scenario.py puts it for seed s."""
+    import importlib.util
+
+    import yaml
+    from navground import core, sim
+
+    from conftest import REPO
+    spec = importlib.util.spec_from_file_location("export_navground_scenario",
+                                                  REPO / "tools" / "export_navground_scenario.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    core.load_plugins()
+    experiment = yaml.safe_load((REPO / "docs" / "navground" / "antipodal_gpc_robot.yaml").read_text())
+    assert experiment["run_index"] == 1 and experiment["runs"] == 200
+    scenario = sim.load_scenario(yaml.safe_dump(experiment["scenario"]))
+    for seed in (1, 2, 200):
+        ours = sim.World()
+        scenario.init_world(ours, seed=seed)
+        exported = tool.antipodal_world(7, 4.0, 0.3, 0.4, 0.1, seed)
+        assert [a.behavior.type for a in ours.agents] == ["GPC"] + ["ORCA"] * 6
+        for a, b in zip(ours.agents, exported.agents):
+            assert np.asarray(a.position) == pytest.approx(np.asarray(b.position), abs=1e-6)
+            assert np.asarray(a.task.waypoints[0]) == pytest.approx(np.asarray(b.task.waypoints[0]), abs=1e-6)

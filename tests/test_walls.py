@@ -196,3 +196,13 @@ def test_the_building_suites_are_seeded_buildings_with_people_in_them(kind):
     xy = ep.world.positions(np.arange(0.0, 20.0, 0.1)).reshape(-1, 2)
     xy = xy[np.isfinite(xy[:, 0])]
     assert min(w.distance_m(xy).min() for w in a.walls) >= 0.3 - 0.02   # the walkers keep off the walls
+
+
+def test_the_navground_peers_are_given_the_walls():
+    """A peer (navground's ORCA) driven at a wall across its path stops short of it: navground
+    takes the walls as line obstacles."""
+    from casadi_gpc.config import preset
+    from gpcnav.controllers import ControllerSpec, make
+    sc = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[3.0, -3.0], [3.0, 3.0]]\n"), "t")
+    log = simulate(sc, make(ControllerSpec("orca"), preset("improved"), sc.robot))
+    assert log.outcome != "collided" and log.min_clearance_m > 0.0

@@ -217,6 +217,7 @@ class NavgroundPeer:
             b.set(name, value)
         self._behaviour, self._kinematics = b, kin
         self._reference = None
+        self._walls, self._lines = None, []
         self.counters = {"missed_measurements": 0, "outliers": 0, "unestimated_tracks": 0, "acceleration_limited": 0}
         self.bank = TrackBank(s.sample_time_s, EKFSettings().for_sample_time(s.sample_time_s), self.counters)
 
@@ -255,6 +256,12 @@ class NavgroundPeer:
         b.environment_state.neighbors = self.neighbours(observation)
         b.environment_state.static_obstacles = [core.Disc(np.asarray(s.position_m, dtype=float), s.radius_m)
                                                 for s in observation.static]
+        if observation.walls:  # walls as navground takes them: line obstacles
+            if observation.walls is not self._walls:
+                self._walls = observation.walls
+                self._lines = [core.LineSegment(np.asarray(a, dtype=float), np.asarray(c, dtype=float))
+                               for pts in observation.walls for a, c in zip(pts[:-1], pts[1:])]
+            b.environment_state.line_obstacles = self._lines
         cmd = b.compute_cmd(self.sample_time_s, core.Frame.relative, True)
         left, right = self._kinematics.wheel_speeds(cmd)
         dv = r.max_step_change_mps(self.sample_time_s)

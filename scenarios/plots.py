@@ -6,6 +6,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
 __all__ = ["plot_run", "run_figure", "animate_run", "mover_colour"]
@@ -41,9 +42,10 @@ def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 
         ax.plot([x[k], x[k] + robot_radius_m * np.cos(h[k])], [y[k], y[k] + robot_radius_m * np.sin(h[k])],
                 color="tab:blue", lw=0.8)
         ax.annotate(f"{t[k]:.0f}", (x[k], y[k]), fontsize=6, color="tab:blue", ha="center", va="center")
-    for k, wall in enumerate(doc.get("walls", [])):
-        pts = np.asarray(wall["points"], dtype=float)
-        ax.plot(pts[:, 0], pts[:, 1], color="0.25", lw=3.0, solid_capstyle="butt", label="wall" if k == 0 else None)
+    walls = [np.asarray(w["points"], dtype=float) for w in doc.get("walls", [])]
+    if walls:  # walls run on beyond where anyone goes: they do not set the view (autolim off)
+        ax.add_collection(LineCollection(walls, colors="0.25", linewidths=3.0, capstyle="butt", label="wall"),
+                          autolim=False)
     obstacles = doc.get("obstacles", [])
     n_moving = sum(o["kind"] == "moving" for o in obstacles)
     crowd = n_moving > len(_OBSTACLE_COLOURS)

@@ -99,6 +99,21 @@ class _Reader:
         if abs(v) > largest:
             self.fail(name, f"must be at most {largest:g} in magnitude, got {v:g}")
 
+    def rows(self, v, name: str, width: int, plural: str, one: str) -> list:
+        """``v`` as a list of at least two rows of ``width`` finite numbers each (a track's
+        ``[t, x, y]`` rows, a wall's ``[x, y]`` points), or a one-line refusal."""
+        if not isinstance(v, list):
+            self.fail(name, f"must be a list of {plural}")
+        if len(v) < 2:
+            self.fail(name, f"needs at least two {plural.split()[-1]}, got {len(v)}")
+        for k, row in enumerate(v):
+            if not isinstance(row, list) or len(row) != width or any(
+                    isinstance(c, bool) or not isinstance(c, (int, float)) for c in row):
+                self.fail(f"{name}[{k}]", f"must be {one}")
+            for c in row:
+                self._bounded(f"{name}[{k}]", c, LARGEST)
+        return v
+
     def array_of_tables(self, data: dict, key: str) -> list:
         v = data.get(key, [])
         if not isinstance(v, list) or not all(isinstance(t, dict) for t in v):
@@ -241,20 +256,9 @@ def _track_mover(r: _Reader, ob: dict, f: str) -> TrackSpec:
         r.fail(f"{f}.sees_robot", f"must be true or false, got {type(sees).__name__}")
     if sees and behaviour == "replay":
         r.fail(f"{f}.sees_robot", "a replayed track cannot give way (sees_robot is for orca and social_force)")
-    rows = ob["track"]
     name = f"{f}.track"
-    if not isinstance(rows, list):
-        r.fail(name, "must be a list of [t_s, x_m, y_m] rows")
-    if len(rows) < 2:
-        r.fail(name, f"needs at least two rows, got {len(rows)}")
     out = []
-    for k, row in enumerate(rows):
-        if not isinstance(row, list) or len(row) != 3:
-            r.fail(f"{name}[{k}]", "must be a row of three numbers [t_s, x_m, y_m]")
-        for c in row:
-            if isinstance(c, bool) or not isinstance(c, (int, float)):
-                r.fail(f"{name}[{k}]", "must be a row of three numbers [t_s, x_m, y_m]")
-            r._bounded(f"{name}[{k}]", c, LARGEST)
+    for k, row in enumerate(r.rows(ob["track"], name, 3, "[t_s, x_m, y_m] rows", "a row of three numbers [t_s, x_m, y_m]")):
         if row[0] < 0:
             r.fail(f"{name}[{k}]", f"time must not be negative, got {row[0]}")
         if out and not row[0] > out[-1][0]:
@@ -266,19 +270,9 @@ def _track_mover(r: _Reader, ob: dict, f: str) -> TrackSpec:
 def _wall(r: _Reader, table, f: str) -> Wall:
     """One ``[[walls]]`` table: a polyline of at least two points, no segment of zero length."""
     r.table(table, f, {"points"}, {"points"})
-    pts = table["points"]
     name = f"{f}.points"
-    if not isinstance(pts, list):
-        r.fail(name, "must be a list of [x, y] points")
-    if len(pts) < 2:
-        r.fail(name, f"needs at least two points, got {len(pts)}")
     out = []
-    for k, pt in enumerate(pts):
-        if not isinstance(pt, list) or len(pt) != 2 or any(isinstance(c, bool) or not isinstance(c, (int, float))
-                                                           for c in pt):
-            r.fail(f"{name}[{k}]", "must be a point of two numbers [x, y]")
-        for c in pt:
-            r._bounded(f"{name}[{k}]", c, LARGEST)
+    for k, pt in enumerate(r.rows(table["points"], name, 2, "[x, y] points", "a point of two numbers [x, y]")):
         if out and math.hypot(pt[0] - out[-1][0], pt[1] - out[-1][1]) == 0.0:
             r.fail(f"{name}[{k}]", "a segment of zero length (the same point twice in a row)")
         out.append((float(pt[0]), float(pt[1])))

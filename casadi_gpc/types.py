@@ -52,8 +52,9 @@ class Observation:
     static: tuple[StaticObstacle, ...] = ()
     walls: tuple[tuple[tuple[float, float], ...], ...] = ()
     """The map's walls, each a polyline of ``(x_m, y_m)`` points, known exactly. The check
-    layer judges every option against them (:mod:`casadi_gpc.safety.walls`); the planner and
-    the networks do not read them yet (docs/scenarios.md)."""
+    layer judges every option against them (:mod:`casadi_gpc.safety.walls`), the planner
+    plans with them when its NLP has wall slots (``PlannerConfig.max_walls``); the networks
+    do not read them yet (docs/buildings.md)."""
 
     def __post_init__(self):
         r = self.robot

@@ -1,8 +1,11 @@
-"""casadi_gpc: the robot model, obstacle EKF, the GPC planner, the simulator, metrics, plots.
+"""casadi_gpc: the robot's side. Its model and reference, estimation (the obstacle EKFs),
+the planner's problem, its solvers, the GPC planner and the check layer, in rooms that import
+downwards only: ``estimation/``, ``problem/``, ``solvers/``, ``planner/``, ``safety/``
+(docs/architecture.md). The world it is tested in is ``scenarios``.
 
-The numpy-only pieces (``robot``, ``reference``, ``ekf``, ``progress``, ``types``,
-``config``) import without CasADi, so the deployed policy can use them; the planner
-itself (``cost``, ``gpc``) needs CasADi and is imported lazily here.
+The numpy-only pieces (``robot``, ``reference``, ``estimation``, ``progress``, ``types``,
+``config``, ``safety``) import without CasADi, so the deployed policy can use them; the
+planner itself (``problem.cost``, ``planner.gpc``) needs CasADi and is imported lazily here.
 """
 from .config import DEFAULT_PRESET, PRESETS, PlannerConfig, preset
 from .estimation.ekf import EKFSettings, ObstacleEKF

@@ -1,4 +1,6 @@
-"""Scenario files, their loader and the random suites."""
+"""The world a robot is tested in: scenario files and their loader, the suites, recorded
+pedestrians and walls, the movers, the simulator, the measures and the plots
+(docs/architecture.md)."""
 from pathlib import Path
 
 from .loader import ScenarioError, load_scenario, scenario_from_dict

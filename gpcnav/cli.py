@@ -1,6 +1,6 @@
 """gpcnav: one command, one subcommand per job. README.md says how to start; docs/ documents
 the model, the assumptions, scenarios and suites, the solvers, the network, faults and the
-safety filter, and the architecture."""
+check layer, real pedestrians, buildings, and the architecture."""
 from __future__ import annotations
 
 import argparse

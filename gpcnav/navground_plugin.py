@@ -50,7 +50,7 @@ from navground import core
 from casadi_gpc.robot import RobotParams, RobotState, brake_wheels
 from casadi_gpc.types import Observation
 
-from .navground_state import NeighbourTracks, reference_to_target, static_obstacles, target_key
+from .navground_state import NeighbourTracks, reference_to_target, static_obstacles, target_key, walls
 
 __all__ = ["GPCBehavior", "GPCNetworkBehavior", "WHEELED_KINEMATICS"]
 
@@ -82,6 +82,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self._preset = "improved"
         self._max_wheel_acceleration = RobotParams().max_wheel_accel_mps2
         self._controller = None
+        self._with_walls = False
         self._robot: RobotParams | None = None
         self._neighbours = NeighbourTracks()
         self._clock_s = 0.0
@@ -142,12 +143,18 @@ class GPCBehavior(core.Behavior, name="GPC"):
         from .controllers import ControllerSpec
         return ControllerSpec(self.controller_name)
 
-    def make_controller(self):
-        """The controller, made now (CasADi or onnxruntime load here) for this agent's robot."""
-        from casadi_gpc.config import preset
+    def make_controller(self, with_walls: bool = False):
+        """The controller, made now (CasADi or onnxruntime load here) for this agent's robot;
+        ``with_walls``: its planner with wall-segment slots (:data:`casadi_gpc.config.WALL_SLOTS`),
+        for a world with line obstacles."""
+        from casadi_gpc.config import WALL_SLOTS, preset
         from .controllers import make
         self._robot = self.robot_params()
-        self._controller = make(self.controller_spec(), preset(self._preset), self._robot)
+        config = preset(self._preset)
+        self._with_walls = bool(with_walls)
+        if with_walls:
+            config = config.with_overrides(max_walls=WALL_SLOTS)
+        self._controller = make(self.controller_spec(), config, self._robot)
         self._reset_target()
         return self._controller
 
@@ -199,6 +206,10 @@ class GPCBehavior(core.Behavior, name="GPC"):
         now = self._clock_s
         self._clock_s += dt
         moving = self._neighbours.update(self._state.neighbors, dt)
+        lines = walls(self._state.line_obstacles)
+        if lines and not self._with_walls:  # a world with walls: the planner gets its wall slots, once
+            self.make_controller(with_walls=True)
+            controller = self._controller
         self._follow(now)
         left_now, right_now = (float(w) for w in self.actuated_wheel_speeds)
         current = (right_now, left_now)
@@ -209,7 +220,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
             x, y = (float(c) for c in self.position)
             obs = Observation(now - self._reference_start_s, RobotState(x, y, float(self.orientation), *current),
                               self._reference, moving,
-                              static_obstacles(self._state.static_obstacles, self._state.line_obstacles, (x, y)))
+                              static_obstacles(self._state.static_obstacles), lines)
             self.last_decision = d = controller.decide(obs)
             self._wheels = self._limited(d.v_right_mps, d.v_left_mps, current, T)
             while self._next_decision_s <= now + 1e-9:

@@ -16,14 +16,7 @@ import numpy as np
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.types import ObstacleMeasurement, StaticObstacle
 
-__all__ = ["NeighbourTracks", "reference_to_target", "target_key", "static_obstacles", "LINE_POINT_RADIUS_M",
-           "PATH_STEP_M"]
-
-LINE_POINT_RADIUS_M = 0.0
-"""A line obstacle (navground's ``LineSegment``, a wall of no thickness) enters the controller
-as the disc of this radius at its point nearest the robot, found again at every decision:
-gpcnav's controllers take discs (three static slots in the planner), and the nearest point
-is what a wall's clearance is measured to."""
+__all__ = ["NeighbourTracks", "reference_to_target", "target_key", "static_obstacles", "walls", "PATH_STEP_M"]
 
 PATH_STEP_M = 0.1
 """A navground path target is followed as a reference of pieces this long, each turning as
@@ -76,19 +69,18 @@ def reference_to_target(target, xy_m, speed_mps: float) -> ReferencePath | None:
                          float(speed_mps))
 
 
-def static_obstacles(discs, lines, xy_m) -> tuple[StaticObstacle, ...]:
-    """navground's static discs, and each line segment as its point nearest ``xy_m``
-    (:data:`LINE_POINT_RADIUS_M`)."""
-    out = [StaticObstacle((float(d.position[0]), float(d.position[1])), float(d.radius)) for d in discs]
-    p = np.asarray(xy_m, dtype=float)
-    for line in lines:
-        a, b = np.asarray(line.p1, dtype=float), np.asarray(line.p2, dtype=float)
-        ab = b - a
-        L2 = float(ab @ ab)
-        u = 0.0 if L2 == 0.0 else min(1.0, max(0.0, float((p - a) @ ab) / L2))
-        q = a + u * ab
-        out.append(StaticObstacle((float(q[0]), float(q[1])), LINE_POINT_RADIUS_M))
-    return tuple(out)
+def static_obstacles(discs) -> tuple[StaticObstacle, ...]:
+    """navground's static discs as gpcnav's static obstacles."""
+    return tuple(StaticObstacle((float(d.position[0]), float(d.position[1])), float(d.radius)) for d in discs)
+
+
+def walls(lines) -> tuple[tuple[tuple[float, float], ...], ...]:
+    """navground's line obstacles (``LineSegment``, walls of no thickness) as gpcnav's walls
+    (:attr:`casadi_gpc.types.Observation.walls`): each segment a polyline of two points. The
+    check layer judges every option against them, and the planner plans with them once its
+    NLP has wall slots."""
+    return tuple(((float(line.p1[0]), float(line.p1[1])), (float(line.p2[0]), float(line.p2[1])))
+                 for line in lines if float(np.hypot(*(np.asarray(line.p2) - np.asarray(line.p1)))) > 0.0)
 
 
 class NeighbourTracks:

@@ -22,7 +22,7 @@ sim = pytest.importorskip("navground.sim")
 from conftest import REPO  # noqa: E402
 from casadi_gpc.types import ControlDecision  # noqa: E402
 from gpcnav.navground_plugin import GPCBehavior  # noqa: E402
-from gpcnav.navground_state import NeighbourTracks, reference_to_target, static_obstacles  # noqa: E402
+from gpcnav.navground_state import NeighbourTracks, reference_to_target, static_obstacles, walls  # noqa: E402
 from test_deploy_isolation import BLOCKER  # noqa: E402
 
 EXAMPLE = REPO / "docs" / "navground" / "antipodal_gpc.yaml"
@@ -56,11 +56,11 @@ def test_a_path_target_is_followed_along_the_path_from_the_robot_s_projection():
     assert {round(s.curvature_1pm, 4) for s in ref.segments} == {0.5}
 
 
-def test_discs_pass_and_a_line_segment_is_its_point_nearest_the_robot():
+def test_discs_pass_and_line_segments_are_walls():
     disc, line = core.Disc([3.0, 3.0], 0.4), core.LineSegment([0.0, 0.0], [2.0, 0.0])
-    inside = static_obstacles([disc], [line], (1.0, 1.5))
-    assert [(o.position_m, o.radius_m) for o in inside] == [((3.0, 3.0), pytest.approx(0.4)), ((1.0, 0.0), 0.0)]
-    assert static_obstacles([], [line], (3.0, 1.0))[0].position_m == (2.0, 0.0)    # past its end
+    assert [(o.position_m, o.radius_m) for o in static_obstacles([disc])] == [((3.0, 3.0), pytest.approx(0.4))]
+    assert walls([line]) == (((0.0, 0.0), (2.0, 0.0)),)
+    assert walls([core.LineSegment([1.0, 1.0], [1.0, 1.0])]) == ()     # no length: no wall
 
 
 def test_neighbours_keep_their_ids_whatever_their_order_and_a_newcomer_gets_a_new_one():

@@ -10,8 +10,6 @@ import re
 import tomllib
 from pathlib import Path
 
-import numpy as np
-
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState
 from casadi_gpc.types import StaticObstacle

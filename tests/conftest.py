@@ -22,6 +22,20 @@ def straight_line_toml(name: str, duration_s: float = 30.0, line_m: float = 4.0,
             f"[[reference.segments]]\nline_m = {line_m}\n{extra}")
 
 
+def assert_refused_in_one_line(path: Path, words: str, capsys) -> None:
+    """The scenario file ``path`` is refused by the loader with a ``ScenarioError`` that says
+    ``words``, and by ``gpcnav simulate`` with exit 2 and one line saying them, no traceback."""
+    import re
+
+    from gpcnav.cli import main
+    from scenarios import ScenarioError, load_scenario
+    with pytest.raises(ScenarioError, match=re.escape(words)):
+        load_scenario(path)
+    assert main(["simulate", str(path), "--controller", "stand"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and words in err and "Traceback" not in err
+
+
 @pytest.fixture
 def write_scenario(tmp_path):
     """``write_scenario(text, name="scenario.toml") -> Path``: a scenario file in a temp dir."""

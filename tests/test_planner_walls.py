@@ -11,6 +11,7 @@ import pytest
 casadi = pytest.importorskip("casadi")
 
 from casadi_gpc.config import WALL_SLOTS, preset  # noqa: E402
+from conftest import straight_line_toml  # noqa: E402
 from casadi_gpc.planner.guesses import crosses_walls  # noqa: E402
 from casadi_gpc.problem.cost import ParameterLayout, build_problem  # noqa: E402
 from casadi_gpc.problem.selection import select_walls  # noqa: E402
@@ -32,19 +33,7 @@ def test_a_run_without_walls_keeps_its_nlp():
     assert with_wall_slots(CFG, [plain, walled]).max_walls == WALL_SLOTS
 
 
-BASE = """
-name = "w"
-duration_s = 30.0
-[robot]
-position = [0.0, 0.0]
-heading_deg = 0.0
-[reference]
-position = [0.0, 0.0]
-heading_deg = 0.0
-speed_mps = 0.4
-[[reference.segments]]
-line_m = 6.0
-"""
+BASE = straight_line_toml("w", 30.0, 6.0)
 
 
 def test_a_wall_costs_what_a_static_point_costs_at_its_nearest_point():

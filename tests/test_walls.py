@@ -3,32 +3,20 @@ check against the polyline, walkers that avoid walls (navground's line obstacles
 document and the plots. The controllers' side of walls is not here yet (issue: walls)."""
 from __future__ import annotations
 
-import re
 import tomllib
 
 import numpy as np
 import pytest
 
 from casadi_gpc.types import ControlDecision
+from conftest import assert_refused_in_one_line, straight_line_toml
 from gpcnav.cli import main
-from scenarios import ScenarioError, load_scenario, scenario_from_dict
+from scenarios import scenario_from_dict
 from scenarios.metrics import run_document
 from scenarios.model import Wall
 from scenarios.simulator import Episode, simulate
 
-BASE = """
-name = "walls"
-duration_s = 20.0
-[robot]
-position = [0.0, 0.0]
-heading_deg = 0.0
-[reference]
-position = [0.0, 0.0]
-heading_deg = 0.0
-speed_mps = 0.4
-[[reference.segments]]
-line_m = 6.0
-"""
+BASE = straight_line_toml("walls", 20.0, 6.0)
 
 
 class _Drive:
@@ -59,11 +47,7 @@ def test_bad_wall_refused_in_one_line_with_exit_2(case, tmp_path, capsys):
     body, words = BAD[case]
     f = tmp_path / "bad.toml"
     f.write_text(BASE + "[[walls]]\n" + body + "\n")
-    with pytest.raises(ScenarioError, match=re.escape(words)):
-        load_scenario(f)
-    assert main(["simulate", str(f), "--controller", "stand"]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and words in err and "Traceback" not in err
+    assert_refused_in_one_line(f, words, capsys)
 
 
 def test_distance_to_a_polyline_is_exact():

@@ -21,7 +21,6 @@ Usage: ``python tools/forecast_accuracy.py [RECORDING ...] [--out docs/data/pede
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 

@@ -6,6 +6,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from casadi_gpc.geometry import distance_to_segments_m
+
 from .simulator import RunLog
 
 __all__ = ["EpisodeMetrics", "episode_metrics", "path_deviation_m", "same_instant_deviation_m", "passing_sides",
@@ -53,13 +55,9 @@ def intervention_count(events: dict) -> int:
 
 
 def _point_to_polyline_m(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance from each point (n, 2) to the polyline ``poly`` (m, 2)."""
-    if len(poly) == 1:
-        return np.hypot(*(points - poly[0]).T)
-    a, ab = poly[:-1], np.diff(poly, axis=0)
-    t = ((points[:, None, :] - a[None]) * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-18)
-    q = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
-    return np.min(np.linalg.norm(points[:, None, :] - q, axis=-1), axis=1)
+    """Distance from each point (n, 2) to the polyline ``poly`` (m, 2) (one point: to it)."""
+    a, b = (poly, poly) if len(poly) == 1 else (poly[:-1], poly[1:])
+    return distance_to_segments_m(points, a, b).min(axis=1)
 
 
 def path_deviation_m(xy_a, xy_b) -> float:

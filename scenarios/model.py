@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from casadi_gpc.geometry import distance_to_segments_m, nearest_on_segments
 from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotParams, RobotState, arc_step
 from casadi_gpc.types import StaticObstacle
@@ -138,19 +139,15 @@ class Wall:
 
     def nearest_point(self, xy) -> np.ndarray:
         """The point of the polyline nearest to each point of ``xy`` (``(..., 2)``)."""
-        q = np.asarray(xy, dtype=float)[..., None, :]                       # (..., 1, 2)
         seg = self.segments
-        a, ab = seg[:, 0], seg[:, 1] - seg[:, 0]                            # (n, 2)
-        t = np.clip(((q - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)   # (..., n)
-        near = a + t[..., None] * ab                                        # (..., n, 2)
-        d = ((q - near) ** 2).sum(-1)
-        k = np.argmin(d, axis=-1)[..., None, None]
-        return np.take_along_axis(near, np.broadcast_to(k, k.shape[:-2] + (1, 2)), axis=-2)[..., 0, :]
+        near = nearest_on_segments(xy, seg[:, 0], seg[:, 1])                # (..., n, 2)
+        k = np.argmin(((np.asarray(xy, dtype=float)[..., None, :] - near) ** 2).sum(-1), axis=-1)
+        return np.take_along_axis(near, k[..., None, None], axis=-2)[..., 0, :]
 
     def distance_m(self, xy) -> np.ndarray:
         """Distance from each point of ``xy`` (``(..., 2)``) to the polyline."""
-        q = np.asarray(xy, dtype=float)
-        return np.hypot(*np.moveaxis(q - self.nearest_point(q), -1, 0))
+        seg = self.segments
+        return distance_to_segments_m(xy, seg[:, 0], seg[:, 1]).min(axis=-1)
 
 
 @dataclass(frozen=True)

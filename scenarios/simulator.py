@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .movers import MoverWorld
+from casadi_gpc.geometry import segments_cross
 from casadi_gpc.robot import RobotState, brake_wheels, robot_step
 from casadi_gpc.types import ControlDecision, ObstacleMeasurement, Observation, Policy
 
@@ -257,17 +258,8 @@ class Episode:
 
 def _blocked(p: np.ndarray, q: np.ndarray, segments: np.ndarray) -> np.ndarray:
     """Whether the line from ``p`` (2,) to each point of ``q`` (n, 2) crosses one of the
-    ``segments`` (m, 2, 2): both orientation tests change sign (touching counts as crossing)."""
-    a, b = segments[:, 0], segments[:, 1]                                   # (m, 2)
-
-    def cross(o, u, v):  # z of (u - o) x (v - o), broadcast
-        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
-    qq = q[:, None, :]                                                      # (n, 1, 2)
-    d1, d2 = cross(a, b, p[None, :]), cross(a, b, qq)                       # (m,), (n, m)
-    d3, d4 = cross(p[None, None, :], qq, a[None]), cross(p[None, None, :], qq, b[None])
-    with np.errstate(invalid="ignore"):
-        hit = (d1[None, :] * d2 <= 0) & (d3 * d4 <= 0)
-    return hit.any(axis=1)
+    ``segments`` (m, 2, 2) (touching counts)."""
+    return segments_cross(np.broadcast_to(p, q.shape), q, segments[:, 0], segments[:, 1]).any(axis=1)
 
 
 def _absent_far(gaps: np.ndarray) -> np.ndarray:

@@ -107,7 +107,8 @@ def test_the_world_lives_outside_the_robot():
               "casadi_gpc.solvers", "casadi_gpc.safety.shield"):
         assert m in mods, m
     tops = {n.split(".")[1] for n in mods if n.startswith("casadi_gpc.")}
-    assert tops <= set(ROOMS) | {"robot", "reference", "progress", "types", "config", "io", "pool", "buffered"}
+    assert tops <= set(ROOMS) | {"robot", "reference", "progress", "types", "config", "io", "pool", "buffered",
+                                 "geometry"}
 
 
 def test_no_import_circle():
@@ -152,7 +153,8 @@ def test_numpy_only_modules_import_without_casadi_or_torch():
     names = ["nn_export.runtime.layouts", "nn_export.runtime.situation", "nn_export.runtime.features",
              "nn_export.runtime.tracker", "nn_export.runtime.policy", "casadi_gpc.estimation",
              "casadi_gpc.estimation.tracking", "casadi_gpc.estimation.ekf_batch", "casadi_gpc.problem.selection",
-             "casadi_gpc.planner", "casadi_gpc.safety", "casadi_gpc.pool", "casadi_gpc.io", "casadi_gpc.robot"]
+             "casadi_gpc.planner", "casadi_gpc.safety", "casadi_gpc.pool", "casadi_gpc.io", "casadi_gpc.robot",
+             "casadi_gpc.geometry"]
     script = BLOCKER + "import importlib\n" + "".join(f"importlib.import_module({n!r})\n" for n in names) + \
         "print('OK')\n"
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120, cwd=REPO)

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from ..geometry import segments_cross
 from ..robot import robot_step_float
 
 __all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "brake_guess", "initial_guesses",
@@ -111,12 +112,5 @@ def crosses_walls(config, robot, x0, u0, segments) -> bool:
         vr, vl = vr + float(u0[2 * k]), vl + float(u0[2 * k + 1])
         x, y, th = robot_step_float(x, y, th, vr, vl, config.sample_time_s, robot.wheel_base_m)
         pts.append((x, y))
-    p, q = np.array(pts[:-1]), np.array(pts[1:])                            # (H, 2) chords
     seg = np.asarray(segments, dtype=float).reshape(-1, 4)
-    a, b = seg[:, :2], seg[:, 2:]
-
-    def cross(o, u, v):
-        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
-    d1, d2 = cross(a[None], b[None], p[:, None]), cross(a[None], b[None], q[:, None])
-    d3, d4 = cross(p[:, None], q[:, None], a[None]), cross(p[:, None], q[:, None], b[None])
-    return bool(np.any((d1 * d2 <= 0) & (d3 * d4 <= 0)))
+    return bool(segments_cross(pts[:-1], pts[1:], seg[:, :2], seg[:, 2:]).any())

@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from ..config import PlannerConfig
+from ..geometry import distance_to_segments_m
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["Selection", "select_obstacles", "select_walls", "planner_parameters", "pack_selection", "goal_weights",
@@ -69,9 +70,7 @@ def select_walls(x0: np.ndarray, walls, config: PlannerConfig, path_xy: np.ndarr
     if not len(segs) or config.max_walls == 0:
         return [], 0
     pts = np.asarray(x0[:2], dtype=float)[None] if path_xy is None else np.vstack([x0[:2], np.asarray(path_xy)[:, :2]])
-    a, ab = segs[:, :2], segs[:, 2:] - segs[:, :2]
-    t = np.clip(((pts[:, None, :] - a) * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12), 0.0, 1.0)
-    d = np.hypot(*(pts[:, None, :] - (a + t[..., None] * ab)).transpose(2, 0, 1)).min(axis=0)
+    d = distance_to_segments_m(pts, segs[:, :2], segs[:, 2:]).min(axis=0)
     order = np.argsort(d, kind="stable")
     chosen = order[:config.max_walls]
     left_out = int(np.count_nonzero(d[order[config.max_walls:]] < config.relevance_range_m))

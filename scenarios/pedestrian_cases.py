@@ -40,7 +40,7 @@ from casadi_gpc.robot import RobotParams, RobotState
 from .model import TRACK_BEHAVIOURS, Scenario, Sensing, TrackSpec
 from .recordings import Recording
 
-__all__ = ["CaseSpec", "cases", "case_scenario", "scenario_toml", "TASKS", "PEDESTRIAN_RADIUS_M",
+__all__ = ["CaseSpec", "cases", "case_scenario", "TASKS", "PEDESTRIAN_RADIUS_M",
            "REGION_SIDE_M", "PATH_LENGTH_M", "REFERENCE_SPEED_MPS", "DURATION_S", "MIN_PEOPLE",
            "CANDIDATE_EVERY_S", "START_CLEARANCE_M", "SENSING_RANGE_M"]
 
@@ -166,29 +166,3 @@ def case_scenario(rec: Recording, case: CaseSpec, behaviour: str = "replay", see
                     reference, RobotParams(), tuple(movers), (), Sensing(NOISE_STD_M, int(seed), SENSING_RANGE_M),
                     description=f"{rec.name}: {case.task}, from {case.start_s:.1f} s of the recording "
                                 f"(case protocol of scenarios.pedestrian_cases)")
-
-
-def _num(v: float) -> str:
-    return repr(float(v))
-
-
-def scenario_toml(sc: Scenario) -> str:
-    """A scenario made by :func:`case_scenario` as a scenario file (CONTRACT.md's format),
-    which :func:`scenarios.load_scenario` reads back into the same scenario."""
-    lines = [f'name = "{sc.name}"', f'description = "{sc.description}"', f"duration_s = {_num(sc.duration_s)}", "",
-             "[robot]", f"position = [{_num(sc.robot_start.x_m)}, {_num(sc.robot_start.y_m)}]",
-             f"heading_deg = {_num(math.degrees(sc.robot_start.heading_rad))}", "",
-             "[reference]", f"position = [{_num(sc.reference.start_xy_m[0])}, {_num(sc.reference.start_xy_m[1])}]",
-             f"heading_deg = {_num(math.degrees(sc.reference.start_heading_rad))}",
-             f"speed_mps = {_num(sc.reference.speed_mps)}"]
-    for seg in sc.reference.segments:
-        lines += ["[[reference.segments]]", f"line_m = {_num(seg.length_m)}"]
-    lines += ["", "[sensing]", f"position_noise_std_m = {_num(sc.sensing.position_noise_std_m)}",
-              f"seed = {sc.sensing.seed}", f"range_m = {_num(sc.sensing.range_m)}"]
-    for m in sc.moving:
-        rows = ", ".join(f"[{_num(t)}, {_num(x)}, {_num(y)}]" for t, x, y in m.track)
-        lines += ["", "[[moving_obstacles]]", f"radius_m = {_num(m.radius_m)}", f'behaviour = "{m.behaviour}"']
-        if m.behaviour != "replay":
-            lines.append(f"sees_robot = {'true' if m.sees_robot else 'false'}")
-        lines.append(f"track = [{rows}]")
-    return "\n".join(lines) + "\n"

@@ -190,3 +190,19 @@ def test_the_navground_peers_are_given_the_walls():
     sc = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[3.0, -3.0], [3.0, 3.0]]\n"), "t")
     log = simulate(sc, make(ControllerSpec("orca"), preset("improved"), sc.robot))
     assert log.outcome != "collided" and log.min_clearance_m > 0.0
+
+
+@pytest.mark.parametrize("kind", ["corridor", "doorway", "corner"])
+def test_a_scenario_written_back_reads_the_same(kind, tmp_path):
+    """scenarios.writer: the loader reads back what it writes (a building suite's scenario:
+    walls, track walkers, a reference with an arc)."""
+    from scenarios import Suite, load_scenario
+    from scenarios.writer import scenario_document, to_toml
+    sc = Suite(kind, 2, 3, 4).scenario(1)
+    f = tmp_path / "back.toml"
+    f.write_text(to_toml(scenario_document(sc)))
+    back = load_scenario(f)
+    assert back.moving == sc.moving and back.walls == sc.walls and back.sensing == sc.sensing
+    assert back.name == sc.name and back.duration_s == sc.duration_s and back.robot == sc.robot
+    assert back.reference.length_m == pytest.approx(sc.reference.length_m)
+    assert np.allclose(back.reference.end_pose, sc.reference.end_pose, atol=1e-9)

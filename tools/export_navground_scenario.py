@@ -27,7 +27,10 @@ import math
 import sys
 from pathlib import Path
 
-__all__ = ["antipodal_world", "antipodal_table", "to_toml", "export"]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from scenarios.writer import to_toml  # noqa: E402
+
+__all__ = ["antipodal_world", "antipodal_table", "export"]
 
 
 def antipodal_world(agents: int, radius_m: float, agent_radius_m: float, speed_mps: float, position_noise_m: float,
@@ -85,44 +88,6 @@ def antipodal_table(world, name: str, seed: int, behaviour: str = "orca", sees_r
             "goal": [_r(v) for v in agent.task.waypoints[0]],
             "preferred_speed_mps": _r(agent.behavior.optimal_speed), "sees_robot": bool(sees_robot)})
     return table
-
-
-def _value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(float(v)) if isinstance(v, float) else str(v)
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, list):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {type(v).__name__} to TOML")
-
-
-def to_toml(table: dict) -> str:
-    """The scenario file of :func:`antipodal_table` (its two levels of tables and arrays of
-    tables)."""
-    lines, sub = [], []
-    for key, v in table.items():
-        if isinstance(v, dict):
-            sub.append((key, v))
-        elif isinstance(v, list) and v and isinstance(v[0], dict):
-            sub.append((key, v))
-        elif not (isinstance(v, list) and not v):
-            lines.append(f"{key} = {_value(v)}")
-    for key, v in sub:
-        for item in (v if isinstance(v, list) else [v]):
-            lines += ["", f"[[{key}]]" if isinstance(v, list) else f"[{key}]"]
-            nested = []
-            for k, x in item.items():
-                if isinstance(x, list) and x and isinstance(x[0], dict):
-                    nested.append((k, x))
-                else:
-                    lines.append(f"{k} = {_value(x)}")
-            for k, items in nested:
-                for it in items:
-                    lines += [f"[[{key}.{k}]]"] + [f"{kk} = {_value(xx)}" for kk, xx in it.items()]
-    return "\n".join(lines) + "\n"
 
 
 def export(out: Path, count: int, seed: int, agents: int = 7, radius_m: float = 4.0, agent_radius_m: float = 0.3,

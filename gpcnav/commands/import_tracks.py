@@ -26,7 +26,8 @@ def add_arguments(p):
 
 def run(args) -> int:
     from scenarios import load_scenario
-    from scenarios.pedestrian_cases import case_scenario, cases, scenario_toml
+    from scenarios.pedestrian_cases import case_scenario, cases
+    from scenarios.writer import scenario_document, to_toml
     from scenarios.recordings import RecordingError, read_recording
     from casadi_gpc.io import write_text
     if args.seconds_per_frame is not None and not (math.isfinite(args.seconds_per_frame)
@@ -49,7 +50,7 @@ def run(args) -> int:
     for k, case in enumerate(found):
         sc = case_scenario(rec, case, args.behaviour, seed=k)
         path = args.out / f"{sc.name}.toml"
-        write_text(path, scenario_toml(sc))
+        write_text(path, to_toml(scenario_document(sc)))
     load_scenario(path)  # the last one read back: what was written is a valid scenario file
     print(f"{args.recording}: {len(rec.tracks)} tracks, {rec.end_s - rec.start_s:.0f} s "
           f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} cases written to {args.out}", file=sys.stdout)

@@ -121,6 +121,12 @@ class PlannerConfig:
     """Wall time one control step may spend solving; an answer later than this is not used
     and the step falls back (counted). None: the sample time."""
 
+    def for_walls(self, walls: bool) -> "PlannerConfig":
+        """These settings for a map with walls (``walls``): the NLP's wall slots
+        (:data:`WALL_SLOTS`) unless it has some; without walls, unchanged (the NLP it always
+        had)."""
+        return self.with_overrides(max_walls=WALL_SLOTS) if walls and not self.max_walls else self
+
     def with_overrides(self, **changes) -> "PlannerConfig":
         return replace(self, **{k: v for k, v in changes.items() if v is not None})
 

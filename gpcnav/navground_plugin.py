@@ -147,14 +147,11 @@ class GPCBehavior(core.Behavior, name="GPC"):
         """The controller, made now (CasADi or onnxruntime load here) for this agent's robot;
         ``with_walls``: its planner with wall-segment slots (:data:`casadi_gpc.config.WALL_SLOTS`),
         for a world with line obstacles."""
-        from casadi_gpc.config import WALL_SLOTS, preset
+        from casadi_gpc.config import preset
         from .controllers import make
         self._robot = self.robot_params()
-        config = preset(self._preset)
         self._with_walls = bool(with_walls)
-        if with_walls:
-            config = config.with_overrides(max_walls=WALL_SLOTS)
-        self._controller = make(self.controller_spec(), config, self._robot)
+        self._controller = make(self.controller_spec(), preset(self._preset).for_walls(self._with_walls), self._robot)
         self._reset_target()
         return self._controller
 

@@ -31,6 +31,7 @@ def test_a_run_without_walls_keeps_its_nlp():
     walled = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[-1.0, 1.2], [9.0, 1.2]]\n"), "t")
     assert with_wall_slots(CFG, [plain]) is CFG
     assert with_wall_slots(CFG, [plain, walled]).max_walls == WALL_SLOTS
+    assert CFG.for_walls(False) is CFG and CFG.for_walls(True).for_walls(True).max_walls == WALL_SLOTS
 
 
 BASE = straight_line_toml("w", 30.0, 6.0)

@@ -40,10 +40,7 @@ def add_preset_arguments(p: argparse.ArgumentParser) -> None:
 def with_wall_slots(config, scenarios):
     """``config`` with the NLP's wall slots (:data:`casadi_gpc.config.WALL_SLOTS`) when any
     of ``scenarios`` has walls: a run without walls keeps the NLP it always had."""
-    from casadi_gpc.config import WALL_SLOTS
-    if config.max_walls or not any(getattr(s, "walls", ()) for s in scenarios):
-        return config
-    return config.with_overrides(max_walls=WALL_SLOTS)
+    return config.for_walls(any(getattr(s, "walls", ()) for s in scenarios))
 
 
 def planner_config(args):

@@ -170,24 +170,50 @@ def test_the_memory_forgets_obstacles_that_left_long_ago():
     assert len(cs._seen) <= 34
 
 
-def test_a_crowded_tick_solves_the_fixed_guesses_in_turn():
-    """``crowded_guesses``: where more movers matter than the NLP has slots, a full
-    multi-start solves only that many of the fixed guesses, the next ones at each tick;
-    elsewhere all of them, as before."""
+def test_spread_cold_starts_solve_a_due_multistart_over_the_next_ticks():
+    """``cold_starts``: a full multi-start that falls due queues the fixed guesses, and each
+    tick solves at most that many of them, in tie order, beside the warm starts of every kept
+    candidate, until all were solved; without it (the paper's preset) a due multi-start solves
+    them all at once."""
     pytest.importorskip("casadi")
     from casadi_gpc.config import preset
     from casadi_gpc.planner.gpc import GPCController
+    from casadi_gpc.planner.guesses import TIE_ORDER
     from casadi_gpc.robot import RobotParams
     from scenarios import load_scenario
     from scenarios.simulator import Episode
-    sc = load_scenario("scenarios/paper/fig7_1_head_on.toml")
-    gpc = GPCController(preset("improved").with_overrides(crowded_guesses=2), RobotParams())
-    obs = Episode(sc, gpc.sample_time_s).observation()
-    tick, _ = gpc.pose(obs, gpc.estimate(obs))
-    every = [s[0] for s in gpc._guess_starts(tick.p, tick.x0, tick.ref_speed_mps)]
-    assert len(every) == len(preset("improved").guesses) == 6
-    turns = [[s[0] for s in gpc._guess_starts(tick.p, tick.x0, tick.ref_speed_mps, crowded=True)] for _ in range(4)]
-    assert turns == [every[0:2], every[2:4], every[4:6], every[0:2]]
-    assert gpc.counters["crowded_guess_skips"] == 4 * 4
-    off = GPCController(preset("improved"), RobotParams())
-    assert [s[0] for s in off._guess_starts(tick.p, tick.x0, tick.ref_speed_mps, crowded=True)] == every
+
+    def ticks(config, n):
+        gpc = GPCController(config, RobotParams())
+        sc = load_scenario("scenarios/paper/fig7_1_head_on.toml")
+        episode = Episode(sc, gpc.sample_time_s)
+        seen, solve_many = [], gpc.solve_many
+
+        def recording(p, starts):  # (class, cold?) of each start
+            seen[-1].append([(s[0], s[2] is None) for s in starts])
+            return solve_many(p, starts)
+        gpc.solve_many = recording
+        for _ in range(n):
+            seen.append([])
+            kept = [c.guess for c in gpc.candidates.plans]
+            decision = gpc.decide(episode.observation())
+            seen[-1] = (kept, seen[-1])
+            episode.step(decision, 0.0)
+        return gpc, seen
+
+    guesses = [g for g in TIE_ORDER if g in preset("improved").guesses]
+    gpc, seen = ticks(preset("improved").with_overrides(cold_starts=2), 16)
+    cold = [[g for g, c in b[0] if c] for _, b in seen]  # the tick's batch (then a ridge's swerves, a surprise)
+    assert cold[0] == guesses[0:2]  # the first tick: no candidate yet (far from the obstacle: no more)
+    i = next(k for k in range(1, len(cold)) if cold[k])  # the obstacle comes to matter
+    assert cold[i:i + 3] == [guesses[0:2], guesses[2:4], guesses[4:6]]
+    assert all(len(c) <= 2 for c in cold)
+    near = 0
+    for kept, batches in seen[1:]:  # near the obstacle, every kept candidate warm-started at every tick
+        warm = [g for g, c in batches[0] if not c]
+        assert warm == kept or warm == ["warm"]  # far from it, only the incumbent, as "warm"
+        near += warm == kept
+    assert near >= 3 and gpc.counters["queued_guesses"] >= 4
+    from dataclasses import replace
+    _, seen = ticks(replace(preset("improved"), cold_starts=None), 1)
+    assert [g for g, c in seen[0][1][0] if c] == guesses

@@ -296,3 +296,47 @@ def test_velocity_is_speed_times_heading_and_zero_for_a_track_seen_once():
     x, y, v, heading, _ = ekf.state_
     assert ekf.velocity_mps == (v * math.cos(heading), v * math.sin(heading))
     np.testing.assert_allclose(ekf.velocity_mps, (0.3, 0.4), atol=0.02)
+
+
+def test_the_straight_forecast_holds_speed_and_heading_and_matches_monte_carlo():
+    """``straight``: the forecast moves on at the estimated speed and heading (exact chords of
+    V T from the estimate) whatever turn the filter estimated, and its covariances are those
+    of the model with the turn increment fixed at zero (Monte Carlo of that model with the
+    filter's other uncertainties, within 20 %); the turning forecast of the same filter
+    curves away from it."""
+    T, H = 0.5, 12
+    ekf = run_filter(T, 40, noise=0.02, seed=3)
+    x, y, v, th, dth = ekf.state_
+    assert abs(dth) > 0.05  # the obstacle turns: the two forecasts differ
+    means, covs = ekf.predict(H, straight=True)
+    k = np.arange(1, H + 1)
+    np.testing.assert_allclose(means, np.c_[x + k * v * T * np.cos(th), y + k * v * T * np.sin(th)], atol=1e-12)
+    turning, _ = ekf.predict(H)
+    assert np.hypot(*(turning[-1] - means[-1])) > 1.0
+    P = ekf.cov_.copy()
+    P[4, :] = P[:, 4] = 0.0
+    Q = np.diag(np.diag(ekf._Q()))
+    Q[4, 4] = 0.0
+    rng = np.random.default_rng(8)
+    n = 40000
+    s = rng.multivariate_normal(ekf.state_ * [1, 1, 1, 1, 0], P, n)
+    for j in range(H):
+        s = obstacle_model_step(s, T) + rng.multivariate_normal(np.zeros(5), Q, n)
+        c = np.cov(s[:, :2].T)
+        assert np.linalg.norm(c - covs[j]) / np.linalg.norm(covs[j]) < 0.2, j
+    # the planner's faster form gives the same numbers
+    from casadi_gpc.estimation.forecast_function import ForecastFunction
+    fm, fc = ekf.predict(H, ForecastFunction(T, H), straight=True)
+    np.testing.assert_allclose(fm, means, atol=1e-12)
+    np.testing.assert_allclose(fc, covs, rtol=1e-9, atol=1e-15)
+
+
+def test_the_planner_forecasts_as_its_preset_says():
+    """``PlannerConfig.forecast``: the paper's preset keeps the turning model, ``improved``
+    forecasts straight; an unknown model is refused."""
+    from casadi_gpc.config import PlannerConfig
+    assert PRESETS["paper"].forecast == "turn" and PRESETS["improved"].forecast == "straight"
+    with pytest.raises(ValueError, match="forecast"):
+        PlannerConfig(name="x", sample_time_s=0.5, forecast="curvy")
+    with pytest.raises(ValueError, match="cold_starts"):
+        PlannerConfig(name="x", sample_time_s=0.5, cold_starts=0)

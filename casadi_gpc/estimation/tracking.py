@@ -94,10 +94,12 @@ class TrackBank:
         self.counters["dropped_tracks"] = self.counters.get("dropped_tracks", 0) + len(gone)
 
     @staticmethod
-    def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int, function=None) -> ObstacleForecast:
+    def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int, function=None,
+                 straight: bool = False) -> ObstacleForecast:
         """What a planner plans with: the filter's H-step prediction, a track seen once kept
         at its next step's uncertainty (:func:`~casadi_gpc.estimation.ekf.planning_covariances`);
-        ``function``: the prediction's faster form (:meth:`~casadi_gpc.estimation.ekf.FilterState.predict`)."""
-        means, covs = ekf.predict(horizon, function)
+        ``function``: the prediction's faster form, ``straight``: a constant-velocity forecast
+        (:meth:`~casadi_gpc.estimation.ekf.FilterState.predict`)."""
+        means, covs = ekf.predict(horizon, function, straight)
         return ObstacleForecast(measurement.obstacle_id, measurement.radius_m, means,
                                 planning_covariances(covs, ekf.initialised))

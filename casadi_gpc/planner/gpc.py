@@ -49,9 +49,6 @@ class Tick:
     """Obstacles within the multi-start range (the cost is not convex)."""
     relevant: frozenset
     """The obstacles that matter now (:meth:`GPCController.plan_persistent`)."""
-    crowded: bool = False
-    """More movers matter than the NLP has slots (some relevant ones were left out): the
-    tick solves at most ``PlannerConfig.crowded_guesses`` of the fixed guesses."""
 
 
 @dataclass
@@ -127,7 +124,8 @@ class GPCController:
     def reset(self) -> None:
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self._warm: Plan | None = None
-        self._guess_turn = 0
+        self._pending: list[str] = []
+        """The fixed guesses of a full multi-start still to solve (``PlannerConfig.cold_starts``)."""
         self._walls_in_slots: list = []
         self._last_wheels: np.ndarray | None = None
         self._path_xy: np.ndarray | None = None
@@ -149,9 +147,9 @@ class GPCController:
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
         """Fuse this sample's measurements and predict every track over the horizon."""
-        H = self.config.horizon
+        H, straight = self.config.horizon, self.config.forecast == "straight"
         forecast, function = self.bank.forecast, self._forecast_function
-        return [forecast(m, ekf, H, function) for m, ekf in self.bank.step(obs.moving)]
+        return [forecast(m, ekf, H, function, straight) for m, ekf in self.bank.step(obs.moving)]
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
         """Advance the reference clock; the desired poses at steps 0..H, shape (H + 1, 3)
@@ -243,21 +241,21 @@ class GPCController:
         return best, candidates
 
     def plan_persistent(self, p: np.ndarray, x0: np.ndarray, ref_speed_mps: float, near: bool,
-                        relevant: frozenset, crowded: bool = False) -> tuple[Plan, list[Plan]]:
+                        relevant: frozenset) -> tuple[Plan, list[Plan]]:
         """The persistent candidates' tick (:mod:`casadi_gpc.planner.candidates`): each kept
         candidate warm-started, or, when due, the full multi-start of :meth:`plan`.
         ``near``: obstacles within the multi-start range; ``relevant``: the obstacles that
         matter now (movers within ``relevance_range_m`` of the predicted path, static ones
-        near), whose newcomers make a full multi-start due. ``crowded`` (more relevant movers
-        than slots): a full multi-start solves only the next ``crowded_guesses`` of the fixed
-        guesses, in turn (in a dense crowd a newcomer matters at nearly every tick, and six
-        cold starts a tick took 50 ms medians and 0.7 s maxima on the UCY recordings)."""
+        near), whose newcomers make a full multi-start due. With ``PlannerConfig.cold_starts``
+        the multi-start is spread over ticks (:meth:`_plan_spread`)."""
+        if self.config.cold_starts is not None:
+            return self._plan_spread(p, x0, ref_speed_mps, near, relevant)
         cs = self.candidates
         full = cs.full_multistart_due(near, relevant)
         previous = cs.incumbent
         starts = [(name, u0, lam_x, lam_g) for name, (u0, lam_x, lam_g) in cs.starts(near, full)]
         if full:  # known now: the fixed guesses go with the warm starts, in one batch
-            starts += self._guess_starts(p, x0, ref_speed_mps, crowded)
+            starts += self._guess_starts(p, x0, ref_speed_mps)
         solved = self.solve_many(p, starts)
         if not full and near and len(cs.plans) == 1 and _fell_off_a_ridge(previous, solved):
             solved = self._opening_solves(p, x0, ref_speed_mps) + solved
@@ -267,12 +265,59 @@ class GPCController:
             if previous is not None and not best <= (1.0 + surprise) * abs(previous.cost) + 1e-9:
                 full = True  # dearer than expected: look for a minimum no kept candidate is in
                 cs.reason = "surprise"
-                solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps, crowded))
+                solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps))
         if full:
-            self.counters["full_multistarts"] += 1
-            key = "multistart_" + cs.reason.replace(" ", "_")
-            self.counters[key] = self.counters.get(key, 0) + 1
+            self._count_multistart(cs.reason)
         return cs.update(solved, full, TIE_RELATIVE), solved
+
+    def _plan_spread(self, p, x0, ref_speed_mps: float, near: bool, relevant: frozenset) -> tuple[Plan, list[Plan]]:
+        """:meth:`plan_persistent` with at most ``cold_starts`` fixed guesses a tick: a full
+        multi-start that falls due queues every fixed guess (unless a cycle is under way, which
+        it joins), and each tick solves the next ``cold_starts`` of the queue beside the warm
+        starts of every kept candidate; the tick's guesses count as a multi-start for the
+        candidates (a class that merges into a guess's optimum is not lost). The surprise
+        (a warm start dearer than expected) queues a cycle too. Counted: ``full_multistarts``
+        (cycles begun), ``queued_guesses`` (guesses solved at a later tick than the one the
+        cycle began at)."""
+        cs, K = self.candidates, self.config.cold_starts
+        due = cs.full_multistart_due(near, relevant)
+        previous = cs.incumbent
+        if not near and cs.plans:
+            self._pending = []  # far from everything the kept plan is the one minimum
+        if due and not self._pending:
+            self._pending = self._cycle()
+            self._count_multistart(cs.reason)
+        batch = self._take_pending(K, began=due)
+        starts = [(name, u0, lam_x, lam_g) for name, (u0, lam_x, lam_g) in cs.starts(near, False)]
+        solved = self.solve_many(p, starts + self._guess_starts(p, x0, ref_speed_mps, batch))
+        if not batch and near and len(cs.plans) == 1 and _fell_off_a_ridge(previous, solved):
+            solved = self._opening_solves(p, x0, ref_speed_mps) + solved
+        surprise = self.config.surprise_ratio
+        if not batch and near and surprise is not None and previous is not None:
+            best = min((c.cost for c in solved if c.success), default=math.inf)
+            if not best <= (1.0 + surprise) * abs(previous.cost) + 1e-9:
+                self._pending = self._cycle()  # look for a minimum no kept candidate is in
+                self._count_multistart("surprise")
+                batch = self._take_pending(K, began=True)
+                solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps, batch))
+        return cs.update(solved, bool(batch), TIE_RELATIVE), solved
+
+    def _cycle(self) -> list[str]:
+        """The fixed guesses of one spread multi-start, in tie order."""
+        return [name for name in TIE_ORDER if name in self.config.guesses]
+
+    def _take_pending(self, k: int, began: bool) -> list[str]:
+        """The next ``k`` queued guesses (removed from the queue); ``began``: this tick began
+        the cycle (the others are counted ``queued_guesses``)."""
+        batch, self._pending = self._pending[:k], self._pending[k:]
+        if batch and not began:
+            self.counters["queued_guesses"] = self.counters.get("queued_guesses", 0) + len(batch)
+        return batch
+
+    def _count_multistart(self, reason: str) -> None:
+        self.counters["full_multistarts"] += 1
+        key = "multistart_" + reason.replace(" ", "_")
+        self.counters[key] = self.counters.get(key, 0) + 1
 
     def _opening_solves(self, p, x0, ref_speed_mps: float) -> list[Plan]:
         """The two swerves, solved when the one kept plan fell off the ridge between passing
@@ -282,26 +327,21 @@ class GPCController:
         self.counters["opening_solves"] = self.counters.get("opening_solves", 0) + len(out)
         return out
 
-    def _guess_starts(self, p, x0, ref_speed_mps: float, crowded: bool = False) -> list[tuple]:
-        """The fixed guesses as starts ``(name, u0, None, None)``, in tie order; when
-        ``crowded``, only the next ``crowded_guesses`` of them, taking turns from tick to tick
-        (counted ``crowded_guess_skips``)."""
+    def _guess_starts(self, p, x0, ref_speed_mps: float, names=None) -> list[tuple]:
+        """The fixed guesses as starts ``(name, u0, None, None)``, in tie order (``names``:
+        only those; a guess through a wall in the NLP's slots is left out, counted)."""
+        if names is not None and not names:
+            return []
         ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
-        starts = [(name, u0, None, None) for name, u0 in initial_guesses(self.problem, x0, ref_speed_mps,
-                                                                           ref_poses).items()]
+        starts = [(name, u0, None, None)
+                  for name, u0 in initial_guesses(self.problem, x0, ref_speed_mps, ref_poses, names).items()]
         if self._walls_in_slots:  # a guess through a wall is no start: the wall is not passed on either side
             kept = [s for s in starts if not crosses_walls(self.config, self.robot, x0, s[1], self._walls_in_slots)]
             if kept:
                 self.counters["guesses_through_walls"] = self.counters.get("guesses_through_walls", 0) + \
                     len(starts) - len(kept)
                 starts = kept
-        limit = self.config.crowded_guesses
-        if not crowded or limit is None or limit >= len(starts):
-            return starts
-        first = self._guess_turn % len(starts)
-        self._guess_turn += limit
-        self.counters["crowded_guess_skips"] = self.counters.get("crowded_guess_skips", 0) + len(starts) - limit
-        return [starts[(first + k) % len(starts)] for k in range(limit)]
+        return starts
 
     def _out_of_time(self) -> bool:
         return self._deadline is not None and time.perf_counter() > self._deadline
@@ -329,14 +369,13 @@ class GPCController:
         if near_ids:
             self.counters["multistart"] += 1
         relevant = sel.relevant | {k for k in near_ids if k[0] == "static"}
-        crowded = sel.left_out > 0 and self.config.crowded_guesses is not None
-        return Tick(p, x0, float(obs.reference.speed_mps), bool(near_ids), relevant, crowded), sel
+        return Tick(p, x0, float(obs.reference.speed_mps), bool(near_ids), relevant), sel
 
     def solve_tick(self, tick: Tick) -> tuple[Plan | None, list[Plan]]:
         """The best plan of one step and every solve it took (persistent candidates, or the
         full multi-start, as ``PlannerConfig.candidates`` says)."""
         if self.config.candidates == "persistent":
-            return self.plan_persistent(tick.p, tick.x0, tick.ref_speed_mps, tick.near, tick.relevant, tick.crowded)
+            return self.plan_persistent(tick.p, tick.x0, tick.ref_speed_mps, tick.near, tick.relevant)
         return self.plan(tick.p, tick.x0, tick.ref_speed_mps, tick.near, self._warm)
 
     def _decide(self, obs: Observation) -> ControlDecision:
@@ -384,6 +423,7 @@ class GPCController:
     def _fallback(self, obs: Observation, reason: str, forecasts=()) -> ControlDecision:
         """The shifted previous plan if there is one, else braking within the limits."""
         self.counters["fallbacks"] += 1
+        self._pending = []
         forecasts = tuple(forecasts)
         self._path_xy = None
         self.candidates.reset()

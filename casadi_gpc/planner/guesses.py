@@ -87,11 +87,14 @@ def brake_guess(cfg, robot, x0) -> np.ndarray:
     return wheels_to_increments(x0[3:5], np.zeros((H, 2)), dv_max, v_max)
 
 
-def initial_guesses(problem, x0, ref_speed_mps: float, ref_poses=None) -> dict[str, np.ndarray]:
-    """The configuration's fixed guesses (``PlannerConfig.guesses``) in tie-break order
-    (detours only when the reference is known)."""
+def initial_guesses(problem, x0, ref_speed_mps: float, ref_poses=None, names=None) -> dict[str, np.ndarray]:
+    """The configuration's fixed guesses (``PlannerConfig.guesses``; ``names``: only those
+    of them) in tie-break order (detours only when the reference is known)."""
     cfg, wanted = problem.config, set(problem.config.guesses)
-    guesses = swerve_guesses(cfg, problem.robot, x0, ref_speed_mps)
+    if names is not None:
+        wanted &= set(names)
+    guesses = swerve_guesses(cfg, problem.robot, x0, ref_speed_mps) if wanted & {"swerve_right", "swerve_left",
+                                                                                  "straight"} else {}
     if ref_poses is not None and wanted & {"detour_right", "detour_left"}:
         guesses.update(detour_guesses(cfg, problem.robot, x0, ref_poses, ref_speed_mps))
     if "brake" in wanted:

@@ -274,6 +274,40 @@ def test_a_failed_solve_is_retried_by_the_backup_solver_and_counted():
     assert bare.counters["backup_solves"] == 0 and bare.counters["failed_solves"] == bare.counters["solves"]
 
 
+class _SlowFailing(_Failing):
+    """A backend whose every solve fails after ``pause_s``."""
+
+    def __init__(self, pause_s: float):
+        super().__init__()
+        self.pause_s = pause_s
+
+    def solve(self, p, u0, lam_x=None, lam_g=None):
+        import time
+        time.sleep(self.pause_s)
+        return super().solve(p, u0, lam_x, lam_g)
+
+
+def test_the_backup_starts_only_while_half_the_budget_is_left():
+    """A decision never outlives its step: the backup solver stops itself at half the time
+    budget and starts only while half of it is left; a failure later than that goes
+    straight to the fallback (``backup_skips``)."""
+    sc = _short(paper_scenarios()[1], 6.0)
+    budget = 0.1
+    ctl = GPCController(replace(PAPER, solver=FASTEST_SOLVER, time_budget_s=budget, solve_lanes=1), sc.robot)
+    assert ctl.backup is not None
+    ctl.backend = failing = _SlowFailing(0.55 * budget)
+    log = simulate(sc, ctl, "gpc")
+    assert failing.calls > 0 and ctl.counters["backup_solves"] == 0
+    assert ctl.counters["backup_skips"] == ctl.counters["failed_solves"] == ctl.counters["solves"] > 0
+    assert log.fallbacks == len(log.compute_time_s)
+    # a start begun within the budget may end past it, by one solve at most; nothing more runs
+    assert max(log.compute_time_s) < budget + failing.pause_s
+    quick = GPCController(replace(PAPER, solver=FASTEST_SOLVER, solve_lanes=1), sc.robot)  # 1.5 s: time enough
+    quick.backend = _SlowFailing(0.0)
+    simulate(sc, quick, "gpc")
+    assert quick.counters["backup_solves"] > 0 and quick.counters.get("backup_skips", 0) == 0
+
+
 def test_the_time_budget_defaults_to_the_sample_time():
     ctl = GPCController(PAPER)
     assert ctl.time_budget_s == PAPER.sample_time_s

@@ -337,7 +337,9 @@ def test_a_solve_over_its_time_budget_does_not_block_the_loop():
     pytest.importorskip("casadi")
     from casadi_gpc.planner.gpc import GPCController
 
-    ctrl = GPCController(preset("improved").with_overrides(time_budget_s=0.05, solver="sqpmethod-daqp", solve_lanes=1))
+    # every guess at once (not one cold start a tick): there are starts left to skip
+    ctrl = GPCController(replace(preset("improved").with_overrides(time_budget_s=0.05, solver="sqpmethod-daqp",
+                                                                   solve_lanes=1), cold_starts=None))
     ctrl.backend.solver = _FakeSolver(ctrl.backend.solver, "slow", sleep_s=0.12)
     s = load_scenario(HEAD_ON)
     log = simulate(replace(s, duration_s=2.0), ctrl, "gpc")

@@ -758,3 +758,31 @@ def test_the_planner_goes_behind_the_check_with_safer_alternatives_where_measure
     assert make_controller("gpc", cfg, ROBOT).filter.safer_alternatives is SAFER_ALTERNATIVES[preset_name]
     assert SAFER_ALTERNATIVES == {"paper": False, "improved": True}
     assert make_controller("nn", cfg, ROBOT).filter.safer_alternatives is False
+
+
+def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monkeypatch):
+    """Safe beats unsafe; between two that lose the margin, the one that keeps it longer from
+    the obstacles' expected discs wins whatever the inflated discs say, then the inflated
+    order (kept longer, then the larger clearance) as before."""
+    from casadi_gpc.safety.check import SafetyCheck, TrajectoryCheck
+    better = TrajectoryCheck._better
+
+    def check(safe, kept, mean_kept, clearance=-0.1):
+        return SafetyCheck(safe, clearance, clearance, 0.0, "", "", kept, mean_kept_s=mean_kept)
+    late_expected, early_expected = check(False, 1.0, 6.0), check(False, 4.0, 2.0)
+    assert better(late_expected, early_expected) and not better(early_expected, late_expected)
+    assert better(check(True, 6.0, 6.0), late_expected) and not better(late_expected, check(True, 6.0, 6.0))
+    assert better(check(False, 4.0, 6.0), late_expected)               # tie on the expected: inflated
+    assert better(check(False, 1.0, 6.0, 0.2), late_expected)           # then the clearance
+    # the best of several sequences follows the same order
+    f = SafetyFilter(ROBOT, 0.5, 12)
+    N = 12 * f.substeps
+    kept, mean_kept = np.array([40, 10, 30]), np.array([20, N, 20])
+    monkeypatch.setattr(f, "clearances", lambda *a: (np.full(3, -0.2), np.zeros(3), np.zeros(3, int),
+                                                     np.zeros(3, int), kept, mean_kept))
+    obstacles = f.obstacle_tracks([forecast((3.0, 0.0), (0.0, 0.0), 0.5, 12)], ())
+    best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
+    assert best.continuation == "b" and not best.safe and best.mean_kept_s == 6.0
+    kept[:] = [N, 10, 30]  # one keeps the inflated margin all along: it wins
+    best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
+    assert best.safe and best.continuation == "a"

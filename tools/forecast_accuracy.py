@@ -12,8 +12,17 @@ Predictors, on the same windows:
 - ``ekf``: :class:`casadi_gpc.estimation.ObstacleEKF` at T = 0.4 s (the planner's filter,
   its settings scaled to the sample time as the check layer scales them), fed the 8
   recorded positions as measurements, then its 12-step prediction (the mean);
+- ``ekf straight``: the same filter, its prediction at the estimated speed and heading
+  (the ``improved`` planner's forecast, ``PlannerConfig.forecast = "straight"``);
 - ``cv``: the constant-velocity model of Schöller et al.: the last observed displacement
   repeated.
+
+The published figure beside them: Schöller et al.'s constant-velocity model averaged over
+the five ETH/UCY scenes (ETH, Hotel, Univ, Zara1, Zara2), ADE / FDE 0.39 / 0.83 m, as its
+authors' repository gives it after their fix of the data loading
+(``cschoeller/constant_velocity_pedestrian_motion``, README; the paper's Table 1 reports
+the figures before that fix). It is an average over other files (Univ is students001 and
+students003), so it sits beside the rows, not in them.
 
 Usage: ``python tools/forecast_accuracy.py [RECORDING ...] [--out docs/data/pedestrians/forecast_accuracy.json]``
 (default: the three shipped UCY recordings). Prints a Markdown table.
@@ -54,6 +63,18 @@ def predict_ekf(obs: np.ndarray) -> np.ndarray:
     return np.asarray(means)[:, :2]
 
 
+def predict_ekf_straight(obs: np.ndarray) -> np.ndarray:
+    ekf = ObstacleEKF(STEP_S, EKFSettings().for_sample_time(STEP_S))
+    for z in obs:
+        ekf.step(z)
+    means, _ = ekf.predict(PREDICTED, straight=True)
+    return np.asarray(means)[:, :2]
+
+
+PUBLISHED_CV = {"ade_m": 0.39, "fde_m": 0.83, "source": "Schöller et al. 2020, constant-velocity model, mean of "
+                "ETH, Hotel, Univ, Zara1, Zara2 (cschoeller/constant_velocity_pedestrian_motion, README)"}
+
+
 def predict_cv(obs: np.ndarray) -> np.ndarray:
     v = obs[-1] - obs[-2]
     return obs[-1] + v * np.arange(1, PREDICTED + 1)[:, None]
@@ -82,17 +103,22 @@ def main(argv=None) -> int:
             print(f"{rec.name}: no window of 20 rows 0.4 s apart (rows {rec.seconds_per_frame * 10:.3f} s apart); "
                   "left out", file=sys.stderr)
             continue
-        (ea, ef, n), (ca, cf, _) = errors(rec, predict_ekf), errors(rec, predict_cv)
+        (ea, ef, n), (sa, sf, _), (ca, cf, _) = (errors(rec, predict_ekf), errors(rec, predict_ekf_straight),
+                                                 errors(rec, predict_cv))
         rows.append({"recording": rec.name, "windows": n, "ekf": {"ade_m": ea, "fde_m": ef},
-                     "cv": {"ade_m": ca, "fde_m": cf}})
-    print("| recording | windows | EKF ADE / FDE m | constant velocity ADE / FDE m |")
-    print("|---|---|---|---|")
+                     "ekf_straight": {"ade_m": sa, "fde_m": sf}, "cv": {"ade_m": ca, "fde_m": cf}})
+    print("| recording | windows | EKF (the paper's, turning) ADE / FDE m | EKF straight (`improved`) | "
+          "constant velocity ADE / FDE m |")
+    print("|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['recording']} | {r['windows']} | {r['ekf']['ade_m']:.3f} / {r['ekf']['fde_m']:.3f} | "
+              f"{r['ekf_straight']['ade_m']:.3f} / {r['ekf_straight']['fde_m']:.3f} | "
               f"{r['cv']['ade_m']:.3f} / {r['cv']['fde_m']:.3f} |")
+    print(f"| published (five scenes) | | | | {PUBLISHED_CV['ade_m']:.2f} / {PUBLISHED_CV['fde_m']:.2f} |")
     if args.out:
         from casadi_gpc.io import write_json
-        write_json(args.out, {"observed": OBSERVED, "predicted": PREDICTED, "step_s": STEP_S, "rows": rows})
+        write_json(args.out, {"observed": OBSERVED, "predicted": PREDICTED, "step_s": STEP_S, "rows": rows,
+                              "published_cv": PUBLISHED_CV})
     return 0
 
 

@@ -251,5 +251,6 @@ def run(args) -> int:
     print(f"{spec.label} [preset {config.name}] on {doc['episodes']} episodes: success "
           f"{doc['success_rate']:.3f}  collision {doc['collision_rate']:.3f}  timeout {doc['timeout_rate']:.3f}  "
           f"min clearance {doc['min_clearance_m']['min']:.3f} m (median {doc['min_clearance_m']['median']:.3f})  "
-          f"decision median {ct['median'] * 1e3:.2f} ms  fallbacks {doc['fallbacks']}", file=sys.stdout)
+          f"decision median {ct['median'] * 1e3:.2f} ms (p99 {ct['p99'] * 1e3:.1f}, max {ct['max'] * 1e3:.1f}, "
+          f"{ct.get('over_limit', 0)} over the sample time)  fallbacks {doc['fallbacks']}", file=sys.stdout)
     return 0

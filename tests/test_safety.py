@@ -758,3 +758,64 @@ def test_the_planner_goes_behind_the_check_with_safer_alternatives_where_measure
     assert make_controller("gpc", cfg, ROBOT).filter.safer_alternatives is SAFER_ALTERNATIVES[preset_name]
     assert SAFER_ALTERNATIVES == {"paper": False, "improved": True}
     assert make_controller("nn", cfg, ROBOT).filter.safer_alternatives is False
+
+
+# --- the searched way out (the planner-free check a robot deploys) ----------------------------
+def test_search_takes_the_safe_sequence_nearest_the_wish_by_brute_force():
+    """Among the grid and the manoeuvres, the search takes the sequence that a brute-force
+    clearance keeps above the margin over the whole horizon and that is nearest the
+    controller's wish (squared wheel-speed differences weighted 1/k): here a walker crosses
+    ahead, the wish (full speed ahead) fails, and the answer is found again independently."""
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H, search=True)
+    state = np.array([0.0, 0.0, 0.0, 0.4, 0.4])
+    fc = [forecast((2.5, -2.0), (0.0, 0.45), T, H)]
+    wish = np.array([0.8, 0.8])
+    name, w, check = f.search(state, f.obstacle_tracks(fc, ()), wish)
+    names, W = f._search_names, np.concatenate([f._searched(state[3:], H), f.manoeuvres(state[3:])[1]])
+    brute = np.array([brute_clearance(state, s, fc, (), T, 2.0, n=200) for s in W])
+    cost = np.array([sum(((s[k] - wish) ** 2).sum() / (k + 1) for k in range(H)) for s in W])
+    safe = brute >= f.margin_m - 1e-3       # the check is exact up to its chords
+    assert safe.any() and not safe.all()
+    assert not safe[names.index("search(+1.00,+0.00)")]    # the wish, full speed ahead, fails
+    i = int(np.argmin(np.where(safe, cost, np.inf)))
+    assert check.safe and name == names[i] and np.array_equal(w, W[i])
+    # it searches more than the manoeuvres: it keeps the margin and drives on, where the best
+    # manoeuvre by clearance would stand or turn away
+    assert name.startswith("search(+") and float(name[8:12]) > 0
+
+
+def test_with_the_search_a_command_passes_when_a_searched_way_out_keeps_the_margin():
+    """A command is judged with the ways out the check itself would take: behind the search,
+    the command then any searched target (or manoeuvre); the continuation says which. Where
+    the manoeuvres alone find none and the search finds one, only the searching check passes
+    it; nothing it passes lacks such a way out (brute force)."""
+    T, H = 0.5, 12
+    rng = np.random.default_rng(3)
+    plain, searching = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, search=True)
+    more = 0
+    for _ in range(40):
+        state = np.array([0.0, 0.0, 0.0, *rng.uniform(0.2, 0.8, 2)])
+        fc = _movers(rng, T, H, 4, 3.0, 0.45)
+        cmd = rng.uniform(0.0, 0.8, 2)
+        a, b = plain.check(state, cmd, fc), searching.check(state, cmd, fc)
+        assert not a.safe or b.safe      # the search only adds ways out
+        if b.safe and not a.safe:
+            more += 1
+            assert b.continuation.startswith("then search(")
+            target = searching._search_names.index(b.continuation[5:])
+            W = searching._escapes(cmd)[target]
+            assert brute_clearance(state, W, fc, (), T, 2.0, n=100) >= searching.margin_m - 1e-3
+    assert more > 0
+
+
+def test_the_filter_counts_its_searches():
+    """An intervention behind the search takes the searched way out (source
+    ``manoeuvre:search(...)`` or a fixed manoeuvre's name) and counts it."""
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H, search=True)
+    state = np.array([0.0, 0.0, 0.0, 0.8, 0.8])
+    wall = (StaticObstacle((0.35 + 0.2 + 1.0, 0.0), 1.0),)
+    v = f.filter(observation(state, wall), np.array([0.8, 0.8]), (), wall)
+    assert v.intervened and v.source.startswith("manoeuvre:")
+    assert f.counters["searched"] == 1 and f.counters["interventions"] == 1

@@ -13,7 +13,7 @@ import numpy as np
 from ..estimation.ekf import planning_covariances, worst_std_m
 from ..robot import RobotParams, followed_wheel, robot_step
 
-__all__ = ["MANOEUVRES", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
+__all__ = ["MANOEUVRES", "SEARCH_SPEEDS", "SEARCH_TURNS", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
            "shared_batch"]
 
 MANOEUVRES: tuple[tuple[str, float, float], ...] = (
@@ -30,6 +30,14 @@ MANOEUVRES: tuple[tuple[str, float, float], ...] = (
 """(name, right, left) wheel-speed targets as fractions of the speed limit. The two swerves
 are offsets added to the current mean wheel speed (at least a quarter of the limit), the
 others are absolute targets. 'right'/'left' name the side the robot turns towards."""
+
+SEARCH_SPEEDS = (-0.5, 0.0, 0.25, 0.5, 0.75, 1.0)
+"""The searched way out (:meth:`TrajectoryCheck.search`): mean wheel-speed targets, as
+fractions of the speed limit ..."""
+SEARCH_TURNS = (-0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5)
+"""... and half the difference of the two wheels' targets (positive turns left), the same
+fractions; every pair of the two within the limits, each target approached at the
+acceleration limit and held, beside :data:`MANOEUVRES`."""
 
 _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
 _NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
@@ -131,6 +139,16 @@ class TrajectoryCheck:
         self._swerve_rows = self._swerves[:, None].astype(float)
         self._reach = self.robot.max_step_change_mps(T) * self._steps[None, :, None]
         self._dv = self.robot.max_step_change_mps(T)
+        grid = [(u + d, u - d) for u in SEARCH_SPEEDS for d in SEARCH_TURNS
+                if abs(u + d) <= 1.0 and abs(u - d) <= 1.0 and (u >= 0.0 or abs(d) <= 0.25)]
+        self._search_targets = np.array(grid, dtype=float) * self.robot.max_wheel_speed_mps
+        self._search_names = [f"search({0.5 * (r + l):+.2f},{0.5 * (r - l):+.2f})" for r, l in grid] + self._names
+        self._then_search_names = ["then " + n for n in self._search_names]
+        self.search_way_out = False
+        """Whether the way out is searched (:meth:`search`) and a command's escapes are the
+        searched grid and the manoeuvres, not the manoeuvres alone (set by the filter)."""
+        # the wish's weight per step: the near steps count most (the next command is what is applied)
+        self._search_weights = 1.0 / np.arange(1, self.horizon + 1)
 
 
     # --- roll-out and clearances ---------------------------------------------------------
@@ -273,12 +291,25 @@ class TrajectoryCheck:
         return self._names, v0 + np.minimum(np.maximum(tgt[:, None, :] - v0, -reach), reach)
 
     def _escapes(self, cmd: np.ndarray) -> np.ndarray:
-        """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there."""
+        """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there (and, with
+        :attr:`search_way_out`, each target of the searched grid first: a command passes
+        when some way out of the set the check itself would take keeps the margin)."""
         _, man = self.manoeuvres(cmd, self.horizon - 1)
-        W = np.empty((len(self._names), self.horizon, 2))
+        if self.search_way_out:
+            grid = self._searched(cmd, self.horizon - 1)
+            man = np.concatenate([grid, man])
+        W = np.empty((len(man), self.horizon, 2))
         W[:, 0] = cmd
         W[:, 1:] = man
         return W
+
+    def _searched(self, v0, steps: int) -> np.ndarray:
+        """(K, steps, 2): each target of the searched grid approached from ``v0`` at the
+        acceleration limit and held."""
+        vmax = self.robot.max_wheel_speed_mps
+        v0 = np.minimum(np.maximum(np.asarray(v0, dtype=float), -vmax), vmax)
+        reach = self._reach[:, :steps]
+        return v0 + np.minimum(np.maximum(self._search_targets[:, None, :] - v0, -reach), reach)
 
     def _as_candidate(self, state, wheels) -> tuple[np.ndarray | None, np.ndarray | None, bool]:
         """(command (2,), own plan (H, 2) or None, whether it had to be limited); None
@@ -335,7 +366,8 @@ class TrajectoryCheck:
             plan_check = self._check_best(state, plan[None], obstacles, ["plan"])
             if plan_check.safe or (enough_s is not None and plan_check.kept_s >= enough_s - 1e-9):
                 return plan_check
-        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names)
+        way_out = self._check_best(state, self._escapes(cmd), obstacles,
+                                   self._then_search_names if self.search_way_out else self._then_names)
         if plan is not None and self._better(plan_check, way_out):
             return plan_check
         return way_out
@@ -355,6 +387,35 @@ class TrajectoryCheck:
         if cmd is None:
             return SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
         return self._assess(state, cmd, plan, self.obstacle_tracks(forecasts, statics))
+
+    def search(self, state, obstacles, wish) -> tuple[str, np.ndarray, SafetyCheck]:
+        """A way out searched among more than the fixed manoeuvres: every target of the grid
+        :data:`SEARCH_SPEEDS` x :data:`SEARCH_TURNS` and every manoeuvre, approached at the
+        acceleration limit from the current wheel speeds. Among those that keep the margin
+        over the whole horizon, the one nearest the controller's wish ``wish`` ((2,) held, or
+        (H, 2): its plan), by the wheel speeds' squared differences weighted 1/k at step k
+        (the least change to what the controller wanted: it is still the one that drives
+        towards the goal); when none keeps the margin that long, the best by the order of
+        :meth:`best_manoeuvre`. Returns the name, (H, 2) wheels and the check."""
+        state = np.asarray(state, float)
+        v0 = state[3:5]
+        W = np.concatenate([self._searched(v0, self.horizon), self.manoeuvres(v0)[1]])
+        cmin, now, chord, which, kept = self.clearances(state, W, obstacles)
+        N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
+        safe = kept == N
+        if safe.any():
+            w = np.asarray(wish, dtype=float)
+            w = np.broadcast_to(w, (self.horizon, 2)) if w.shape == (2,) else w
+            if not np.all(np.isfinite(w)):
+                w = np.zeros((self.horizon, 2))
+            cost = (((W - w) ** 2).sum(axis=2) * self._search_weights).sum(axis=1)
+            i = int(np.argmin(np.where(safe, cost, np.inf)))
+        else:
+            longest = kept == kept.max()
+            i = int(np.argmax(longest & (cmin >= cmin[longest].max() - _TIE_M)))
+        check = SafetyCheck(bool(safe[i]), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
+                            obstacles.label(int(which[i])), self._search_names[i], float(kept[i]) * tau)
+        return self._search_names[i], W[i], check
 
     def best_manoeuvre(self, state, obstacles) -> tuple[str, np.ndarray, SafetyCheck]:
         """The best manoeuvre from now (see :meth:`_check_best`): name, (H, 2) wheels and its check."""

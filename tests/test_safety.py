@@ -804,7 +804,7 @@ def test_with_the_search_a_command_passes_when_a_searched_way_out_keeps_the_marg
             more += 1
             assert b.continuation.startswith("then search(")
             target = searching._search_names.index(b.continuation[5:])
-            W = searching._escapes(cmd)[target]
+            W = searching._escapes(cmd, True)[target]
             assert brute_clearance(state, W, fc, (), T, 2.0, n=100) >= searching.margin_m - 1e-3
     assert more > 0
 

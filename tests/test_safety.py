@@ -819,3 +819,39 @@ def test_the_filter_counts_its_searches():
     v = f.filter(observation(state, wall), np.array([0.8, 0.8]), (), wall)
     assert v.intervened and v.source.startswith("manoeuvre:")
     assert f.counters["searched"] == 1 and f.counters["interventions"] == 1
+
+
+def test_rolling_out_only_against_the_obstacles_within_reach_changes_no_verdict():
+    """``clearances(within_reach=True)`` leaves out the obstacles whose bound keeps more than
+    the margin: how long each sequence keeps the margin and the clearance now are the same
+    as against all of them, the smallest clearance too where it is below the margin, and
+    above it a lower bound that is still above the margin; the check's verdicts and the
+    searched way out are the same (random crowds)."""
+    T, H = 0.5, 12
+    rng = np.random.default_rng(11)
+    f = SafetyFilter(ROBOT, T, H, search=True)
+
+    class _Every(SafetyFilter):  # the same check against every obstacle
+        def clearances(self, state, wheels, obstacles, within_reach=False):
+            return super().clearances(state, wheels, obstacles)
+
+    every = _Every(ROBOT, T, H, search=True)
+    left_out = 0
+    for _ in range(60):
+        state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), *rng.uniform(-0.2, 0.8, 2)])
+        fc = _movers(rng, T, H, 10, 6.0, 0.5)
+        obs = f.obstacle_tracks(fc, ())
+        W = np.concatenate([f._searched(state[3:], H), f.manoeuvres(state[3:])[1]])
+        a, b = f.clearances(state, W, obs), f.clearances(state, W, obs, within_reach=True)
+        near = f._within_reach(state, W, obs)
+        left_out += 0 if near is None else len(fc) - len(near[0])
+        assert np.array_equal(a[1], b[1]) and np.array_equal(a[4], b[4])          # now, kept
+        below = a[0] < f.margin_m
+        assert np.array_equal(a[0][below], b[0][below]) and np.array_equal(a[3][below], b[3][below])
+        assert np.all(b[0][~below] <= a[0][~below]) and np.all(b[0][~below] >= f.margin_m)
+        wish = rng.uniform(-0.8, 0.8, 2)
+        ref, got = every.search(state, obs, wish), f.search(state, obs, wish)
+        cmd = rng.uniform(-0.8, 0.8, 2)
+        assert every.check(state, cmd, fc).safe == f.check(state, cmd, fc).safe
+        assert got[0] == ref[0] and got[2].safe == ref[2].safe and got[2].kept_s == ref[2].kept_s
+    assert left_out > 100  # the shortcut is taken

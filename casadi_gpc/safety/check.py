@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..estimation.ekf import planning_covariances, worst_std_m
 from ..robot import RobotParams, followed_wheel, robot_step
+from .obstacles import Obstacles, forecast_arrays, forecast_covariances, shared_batch
 
 __all__ = ["MANOEUVRES", "SEARCH_SPEEDS", "SEARCH_TURNS", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
            "shared_batch"]
@@ -39,6 +39,10 @@ SEARCH_TURNS = (-0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5)
 fractions; every pair of the two within the limits, each target approached at the
 acceleration limit and held, beside :data:`MANOEUVRES`."""
 
+_FAR_M = 1e-3
+"""An obstacle is left out of a roll-out (:meth:`TrajectoryCheck.clearances`' ``within_reach``)
+only when its bound keeps this much more than the margin (well above any rounding, and above
+the clearance-now tolerance, so that what is below the threshold is the same)."""
 _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
 _NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
 
@@ -243,17 +247,31 @@ class TrajectoryCheck:
         i = int(low.argmin())
         return float(low.flat[i]), i // self.horizon, i % self.horizon
 
-    def clearances(self, state, wheels: np.ndarray, obstacles: "Obstacles") -> tuple[np.ndarray, np.ndarray,
-                                                                                  np.ndarray, np.ndarray]:
+    def clearances(self, state, wheels: np.ndarray, obstacles: "Obstacles", within_reach: bool = False) -> tuple:
         """For each sequence in ``wheels`` (M, H, 2): the smallest inflated clearance over the
         horizon, the clearance now, the chord index and the obstacle of the minimum, and how
         many chords pass before the clearance first falls below the threshold (the margin,
-        or, inside it, the clearance now): H * substeps when it never does."""
+        or, inside it, the clearance now): H * substeps when it never does.
+
+        ``within_reach``: the sequences are rolled out against the obstacles that one of them
+        can come near (:meth:`_within_reach`) only; the others keep more than the margin all
+        along, so the clearance now and how long each keeps the margin are the same, and the
+        smallest clearance where it is below the margin; above it, it may be the others'
+        lower bound instead (a sequence judged safe stays safe, at a fraction of the roll-outs
+        in a crowd)."""
         M, N = wheels.shape[0], self.horizon * self.substeps
         if not len(obstacles.q):
             inf = np.full(M, np.inf)
             return inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N)
         q, touch = obstacles.sub_samples()
+        near = self._within_reach(state, wheels, obstacles) if within_reach else None
+        if near is not None:
+            idx, floor, floor_j, floor_k = near
+            now = np.full(M, (np.abs(complex(state[0], state[1]) - q[:, 0]) - touch[:, 0]).min())
+            if not len(idx):
+                return (np.full(M, floor), now, np.full(M, (floor_k + 1) * self.substeps - 1),
+                        np.full(M, floor_j), np.full(M, N))
+            q, touch = q[idx], touch[idx]
         rel = self.rollout(state, wheels)[:, None, :] - q                   # (M, n, N+1) robot - obstacle
         r0 = rel[..., :-1]                                                  # chord starts
         u = rel[..., 1:] - r0                                               # chord directions
@@ -266,14 +284,43 @@ class TrajectoryCheck:
         flat = gap.reshape(M, -1)
         k = flat.argmin(axis=1)
         cmin = flat[np.arange(M), k]
-        now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
+        if near is None:
+            now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
         threshold = np.minimum(self.margin_m, now - _NOT_WORSE_M)
         if M == 1 and cmin[0] >= threshold[0]:
             kept = np.full(1, N)  # never below: no need to find where
         else:
             below = gap.min(axis=1) < threshold[:, None]
             kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
+        if near is not None:  # back to the whole set's indices; the others' bound where it is lower
+            which = idx[k // N]
+            lower = floor < cmin
+            if lower.any():
+                cmin = np.where(lower, floor, cmin)
+                k = np.where(lower, (floor_k + 1) * self.substeps - 1, k % N)
+                which = np.where(lower, floor_j, which)
+                return cmin, now, k, which, kept
+            return cmin, now, k % N, which, kept
         return cmin, now, k % N, k // N, kept
+
+    def _within_reach(self, state, wheels: np.ndarray, obstacles: "Obstacles"):
+        """The obstacles that some sequence of ``wheels`` (M, H, 2) can come near: those
+        whose bound (as :meth:`bound`, with the longest path any of the sequences drives over
+        each interval) is below the margin (and a little more: see :data:`_FAR_M`). Returns
+        ``(indices of those, the others' least bound, its obstacle, its interval)``, or None
+        when every obstacle is near."""
+        if len(obstacles.q) < 2:
+            return None
+        q = obstacles.q
+        reach = np.add.accumulate(np.abs(wheels[..., 0] + wheels[..., 1]).max(axis=0)) * (0.5 * self.sample_time_s)
+        low = (np.abs(q[:, 1:] - complex(state[0], state[1])) - np.abs(q[:, 1:] - q[:, :-1])) - obstacles.touch - reach
+        per = low.min(axis=1)
+        near = per < self.margin_m + _FAR_M
+        if near.all():
+            return None
+        far = np.flatnonzero(~near)
+        j = int(far[per[far].argmin()])
+        return np.flatnonzero(near), float(per[j]), j, int(low[j].argmin())
 
     # --- candidates ----------------------------------------------------------------------
     def manoeuvres(self, v0, steps: int | None = None) -> tuple[list[str], np.ndarray]:
@@ -329,12 +376,12 @@ class TrajectoryCheck:
             seq = self.limit(state[3:5], seq)
         return seq[0].copy(), (seq if plan is not None else None), limited
 
-    def _check_best(self, state, wheels, obstacles, labels: list[str]) -> SafetyCheck:
+    def _check_best(self, state, wheels, obstacles, labels: list[str], within_reach: bool = False) -> SafetyCheck:
         """The check of the best sequence of ``wheels`` (M, H, 2): the one that keeps the
         clearance above the threshold longest (a violation late in the horizon, where the
         forecasts are uncertain, is not as bad as one in the next second), then the one with
-        the largest smallest clearance, then the first."""
-        cmin, now, chord, which, kept = self.clearances(state, wheels, obstacles)
+        the largest smallest clearance, then the first (``within_reach``: see :meth:`clearances`)."""
+        cmin, now, chord, which, kept = self.clearances(state, wheels, obstacles, within_reach)
         i = 0
         if len(cmin) > 1:
             longest = kept == kept.max()
@@ -363,16 +410,16 @@ class TrajectoryCheck:
             return SafetyCheck(True, lower, lower, (k + 1) * self.sample_time_s, obstacles.label(j), "bound",
                                horizon_s)
         if plan is not None:
-            plan_check = self._check_best(state, plan[None], obstacles, ["plan"])
+            plan_check = self._check_best(state, plan[None], obstacles, ["plan"], True)
             if plan_check.safe or (enough_s is not None and plan_check.kept_s >= enough_s - 1e-9):
                 return plan_check
-        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names)
+        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names, True)
         if self.search_way_out and not way_out.safe:
             # the fixed manoeuvres first (9 roll-outs); the searched grid (5 times as many) only
             # when none of them keeps the margin: the verdict is that of the whole set either way
             # (the best of the set is safe when any of it is), at a fifth of its cost when the
             # manoeuvres suffice
-            searched = self._check_best(state, self._escapes(cmd, True), obstacles, self._then_search_names)
+            searched = self._check_best(state, self._escapes(cmd, True), obstacles, self._then_search_names, True)
             if self._better(searched, way_out):
                 way_out = searched
         if plan is not None and self._better(plan_check, way_out):
@@ -407,7 +454,7 @@ class TrajectoryCheck:
         state = np.asarray(state, float)
         v0 = state[3:5]
         W = np.concatenate([self._searched(v0, self.horizon), self.manoeuvres(v0)[1]])
-        cmin, now, chord, which, kept = self.clearances(state, W, obstacles)
+        cmin, now, chord, which, kept = self.clearances(state, W, obstacles, True)
         N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
         safe = kept == N
         if safe.any():
@@ -430,57 +477,3 @@ class TrajectoryCheck:
         check = self._check_best(np.asarray(state, float), W, obstacles, names)
         i = names.index(check.continuation)
         return names[i], W[i], check
-
-
-def forecast_covariances(f) -> np.ndarray:
-    """The forecast covariances the check uses: the planner's (a track seen once keeps its
-    next step's uncertainty; objects without ``initialised`` are estimated tracks)."""
-    return planning_covariances(f.covs_m2, getattr(f, "initialised", True))
-
-
-def shared_batch(forecasts):
-    """The :class:`~casadi_gpc.estimation.ekf_batch.ForecastBatch` whose rows ``forecasts`` are, in its
-    order (a crowd's track estimates carry ``batch_`` and ``batch_index_``), else None."""
-    batch = getattr(forecasts[0], "batch_", None) if forecasts else None
-    if batch is None or len(forecasts) != len(batch):
-        return None
-    i = 0
-    for f in forecasts:
-        if getattr(f, "batch_", None) is not batch or f.batch_index_ != i:
-            return None
-        i += 1
-    return batch
-
-
-def forecast_arrays(forecasts) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The means ``(n, H, 2)``, :func:`forecast_covariances` ``(n, H, 2, 2)`` and their
-    :func:`~casadi_gpc.estimation.ekf.worst_std_m` ``(n, H)`` of ``forecasts``, stacked; taken whole
-    from their :func:`shared_batch` when they have one. Raises ValueError when their lengths
-    differ."""
-    batch = shared_batch(forecasts)
-    if batch is not None:
-        return batch.arrays[0], batch.planning_covs, batch.worst_std_m
-    m = np.array([f.means_m for f in forecasts], dtype=float)
-    c = np.array([forecast_covariances(f) for f in forecasts], dtype=float)
-    return m, c, worst_std_m(c)
-
-
-class Obstacles:
-    """The obstacles of one check at the sample instants, with their sub-sampled form made
-    once when a roll-out needs it."""
-
-    __slots__ = ("q", "touch", "moving", "statics", "_filter", "_sub")
-
-    def __init__(self, q, touch, moving, statics, flt: TrajectoryCheck):
-        self.q, self.touch, self.moving, self.statics, self._filter, self._sub = q, touch, moving, statics, flt, None
-
-    def sub_samples(self) -> tuple[np.ndarray, np.ndarray]:
-        """Positions ``(n, H * substeps + 1)`` and touching distances ``(n, H * substeps)``."""
-        if self._sub is None:
-            f = self._filter
-            self._sub = (self.q @ f._interp, np.repeat(self.touch, f.substeps, axis=1))
-        return self._sub
-
-    def label(self, j: int) -> str:
-        n = len(self.moving)
-        return f"moving {self.moving[j].obstacle_id}" if j < n else f"static {j - n}"

@@ -103,7 +103,8 @@ def test_evaluate_the_network_without_casadi(tmp_path):
     """``gpcnav evaluate --controller nn`` is what a robot without CasADi runs (the network
     behind the planner-free check): it runs with casadi and torch unimportable (it once
     stopped on an ImportError) and its episodes reach the goal; the GPC on standby
-    (``--shield-fallback gpc``) is refused in one line there, exit 2."""
+    (``--shield-fallback gpc``) and ``bench`` (it times the GPC) are refused in one line there,
+    exit 2."""
     import json
     out = tmp_path / "eval.json"
     args = ["evaluate", "--suite", "circle-crossing", "--movers", "5", "--count", "2", "--seed", "1",
@@ -117,3 +118,6 @@ def test_evaluate_the_network_without_casadi(tmp_path):
     assert refused.returncode == 2
     lines = refused.stderr.strip().splitlines()
     assert len(lines) == 1 and "needs the planner" in lines[0], refused.stderr[-2000:]
+    bench = subprocess.run([sys.executable, "-c", CLI, "bench", "--no-nn-rows"], capture_output=True, text=True,
+                           timeout=300)
+    assert bench.returncode == 2 and len(bench.stderr.strip().splitlines()) == 1 and "CasADi" in bench.stderr

@@ -149,6 +149,7 @@ class TrajectoryCheck:
         self._search_names = [f"search({0.5 * (r + l):+.2f},{0.5 * (r - l):+.2f})" for r, l in grid] + self._names
         self._then_search_names = ["then " + n for n in self._search_names]
         self.search_way_out = False
+        self.search_phases = 1  # 2: when no searched sequence keeps the margin, two-phase ones too
         """Whether the way out is searched (:meth:`search`) and a command's escapes are the
         searched grid and the manoeuvres, not the manoeuvres alone (set by the filter)."""
         # the wish's weight per step: the near steps count most (the next command is what is applied)
@@ -456,7 +457,13 @@ class TrajectoryCheck:
         W = np.concatenate([self._searched(v0, self.horizon), self.manoeuvres(v0)[1]])
         cmin, now, chord, which, kept = self.clearances(state, W, obstacles, True)
         N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
-        safe = kept == N
+        safe, names = kept == N, self._search_names
+        if not safe.any() and self.search_phases == 2:  # each sequence for 1 s, then one of a coarse grid
+            W2, names2 = self._two_phase(W, names)
+            c2 = self.clearances(state, W2, obstacles, True)
+            W, names = np.concatenate([W, W2]), names + names2
+            cmin, now, chord, which, kept = (np.concatenate([a, b]) for a, b in zip((cmin, now, chord, which, kept), c2))
+            safe = kept == N
         if safe.any():
             w = np.asarray(wish, dtype=float)
             w = np.broadcast_to(w, (self.horizon, 2)) if w.shape == (2,) else w
@@ -468,8 +475,22 @@ class TrajectoryCheck:
             longest = kept == kept.max()
             i = int(np.argmax(longest & (cmin >= cmin[longest].max() - _TIE_M)))
         check = SafetyCheck(bool(safe[i]), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
-                            obstacles.label(int(which[i])), self._search_names[i], float(kept[i]) * tau)
-        return self._search_names[i], W[i], check
+                            obstacles.label(int(which[i])), names[i], float(kept[i]) * tau)
+        return names[i], W[i], check
+
+    def _two_phase(self, W, names, switch: int = 2):
+        """Each of ``W`` for ``switch`` intervals, then each of a coarse grid of held targets (mean
+        -0.5, 0, 0.5, 1 x half-difference -0.5, 0, 0.5 of the limit): (M * 12, H, 2), names."""
+        vmax, steps = self.robot.max_wheel_speed_mps, self.horizon - switch
+        tg = np.array([(u + d, u - d) for u in (-0.5, 0.0, 0.5, 1.0) for d in (-0.5, 0.0, 0.5)]) * vmax
+        tg = np.minimum(np.maximum(tg, -vmax), vmax)
+        v1 = W[:, switch - 1][:, None, None, :]
+        reach = self._reach[:, :steps][None]
+        tail = v1 + np.minimum(np.maximum(tg[None, :, None, :] - v1, -reach), reach)      # (M, 12, steps, 2)
+        out = np.empty((len(W), len(tg), self.horizon, 2))
+        out[:, :, :switch] = W[:, None, :switch]
+        out[:, :, switch:] = tail
+        return out.reshape(-1, self.horizon, 2), [f"{n} then ({r:+.2f},{l:+.2f})" for n in names for r, l in tg]
 
     def best_manoeuvre(self, state, obstacles) -> tuple[str, np.ndarray, SafetyCheck]:
         """The best manoeuvre from now (see :meth:`_check_best`): name, (H, 2) wheels and its check."""

@@ -63,6 +63,9 @@ class CheckSettings:
         a grid of held wheel-speed targets beside the fixed manoeuvres, the safe one nearest
         the controller's command) instead of the best fixed manoeuvre (counted
         ``shield_searched``).
+    search_phases : int
+        With :attr:`search`, 2: when no searched sequence keeps the margin, each held for 1 s
+        and then a coarse grid of targets is searched too (an experiment, docs/nn-deploy.md).
     fallback : str
         One of :data:`FALLBACKS`.
     margin_m : float
@@ -83,6 +86,7 @@ class CheckSettings:
     rollouts: bool = False
     trust_rollout_s: float | None = None
     search: bool = False
+    search_phases: int = 1
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
     sigmas: float = 2.0

@@ -116,6 +116,9 @@ def parse_solvers(text: str) -> list[str]:
 
 
 def run(args) -> int:
+    if not _solver_names():
+        raise UsageError("bench times the GPC beside the network: it needs CasADi (pip install -e .), which this "
+                         "Python cannot import")
     from gpcnav.benchmarks.solvers import bench_figure, format_table, run_bench
     from scenarios import PAPER_DIR, Suite, load_scenario
 

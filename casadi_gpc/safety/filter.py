@@ -12,6 +12,7 @@ from ..robot import RobotParams
 from ..types import ControlDecision, Observation
 from .check import SafetyCheck
 from .screen import QuickScreen
+from .search import WayOutSearch
 
 __all__ = ["ROLLOUT_TRUST_S", "SafetyVerdict", "SafetyFilter"]
 
@@ -63,7 +64,7 @@ class SafetyVerdict:
     """(H, 2) the sequence that was let through, when known."""
 
 
-class SafetyFilter(QuickScreen):
+class SafetyFilter(WayOutSearch, QuickScreen):
     """Checks candidate wheel speeds against the predicted obstacles; see the package text.
 
     Parameters

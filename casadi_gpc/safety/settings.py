@@ -66,6 +66,10 @@ class CheckSettings:
     search_phases : int
         With :attr:`search`, 2: when no searched sequence keeps the margin, each held for 1 s
         and then a coarse grid of targets is searched too (an experiment, docs/nn-deploy.md).
+    search_static_first : bool
+        With :attr:`search`: when no searched sequence keeps the margin, only those that keep
+        it from the static obstacles and walls (known exactly, not forecast) compete, if any
+        does (an experiment, docs/nn-deploy.md).
     fallback : str
         One of :data:`FALLBACKS`.
     margin_m : float
@@ -87,6 +91,7 @@ class CheckSettings:
     trust_rollout_s: float | None = None
     search: bool = False
     search_phases: int = 1
+    search_static_first: bool = False
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
     sigmas: float = 2.0

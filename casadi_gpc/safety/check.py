@@ -149,8 +149,6 @@ class TrajectoryCheck:
         self._search_names = [f"search({0.5 * (r + l):+.2f},{0.5 * (r - l):+.2f})" for r, l in grid] + self._names
         self._then_search_names = ["then " + n for n in self._search_names]
         self.search_way_out = False
-        self.search_phases = 1  # 2: when no searched sequence keeps the margin, two-phase ones too
-        self.search_static_first = False  # an experiment: see CheckSettings
         """Whether the way out is searched (:meth:`search`) and a command's escapes are the
         searched grid and the manoeuvres, not the manoeuvres alone (set by the filter)."""
         # the wish's weight per step: the near steps count most (the next command is what is applied)

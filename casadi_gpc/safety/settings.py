@@ -63,13 +63,6 @@ class CheckSettings:
         a grid of held wheel-speed targets beside the fixed manoeuvres, the safe one nearest
         the controller's command) instead of the best fixed manoeuvre (counted
         ``shield_searched``).
-    search_phases : int
-        With :attr:`search`, 2: when no searched sequence keeps the margin, each held for 1 s
-        and then a coarse grid of targets is searched too (an experiment, docs/nn-deploy.md).
-    search_static_first : bool
-        With :attr:`search`: when no searched sequence keeps the margin, only those that keep
-        it from the static obstacles and walls (known exactly, not forecast) compete, if any
-        does (an experiment, docs/nn-deploy.md).
     fallback : str
         One of :data:`FALLBACKS`.
     margin_m : float
@@ -90,8 +83,6 @@ class CheckSettings:
     rollouts: bool = False
     trust_rollout_s: float | None = None
     search: bool = False
-    search_phases: int = 1
-    search_static_first: bool = False
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
     sigmas: float = 2.0

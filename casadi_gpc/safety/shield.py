@@ -99,8 +99,6 @@ class Shield:
                                    settings.substeps, fallback=fallback, trust_planner_s=settings.trust_planner_s,
                                    trust_rollout_s=settings.trust_rollout_s,
                                    safer_alternatives=settings.safer_alternatives, search=settings.search)
-        self.filter.search_phases = settings.search_phases
-        self.filter.search_static_first = settings.search_static_first
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = settings.trust_plans
         self.previous_plan = settings.previous_plan

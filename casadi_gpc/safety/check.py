@@ -32,7 +32,7 @@ are offsets added to the current mean wheel speed (at least a quarter of the lim
 others are absolute targets. 'right'/'left' name the side the robot turns towards."""
 
 SEARCH_SPEEDS = (-0.5, 0.0, 0.25, 0.5, 0.75, 1.0)
-"""The searched way out (:meth:`TrajectoryCheck.search`): mean wheel-speed targets, as
+"""The searched way out (:meth:`~casadi_gpc.safety.search.WayOutSearch.search`): mean wheel-speed targets, as
 fractions of the speed limit ..."""
 SEARCH_TURNS = (-0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5)
 """... and half the difference of the two wheels' targets (positive turns left), the same
@@ -255,10 +255,9 @@ class TrajectoryCheck:
 
         ``within_reach``: the sequences are rolled out against the obstacles that one of them
         can come near (:meth:`_within_reach`) only; the others keep more than the margin all
-        along, so the clearance now and how long each keeps the margin are the same, and the
-        smallest clearance where it is below the margin; above it, it may be the others'
-        lower bound instead (a sequence judged safe stays safe, at a fraction of the roll-outs
-        in a crowd)."""
+        along, so the clearance now and how long each keeps the margin are the same, and so is
+        the smallest clearance unless a left-out obstacle's bound is below it, where all are
+        rolled out after all: the same numbers, at a fraction of the roll-outs in a crowd."""
         M, N = wheels.shape[0], self.horizon * self.substeps
         if not len(obstacles.q):
             inf = np.full(M, np.inf)
@@ -266,11 +265,10 @@ class TrajectoryCheck:
         q, touch = obstacles.sub_samples()
         near = self._within_reach(state, wheels, obstacles) if within_reach else None
         if near is not None:
-            idx, floor, floor_j, floor_k = near
+            idx, floor = near
             now = np.full(M, (np.abs(complex(state[0], state[1]) - q[:, 0]) - touch[:, 0]).min())
             if not len(idx):
-                return (np.full(M, floor), now, np.full(M, (floor_k + 1) * self.substeps - 1),
-                        np.full(M, floor_j), np.full(M, N))
+                return self.clearances(state, wheels, obstacles)
             q, touch = q[idx], touch[idx]
         rel = self.rollout(state, wheels)[:, None, :] - q                   # (M, n, N+1) robot - obstacle
         r0 = rel[..., :-1]                                                  # chord starts
@@ -292,23 +290,17 @@ class TrajectoryCheck:
         else:
             below = gap.min(axis=1) < threshold[:, None]
             kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
-        if near is not None:  # back to the whole set's indices; the others' bound where it is lower
-            which = idx[k // N]
-            lower = floor < cmin
-            if lower.any():
-                cmin = np.where(lower, floor, cmin)
-                k = np.where(lower, (floor_k + 1) * self.substeps - 1, k % N)
-                which = np.where(lower, floor_j, which)
-                return cmin, now, k, which, kept
-            return cmin, now, k % N, which, kept
+        if near is not None:
+            if (floor < cmin).any():  # a left-out obstacle might hold a smallest clearance: all of them
+                return self.clearances(state, wheels, obstacles)
+            return cmin, now, k % N, idx[k // N], kept
         return cmin, now, k % N, k // N, kept
 
     def _within_reach(self, state, wheels: np.ndarray, obstacles: "Obstacles"):
         """The obstacles that some sequence of ``wheels`` (M, H, 2) can come near: those
         whose bound (as :meth:`bound`, with the longest path any of the sequences drives over
         each interval) is below the margin (and a little more: see :data:`_FAR_M`). Returns
-        ``(indices of those, the others' least bound, its obstacle, its interval)``, or None
-        when every obstacle is near."""
+        ``(indices of those, the others' least bound)``, or None when every obstacle is near."""
         if len(obstacles.q) < 2:
             return None
         q = obstacles.q
@@ -318,9 +310,7 @@ class TrajectoryCheck:
         near = per < self.margin_m + _FAR_M
         if near.all():
             return None
-        far = np.flatnonzero(~near)
-        j = int(far[per[far].argmin()])
-        return np.flatnonzero(near), float(per[j]), j, int(low[j].argmin())
+        return np.flatnonzero(near), float(per[~near].min())
 
     # --- candidates ----------------------------------------------------------------------
     def manoeuvres(self, v0, steps: int | None = None) -> tuple[list[str], np.ndarray]:

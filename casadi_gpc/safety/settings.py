@@ -59,7 +59,7 @@ class CheckSettings:
         :data:`~casadi_gpc.safety.ROLLOUT_TRUST_S` is the measured setting behind the
         standby planner.
     search : bool
-        The check's own way out is searched (:meth:`~casadi_gpc.safety.TrajectoryCheck.search`:
+        The check's own way out is searched (:meth:`~casadi_gpc.safety.search.WayOutSearch.search`:
         a grid of held wheel-speed targets beside the fixed manoeuvres, the safe one nearest
         the controller's command) instead of the best fixed manoeuvre (counted
         ``shield_searched``).

@@ -11,7 +11,14 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_file", "json_default", "write_json", "write_text", "write_bytes", "save_figure"]
+__all__ = ["atomic_file", "json_default", "write_json", "write_text", "write_bytes", "save_figure", "cache_dir"]
+
+
+def cache_dir() -> Path:
+    """Where gpcnav keeps what it makes once and reuses (compiled NLPs, finished episodes):
+    ``$GPCNAV_CACHE_DIR`` or ``~/.cache/gpcnav``. Here, not with the solvers, so that the
+    deployed network's commands ask it without CasADi."""
+    return Path(os.environ.get("GPCNAV_CACHE_DIR") or Path.home() / ".cache" / "gpcnav")
 
 
 def json_default(o):

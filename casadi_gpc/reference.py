@@ -134,8 +134,18 @@ class ReferencePath:
         """Arc length of the path point nearest ``xy``, searched near ``s_guess``."""
         s = np.linspace(s_guess - window_m, s_guess + window_m, samples)
         s = np.minimum(np.maximum(s, 0.0), self._length)
-        x, y, _ = self._arc_at(s)
-        d2 = (x - xy[0]) ** 2 + (y - xy[1]) ** 2
+        lo, hi = float(s[0]), float(s[-1])
+        i = bisect_right(self._cum_list, lo) - 1
+        c, x0, y0, _, curv, cos0, sin0 = self._table[i]
+        if curv == 0.0 and (i == len(self._cum_list) - 1 or hi < self._cum_list[i + 1]):
+            # the window on one straight piece (every sample of a crossing): the points of
+            # _arc_at there, x0 + ds cos h0 (see poses_along), without its segment look-ups and
+            # sinc; the deployed policy projects every sample
+            ds = s - c
+            d2 = (ds * cos0 + (x0 - xy[0])) ** 2 + (ds * sin0 + (y0 - xy[1])) ** 2
+        else:
+            x, y, _ = self._arc_at(s)
+            d2 = (x - xy[0]) ** 2 + (y - xy[1]) ** 2
         return float(s[int(np.argmin(d2))])
 
     def polyline(self, step_m: float = 0.05) -> np.ndarray:

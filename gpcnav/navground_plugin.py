@@ -227,9 +227,9 @@ class GPCBehavior(core.Behavior, name="GPC"):
 
 
 class GPCNetworkBehavior(GPCBehavior, name="GPCNetwork"):
-    """The network (gpcnav's controller ``nn``) behind its planner-free check (shield mode
-    ``on``: the check layer falls back on its own manoeuvres, no planner on standby, so no
-    CasADi), as a navground behaviour.
+    """The network (gpcnav's controller ``nn``, as ``--controller nn`` runs it) behind its
+    planner-free check (shield mode ``on``: the check layer falls back on its own searched way
+    out, no planner on standby, so no CasADi), as a navground behaviour.
 
     *Registered properties*: ``preset`` [str], ``max_wheel_acceleration`` [float],
     ``model`` [str].

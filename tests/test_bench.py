@@ -137,6 +137,20 @@ def test_choose_solver_takes_the_fastest_that_agrees_and_never_fails():
     assert choose_solver(rows)[0] == "d"  # a policy is not a solver
 
 
+def test_the_deployed_decision_is_set_against_the_gpc_s_on_the_same_scene():
+    """``deployed_against_gpc``: the GPC's decision time over the network's, per scene that has
+    both rows (the same run), at the median, p99 and max; scenes with one row are left out."""
+    from gpcnav.benchmarks.decisions import deployed_against_gpc
+    gpc = [{"scenario": "a", "time_s": {"median": 2e-3, "p99": 40e-3, "max": 60e-3}},
+           {"scenario": "b", "time_s": {"median": 1e-3, "p99": 1e-3, "max": 1e-3}}]
+    net = [{"scenario": "a", "controller": "nn", "movers": 10, "time_s": {"median": 1e-4, "p99": 8e-4, "max": 2e-3}},
+           {"scenario": "c", "controller": "nn", "movers": 1, "time_s": {"median": 1e-4, "p99": 1e-4, "max": 1e-4}}]
+    rows = deployed_against_gpc(gpc, net)
+    assert [r["scenario"] for r in rows] == ["a"]
+    assert rows[0]["speedup_median"] == pytest.approx(20.0) and rows[0]["speedup_p99"] == pytest.approx(50.0)
+    assert rows[0]["speedup_max"] == pytest.approx(30.0)
+
+
 def test_speedups_function():
     rows = [{"name": REFERENCE, "time_s": {"median": 2.0}}, {"name": "x", "time_s": {"median": 0.5}},
             {"name": "y", "time_s": {"median": 1.0}}]
@@ -228,8 +242,14 @@ def test_a_network_decisions_parts_are_disjoint_stretches_of_its_time():
         assert all(p >= 0.0 for p in parts) and parts[0] > 0 and parts[2] > 0 and parts[3] > 0
         assert sum(parts) < t
     row = policy_decision_run(sc, "nn", make(ControllerSpec("nn"), cfg, sc.robot))
-    assert set(row["parts_s"]) == {"estimation", "network", "check", "rest"}
+    assert set(row["parts_s"]) == set(row["parts_p99_s"]) == {"estimation", "network", "check", "rest"}
     assert all(v > 0 for v in row["parts_s"].values())
+    assert all(row["parts_p99_s"][k] >= row["parts_s"][k] for k in row["parts_s"])
+    t = row["time_s"]
+    assert t["median"] <= t["p95"] <= t["p99"] <= t["max"]
+    assert t["p99"] == np.percentile(row["time_samples_s"], 99)
+    # the deployed network is the planner-free check (no standby planner: no CasADi needed)
+    assert pol.filter.fallback is None and pol.filter.search_way_out
     assert decision_parts(log.decisions[:3], log.compute_time_s[:3]) is not None
     gpc = simulate(sc, make(ControllerSpec("gpc"), cfg, sc.robot), "gpc")
     assert decision_parts(gpc.decisions, gpc.compute_time_s) is None

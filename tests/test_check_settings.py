@@ -51,15 +51,17 @@ def test_the_registry_declares_what_each_controller_is_trusted_with(name):
     nn = check_settings("nn", _Net(), cfg, "gpc")
     assert nn.rollouts and nn.trust_rollout_s == ROLLOUT_TRUST_S and nn.fallback == "planner"
     assert not nn.trust_plans and not nn.safer_alternatives
-    bare = check_settings("nn", _Net(), cfg, "on")                     # the planner-free check
-    assert not bare.rollouts and bare.fallback == "manoeuvres"
+    assert not nn.search                                               # the standby planner, not the search
+    bare = check_settings("nn", _Net(), cfg, "on")                     # the planner-free check, deployed
+    assert bare.rollouts and bare.trust_rollout_s == ROLLOUT_TRUST_S and bare.fallback == "manoeuvres"
+    assert bare.search and not bare.trust_plans
     plans = check_settings("nn", _PlanNet(), cfg, "on")
-    assert plans.trust_plans and plans.previous_plan and not plans.rollouts
+    assert plans.trust_plans and plans.previous_plan and not plans.rollouts and plans.search
     for peer in ("orca", "hrvo", "social_force", "mppi", "stand", "blind", "mymod:Mine"):
         assert check_settings(peer, object(), cfg, "on") == CheckSettings()
         assert check_settings(peer, object(), cfg, "gpc") == CheckSettings(fallback="planner")
     assert DEFAULT_SHIELD == {n: k.default_shield for n, k in REGISTRY.items()}
-    assert DEFAULT_SHIELD["gpc"] == "on" and DEFAULT_SHIELD["nn"] == "gpc" and DEFAULT_SHIELD["orca"] == "off"
+    assert DEFAULT_SHIELD["gpc"] == "on" and DEFAULT_SHIELD["nn"] == "on" and DEFAULT_SHIELD["orca"] == "off"
 
 
 class _Scripted:

@@ -80,20 +80,23 @@ def test_every_builtin_name_makes_its_controller():
     assert type(make(ControllerSpec("gpc", shield="off"), CONFIG, robot)).__name__ == "GPCController"
     assert ControllerSpec("orca", shield="on").label == "orca[shield=on]"
     assert ControllerSpec("gpc", shield="on").label == "gpc"
-    # the network's roll-out is judged with the GPC on standby, not behind the manoeuvres alone
-    assert made["nn"]._rollout is not None and made["gpc"]._rollout is None
-    assert make(ControllerSpec("nn", shield="on"), CONFIG, robot)._rollout is None
+    # nn is what a robot deploys: the planner-free check, its way out searched; the network's
+    # roll-out is judged there and with the GPC on standby (shield mode gpc)
+    standby = make(ControllerSpec("nn", shield="gpc"), CONFIG, robot)
+    assert made["nn"].filter.fallback is None and made["nn"].filter.search_way_out
+    assert standby.filter.fallback is not None and not standby.filter.search_way_out
+    assert made["nn"]._rollout is not None and standby._rollout is not None and made["gpc"]._rollout is None
     # ... and passes when it keeps the margin for the measured trust time; nothing else has one
     from casadi_gpc.safety import ROLLOUT_TRUST_S
-    assert made["nn"].filter.trust_rollout_s == ROLLOUT_TRUST_S == 4.5
+    assert made["nn"].filter.trust_rollout_s == standby.filter.trust_rollout_s == ROLLOUT_TRUST_S == 4.5
     assert made["gpc"].filter.trust_rollout_s is None
-    assert make(ControllerSpec("nn", shield="on"), CONFIG, robot).filter.trust_rollout_s is None
+    assert ControllerSpec("nn").label == "nn" and ControllerSpec("nn", shield="gpc").label == "nn[shield=gpc]"
 
 
-def test_shield_keeps_the_network_s_planner_on_standby():
-    """``--shield`` asks for the check layer, which gpc and nn run behind by default: it keeps
-    the network's GPC on standby (it once meant the manoeuvres alone for nn, unlike its help);
-    ``--shield-fallback brake`` is the way to the manoeuvres alone."""
+def test_shield_keeps_the_network_s_deployed_check():
+    """``--shield`` asks for the check layer, which gpc and nn run behind by default: for nn
+    the planner-free check a robot deploys; ``--shield-fallback gpc`` puts the GPC on standby
+    behind it (mode ``gpc``)."""
     import argparse
 
     from gpcnav.controllers import shield_mode
@@ -101,8 +104,9 @@ def test_shield_keeps_the_network_s_planner_on_standby():
     def mode(kind, shield=None, fallback=None):
         return shield_mode(argparse.Namespace(shield=shield, shield_fallback=fallback), kind)
 
-    assert mode("nn") == mode("nn", "on") == "gpc"
+    assert mode("nn") == mode("nn", "on") == "on"
     assert mode("nn", "on", "brake") == mode("nn", None, "brake") == "on"
+    assert mode("nn", "on", "gpc") == mode("nn", None, "gpc") == "gpc"
     assert mode("nn", "off") == "off" and mode("nn", "off", "gpc") == "off"
     assert mode("gpc", "on") == mode("gpc") == "on"
     assert mode("orca") == "off" and mode("orca", "on") == "on" and mode("orca", "on", "gpc") == "gpc"

@@ -84,3 +84,40 @@ movers, answered by the crowd network) peaks under 80 MB
     r = mod.measure("improved", 300, movers=10)
     assert r["crowd_decisions"] >= 250 and not r["torch_loaded"] and not r["casadi_loaded"]
     assert 20.0 < r["peak_rss_mb"] < 80.0, r
+
+
+# the command line is the world around the robot (the simulator, the measures: scipy, the plots):
+# only the planner's and the trainer's libraries are made unimportable
+CLI = BLOCKER.replace('BLOCKED = ("torch", "casadi", "onnx", "matplotlib", "scipy")', 'BLOCKED = ("torch", "casadi")') + \
+    textwrap.dedent("""
+    from gpcnav.cli import main
+    code = main(sys.argv[1:])
+    for mod in ("torch", "casadi"):
+        assert mod not in sys.modules, mod
+    sys.exit(code)
+""")
+
+
+@pytest.mark.skipif(not shipped_model_path("improved").is_file(), reason="no shipped model yet")
+def test_evaluate_the_network_without_casadi(tmp_path):
+    """``gpcnav evaluate --controller nn`` is what a robot without CasADi runs (the network
+    behind the planner-free check): it runs with casadi and torch unimportable (it once
+    stopped on an ImportError) and its episodes reach the goal; the GPC on standby
+    (``--shield-fallback gpc``) and ``bench`` (it times the GPC) are refused in one line there,
+    exit 2."""
+    import json
+    out = tmp_path / "eval.json"
+    args = ["evaluate", "--suite", "circle-crossing", "--movers", "5", "--count", "2", "--seed", "1",
+            "--controller", "nn", "--workers", "1", "--out", str(out)]
+    run = subprocess.run([sys.executable, "-c", CLI, *args], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    doc = json.loads(out.read_text())
+    assert doc["controller"] == "nn" and doc["episodes"] == 2 and doc["success_rate"] == 1.0
+    refused = subprocess.run([sys.executable, "-c", CLI, *args[:-2], "--shield-fallback", "gpc"], capture_output=True,
+                             text=True, timeout=300)
+    assert refused.returncode == 2
+    lines = refused.stderr.strip().splitlines()
+    assert len(lines) == 1 and "needs the planner" in lines[0], refused.stderr[-2000:]
+    bench = subprocess.run([sys.executable, "-c", CLI, "bench", "--no-nn-rows"], capture_output=True, text=True,
+                           timeout=300)
+    assert bench.returncode == 2 and len(bench.stderr.strip().splitlines()) == 1 and "CasADi" in bench.stderr

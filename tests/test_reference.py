@@ -105,3 +105,24 @@ def test_polyline_spans_the_path():
 def test_empty_path_is_refused():
     with pytest.raises(ValueError):
         ReferencePath((0.0, 0.0), 0.0, (), 0.4)
+
+
+def test_projection_on_a_straight_piece_is_the_grid_search_of_the_path_s_points():
+    """``project`` on a window that lies on one straight piece takes a shortcut to the points
+    (no segment look-up, no sinc): the same answer as the grid search over
+    ``pose_at_arclength``'s points, on straight paths and on the straight pieces of a bent one
+    (windows across a joint or on an arc take the general way)."""
+    import numpy as np
+
+    def grid(p, xy, s_guess, window_m=1.0, n=81):
+        s = np.minimum(np.maximum(np.linspace(s_guess - window_m, s_guess + window_m, n), 0.0), p.length_m)
+        pts = p.pose_at_arclength(s)
+        return float(s[int(np.argmin((pts[:, 0] - xy[0]) ** 2 + (pts[:, 1] - xy[1]) ** 2))])
+
+    rng = np.random.default_rng(5)
+    paths = (ReferencePath((0.0, -4.0), np.pi / 2, (Segment.line(8.0),), 0.4),
+             ReferencePath((1.0, 2.0), 0.3, (Segment.line(3.0), Segment.arc(2.0, 1.2), Segment.line(4.0)), 0.4))
+    for k in range(4000):
+        p = paths[k % 2]
+        s_guess, xy = rng.uniform(-1.0, p.length_m + 1.0), rng.uniform(-5.0, 5.0, 2)
+        assert p.project(xy, s_guess, window_m=1.0) == grid(p, xy, s_guess)

@@ -786,3 +786,97 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     kept[:] = [N, 10, 30]  # one keeps the inflated margin all along: it wins
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.safe and best.continuation == "a"
+
+
+# --- the searched way out (the planner-free check a robot deploys) ----------------------------
+def test_search_takes_the_safe_sequence_nearest_the_wish_by_brute_force():
+    """Among the grid and the manoeuvres, the search takes the sequence that a brute-force
+    clearance keeps above the margin over the whole horizon and that is nearest the
+    controller's wish (squared wheel-speed differences weighted 1/k): here a walker crosses
+    ahead, the wish (full speed ahead) fails, and the answer is found again independently."""
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H, search=True)
+    state = np.array([0.0, 0.0, 0.0, 0.4, 0.4])
+    fc = [forecast((2.5, -2.0), (0.0, 0.45), T, H)]
+    wish = np.array([0.8, 0.8])
+    name, w, check = f.search(state, f.obstacle_tracks(fc, ()), wish)
+    names, W = f._search_names, np.concatenate([f._searched(state[3:], H), f.manoeuvres(state[3:])[1]])
+    brute = np.array([brute_clearance(state, s, fc, (), T, 2.0, n=200) for s in W])
+    cost = np.array([sum(((s[k] - wish) ** 2).sum() / (k + 1) for k in range(H)) for s in W])
+    safe = brute >= f.margin_m - 1e-3       # the check is exact up to its chords
+    assert safe.any() and not safe.all()
+    assert not safe[names.index("search(+1.00,+0.00)")]    # the wish, full speed ahead, fails
+    i = int(np.argmin(np.where(safe, cost, np.inf)))
+    assert check.safe and name == names[i] and np.array_equal(w, W[i])
+    # it searches more than the manoeuvres: it keeps the margin and drives on, where the best
+    # manoeuvre by clearance would stand or turn away
+    assert name.startswith("search(+") and float(name[8:12]) > 0
+
+
+def test_with_the_search_a_command_passes_when_a_searched_way_out_keeps_the_margin():
+    """A command is judged with the ways out the check itself would take: behind the search,
+    the command then any searched target (or manoeuvre); the continuation says which. Where
+    the manoeuvres alone find none and the search finds one, only the searching check passes
+    it; nothing it passes lacks such a way out (brute force)."""
+    T, H = 0.5, 12
+    rng = np.random.default_rng(3)
+    plain, searching = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, search=True)
+    more = 0
+    for _ in range(40):
+        state = np.array([0.0, 0.0, 0.0, *rng.uniform(0.2, 0.8, 2)])
+        fc = _movers(rng, T, H, 4, 3.0, 0.45)
+        cmd = rng.uniform(0.0, 0.8, 2)
+        a, b = plain.check(state, cmd, fc), searching.check(state, cmd, fc)
+        assert not a.safe or b.safe      # the search only adds ways out
+        if b.safe and not a.safe:
+            more += 1
+            assert b.continuation.startswith("then search(")
+            target = searching._search_names.index(b.continuation[5:])
+            W = searching._escapes(cmd, True)[target]
+            assert brute_clearance(state, W, fc, (), T, 2.0, n=100) >= searching.margin_m - 1e-3
+    assert more > 0
+
+
+def test_the_filter_counts_its_searches():
+    """An intervention behind the search takes the searched way out (source
+    ``manoeuvre:search(...)`` or a fixed manoeuvre's name) and counts it."""
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H, search=True)
+    state = np.array([0.0, 0.0, 0.0, 0.8, 0.8])
+    wall = (StaticObstacle((0.35 + 0.2 + 1.0, 0.0), 1.0),)
+    v = f.filter(observation(state, wall), np.array([0.8, 0.8]), (), wall)
+    assert v.intervened and v.source.startswith("manoeuvre:")
+    assert f.counters["searched"] == 1 and f.counters["interventions"] == 1
+
+
+def test_rolling_out_only_against_the_obstacles_within_reach_changes_no_verdict():
+    """``clearances(within_reach=True)`` leaves out the obstacles whose bound keeps more than
+    the margin (rolling all out where a left-out one's bound is below the smallest clearance
+    found): the same numbers as against all of them, so the same verdicts and searched way
+    out (random crowds)."""
+    T, H = 0.5, 12
+    rng = np.random.default_rng(11)
+    f = SafetyFilter(ROBOT, T, H, search=True)
+
+    class _Every(SafetyFilter):  # the same check against every obstacle
+        def clearances(self, state, wheels, obstacles, within_reach=False):
+            return super().clearances(state, wheels, obstacles)
+
+    every = _Every(ROBOT, T, H, search=True)
+    left_out = 0
+    for _ in range(60):
+        state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), *rng.uniform(-0.2, 0.8, 2)])
+        fc = _movers(rng, T, H, 10, 6.0, 0.5)
+        obs = f.obstacle_tracks(fc, ())
+        W = np.concatenate([f._searched(state[3:], H), f.manoeuvres(state[3:])[1]])
+        a, b = f.clearances(state, W, obs), f.clearances(state, W, obs, within_reach=True)
+        near = f._within_reach(state, W, obs)
+        left_out += 0 if near is None else len(fc) - len(near[0])
+        for x, y in zip(a, b):  # smallest clearance, now, its chord and obstacle, kept
+            assert np.array_equal(x, y)
+        wish = rng.uniform(-0.8, 0.8, 2)
+        ref, got = every.search(state, obs, wish), f.search(state, obs, wish)
+        cmd = rng.uniform(-0.8, 0.8, 2)
+        assert every.check(state, cmd, fc).safe == f.check(state, cmd, fc).safe
+        assert got[0] == ref[0] and got[2].safe == ref[2].safe and got[2].kept_s == ref[2].kept_s
+    assert left_out > 100  # the shortcut is taken

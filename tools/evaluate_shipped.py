@@ -143,7 +143,8 @@ def markdown(res: dict) -> str:
          "Written by `python tools/evaluate_shipped.py` (" + res["when"] + ", " + res["machine"] + "). "
          "Path deviation: the largest distance from a sample of either run to the other run's path; same "
          "instant: the largest distance between the two robots at the same sample instant. `nn+filter` is "
-         "the network as `gpcnav simulate --controller nn` runs it (safety filter, GPC on standby); "
+         "the network behind the safety filter with the GPC on standby (`gpcnav simulate --controller nn "
+         "--shield-fallback gpc`; plain `--controller nn` is the planner-free check, docs/nn-deploy.md); "
          "`nn bare` without the filter.", ""]
     for preset, m in res["models"].items():
         L.append(f"* `{preset}`: `{m['path']}`, {m['bytes']} bytes, {m['layers']} hidden layer(s) of "

@@ -65,7 +65,9 @@ trust time alone gives way to the first alternative that keeps the margin over t
 horizon (counted ``alternative_safer``).
 
 Rooms: ``check`` (the roll-out, the clearances and the verdict on a sequence, the
-manoeuvres), ``screen`` (the quick screen in plain floats in front of the check),
+manoeuvres and the grid a way out is searched in), ``search`` (the searched way out),
+``obstacles`` (the forecasts as the arrays a check
+reads), ``screen`` (the quick screen in plain floats in front of the check),
 ``filter`` (:class:`SafetyFilter`: the interventions and their counters), ``settings``
 (:class:`CheckSettings`: what the check trusts from a controller and what it falls back
 on, one frozen object per controller), ``shield`` (:class:`Shield`: any controller behind

@@ -10,10 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..estimation.ekf import planning_covariances, worst_std_m
 from ..robot import RobotParams, followed_wheel, robot_step
+from .obstacles import Obstacles, forecast_arrays, forecast_covariances, shared_batch
 
-__all__ = ["MANOEUVRES", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
+__all__ = ["MANOEUVRES", "SEARCH_SPEEDS", "SEARCH_TURNS", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
            "shared_batch"]
 
 MANOEUVRES: tuple[tuple[str, float, float], ...] = (
@@ -31,6 +31,18 @@ MANOEUVRES: tuple[tuple[str, float, float], ...] = (
 are offsets added to the current mean wheel speed (at least a quarter of the limit), the
 others are absolute targets. 'right'/'left' name the side the robot turns towards."""
 
+SEARCH_SPEEDS = (-0.5, 0.0, 0.25, 0.5, 0.75, 1.0)
+"""The searched way out (:meth:`~casadi_gpc.safety.search.WayOutSearch.search`): mean wheel-speed targets, as
+fractions of the speed limit ..."""
+SEARCH_TURNS = (-0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5)
+"""... and half the difference of the two wheels' targets (positive turns left), the same
+fractions; every pair of the two within the limits, each target approached at the
+acceleration limit and held, beside :data:`MANOEUVRES`."""
+
+_FAR_M = 1e-3
+"""An obstacle is left out of a roll-out (:meth:`TrajectoryCheck.clearances`' ``within_reach``)
+only when its bound keeps this much more than the margin (well above any rounding, and above
+the clearance-now tolerance, so that what is below the threshold is the same)."""
 _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
 _NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
 
@@ -135,6 +147,16 @@ class TrajectoryCheck:
         self._swerve_rows = self._swerves[:, None].astype(float)
         self._reach = self.robot.max_step_change_mps(T) * self._steps[None, :, None]
         self._dv = self.robot.max_step_change_mps(T)
+        grid = [(u + d, u - d) for u in SEARCH_SPEEDS for d in SEARCH_TURNS
+                if abs(u + d) <= 1.0 and abs(u - d) <= 1.0 and (u >= 0.0 or abs(d) <= 0.25)]
+        self._search_targets = np.array(grid, dtype=float) * self.robot.max_wheel_speed_mps
+        self._search_names = [f"search({0.5 * (r + l):+.2f},{0.5 * (r - l):+.2f})" for r, l in grid] + self._names
+        self._then_search_names = ["then " + n for n in self._search_names]
+        self.search_way_out = False
+        """Whether the way out is searched (:meth:`search`) and a command's escapes are the
+        searched grid and the manoeuvres, not the manoeuvres alone (set by the filter)."""
+        # the wish's weight per step: the near steps count most (the next command is what is applied)
+        self._search_weights = 1.0 / np.arange(1, self.horizon + 1)
 
 
     # --- roll-out and clearances ---------------------------------------------------------
@@ -231,18 +253,30 @@ class TrajectoryCheck:
         i = int(low.argmin())
         return float(low.flat[i]), i // self.horizon, i % self.horizon
 
-    def clearances(self, state, wheels: np.ndarray, obstacles: "Obstacles") -> tuple[np.ndarray, np.ndarray,
-                                                                                  np.ndarray, np.ndarray]:
+    def clearances(self, state, wheels: np.ndarray, obstacles: "Obstacles", within_reach: bool = False) -> tuple:
         """For each sequence in ``wheels`` (M, H, 2): the smallest inflated clearance over the
         horizon, the clearance now, the chord index and the obstacle of the minimum, and how
         many chords pass before the clearance first falls below the threshold (the margin,
         or, inside it, the clearance now): H * substeps when it never does; and that count
-        again for the obstacles' discs not inflated by their uncertainty."""
+        again for the obstacles' discs not inflated by their uncertainty.
+
+        ``within_reach``: the sequences are rolled out against the obstacles that one of them
+        can come near (:meth:`_within_reach`) only; the others keep more than the margin all
+        along, so the clearance now and how long each keeps the margin are the same, and so is
+        the smallest clearance unless a left-out obstacle's bound is below it, where all are
+        rolled out after all: the same numbers, at a fraction of the roll-outs in a crowd."""
         M, N = wheels.shape[0], self.horizon * self.substeps
         if not len(obstacles.q):
             inf = np.full(M, np.inf)
             return inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N), np.full(M, N)
         q, touch = obstacles.sub_samples()
+        near = self._within_reach(state, wheels, obstacles) if within_reach else None
+        if near is not None:
+            idx, floor = near
+            now = np.full(M, (np.abs(complex(state[0], state[1]) - q[:, 0]) - touch[:, 0]).min())
+            if not len(idx):
+                return self.clearances(state, wheels, obstacles)
+            q, touch = q[idx], touch[idx]
         rel = self.rollout(state, wheels)[:, None, :] - q                   # (M, n, N+1) robot - obstacle
         r0 = rel[..., :-1]                                                  # chord starts
         u = rel[..., 1:] - r0                                               # chord directions
@@ -256,19 +290,42 @@ class TrajectoryCheck:
         flat = gap.reshape(M, -1)
         k = flat.argmin(axis=1)
         cmin = flat[np.arange(M), k]
-        now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
+        if near is None:
+            now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
         threshold = np.minimum(self.margin_m, now - _NOT_WORSE_M)
         if M == 1 and cmin[0] >= threshold[0]:
             kept = np.full(1, N)  # never below: no need to find where
-            return cmin, now, k % N, k // N, kept, kept
-        below = gap.min(axis=1) < threshold[:, None]
-        kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
-        # the same against the discs where the forecasts expect the obstacles (not inflated)
-        gap0 = dist - obstacles.radii[:, None]
-        now0 = (np.abs(rel[..., 0]) - obstacles.radii).min(axis=1)
-        below0 = gap0.min(axis=1) < np.minimum(self.margin_m, now0 - _NOT_WORSE_M)[:, None]
-        mean_kept = np.where(below0.any(axis=1), below0.argmax(axis=1), N)
+            mean_kept = kept  # clear of the inflated discs: of the expected ones too
+        else:
+            below = gap.min(axis=1) < threshold[:, None]
+            kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
+            # the same against the discs where the forecasts expect the obstacles (not inflated);
+            # those out of reach keep more than the margin from them too
+            radii = obstacles.radii if near is None else obstacles.radii[idx]
+            now0 = (np.abs(rel[..., 0]) - radii).min(axis=1)
+            below0 = (dist - radii[:, None]).min(axis=1) < np.minimum(self.margin_m, now0 - _NOT_WORSE_M)[:, None]
+            mean_kept = np.where(below0.any(axis=1), below0.argmax(axis=1), N)
+        if near is not None:
+            if (floor < cmin).any():  # a left-out obstacle might hold a smallest clearance: all of them
+                return self.clearances(state, wheels, obstacles)
+            return cmin, now, k % N, idx[k // N], kept, mean_kept
         return cmin, now, k % N, k // N, kept, mean_kept
+
+    def _within_reach(self, state, wheels: np.ndarray, obstacles: "Obstacles"):
+        """The obstacles that some sequence of ``wheels`` (M, H, 2) can come near: those
+        whose bound (as :meth:`bound`, with the longest path any of the sequences drives over
+        each interval) is below the margin (and a little more: see :data:`_FAR_M`). Returns
+        ``(indices of those, the others' least bound)``, or None when every obstacle is near."""
+        if len(obstacles.q) < 2:
+            return None
+        q = obstacles.q
+        reach = np.add.accumulate(np.abs(wheels[..., 0] + wheels[..., 1]).max(axis=0)) * (0.5 * self.sample_time_s)
+        low = (np.abs(q[:, 1:] - complex(state[0], state[1])) - np.abs(q[:, 1:] - q[:, :-1])) - obstacles.touch - reach
+        per = low.min(axis=1)
+        near = per < self.margin_m + _FAR_M
+        if near.all():
+            return None
+        return np.flatnonzero(near), float(per[~near].min())
 
     # --- candidates ----------------------------------------------------------------------
     def manoeuvres(self, v0, steps: int | None = None) -> tuple[list[str], np.ndarray]:
@@ -285,13 +342,26 @@ class TrajectoryCheck:
         # between v0 and the target, both within the limits: no speed clip needed
         return self._names, v0 + np.minimum(np.maximum(tgt[:, None, :] - v0, -reach), reach)
 
-    def _escapes(self, cmd: np.ndarray) -> np.ndarray:
-        """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there."""
+    def _escapes(self, cmd: np.ndarray, searched: bool = False) -> np.ndarray:
+        """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there (``searched``:
+        each target of the searched grid, then each manoeuvre: with :attr:`search_way_out` a
+        command passes when some way out of the set the check itself would take keeps the
+        margin)."""
         _, man = self.manoeuvres(cmd, self.horizon - 1)
-        W = np.empty((len(self._names), self.horizon, 2))
+        if searched:
+            man = np.concatenate([self._searched(cmd, self.horizon - 1), man])
+        W = np.empty((len(man), self.horizon, 2))
         W[:, 0] = cmd
         W[:, 1:] = man
         return W
+
+    def _searched(self, v0, steps: int) -> np.ndarray:
+        """(K, steps, 2): each target of the searched grid approached from ``v0`` at the
+        acceleration limit and held."""
+        vmax = self.robot.max_wheel_speed_mps
+        v0 = np.minimum(np.maximum(np.asarray(v0, dtype=float), -vmax), vmax)
+        reach = self._reach[:, :steps]
+        return v0 + np.minimum(np.maximum(self._search_targets[:, None, :] - v0, -reach), reach)
 
     def _as_candidate(self, state, wheels) -> tuple[np.ndarray | None, np.ndarray | None, bool]:
         """(command (2,), own plan (H, 2) or None, whether it had to be limited); None
@@ -311,14 +381,15 @@ class TrajectoryCheck:
             seq = self.limit(state[3:5], seq)
         return seq[0].copy(), (seq if plan is not None else None), limited
 
-    def _check_best(self, state, wheels, obstacles, labels: list[str]) -> SafetyCheck:
+    def _check_best(self, state, wheels, obstacles, labels: list[str], within_reach: bool = False) -> SafetyCheck:
         """The check of the best sequence of ``wheels`` (M, H, 2) (:meth:`_better`'s order):
         one that keeps the margin over the horizon; else the one that keeps it longest from
         where the forecasts expect the obstacles (:attr:`SafetyCheck.mean_kept_s`), then from
         their discs inflated by the forecasts' uncertainty (a violation late in the horizon,
         where the forecasts are uncertain, is not as bad as one in the next second), then
-        the one with the largest smallest clearance, then the first."""
-        cmin, now, chord, which, kept, mean_kept = self.clearances(state, wheels, obstacles)
+        the one with the largest smallest clearance, then the first (``within_reach``: see
+        :meth:`clearances`)."""
+        cmin, now, chord, which, kept, mean_kept = self.clearances(state, wheels, obstacles, within_reach)
         i = 0
         N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
         if len(cmin) > 1:
@@ -368,10 +439,18 @@ class TrajectoryCheck:
             return SafetyCheck(True, lower, lower, (k + 1) * self.sample_time_s, obstacles.label(j), "bound",
                                horizon_s)
         if plan is not None:
-            plan_check = self._check_best(state, plan[None], obstacles, ["plan"])
+            plan_check = self._check_best(state, plan[None], obstacles, ["plan"], True)
             if plan_check.safe or (enough_s is not None and plan_check.kept_s >= enough_s - 1e-9):
                 return plan_check
-        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names)
+        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names, True)
+        if self.search_way_out and not way_out.safe:
+            # the fixed manoeuvres first (9 roll-outs); the searched grid (5 times as many) only
+            # when none of them keeps the margin: the verdict is that of the whole set either way
+            # (the best of the set is safe when any of it is), at a fifth of its cost when the
+            # manoeuvres suffice
+            searched = self._check_best(state, self._escapes(cmd, True), obstacles, self._then_search_names, True)
+            if self._better(searched, way_out):
+                way_out = searched
         if plan is not None and self._better(plan_check, way_out):
             return plan_check
         return way_out
@@ -398,59 +477,3 @@ class TrajectoryCheck:
         check = self._check_best(np.asarray(state, float), W, obstacles, names)
         i = names.index(check.continuation)
         return names[i], W[i], check
-
-
-def forecast_covariances(f) -> np.ndarray:
-    """The forecast covariances the check uses: the planner's (a track seen once keeps its
-    next step's uncertainty; objects without ``initialised`` are estimated tracks)."""
-    return planning_covariances(f.covs_m2, getattr(f, "initialised", True))
-
-
-def shared_batch(forecasts):
-    """The :class:`~casadi_gpc.estimation.ekf_batch.ForecastBatch` whose rows ``forecasts`` are, in its
-    order (a crowd's track estimates carry ``batch_`` and ``batch_index_``), else None."""
-    batch = getattr(forecasts[0], "batch_", None) if forecasts else None
-    if batch is None or len(forecasts) != len(batch):
-        return None
-    i = 0
-    for f in forecasts:
-        if getattr(f, "batch_", None) is not batch or f.batch_index_ != i:
-            return None
-        i += 1
-    return batch
-
-
-def forecast_arrays(forecasts) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The means ``(n, H, 2)``, :func:`forecast_covariances` ``(n, H, 2, 2)`` and their
-    :func:`~casadi_gpc.estimation.ekf.worst_std_m` ``(n, H)`` of ``forecasts``, stacked; taken whole
-    from their :func:`shared_batch` when they have one. Raises ValueError when their lengths
-    differ."""
-    batch = shared_batch(forecasts)
-    if batch is not None:
-        return batch.arrays[0], batch.planning_covs, batch.worst_std_m
-    m = np.array([f.means_m for f in forecasts], dtype=float)
-    c = np.array([forecast_covariances(f) for f in forecasts], dtype=float)
-    return m, c, worst_std_m(c)
-
-
-class Obstacles:
-    """The obstacles of one check at the sample instants, with their sub-sampled form made
-    once when a roll-out needs it."""
-
-    __slots__ = ("q", "touch", "radii", "moving", "statics", "_filter", "_sub")
-
-    def __init__(self, q, touch, moving, statics, flt: TrajectoryCheck, radii=None):
-        self.q, self.touch, self.moving, self.statics, self._filter, self._sub = q, touch, moving, statics, flt, None
-        self.radii = touch[:, 0] if radii is None else radii
-        """``(n,)`` the distance at which the robot touches each obstacle's disc, not inflated."""
-
-    def sub_samples(self) -> tuple[np.ndarray, np.ndarray]:
-        """Positions ``(n, H * substeps + 1)`` and touching distances ``(n, H * substeps)``."""
-        if self._sub is None:
-            f = self._filter
-            self._sub = (self.q @ f._interp, np.repeat(self.touch, f.substeps, axis=1))
-        return self._sub
-
-    def label(self, j: int) -> str:
-        n = len(self.moving)
-        return f"moving {self.moving[j].obstacle_id}" if j < n else f"static {j - n}"

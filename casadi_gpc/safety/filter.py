@@ -12,6 +12,7 @@ from ..robot import RobotParams
 from ..types import ControlDecision, Observation
 from .check import SafetyCheck
 from .screen import QuickScreen
+from .search import WayOutSearch
 
 __all__ = ["ROLLOUT_TRUST_S", "SafetyVerdict", "SafetyFilter"]
 
@@ -63,7 +64,7 @@ class SafetyVerdict:
     """(H, 2) the sequence that was let through, when known."""
 
 
-class SafetyFilter(QuickScreen):
+class SafetyFilter(WayOutSearch, QuickScreen):
     """Checks candidate wheel speeds against the predicted obstacles; see the package text.
 
     Parameters
@@ -91,7 +92,7 @@ class SafetyFilter(QuickScreen):
     """
     def __init__(self, robot: RobotParams, sample_time_s: float, horizon: int, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, fallback=None, trust_planner_s: float | None = None,
-                 trust_rollout_s: float | None = None, safer_alternatives: bool = False):
+                 trust_rollout_s: float | None = None, safer_alternatives: bool = False, search: bool = False):
         super().__init__(robot, sample_time_s, horizon, margin_m, sigmas, substeps)
         if fallback is not None and not callable(getattr(fallback, "decide", None)):
             raise TypeError("fallback must have a decide(observation) method")
@@ -104,13 +105,15 @@ class SafetyFilter(QuickScreen):
         self.trust_planner_s = float(trust_planner_s)
         self.trust_rollout_s = None if trust_rollout_s is None else float(trust_rollout_s)
         self.safer_alternatives = bool(safer_alternatives)
+        self.search_way_out = bool(search)  # TrajectoryCheck's: the searched way out, and the escapes
         self.reset()
 
     def reset(self) -> None:
         self.counters = {"checks": 0, "interventions": 0, "fallback_used": 0, "fallback_failed": 0,
                          "fallback_overruled": 0, "rollouts": 0, "rollout_passed": 0, "rollout_trusted": 0,
                          "alternative_used": 0, "alternative_safer": 0, "manoeuvres": 0, "no_safer_option": 0,
-                         "candidate_limited": 0, "non_finite_candidate": 0, "unestimated_tracks": 0}
+                         "candidate_limited": 0, "non_finite_candidate": 0, "unestimated_tracks": 0,
+                         "searched": 0}
         if self.fallback is not None and hasattr(self.fallback, "reset"):
             self.fallback.reset()
     # --- the filter ----------------------------------------------------------------------
@@ -279,7 +282,7 @@ class SafetyFilter(QuickScreen):
                 # the planner's answer fails the same check (it was handed a late situation, or
                 # its soft margin gave way): take it only if neither a manoeuvre nor the
                 # candidate itself does better
-                name, mw, mc = self.best_manoeuvre(state, obstacles)
+                name, mw, mc = self._way_out(state, obstacles, cmd)
                 if pcheck is not None and not self._better(mc, pcheck) and (
                         keep_cmd is None or not self._better(keep_check, pcheck)):
                     self.counters["fallback_used"] += 1
@@ -301,7 +304,7 @@ class SafetyFilter(QuickScreen):
                                      f"manoeuvre:{name}", check, mw)
             self.counters["fallback_failed"] += 1
             why += f"; fallback planner failed ({dec.reason})"
-        name, mw, mc = self.best_manoeuvre(state, obstacles)
+        name, mw, mc = self._way_out(state, obstacles, cmd)
         if keep_cmd is not None and not self._better(mc, keep_check):
             # nothing in the set does better than the candidate: keep it, and say so
             self.counters["no_safer_option"] += 1
@@ -311,6 +314,16 @@ class SafetyFilter(QuickScreen):
         return SafetyVerdict(float(mw[0, 0]), float(mw[0, 1]), True,
                              why + f"; manoeuvre {name} (clearance {mc.min_clearance_m:.2f} m, margin kept "
                              f"{mc.kept_s:.1f} s)", f"manoeuvre:{name}", check, mw)
+
+
+    def _way_out(self, state, obstacles, cmd):
+        """The check's own way out when nothing of the controller's passes: the searched one
+        nearest the candidate's command (``search``, counted ``searched``), else the best
+        manoeuvre."""
+        if not self.search_way_out:
+            return self.best_manoeuvre(state, obstacles)
+        self.counters["searched"] += 1
+        return self.search(state, obstacles, (0.0, 0.0) if cmd is None else cmd)
 
 
 def _as_options(alternatives) -> list:

@@ -58,6 +58,11 @@ class CheckSettings:
         ``shield_rollout_trusted``); None: the whole horizon.
         :data:`~casadi_gpc.safety.ROLLOUT_TRUST_S` is the measured setting behind the
         standby planner.
+    search : bool
+        The check's own way out is searched (:meth:`~casadi_gpc.safety.search.WayOutSearch.search`:
+        a grid of held wheel-speed targets beside the fixed manoeuvres, the safe one nearest
+        the controller's command) instead of the best fixed manoeuvre (counted
+        ``shield_searched``).
     fallback : str
         One of :data:`FALLBACKS`.
     margin_m : float
@@ -77,6 +82,7 @@ class CheckSettings:
     previous_plan: bool = False
     rollouts: bool = False
     trust_rollout_s: float | None = None
+    search: bool = False
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
     sigmas: float = 2.0

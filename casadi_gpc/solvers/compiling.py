@@ -25,6 +25,8 @@ from pathlib import Path
 
 import casadi as ca
 
+from ..io import cache_dir  # where compiled libraries are kept (one rule, casadi-free)
+
 __all__ = ["CFLAGS", "COMPILE_EVENTS", "ANNOUNCE", "cache_dir", "c_compiler", "compiled_library", "build_nlpsol"]
 
 CFLAGS = ("-O1", "-fPIC", "-shared")
@@ -34,11 +36,6 @@ COMPILE_EVENTS = {"compiled": 0, "cache_hits": 0, "fallbacks": 0}
 """Process-wide counts: libraries compiled, found in the cache, and backends left uncompiled."""
 ANNOUNCE = True
 """Announce compiles (and waits for another process's compile) on stderr."""
-
-def cache_dir() -> Path:
-    """Where compiled libraries are kept: ``$GPCNAV_CACHE_DIR`` or ``~/.cache/gpcnav``."""
-    return Path(os.environ.get("GPCNAV_CACHE_DIR") or Path.home() / ".cache" / "gpcnav")
-
 
 def c_compiler() -> str | None:
     """Path of the C compiler (``$CC``, default ``gcc``), or None if there is none."""

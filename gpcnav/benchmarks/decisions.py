@@ -26,7 +26,7 @@ from casadi_gpc.robot import RobotParams
 from casadi_gpc.safety import CheckSettings, Shield, safer_alternatives_for
 from scenarios.simulator import simulate
 
-__all__ = ["SAME_COST_RELATIVE", "RecordedTick", "record_ticks", "compare_candidates", "decision_run"]
+__all__ = ["SAME_COST_RELATIVE", "decision_time_stats", "deployed_against_gpc", "RecordedTick", "record_ticks", "compare_candidates", "decision_run"]
 
 SAME_COST_RELATIVE = 1e-6
 """A chosen cost within this relative distance of the full multi-start's (or lower) is as good."""
@@ -85,6 +85,14 @@ def compare_candidates(ticks: list[RecordedTick], config: PlannerConfig, robot: 
                                 "persistent": float(np.mean(solves_pc)) if solves_pc else 0.0}}
 
 
+def decision_time_stats(values) -> dict:
+    """:func:`~scenarios.metrics.time_stats` with the 99th percentile (``p99``): the tail a
+    real-time loop must budget for."""
+    out = time_stats(values)
+    out["p99"] = float(np.percentile(np.asarray(list(values), dtype=float), 99)) if out["count"] else 0.0
+    return out
+
+
 def policy_decision_run(scenario, name: str, policy) -> dict:
     """``scenario`` closed loop with ``policy`` (any controller, e.g. the network behind its
     check layer): its decision times as the simulator takes them (features, network, check:
@@ -94,16 +102,17 @@ def policy_decision_run(scenario, name: str, policy) -> dict:
     (:func:`decision_parts`)."""
     log = simulate(scenario, policy, name)
     return {"scenario": scenario.name, "controller": name, "outcome": log.outcome, "decisions": len(log.decisions),
-            "movers": len(scenario.moving), "time_s": time_stats(log.compute_time_s),
+            "movers": len(scenario.moving), "time_s": decision_time_stats(log.compute_time_s),
             "parts_s": decision_parts(log.decisions, log.compute_time_s),
+            "parts_p99_s": decision_parts(log.decisions, log.compute_time_s, 99),
             "interventions": int(log.events.get("interventions", 0)),
             "fallbacks": int(sum(bool(d.fallback) for d in log.decisions)),
             "min_clearance_m": float(log.min_clearance_m), "time_samples_s": list(log.compute_time_s)}
 
 
-def decision_parts(decisions, times_s) -> dict | None:
-    """Medians over the decisions of where their time went (None unless every decision says
-    it): ``estimation`` (the filters' updates, the desired poses and the forecasts:
+def decision_parts(decisions, times_s, percentile: float = 50) -> dict | None:
+    """Medians (or another ``percentile``) over the decisions of where their time went (None
+    unless every decision says it): ``estimation`` (the filters' updates, the desired poses and the forecasts:
     ``estimation_time_s`` + ``forecast_time_s``), ``network`` (the features and the network's
     calls, ``network_time_s``), ``check`` (``safety_time_s``, the fallback's time included
     where it stepped in) and ``rest`` (the decision's time less those three)."""
@@ -114,8 +123,8 @@ def decision_parts(decisions, times_s) -> dict | None:
     net = [d.info["network_time_s"] for d in decisions]
     chk = [d.info["safety_time_s"] for d in decisions]
     rest = [t - a - b - c for t, a, b, c in zip(times_s, est, net, chk)]
-    return {k: float(np.median(v)) for k, v in (("estimation", est), ("network", net), ("check", chk),
-                                                  ("rest", rest))}
+    return {k: float(np.percentile(v, percentile)) for k, v in (("estimation", est), ("network", net),
+                                                                ("check", chk), ("rest", rest))}
 
 
 def decision_run(scenario, config: PlannerConfig) -> dict:
@@ -128,8 +137,22 @@ def decision_run(scenario, config: PlannerConfig) -> dict:
         trust_plans=True, safer_alternatives=safer_alternatives_for(config))), "gpc")
     n = max(len(log.decisions), 1)
     return {"scenario": scenario.name, "preset": config.name, "outcome": log.outcome, "decisions": len(log.decisions),
-            "movers": len(scenario.moving), "time_s": time_stats(log.compute_time_s),
+            "movers": len(scenario.moving), "time_s": decision_time_stats(log.compute_time_s),
             "solves_per_decision": gpc.counters["solves"] / n,
             "full_multistart_share": gpc.counters["full_multistarts"] / n,
             "interventions": int(log.events.get("interventions", 0)), "min_clearance_m": float(log.min_clearance_m),
             "time_samples_s": list(log.compute_time_s)}
+
+
+def deployed_against_gpc(gpc_rows, network_rows) -> list[dict]:
+    """For each scene with both rows (same ``scenario`` name, the same ``gpcnav bench`` run):
+    the GPC's decision time over the deployed network's, at the median, p99 and max."""
+    by_scene = {r["scenario"]: r for r in gpc_rows}
+    out = []
+    for n in network_rows:
+        g = by_scene.get(n["scenario"])
+        if g is None:
+            continue
+        out.append({"scenario": n["scenario"], "network": n["controller"], "movers": n["movers"],
+                    **{f"speedup_{k}": g["time_s"][k] / max(n["time_s"][k], 1e-12) for k in ("median", "p99", "max")}})
+    return out

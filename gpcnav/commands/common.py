@@ -122,7 +122,8 @@ def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> 
                         "see --shield)")
     p.add_argument("--shield-fallback", "--safety-fallback", choices=("gpc", "brake"), default=None,
                    help="what the check layer hands over to when the controller's answer fails: the GPC on "
-                        "standby (the default for nn) or only its braking/turning manoeuvres (brake)")
+                        "standby (gpc; needs CasADi) or the check's own ways out (brake: for nn, the searched way "
+                        "out, its default and what a robot without CasADi runs; for the others, the manoeuvres)")
     p.add_argument("--passes", type=int, choices=(1, 2), default=None,
                    help="--controller nn: one pass or the paper's two passes (default: what the model file "
                         "says, docs/nn.md)")

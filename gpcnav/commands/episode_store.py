@@ -58,7 +58,7 @@ def store_folder(out: Path | None) -> Path:
     """Where the episodes of a run writing ``out`` are kept."""
     if out is not None:
         return out.with_name(out.name + ".episodes")
-    from casadi_gpc.solvers.compiling import cache_dir
+    from casadi_gpc.io import cache_dir
     return cache_dir() / "episodes"
 
 

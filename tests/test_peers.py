@@ -163,3 +163,38 @@ def test_the_registry_imports_torch_only_for_mppi():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.strip() == "OK"
+
+
+def _narrowing():
+    """The planner-walls test's corridor that narrows: the reference runs 0.2 m from a wall
+    that juts in from x = 2 to 4 m."""
+    return _line(6.0, 30.0, "[[walls]]\npoints = [[2.0, 0.55], [4.0, 0.55]]\n")
+
+
+def test_mppi_plans_with_the_gpc_s_own_walls():
+    """Where the preset has wall slots, MPPI's parameters hold the same wall segments the GPC's
+    selection puts there (the cost prices them once, in casadi_gpc.problem.cost)."""
+    cfg = preset("improved").for_walls(True)
+    sc = _narrowing()
+    obs = Episode(sc, cfg.sample_time_s).observation()
+    peer = mppi_peer.MPPIPeer(config=cfg, robot=sc.robot)
+    p = peer.parameters(obs)
+    wall_ab = peer.problem.layout.unpack(p)["wall_ab"]
+    assert wall_ab[0] == pytest.approx([2.0, 0.55, 4.0, 0.55])
+    assert peer.problem.layout.unpack(p)["wall_on"].tolist() == [1.0] + [0.0] * (cfg.max_walls - 1)
+
+
+def test_mppi_keeps_off_a_wall_it_is_driven_at():
+    """With the wall in its cost MPPI keeps its disc off the wall that juts into its path;
+    with a preset of no wall slots it drives nearer (and counts every decision whose walls it
+    could not price)."""
+    sc = _narrowing()
+    cfg = preset("improved")
+    seeing = mppi_peer.MPPIPeer(config=cfg.for_walls(True), robot=sc.robot)
+    log = simulate(sc, seeing)
+    assert log.outcome == "reached_goal" and log.min_clearance_m > 0.05
+    assert seeing.counters["walls_unpriced"] == 0
+    blind = mppi_peer.MPPIPeer(config=cfg, robot=sc.robot)
+    blind_log = simulate(sc, blind)
+    assert blind_log.min_clearance_m < log.min_clearance_m
+    assert blind.counters["walls_unpriced"] == len(blind_log.decisions) > 0

@@ -108,6 +108,33 @@ def test_ekf_settings_for_another_sample_time_keep_the_noise_per_second():
     assert spread[0.1] == pytest.approx(spread[0.5], rel=0.35)
 
 
+def _first_command(behaviour: str, wall: bool):
+    """navground's ``behaviour`` (the robot's geometry, the peers' margin) at the origin, heading
+    for (5, 0); with ``wall``, a line obstacle across its way 1 m ahead."""
+    from navground import core
+    kin = core.Kinematics.make_type("2WDiff")
+    kin.wheel_axis, kin.max_speed = 0.5, 0.8
+    b = core.Behavior.make_type(behaviour)
+    b.kinematics, b.radius, b.safety_margin, b.horizon = kin, 0.35, 0.15, 5.0
+    b.optimal_speed, b.max_speed = 0.4, 0.8
+    b.position, b.orientation = np.array((0.0, 0.0)), 0.0
+    b.target = core.Target.Point(np.array((5.0, 0.0)), 0.2)
+    if wall:
+        b.environment_state.line_obstacles = [core.LineSegment(np.array((1.0, -3.0)), np.array((1.0, 3.0)))]
+    return b.compute_cmd(0.1, core.Frame.relative, True)
+
+
+def test_navground_s_hrvo_ignores_line_obstacles():
+    """Why ``hrvo`` hits walls (docs/buildings.md): navground 0.7's HRVO reads only its
+    neighbours and static discs (``HRVOBehavior::prepare``, navground_core/src/behaviors/HRVO/HRVO.cpp),
+    not the line obstacles the adapter gives it, while ORCA slows for the same wall. If this
+    fails, navground's HRVO has learnt walls: run the building suites again."""
+    orca = [float(_first_command("ORCA", w).velocity[0]) for w in (False, True)]
+    hrvo = [float(_first_command("HRVO", w).velocity[0]) for w in (False, True)]
+    assert orca[0] == pytest.approx(0.4) and orca[1] < 0.2
+    assert hrvo[0] == pytest.approx(0.4) and hrvo[1] == pytest.approx(0.4)
+
+
 # --- MPPI ----------------------------------------------------------------------------------
 mppi_peer = pytest.importorskip("gpcnav.peers.mppi_peer")
 

@@ -56,6 +56,7 @@ def main(argv=None) -> int:
         plot_run(ax, doc, sc.robot.radius_m, mark_every_s=4.0,
                  title=f"{name}: {doc['outcome']}, smallest clearance {clr:.2f} m")
         if args.window is not None:
+            ax.set_adjustable("box")  # keep the equal aspect, fit the box to the window
             ax.set_xlim(*args.window[:2])
             ax.set_ylim(*args.window[2:])
         print(name, doc["outcome"], round(clr, 3), doc.get("collision"))

@@ -19,23 +19,31 @@ Keyword arguments (at most one of ``scenario`` and ``suite``; with neither, the 
 - ``scenario=PATH``: a scenario file; every reset runs it, with the sensing noise seeded from
   the environment's generator (``reset(seed=...)`` reproduces it);
 - ``suite=NAME`` (``random``, ``random-multi``, ``encounters``, ``circle-crossing``,
-  ``square-crossing``) with ``movers`` (default 5) and ``behaviour`` (default ``orca``) for the
-  crowd suites, ``suite_seed`` (default 0: which suite) and ``count`` (None: each reset draws
+  ``square-crossing``, and the buildings ``corridor``, ``doorway``, ``corner``) with ``movers``
+  (default 5) and ``behaviour`` (default ``orca``) for the crowd and building suites, ``suite_seed`` (default 0: which suite) and ``count`` (None: each reset draws
   an episode index from [0, 2^31); N: from [0, N), a fixed set of N episodes);
   ``reset(options={"index": i})`` runs episode ``i`` of the suite;
 - ``preset`` (default ``improved``): its sample time is the environment's step, unless
   ``sample_time_s`` is given;
 - ``expert=NAME``: a controller of the registry (``gpc``, ``orca``, ...) whose answer to every
-  observation is put in ``info["expert_action"]`` (for imitation); None by default.
+  observation is put in ``info["expert_action"]`` (for imitation); None by default. Where an
+  episode's scenario has walls, the expert is made with the preset's wall slots
+  (:meth:`casadi_gpc.config.PlannerConfig.for_walls`, as the command line does), so the GPC
+  and MPPI plan with the walls; navground's peers take them as line obstacles.
+
+Walls: the robot collides with them as in the simulator (``terminated``), ``clearance_m``
+counts them, and ``env.unwrapped.observation.walls`` holds them (the Policy protocol's
+observation); the observation vector does not (the contract asks for no walls there, and
+:class:`ObservationLayout` is the movers' layout the networks were trained on).
 
 Action: the two wheel speeds ``[v_right, v_left]`` (m/s, within the wheel limit); the robot
 applies them as the simulator does, within its acceleration limit. ``terminated``: the goal
 reached or a collision; ``truncated``: the scenario's time limit. ``info``: ``outcome``
 (``running``, ``reached_goal``, ``collided``, ``timed_out``), ``clearance_m`` (the smallest
-disc-to-disc gap to any obstacle now, true positions), ``min_clearance_m`` (the smallest over
+gap between the robot's disc and any obstacle's disc or wall now, true positions), ``min_clearance_m`` (the smallest over
 the episode so far, sub-sampled like the collision check), ``t_s``, ``scenario``.
-``env.unwrapped.observation`` is what a controller of the Policy protocol is told at the same
-instant (a :class:`casadi_gpc.types.Observation`), so any of them can drive the environment.
+``clearance_m`` and ``min_clearance_m`` count the walls as well. ``env.unwrapped.observation``
+is what a controller of the Policy protocol is told at the same instant (a :class:`casadi_gpc.types.Observation`), so any of them can drive the environment.
 
 The observation vector and the reward are :class:`ObservationLayout` and
 :class:`RewardSettings` (documented field by field).
@@ -201,6 +209,10 @@ class NavigationEnv(Env):
         self.episode: Episode | None = None
         self.observation: Observation | None = None
         """What a controller is told now (the Policy protocol's observation)."""
+        self.expert = None
+        """The controller whose answers go into ``info["expert_action"]`` this episode (None
+        without ``expert``): made for the episode's robot, and with the preset's wall slots
+        where its scenario has walls."""
 
     # --- episodes ----------------------------------------------------------------------
     def _next_scenario(self, options: dict | None):
@@ -211,17 +223,19 @@ class NavigationEnv(Env):
             index = int(self.np_random.integers(0, self.count if self.count else 2 ** 31 - 1))
         return self.suite.scenario(int(index))
 
-    def _expert(self, robot):
+    def _expert(self, scenario):
         if self.expert_name is None:
             return None
-        if robot not in self._experts:
+        key = (scenario.robot, bool(scenario.walls))
+        if key not in self._experts:
             from .controllers import ControllerSpec, make
-            expert = make(ControllerSpec(self.expert_name), self.config, robot)
+            expert = make(ControllerSpec(self.expert_name), self.config.for_walls(bool(scenario.walls)),
+                          scenario.robot)
             if not math.isclose(expert.sample_time_s, self.sample_time_s):
                 raise ValueError(f"expert {self.expert_name!r} decides every {expert.sample_time_s} s, the "
                                  f"environment steps every {self.sample_time_s} s")
-            self._experts[robot] = expert
-        return self._experts[robot]
+            self._experts[key] = expert
+        return self._experts[key]
 
     def _observe(self) -> tuple[np.ndarray, dict]:
         ep = self.episode
@@ -235,7 +249,7 @@ class NavigationEnv(Env):
         info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.t_s,
                 "clearance_m": self._clearance_now(), "min_clearance_m": float(ep.log.min_clearance_m),
                 "scenario": ep.scenario.name}
-        expert = self._expert(ep.scenario.robot)
+        expert = self.expert
         if expert is not None and not ep.done:
             d = expert.decide(obs)
             info["expert_action"] = np.array([d.v_right_mps, d.v_left_mps], dtype=np.float32)
@@ -245,11 +259,12 @@ class NavigationEnv(Env):
         ep = self.episode
         sc = ep.scenario
         xy = np.asarray(ep.log.obstacle_xy[-1]).reshape(-1, 2)
-        if not len(xy):
-            return math.inf
         radii = np.array([m.radius_m for m in sc.moving] + [s.radius_m for s in sc.static])
-        gaps = np.hypot(*(xy - ep.state[:2]).T) - radii - sc.robot.radius_m
-        return float(gaps.min())
+        with np.errstate(invalid="ignore"):  # a track mover not in the scene is NaN: no gap
+            gaps = np.hypot(*(xy - ep.state[:2]).T) - radii - sc.robot.radius_m
+        walls = [float(w.distance_m(ep.state[None, :2])[0]) - sc.robot.radius_m for w in sc.walls]
+        gaps = np.concatenate([gaps[np.isfinite(gaps)], walls])
+        return float(gaps.min()) if gaps.size else math.inf
 
     def _progress_m(self) -> float:
         ep = self.episode
@@ -263,7 +278,7 @@ class NavigationEnv(Env):
         self._bank = TrackBank(self.sample_time_s, EKFSettings().for_sample_time(self.sample_time_s))
         self._s_m = 0.0
         self._progress_m()
-        expert = self._expert(scenario.robot)
+        self.expert = expert = self._expert(scenario)
         if expert is not None:
             expert.reset()
         return self._observe()

@@ -145,3 +145,26 @@ def test_with_no_keyword_argument_the_default_scene_is_the_crowd_suite():
     assert info["scenario"].startswith("circle-crossing-orca-5-0-") and len(env.episode.scenario.moving) == 5
     with pytest.raises(ValueError):
         NavigationEnv(scenario=PAPER_DIR / "fig7_2_crossing.toml", suite="random")
+
+
+def test_walls_give_the_expert_wall_slots_and_count_in_the_clearance(tmp_path):
+    """A scenario with walls: the expert plans with the preset's wall slots (as the command
+    line's runs do), one without keeps the NLP it had; ``clearance_m`` is the gap to the
+    nearest wall when a wall is nearest (the robot at (1, 2), a wall 0.5 m to its right)."""
+    from casadi_gpc.config import WALL_SLOTS
+    pytest.importorskip("torch")
+    walled = _file(tmp_path, extra="[[walls]]\npoints = [[1.5, 0.0], [1.5, 9.0]]\n")
+    env = NavigationEnv(scenario=walled, expert="mppi")
+    _, info = env.reset(seed=0)
+    assert env.expert.config.max_walls == WALL_SLOTS
+    assert info["clearance_m"] == pytest.approx(0.5 - 0.35)
+    while True:  # driven by its expert, the robot keeps off the wall
+        _, _, terminated, truncated, info = env.step(info["expert_action"])
+        assert info["clearance_m"] > 0
+        if terminated or truncated:
+            break
+    assert info["outcome"] == "reached_goal" and env.expert.counters["walls_unpriced"] == 0
+    (tmp_path / "plain").mkdir()
+    plain = NavigationEnv(scenario=_file(tmp_path / "plain"), expert="mppi")
+    _, info = plain.reset(seed=0)
+    assert plain.expert.config.max_walls == 0 and info["clearance_m"] == math.inf

@@ -52,3 +52,43 @@ def test_without_noise_every_goal_is_the_antipode_at_regular_intervals(tmp_path)
     assert np.diff(angles) == pytest.approx(np.full(7, 2 * math.pi / 8), abs=1e-5)
     assert sc.reference.length_m == pytest.approx(8.0, abs=1e-5)
     assert all(w.behaviour == "social_force" and not w.sees_robot for w in sc.moving)
+
+
+def test_the_corridor_files_hold_navground_s_corridor_unwrapped_and_load(tmp_path):
+    """navground's Corridor: its walls (y = 0 and y = width), agent 0 the robot going +x one
+    length, every other agent's images in the tiles walking its way, and the file loads."""
+    paths, skipped = tool.export_corridor(tmp_path, count=2, seed=3, agents=6, length_m=10.0, width_m=2.5,
+                                          sees_robot=False)
+    assert skipped == []
+    assert [p.name for p in paths] == [f"navground-corridor-6-{s:05d}.toml" for s in (3, 4)]
+    for seed, path in zip((3, 4), paths):
+        sc = load_scenario(path)
+        world = tool.corridor_world(6, 10.0, 2.5, 0.3, 0.35, 0.4, seed)
+        robot, *others = world.agents
+        assert (sc.robot_start.x_m, sc.robot_start.y_m) == pytest.approx(tuple(robot.position), abs=1e-6)
+        assert sc.robot_start.heading_rad == 0.0 and tuple(robot.task.direction) == (1.0, 0.0)
+        assert np.asarray(sc.reference.end_pose[:2]) == pytest.approx(np.asarray(robot.position) + (10.0, 0.0), abs=1e-5)
+        assert sorted({round(float(w.segments[0][0][1]), 6) for w in sc.walls}) == [0.0, 2.5]
+        assert len(sc.walls) == 2 and len(sc.moving) == 5 * len(tool.CORRIDOR_TILES)
+        for w in sc.walls:  # every start and goal between the walls' ends
+            (x0, _), (x1, _) = w.segments[0]
+            assert all(x0 < m.position_m[0] < x1 and x0 < m.goal_m[0] < x1 for m in sc.moving)
+        for k, tile in enumerate(tool.CORRIDOR_TILES):
+            for walker, agent in zip(sc.moving[5 * k:5 * k + 5], others):
+                assert walker.position_m == pytest.approx((agent.position[0] + 10.0 * tile, agent.position[1]),
+                                                          abs=1e-5)
+                heading = float(agent.task.direction[0])
+                assert math.copysign(1.0, walker.goal_m[0] - walker.position_m[0]) == heading
+                assert walker.goal_m[1] == walker.position_m[1] and not walker.sees_robot
+                # walking at its speed it does not arrive within the time limit
+                assert abs(walker.goal_m[0] - walker.position_m[0]) > walker.preferred_speed_mps * sc.duration_s
+
+
+def test_a_corridor_seed_whose_robot_starts_overlapping_is_named_not_written(tmp_path):
+    """navground seed 34 starts agent 0 overlapping another agent's image across the seam."""
+    robot, *others = tool.corridor_world(6, 10.0, 2.5, 0.3, 0.35, 0.4, 34).agents
+    gap = min(math.hypot(a.position[0] + 10.0 * t - robot.position[0], a.position[1] - robot.position[1])
+              - a.radius - robot.radius for a in others for t in (-1, 0, 1))
+    assert gap < 0
+    paths, skipped = tool.export_corridor(tmp_path, count=2, seed=33)
+    assert skipped == [34] and [p.name for p in paths] == ["navground-corridor-6-00033.toml"]

@@ -108,6 +108,33 @@ def test_ekf_settings_for_another_sample_time_keep_the_noise_per_second():
     assert spread[0.1] == pytest.approx(spread[0.5], rel=0.35)
 
 
+def _first_command(behaviour: str, wall: bool):
+    """navground's ``behaviour`` (the robot's geometry, the peers' margin) at the origin, heading
+    for (5, 0); with ``wall``, a line obstacle across its way 1 m ahead."""
+    from navground import core
+    kin = core.Kinematics.make_type("2WDiff")
+    kin.wheel_axis, kin.max_speed = 0.5, 0.8
+    b = core.Behavior.make_type(behaviour)
+    b.kinematics, b.radius, b.safety_margin, b.horizon = kin, 0.35, 0.15, 5.0
+    b.optimal_speed, b.max_speed = 0.4, 0.8
+    b.position, b.orientation = np.array((0.0, 0.0)), 0.0
+    b.target = core.Target.Point(np.array((5.0, 0.0)), 0.2)
+    if wall:
+        b.environment_state.line_obstacles = [core.LineSegment(np.array((1.0, -3.0)), np.array((1.0, 3.0)))]
+    return b.compute_cmd(0.1, core.Frame.relative, True)
+
+
+def test_navground_s_hrvo_ignores_line_obstacles():
+    """Why ``hrvo`` hits walls (docs/buildings.md): navground 0.7's HRVO reads only its
+    neighbours and static discs (``HRVOBehavior::prepare``, navground_core/src/behaviors/HRVO/HRVO.cpp),
+    not the line obstacles the adapter gives it, while ORCA slows for the same wall. If this
+    fails, navground's HRVO has learnt walls: run the building suites again."""
+    orca = [float(_first_command("ORCA", w).velocity[0]) for w in (False, True)]
+    hrvo = [float(_first_command("HRVO", w).velocity[0]) for w in (False, True)]
+    assert orca[0] == pytest.approx(0.4) and orca[1] < 0.2
+    assert hrvo[0] == pytest.approx(0.4) and hrvo[1] == pytest.approx(0.4)
+
+
 # --- MPPI ----------------------------------------------------------------------------------
 mppi_peer = pytest.importorskip("gpcnav.peers.mppi_peer")
 
@@ -163,3 +190,38 @@ def test_the_registry_imports_torch_only_for_mppi():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.strip() == "OK"
+
+
+def _narrowing():
+    """The planner-walls test's corridor that narrows: the reference runs 0.2 m from a wall
+    that juts in from x = 2 to 4 m."""
+    return _line(6.0, 30.0, "[[walls]]\npoints = [[2.0, 0.55], [4.0, 0.55]]\n")
+
+
+def test_mppi_plans_with_the_gpc_s_own_walls():
+    """Where the preset has wall slots, MPPI's parameters hold the same wall segments the GPC's
+    selection puts there (the cost prices them once, in casadi_gpc.problem.cost)."""
+    cfg = preset("improved").for_walls(True)
+    sc = _narrowing()
+    obs = Episode(sc, cfg.sample_time_s).observation()
+    peer = mppi_peer.MPPIPeer(config=cfg, robot=sc.robot)
+    p = peer.parameters(obs)
+    wall_ab = peer.problem.layout.unpack(p)["wall_ab"]
+    assert wall_ab[0] == pytest.approx([2.0, 0.55, 4.0, 0.55])
+    assert peer.problem.layout.unpack(p)["wall_on"].tolist() == [1.0] + [0.0] * (cfg.max_walls - 1)
+
+
+def test_mppi_keeps_off_a_wall_it_is_driven_at():
+    """With the wall in its cost MPPI keeps its disc off the wall that juts into its path;
+    with a preset of no wall slots it drives nearer (and counts every decision whose walls it
+    could not price)."""
+    sc = _narrowing()
+    cfg = preset("improved")
+    seeing = mppi_peer.MPPIPeer(config=cfg.for_walls(True), robot=sc.robot)
+    log = simulate(sc, seeing)
+    assert log.outcome == "reached_goal" and log.min_clearance_m > 0.05
+    assert seeing.counters["walls_unpriced"] == 0
+    blind = mppi_peer.MPPIPeer(config=cfg, robot=sc.robot)
+    blind_log = simulate(sc, blind)
+    assert blind_log.min_clearance_m < log.min_clearance_m
+    assert blind.counters["walls_unpriced"] == len(blind_log.decisions) > 0

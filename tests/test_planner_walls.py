@@ -86,3 +86,30 @@ def test_the_planner_keeps_off_a_wall_it_is_driven_at():
     assert log.outcome == "reached_goal" and log.min_clearance_m > 0.05
     blind = simulate(sc, GPCController(CFG, sc.robot))
     assert blind.min_clearance_m < log.min_clearance_m
+
+
+def test_the_cost_s_nearest_wall_point_is_the_geometry_s():
+    """The cost writes the segment's nearest point in CasADi (casadi_gpc.problem.cost); the
+    world and the robot's numpy side use casadi_gpc.geometry.nearest_on_segments. On oblique
+    segments, with the nearest point inside and at either end, the cost of the wall is the
+    cost of a point obstacle of no radius at the geometry's nearest point."""
+    from casadi_gpc.geometry import nearest_on_segments
+    cfg = CFG.with_overrides(horizon=1, max_walls=1, max_moving=1, max_static=1)
+    prob = build_problem(cfg, RobotParams())
+    x0 = np.array([0.0, 0.0, 0.3, 0.3, 0.3])
+    ref = np.array([[0.2, 0.0, 0.0]])
+    u = np.array([0.04, -0.02])
+    rng = np.random.default_rng(5)
+    ends = set()
+    for _ in range(40):
+        a = rng.uniform(-1.5, 1.5, 2)
+        b = a + rng.uniform(-2.0, 2.0, 2)
+        pw = prob.layout.pack(x0, ref, walls=[(*a, *b)])
+        xy = np.asarray(prob.rollout_fn(u, pw)[0]).reshape(-1, 3)[0, :2]
+        point = nearest_on_segments(xy, a[None], b[None])[0]
+        ends.add(int(np.allclose(point, a)) - int(np.allclose(point, b)))
+        ps = prob.layout.pack(x0, ref, statics=[StaticObstacle(tuple(point), 1e-9)])
+        tw, ts = prob.terms_fn(u, pw), prob.terms_fn(u, ps)
+        assert float(tw[3]) == pytest.approx(float(ts[3]), rel=1e-6)
+        assert float(tw[4]) == pytest.approx(float(ts[4]), rel=1e-6, abs=1e-12)
+    assert ends == {-1, 0, 1}  # inside, and at each end, all met

@@ -4,6 +4,8 @@ draws it (scenarios.plots.plot_run), so a reader sees where the planners differ.
 Usage: ``python tools/case_figure.py SCENARIO.toml --controllers gpc,nn,mppi --out FIG.png``, or
 ``--suite corridor --index 0 [--seed 1] [--movers 5]`` for a suite's scenario instead of a file
 (the controllers as the registry names them, each as ``gpcnav simulate`` makes it).
+``--window X0 X1 Y0 Y1`` (m) shows only that part of the plane (a scene whose walkers head for
+goals far away, as navground's unwrapped corridor, is otherwise drawn at their scale).
 """
 from __future__ import annotations
 
@@ -32,7 +34,11 @@ def main(argv=None) -> int:
     ap.add_argument("--controllers", default="gpc,nn,mppi")
     ap.add_argument("--preset", default="improved")
     ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--window", type=float, nargs=4, metavar=("X0", "X1", "Y0", "Y1"), default=None,
+                    help="show only x0..x1, y0..y1 (m)")
     args = ap.parse_args(argv)
+    if args.window is not None and not (args.window[0] < args.window[1] and args.window[2] < args.window[3]):
+        ap.error("--window X0 X1 Y0 Y1 needs X0 < X1 and Y0 < Y1")
     if args.suite:
         from scenarios import Suite
         sc = Suite(args.suite, args.index + 1, args.seed, args.movers).scenario(args.index)
@@ -49,6 +55,10 @@ def main(argv=None) -> int:
         clr = doc["min_clearance_m"]
         plot_run(ax, doc, sc.robot.radius_m, mark_every_s=4.0,
                  title=f"{name}: {doc['outcome']}, smallest clearance {clr:.2f} m")
+        if args.window is not None:
+            ax.set_adjustable("box")  # keep the equal aspect, fit the box to the window
+            ax.set_xlim(*args.window[:2])
+            ax.set_ylim(*args.window[2:])
         print(name, doc["outcome"], round(clr, 3), doc.get("collision"))
     fig.suptitle(f"{sc.name}: {sc.description}", fontsize=9)
     fig.tight_layout()

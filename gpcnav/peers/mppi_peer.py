@@ -11,7 +11,16 @@ What MPPI and the GPC share, so that only the optimiser differs:
   CasADi ``map``: nothing of the cost is written a second time;
 - its parameters: the same EKF bank's forecasts per step (:class:`~casadi_gpc.estimation.tracking.TrackBank`),
   the same reference clock (:class:`~casadi_gpc.progress.ReferenceClock`) and the same
-  obstacle selection and packing (:func:`casadi_gpc.problem.selection.planner_parameters`).
+  obstacle selection and packing (:func:`casadi_gpc.problem.selection.planner_parameters`);
+- the walls, as the GPC takes them: where the preset has wall slots
+  (``PlannerConfig.max_walls``; :meth:`~casadi_gpc.config.PlannerConfig.for_walls`, which the
+  command line applies to a run with walls), the segments nearest the predicted path fill
+  them and the cost prices the robot's clearance to each as the paper prices a static
+  obstacle: a barrier that grows without bound as the clearance closes (a sample that
+  touches a wall costs more than any that does not), and the improved preset's margin
+  penalty. Segments that did not fit are counted (``walls_left_out``); walls in an
+  observation for a preset with no slots are counted too (``walls_unpriced``, decisions):
+  nothing is dropped silently.
 
 MPPI's own state is the two wheel speeds: its dynamics add an increment and clip at the
 wheel limit (the NLP's constraint); the increments actually applied (after the clip) are
@@ -100,7 +109,8 @@ class MPPIPeer:
         H, T = cfg.horizon, cfg.sample_time_s
         dv, vmax = self.robot.max_step_change_mps(T), self.robot.max_wheel_speed_mps
         f64 = torch.float64
-        self.counters = {"missed_measurements": 0, "outliers": 0, "unestimated_tracks": 0}
+        self.counters = {"missed_measurements": 0, "outliers": 0, "unestimated_tracks": 0,
+                         "walls_left_out": 0, "walls_unpriced": 0}
         self.bank = TrackBank(T, counters=self.counters)
         self.clock = ReferenceClock(T, cfg.max_lead_m)
         self._generator_state = torch.Generator().manual_seed(s.seed).get_state()
@@ -147,7 +157,7 @@ class MPPIPeer:
     def parameters(self, observation: Observation) -> np.ndarray:
         """The GPC's NLP parameters for this observation, made as
         :meth:`casadi_gpc.planner.gpc.GPCController.decide` makes them (its EKF bank, reference clock,
-        obstacle selection by relevance to the last plan's path, and packing): one step of
+        obstacle selection by relevance to the last plan's path, wall selection, and packing): one step of
         the bank and the clock, so call once per decision. The forecasts are kept for the
         decision."""
         cfg = self.config
@@ -157,8 +167,11 @@ class MPPIPeer:
         self.clock.update(path, observation.t_s, (observation.robot.x_m, observation.robot.y_m))
         ref = np.array(path.poses_along(self.clock.s_m, path.speed_mps * cfg.sample_time_s, H + 1))  # steps 0..H
         path_xy = ref[1:, :2] if self._path_xy is None else np.vstack([self._path_xy[1:], self._path_xy[-1:]])
-        p, _ = planner_parameters(self.problem.layout, observation.robot.as_array(), ref, forecasts,
-                                  observation.static, cfg, path_xy)
+        p, sel = planner_parameters(self.problem.layout, observation.robot.as_array(), ref, forecasts,
+                                    observation.static, cfg, path_xy, observation.walls)
+        self.counters["walls_left_out"] += sel.walls_left_out
+        if observation.walls and not cfg.max_walls:
+            self.counters["walls_unpriced"] += 1
         self._forecasts = tuple(forecasts)
         return p
 

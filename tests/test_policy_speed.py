@@ -19,6 +19,12 @@ same outputs, clipped at the new bound.
 The timing test compares the full decision with the bare onnxruntime call measured in
 the same run (a ratio, never an absolute time).
 
+On 2026-11-26 the check layer's order between options that all lose the margin changed (the
+expected discs first, :meth:`casadi_gpc.safety.check.TrajectoryCheck._better`): replayed on the
+recorded streams, every decision stayed the same and one reported clearance changed (the
+candidate's check at step 22 of ``paper_curvy``'s one-pass, filtered variant, whose best way
+out is now another manoeuvre); that value was re-recorded by the replay, nothing else.
+
 Regenerate (only when the meaning of a decision is meant to change):
 ``python tests/test_policy_speed.py``.
 """

@@ -117,8 +117,10 @@ class PlannerConfig:
     """How the movers' filters forecast the horizon: ``turn``, the paper's model (the
     estimated turn increment kept); ``straight``, the same filter's estimate at constant
     speed and heading (:func:`casadi_gpc.estimation.ekf.straightened`). Real people do not keep
-    a turn: on the UCY recordings the straight forecast is 15-25 % closer (ADE), and behind
-    the check the ``improved`` GPC was hit in fewer cases (docs/pedestrians.md)."""
+    a turn: on the UCY recordings the straight forecast is 15-22 % closer (ADE), and behind
+    the check the ``improved`` GPC was hit in fewer cases (docs/pedestrians.md, "The planner
+    among real crowds"). The planner's only: the shipped networks keep the forecast they were
+    trained with (the turning one)."""
     cold_starts: int | None = None
     """Persistent candidates: at most this many of the fixed guesses are solved at one tick.
     A full multi-start that is due solves the first ones and leaves the rest for the next
@@ -186,10 +188,10 @@ PRESETS: dict[str, PlannerConfig] = {
         margin_smoothing_m=0.05,
         goal_weight=30.0,
         guesses=("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake"),
-        # real people do not keep a turn (docs/pedestrians.md, "The forecast")
+        # real people do not keep a turn (docs/pedestrians.md, "The planner among real crowds")
         forecast="straight",
         # one cold start a tick: six at once made the median decision 11-13 ms among the
-        # UCY recordings (docs/pedestrians.md, "Where the decision's time went")
+        # UCY recordings (docs/pedestrians.md, "The planner among real crowds")
         cold_starts=1,
     ),
 }

@@ -217,3 +217,33 @@ def test_spread_cold_starts_solve_a_due_multistart_over_the_next_ticks():
     from dataclasses import replace
     _, seen = ticks(replace(preset("improved"), cold_starts=None), 1)
     assert [g for g, c in seen[0][1][0] if c] == guesses
+
+
+def test_a_spread_multistart_goes_on_with_the_next_guess_after_a_fallback():
+    """With one cold start a tick and nothing to warm-start, a guess whose solve fails makes
+    the tick fall back; the next tick solves the next guess of the queue (not the failed one
+    again), and the planner plans from there."""
+    pytest.importorskip("casadi")
+    from dataclasses import replace as dc_replace
+    from casadi_gpc.config import preset
+    from casadi_gpc.planner.gpc import GPCController
+    from casadi_gpc.robot import RobotParams
+    from scenarios import load_scenario
+    from scenarios.simulator import Episode
+
+    gpc = GPCController(preset("improved"), RobotParams())
+    assert gpc.config.cold_starts == 1
+    tried, solve_many = [], gpc.solve_many
+
+    def failing_swerve_right(p, starts):
+        tried.append([s[0] for s in starts if s[2] is None])
+        return [dc_replace(c, success=False) if c.guess == "swerve_right" else c for c in solve_many(p, starts)]
+    gpc.solve_many = failing_swerve_right
+    episode = Episode(load_scenario("scenarios/paper/fig7_1_head_on.toml"), gpc.sample_time_s)
+    decisions = []
+    for _ in range(3):
+        decisions.append(gpc.decide(episode.observation()))
+        episode.step(decisions[-1], 0.0)
+    assert tried[0] == ["swerve_right"] and decisions[0].fallback
+    assert tried[1] == ["swerve_left"] and not decisions[1].fallback
+    assert gpc.counters["fallbacks"] == 1

@@ -435,7 +435,8 @@ class GPCController:
     def _fallback(self, obs: Observation, reason: str, forecasts=()) -> ControlDecision:
         """The shifted previous plan if there is one, else braking within the limits."""
         self.counters["fallbacks"] += 1
-        self._pending = []
+        # a spread multi-start's queue is kept: the next tick tries the next guess, not the
+        # one that just failed again
         forecasts = tuple(forecasts)
         self._path_xy = None
         self.candidates.reset()

@@ -767,8 +767,8 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     from casadi_gpc.safety.check import SafetyCheck, TrajectoryCheck
     better = TrajectoryCheck._better
 
-    def check(safe, kept, mean_kept, clearance=-0.1):
-        return SafetyCheck(safe, clearance, clearance, 0.0, "", "", kept, mean_kept_s=mean_kept)
+    def check(safe, kept, contact, clearance=-0.1):
+        return SafetyCheck(safe, clearance, clearance, 0.0, "", "", kept, contact_s=contact)
     late_expected, early_expected = check(False, 1.0, 6.0), check(False, 4.0, 2.0)
     assert better(late_expected, early_expected) and not better(early_expected, late_expected)
     assert better(check(True, 6.0, 6.0), late_expected) and not better(late_expected, check(True, 6.0, 6.0))
@@ -777,12 +777,12 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     # the best of several sequences follows the same order
     f = SafetyFilter(ROBOT, 0.5, 12)
     N = 12 * f.substeps
-    kept, mean_kept = np.array([40, 10, 30]), np.array([20, N, 20])
+    kept, contact = np.array([40, 10, 30]), np.array([20, N, 20])
     monkeypatch.setattr(f, "clearances", lambda *a: (np.full(3, -0.2), np.zeros(3), np.zeros(3, int),
-                                                     np.zeros(3, int), kept, mean_kept))
+                                                     np.zeros(3, int), kept, contact))
     obstacles = f.obstacle_tracks([forecast((3.0, 0.0), (0.0, 0.0), 0.5, 12)], ())
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
-    assert best.continuation == "b" and not best.safe and best.mean_kept_s == 6.0
+    assert best.continuation == "b" and not best.safe and best.contact_s == 6.0
     kept[:] = [N, 10, 30]  # one keeps the inflated margin all along: it wins
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.safe and best.continuation == "a"

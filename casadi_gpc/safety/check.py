@@ -72,10 +72,12 @@ class SafetyCheck:
     at or above the clearance now); the horizon when it always does."""
     exact: bool = True
     """False when a quick screen settled it: ``min_clearance_m`` is then a lower bound."""
-    mean_kept_s: float = math.inf
-    """As :attr:`kept_s`, with the obstacles' discs not inflated by their uncertainty: how long
-    the sequence keeps the margin from where the forecasts expect them. What ranks sequences
-    that all lose the (inflated) margin (:meth:`TrajectoryCheck._better`)."""
+    contact_s: float = math.inf
+    """How long from now the sequence stays clear of the obstacles' expected discs (not
+    inflated by their uncertainty: where the forecasts expect them, and the walls and static
+    obstacles themselves), or, touching one now, does not close in further; the horizon when
+    it always does. What ranks sequences that all lose the (inflated) margin
+    (:meth:`TrajectoryCheck._better`)."""
 
 
 
@@ -257,8 +259,9 @@ class TrajectoryCheck:
         """For each sequence in ``wheels`` (M, H, 2): the smallest inflated clearance over the
         horizon, the clearance now, the chord index and the obstacle of the minimum, and how
         many chords pass before the clearance first falls below the threshold (the margin,
-        or, inside it, the clearance now): H * substeps when it never does; and that count
-        again for the obstacles' discs not inflated by their uncertainty.
+        or, inside it, the clearance now): H * substeps when it never does; and how many pass
+        before it touches the obstacles' discs not inflated by their uncertainty (or, touching
+        one now, closes in), H * substeps when it never does.
 
         ``within_reach``: the sequences are rolled out against the obstacles that one of them
         can come near (:meth:`_within_reach`) only; the others keep more than the margin all
@@ -295,21 +298,21 @@ class TrajectoryCheck:
         threshold = np.minimum(self.margin_m, now - _NOT_WORSE_M)
         if M == 1 and cmin[0] >= threshold[0]:
             kept = np.full(1, N)  # never below: no need to find where
-            mean_kept = kept  # clear of the inflated discs: of the expected ones too
+            contact = kept  # clear of the inflated discs: of the expected ones too
         else:
             below = gap.min(axis=1) < threshold[:, None]
             kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
-            # the same against the discs where the forecasts expect the obstacles (not inflated);
-            # those out of reach keep more than the margin from them too
+            # how long before touching the discs where the forecasts expect the obstacles (not
+            # inflated; inside one, before closing in); those out of reach are never touched
             radii = obstacles.radii if near is None else obstacles.radii[idx]
             now0 = (np.abs(rel[..., 0]) - radii).min(axis=1)
-            below0 = (dist - radii[:, None]).min(axis=1) < np.minimum(self.margin_m, now0 - _NOT_WORSE_M)[:, None]
-            mean_kept = np.where(below0.any(axis=1), below0.argmax(axis=1), N)
+            below0 = (dist - radii[:, None]).min(axis=1) < np.minimum(0.0, now0 - _NOT_WORSE_M)[:, None]
+            contact = np.where(below0.any(axis=1), below0.argmax(axis=1), N)
         if near is not None:
             if (floor < cmin).any():  # a left-out obstacle might hold a smallest clearance: all of them
                 return self.clearances(state, wheels, obstacles)
-            return cmin, now, k % N, idx[k // N], kept, mean_kept
-        return cmin, now, k % N, k // N, kept, mean_kept
+            return cmin, now, k % N, idx[k // N], kept, contact
+        return cmin, now, k % N, k // N, kept, contact
 
     def _within_reach(self, state, wheels: np.ndarray, obstacles: "Obstacles"):
         """The obstacles that some sequence of ``wheels`` (M, H, 2) can come near: those
@@ -383,13 +386,13 @@ class TrajectoryCheck:
 
     def _check_best(self, state, wheels, obstacles, labels: list[str], within_reach: bool = False) -> SafetyCheck:
         """The check of the best sequence of ``wheels`` (M, H, 2) (:meth:`_better`'s order):
-        one that keeps the margin over the horizon; else the one that keeps it longest from
-        where the forecasts expect the obstacles (:attr:`SafetyCheck.mean_kept_s`), then from
-        their discs inflated by the forecasts' uncertainty (a violation late in the horizon,
+        one that keeps the margin over the horizon; else the one that stays longest clear of
+        where the forecasts expect the obstacles (:attr:`SafetyCheck.contact_s`), then keeps
+        the margin longest from their discs inflated by the forecasts' uncertainty (a violation late in the horizon,
         where the forecasts are uncertain, is not as bad as one in the next second), then
         the one with the largest smallest clearance, then the first (``within_reach``: see
         :meth:`clearances`)."""
-        cmin, now, chord, which, kept, mean_kept = self.clearances(state, wheels, obstacles, within_reach)
+        cmin, now, chord, which, kept, contact = self.clearances(state, wheels, obstacles, within_reach)
         i = 0
         N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
         if len(cmin) > 1:
@@ -397,19 +400,21 @@ class TrajectoryCheck:
             if safe.any():
                 i = int(np.argmax(safe & (cmin >= cmin[safe].max() - _TIE_M)))
             else:
-                first = mean_kept == mean_kept.max()
+                first = contact == contact.max()
                 longest = first & (kept == kept[first].max())
                 i = int(np.argmax(longest & (cmin >= cmin[longest].max() - _TIE_M)))
         return SafetyCheck(bool(kept[i] == N), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
                            obstacles.label(int(which[i])), labels[i], float(kept[i]) * tau,
-                           mean_kept_s=float(mean_kept[i]) * tau)
+                           contact_s=float(contact[i]) * tau)
 
     @staticmethod
     def _better(a: SafetyCheck, b: SafetyCheck) -> bool:
         """Whether ``a`` is strictly better than ``b``: safe over one that is not; between
-        two that lose the margin, the one that keeps it longer from the obstacles' expected
-        discs (:attr:`SafetyCheck.mean_kept_s`), then from their inflated discs
-        (:attr:`SafetyCheck.kept_s`); then the larger smallest clearance.
+        two that lose the margin, the one that stays clear of the obstacles' expected discs
+        longer (:attr:`SafetyCheck.contact_s`: the walls' and static obstacles' own, the
+        movers' where the forecasts expect them), then the one that keeps the margin from
+        their inflated discs longer (:attr:`SafetyCheck.kept_s`); then the larger smallest
+        clearance.
 
         Ranked by the inflated discs alone, every option in a dense crowd lost the margin
         a few seconds ahead (two standard deviations of a walker's forecast reach metres),
@@ -417,11 +422,14 @@ class TrajectoryCheck:
         among 20 ORCA walkers that do not see the robot (square-crossing, 40 episodes, seed 1)
         6 collisions behind the check against 2 for the planner alone; ranked first by the
         expected discs, the plan stays unless an option keeps clear of where the walkers
-        are expected for longer (docs/pedestrians.md)."""
+        are expected for longer. The time to *touch* them, not to lose the margin from them:
+        ranked by the margin, a dash that ran into a corridor's wall 0.3 s on (but lost the
+        margin from it later than every other option lost it from a person) was taken
+        (docs/pedestrians.md)."""
         if a.safe != b.safe:
             return a.safe
-        if not a.safe and abs(a.mean_kept_s - b.mean_kept_s) > 1e-12:
-            return a.mean_kept_s > b.mean_kept_s
+        if not a.safe and abs(a.contact_s - b.contact_s) > 1e-12:
+            return a.contact_s > b.contact_s
         return a.kept_s > b.kept_s + 1e-12 or (abs(a.kept_s - b.kept_s) <= 1e-12
                                                and a.min_clearance_m > b.min_clearance_m + _TIE_M)
 

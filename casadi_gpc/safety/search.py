@@ -26,7 +26,7 @@ class WayOutSearch:
         state = np.asarray(state, float)
         v0 = state[3:5]
         W = np.concatenate([self._searched(v0, self.horizon), self.manoeuvres(v0)[1]])
-        cmin, now, chord, which, kept, mean_kept = self.clearances(state, W, obstacles, True)
+        cmin, now, chord, which, kept, contact = self.clearances(state, W, obstacles, True)
         N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
         safe, names = kept == N, self._search_names
         if safe.any():
@@ -37,10 +37,10 @@ class WayOutSearch:
             cost = (((W - w) ** 2).sum(axis=2) * self._search_weights).sum(axis=1)
             i = int(np.argmin(np.where(safe, cost, np.inf)))
         else:  # the check's order (TrajectoryCheck._better): the expected discs first
-            first = mean_kept == mean_kept.max()
+            first = contact == contact.max()
             longest = first & (kept == kept[first].max())
             i = int(np.argmax(longest & (cmin >= cmin[longest].max() - _TIE_M)))
         check = SafetyCheck(bool(safe[i]), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
                             obstacles.label(int(which[i])), names[i], float(kept[i]) * tau,
-                            mean_kept_s=float(mean_kept[i]) * tau)
+                            contact_s=float(contact[i]) * tau)
         return names[i], W[i], check

@@ -338,5 +338,20 @@ def test_the_planner_forecasts_as_its_preset_says():
     assert PRESETS["paper"].forecast == "turn" and PRESETS["improved"].forecast == "straight"
     with pytest.raises(ValueError, match="forecast"):
         PlannerConfig(name="x", sample_time_s=0.5, forecast="curvy")
+    # the planner plans with its preset's forecast of each filter
+    pytest.importorskip("casadi")
+    from casadi_gpc.planner.gpc import GPCController
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
+    for name in ("paper", "improved"):
+        gpc = GPCController(PRESETS[name])
+        T, H = gpc.sample_time_s, gpc.horizon
+        for k in range(12):
+            x, y, _ = OBSTACLE.state_at(k * T)
+            forecasts = gpc.estimate(Observation(k * T, RobotState(0.0, -5.0, 0.0, 0.0, 0.0), ref,
+                                                 (ObstacleMeasurement(0, (x, y), 0.3),), ()))
+        ekf = gpc.tracks[0]
+        straight, turning = ekf.predict(H, straight=True)[0], ekf.predict(H)[0]
+        assert np.hypot(*(straight[-1] - turning[-1])) > 0.05
+        np.testing.assert_allclose(forecasts[0].means_m, straight if name == "improved" else turning, atol=1e-9)
     with pytest.raises(ValueError, match="cold_starts"):
         PlannerConfig(name="x", sample_time_s=0.5, cold_starts=0)

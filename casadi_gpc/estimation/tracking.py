@@ -37,10 +37,15 @@ class TrackBank:
     counters : dict, optional
         Where to count the events of :data:`TRACK_COUNTERS` (the owner's own counters, so
         that they read as one dict; a new dict by default). Missing keys start at 0.
+    straight : bool
+        :meth:`forecast` holds each filter's estimated speed and heading (a planner's
+        ``PlannerConfig.forecast == "straight"``) instead of the paper's turning model.
     """
 
-    def __init__(self, sample_time_s: float, settings: EKFSettings | None = None, counters: dict | None = None):
+    def __init__(self, sample_time_s: float, settings: EKFSettings | None = None, counters: dict | None = None,
+                 straight: bool = False):
         self.sample_time_s = sample_time_s
+        self.straight = bool(straight)
         self.settings = settings or EKFSettings()
         self.filters: dict[int, ObstacleEKF] = {}
         self.counters = {} if counters is None else counters
@@ -93,13 +98,12 @@ class TrackBank:
             del self.filters[i]
         self.counters["dropped_tracks"] = self.counters.get("dropped_tracks", 0) + len(gone)
 
-    @staticmethod
-    def forecast(measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int, function=None,
-                 straight: bool = False) -> ObstacleForecast:
-        """What a planner plans with: the filter's H-step prediction, a track seen once kept
-        at its next step's uncertainty (:func:`~casadi_gpc.estimation.ekf.planning_covariances`);
-        ``function``: the prediction's faster form, ``straight``: a constant-velocity forecast
-        (:meth:`~casadi_gpc.estimation.ekf.FilterState.predict`)."""
-        means, covs = ekf.predict(horizon, function, straight)
+    def forecast(self, measurement: ObstacleMeasurement, ekf: ObstacleEKF, horizon: int,
+                 function=None) -> ObstacleForecast:
+        """What a planner plans with: the filter's H-step prediction (straight when the bank
+        says so), a track seen once kept at its next step's uncertainty
+        (:func:`~casadi_gpc.estimation.ekf.planning_covariances`); ``function``: the
+        prediction's faster form (:meth:`~casadi_gpc.estimation.ekf.FilterState.predict`)."""
+        means, covs = ekf.predict(horizon, function, self.straight)
         return ObstacleForecast(measurement.obstacle_id, measurement.radius_m, means,
                                 planning_covariances(covs, ekf.initialised))

@@ -143,7 +143,8 @@ class GPCController:
                          "injected_failures": 0, "backup_solves": 0, "backup_successes": 0,
                          "unestimated_tracks": 0, "left_out": 0, "full_multistarts": 0}
         # the obstacle filters count their events (missed, outliers, unestimated) here too
-        self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings, self.counters)
+        self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings, self.counters,
+                              straight=self.config.forecast == "straight")
 
     @property
     def tracks(self) -> dict[int, ObstacleEKF]:
@@ -153,9 +154,9 @@ class GPCController:
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
         """Fuse this sample's measurements and predict every track over the horizon."""
-        H, straight = self.config.horizon, self.config.forecast == "straight"
+        H = self.config.horizon
         forecast, function = self.bank.forecast, self._forecast_function
-        return [forecast(m, ekf, H, function, straight) for m, ekf in self.bank.step(obs.moving)]
+        return [forecast(m, ekf, H, function) for m, ekf in self.bank.step(obs.moving)]
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
         """Advance the reference clock; the desired poses at steps 0..H, shape (H + 1, 3)
@@ -267,13 +268,10 @@ class GPCController:
         solved = self.solve_many(p, starts)
         if not full and near and len(cs.plans) == 1 and _fell_off_a_ridge(previous, solved):
             solved = self._opening_solves(p, x0, ref_speed_mps) + solved
-        surprise = self.config.surprise_ratio
-        if not full and near and surprise is not None:
-            best = min((c.cost for c in solved if c.success), default=math.inf)
-            if previous is not None and not best <= (1.0 + surprise) * abs(previous.cost) + 1e-9:
-                full = True  # dearer than expected: look for a minimum no kept candidate is in
-                cs.reason = "surprise"
-                solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps))
+        if not full and near and self._surprised(previous, solved):
+            full = True  # dearer than expected: look for a minimum no kept candidate is in
+            cs.reason = "surprise"
+            solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps))
         if full:
             self._count_multistart(cs.reason)
         return cs.update(solved, full, TIE_RELATIVE), solved
@@ -300,15 +298,22 @@ class GPCController:
         solved = self.solve_many(p, starts + self._guess_starts(p, x0, ref_speed_mps, batch))
         if not batch and near and len(cs.plans) == 1 and _fell_off_a_ridge(previous, solved):
             solved = self._opening_solves(p, x0, ref_speed_mps) + solved
-        surprise = self.config.surprise_ratio
-        if not batch and near and surprise is not None and previous is not None:
-            best = min((c.cost for c in solved if c.success), default=math.inf)
-            if not best <= (1.0 + surprise) * abs(previous.cost) + 1e-9:
-                self._pending = self._cycle()  # look for a minimum no kept candidate is in
-                self._count_multistart("surprise")
-                batch = self._take_pending(K, began=True)
-                solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps, batch))
+        if not batch and near and self._surprised(previous, solved):
+            self._pending = self._cycle()  # look for a minimum no kept candidate is in
+            self._count_multistart("surprise")
+            batch = self._take_pending(K, began=True)
+            solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps, batch))
         return cs.update(solved, bool(batch), TIE_RELATIVE), solved
+
+    def _surprised(self, previous, solved) -> bool:
+        """Whether this tick's best warm start costs more than ``PlannerConfig.surprise_ratio``
+        above the last tick's best (``previous``): a minimum may have opened that no kept
+        candidate is in."""
+        surprise = self.config.surprise_ratio
+        if surprise is None or previous is None:
+            return False
+        best = min((c.cost for c in solved if c.success), default=math.inf)
+        return not best <= (1.0 + surprise) * abs(previous.cost) + 1e-9
 
     def _cycle(self) -> list[str]:
         """The fixed guesses of one spread multi-start, in tie order."""

@@ -44,6 +44,12 @@ _FAR_M = 1e-3
 only when its bound keeps this much more than the margin (well above any rounding, and above
 the clearance-now tolerance, so that what is below the threshold is the same)."""
 _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
+
+
+def _best(among: np.ndarray, cmin: np.ndarray) -> int:
+    """The first index of ``among`` (a mask) whose smallest clearance is the largest there
+    (ties within :data:`_TIE_M`)."""
+    return int(np.argmax(among & (cmin >= cmin[among].max() - _TIE_M)))
 _NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
 
 @dataclass(slots=True)  # made for every check: slots, not frozen (a frozen init costs 5x)
@@ -392,19 +398,28 @@ class TrajectoryCheck:
         where the forecasts are uncertain, is not as bad as one in the next second), then
         the one with the largest smallest clearance, then the first (``within_reach``: see
         :meth:`clearances`)."""
-        cmin, now, chord, which, kept, contact = self.clearances(state, wheels, obstacles, within_reach)
+        found = self.clearances(state, wheels, obstacles, within_reach)
+        cmin, _, _, _, kept, contact = found
         i = 0
-        N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
         if len(cmin) > 1:
-            safe = kept == N
-            if safe.any():
-                i = int(np.argmax(safe & (cmin >= cmin[safe].max() - _TIE_M)))
-            else:
-                first = contact == contact.max()
-                longest = first & (kept == kept[first].max())
-                i = int(np.argmax(longest & (cmin >= cmin[longest].max() - _TIE_M)))
+            safe = kept == self.horizon * self.substeps
+            i = _best(safe, cmin) if safe.any() else self._best_unsafe(cmin, kept, contact)
+        return self._verdict(found, i, obstacles, labels[i])
+
+    @staticmethod
+    def _best_unsafe(cmin, kept, contact) -> int:
+        """The index of the best of sequences that all lose the margin, by :meth:`_better`'s
+        order: the longest clear of the expected discs, then the longest keeping the margin,
+        then the largest smallest clearance, then the first."""
+        first = contact == contact.max()
+        return _best(first & (kept == kept[first].max()), cmin)
+
+    def _verdict(self, found: tuple, i: int, obstacles, label: str) -> SafetyCheck:
+        """The :class:`SafetyCheck` of the ``i``-th sequence of :meth:`clearances`' answer ``found``."""
+        cmin, now, chord, which, kept, contact = found
+        N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
         return SafetyCheck(bool(kept[i] == N), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
-                           obstacles.label(int(which[i])), labels[i], float(kept[i]) * tau,
+                           obstacles.label(int(which[i])), label, float(kept[i]) * tau,
                            contact_s=float(contact[i]) * tau)
 
     @staticmethod

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .check import _TIE_M, SafetyCheck
+from .check import SafetyCheck
 
 __all__ = ["WayOutSearch"]
 
@@ -26,9 +26,9 @@ class WayOutSearch:
         state = np.asarray(state, float)
         v0 = state[3:5]
         W = np.concatenate([self._searched(v0, self.horizon), self.manoeuvres(v0)[1]])
-        cmin, now, chord, which, kept, contact = self.clearances(state, W, obstacles, True)
-        N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
-        safe, names = kept == N, self._search_names
+        found = self.clearances(state, W, obstacles, True)
+        cmin, _, _, _, kept, contact = found
+        safe = kept == self.horizon * self.substeps
         if safe.any():
             w = np.asarray(wish, dtype=float)
             w = np.broadcast_to(w, (self.horizon, 2)) if w.shape == (2,) else w
@@ -36,11 +36,7 @@ class WayOutSearch:
                 w = np.zeros((self.horizon, 2))
             cost = (((W - w) ** 2).sum(axis=2) * self._search_weights).sum(axis=1)
             i = int(np.argmin(np.where(safe, cost, np.inf)))
-        else:  # the check's order (TrajectoryCheck._better): the expected discs first
-            first = contact == contact.max()
-            longest = first & (kept == kept[first].max())
-            i = int(np.argmax(longest & (cmin >= cmin[longest].max() - _TIE_M)))
-        check = SafetyCheck(bool(safe[i]), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
-                            obstacles.label(int(which[i])), names[i], float(kept[i]) * tau,
-                            contact_s=float(contact[i]) * tau)
-        return names[i], W[i], check
+        else:  # the check's own order
+            i = self._best_unsafe(cmin, kept, contact)
+        name = self._search_names[i]
+        return name, W[i], self._verdict(found, i, obstacles, name)

@@ -111,7 +111,7 @@ class MPPIPeer:
         f64 = torch.float64
         self.counters = {"missed_measurements": 0, "outliers": 0, "unestimated_tracks": 0,
                          "walls_left_out": 0, "walls_unpriced": 0}
-        self.bank = TrackBank(T, counters=self.counters)
+        self.bank = TrackBank(T, counters=self.counters, straight=cfg.forecast == "straight")  # the GPC's forecast
         self.clock = ReferenceClock(T, cfg.max_lead_m)
         self._generator_state = torch.Generator().manual_seed(s.seed).get_state()
         self._x0 = np.zeros(5)

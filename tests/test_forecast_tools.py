@@ -1,0 +1,77 @@
+"""The forecast studies on recorded people: ``tools/forecast_accuracy.py``'s coverage of the
+forecast's uncertainty, and ``tools/forecast_bound.py``'s planner told the recording's future."""
+from __future__ import annotations
+
+import importlib.util
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from casadi_gpc.config import preset
+from conftest import straight_line_toml
+from gpcnav.controllers import make_controller
+from scenarios import scenario_from_dict
+from scenarios.recordings import Recording
+from scenarios.simulator import Episode
+
+TOOLS = Path(__file__).resolve().parents[1] / "tools"
+
+
+def _tool(name: str):
+    spec = importlib.util.spec_from_file_location(name, TOOLS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_coverage_is_full_on_a_straight_walk_and_grows_with_the_filters_noise_on_a_stop_and_go_walk():
+    """A person walking a straight line at constant speed is within two standard deviations of
+    the straight forecast at every checked step; one who stops and goes (1.4 m/s, then still,
+    every 4 s) is not, and a filter told a larger speed noise claims less and so covers more."""
+    fa = _tool("forecast_accuracy")
+    t = np.arange(80) * 0.4
+    line = Recording("line", 0.04, (np.c_[t, 1.0 + 1.2 * t, 2.0 - 0.3 * t],))
+    assert fa.coverage(line) == [1.0, 1.0, 1.0]
+    moving = (np.floor(t / 4.0) % 2 == 0).astype(float)
+    x = np.concatenate([[0.0], np.cumsum(1.4 * 0.4 * moving[:-1])])
+    stop_and_go = Recording("stop-and-go", 0.04, (np.c_[t, x, np.zeros_like(t)],))
+    shipped = fa.coverage(stop_and_go)
+    fa.SETTINGS = replace(fa.SETTINGS, speed_noise_mps2=0.5)
+    noisy = fa.coverage(stop_and_go)
+    assert max(shipped) < 0.9
+    assert all(b > a for a, b in zip(shipped, noisy))
+
+
+def test_the_planner_told_the_recording_plans_with_the_recorded_future():
+    """``tools/forecast_bound.py``: with ``recording`` the forecasts the GPC decides (and is
+    checked) with are the recorded positions at the H instants ahead, with no uncertainty;
+    with ``next-sample`` the recorded position one sample ahead, then straight on at that
+    sample's recorded velocity, with the filter's own uncertainty."""
+    fb = _tool("forecast_bound")
+    rows = [[0.0, 6.0, 1.0], [2.0, 4.0, 1.0], [4.0, 4.0, -1.0], [12.0, -4.0, -1.0]]
+    text = straight_line_toml("bound", 12.0, 4.0) + f"[[moving_obstacles]]\nradius_m = 0.25\ntrack = {rows}\n"
+    sc = scenario_from_dict(tomllib.loads(text), "bound.toml")
+    config = preset("improved")
+    H, T = config.horizon, config.sample_time_s
+    track = sc.moving[0]
+    for mode in ("recording", "next-sample"):
+        ctl = make_controller("gpc", config, sc.robot)
+        fb.told_the_recording(ctl.policy, sc, mode)
+        ctl.reset()
+        episode = Episode(sc, T)
+        for _ in range(4):  # to t = 1.5 s, where the recording turns within the horizon
+            obs = episode.observation()
+            decision = ctl.decide(obs)
+            episode.step(decision)
+        (f,) = decision.forecasts
+        ahead = track.recorded_at(obs.t_s + T * np.arange(1, H + 1))
+        if mode == "recording":
+            np.testing.assert_allclose(f.means_m, ahead, atol=1e-12)
+            assert np.all(f.covs_m2 == 0.0)
+        else:
+            step = ahead[0] - track.recorded_at(obs.t_s)
+            np.testing.assert_allclose(f.means_m, ahead[0] + step * np.arange(H)[:, None], atol=1e-12)
+            assert not np.allclose(f.means_m, ahead)  # the turn at 2 s is not in it
+            assert np.all(f.covs_m2[:, 0, 0] > 0.0)

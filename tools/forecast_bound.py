@@ -1,0 +1,120 @@
+"""How much of the planner's record among replayed people is the forecast's: the GPC with its
+own forecast beside the GPC told the recording's future, on the same cases.
+
+A study instrument, not a controller: the recording's future is what no robot knows. It
+separates what the recording forces (a robot standing still is hit; people who cannot give
+way walk into whatever is in their path) from what the planner does with what it can know.
+The planner, its check layer and everything else are the shipped ones (``gpcnav evaluate
+--controller gpc``); only the obstacle forecasts it plans and is checked with are replaced,
+per decision (the check reads the planner's forecasts):
+
+- ``own``: the shipped forecast (the obstacle EKF, straight under ``improved``);
+- ``people-noise``: the shipped filter with process noises that cover people's motion
+  (:data:`PEOPLE_NOISE`: the recorded positions fall within two standard deviations of its
+  forecast 0.87 to 0.95 of the time on the shipped recordings, against 0.22 to 0.62 with the
+  shipped noises; ``tools/forecast_accuracy.py --speed-noise 0.3 --heading-noise 0.05``);
+- ``recording``: each person's recorded positions at the H sample instants ahead, with no
+  uncertainty (a perfect forecast);
+- ``next-sample``: the recorded position one sample ahead, then straight on at the recorded
+  velocity over that sample, with the shipped forecast's uncertainty (half a second of the
+  future: a person's next step, no more);
+- ``stand``: the robot that stands still (the baseline every table on recorded people has).
+
+Usage: ``python tools/forecast_bound.py [--count 40] [--seed 1] [--out BOUND.json]``
+(the ``ucy`` suite, people replayed open loop). Prints a Markdown table.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from casadi_gpc.config import preset  # noqa: E402
+from casadi_gpc.io import write_json  # noqa: E402
+from gpcnav.controllers import make_controller  # noqa: E402
+from scenarios.simulator import simulate  # noqa: E402
+from scenarios.suites import Suite  # noqa: E402
+
+FORECASTS = ("own", "people-noise", "recording", "next-sample")
+PEOPLE_NOISE = {"speed_noise_mps2": 0.3, "heading_noise_rad": 0.05}
+APPEARED_S = 1.0
+"""A collision with someone in the scene for less than this is one they appeared on the robot
+(the contract's ``obstacle_age_s``, G-MPC's ghost time)."""
+
+
+def told_the_recording(planner, scenario, mode: str) -> None:
+    """Replace ``planner.estimate`` (the GPC's forecasts, which its check reads too) by the
+    recording's future of each person it tracks (``mode`` as the module text says)."""
+    own = planner.estimate
+    H, T = planner.config.horizon, planner.config.sample_time_s
+
+    def estimate(obs):
+        out = []
+        for f in own(obs):
+            track = scenario.moving[f.obstacle_id]
+            ahead = np.asarray(track.recorded_at(obs.t_s + T * np.arange(1, H + 1)), dtype=float)
+            if mode == "recording":
+                out.append(replace(f, means_m=ahead, covs_m2=np.zeros((H, 2, 2))))
+            else:
+                step = ahead[0] - np.asarray(track.recorded_at(obs.t_s), dtype=float)
+                means = ahead[0] + step * np.arange(H)[:, None]
+                out.append(replace(f, means_m=means))
+        return out
+
+    planner.estimate = estimate
+
+
+def run(count: int, seed: int, preset_name: str) -> dict:
+    suite = Suite("ucy", count=count, seed=seed, behaviour="replay")
+    config = preset(preset_name)
+    rows = {}
+    for name in ("stand",) + FORECASTS:
+        episodes = []
+        for i in range(count):
+            sc = suite.scenario(i)
+            ctl = make_controller("stand" if name == "stand" else "gpc", config, sc.robot)
+            if name in ("recording", "next-sample"):
+                told_the_recording(ctl.policy, sc, name)
+            elif name == "people-noise":
+                ctl.policy.ekf_settings = replace(ctl.policy.ekf_settings, **PEOPLE_NOISE)
+            log = simulate(sc, ctl, name)
+            c = log.collision or {}
+            episodes.append({"scenario": sc.name, "outcome": log.outcome,
+                             "appeared": bool(c) and c.get("obstacle_age_s", 0.0) < APPEARED_S,
+                             "approaching": bool(c) and c.get("robot_speed_towards_mps", 0.0) > 0.05
+                             and c.get("obstacle_age_s", 0.0) >= APPEARED_S})
+        rows[name] = {"reached": sum(e["outcome"] == "reached_goal" for e in episodes),
+                      "collided": sum(e["outcome"] == "collided" for e in episodes),
+                      "appeared": sum(e["appeared"] for e in episodes),
+                      "approaching": sum(e["approaching"] for e in episodes),
+                      "timed_out": sum(e["outcome"] == "timed_out" for e in episodes), "episodes": episodes}
+    return {"suite": "ucy", "behaviour": "replay", "count": count, "seed": seed, "preset": preset_name,
+            "forecasts": rows}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--count", type=int, default=40)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--preset", default="improved")
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args(argv)
+    doc = run(args.count, args.seed, args.preset)
+    print(f"ucy, replayed, {args.count} cases, seed {args.seed}, {args.preset}\n")
+    print("| robot | reached | collided | of which appeared on it (< 1 s) | of which robot approaching | timed out |")
+    print("|---|---|---|---|---|---|")
+    for name, r in doc["forecasts"].items():
+        label = "stands still" if name == "stand" else f"GPC, forecast: {name}"
+        print(f"| {label} | {r['reached']} | {r['collided']} | {r['appeared']} | {r['approaching']} | {r['timed_out']} |")
+    if args.out is not None:
+        write_json(args.out, doc)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -20,8 +20,10 @@ per decision (the check reads the planner's forecasts):
   future: a person's next step, no more);
 - ``stand``: the robot that stands still (the baseline every table on recorded people has).
 
-Usage: ``python tools/forecast_bound.py [--count 40] [--seed 1] [--out BOUND.json]``
-(the ``ucy`` suite, people replayed open loop). Prints a Markdown table.
+Usage: ``python tools/forecast_bound.py [--count 40] [--seed 1] [--out BOUND.json]
+[--rows stand,own,...] [--younger-than S]`` (the ``ucy`` suite, people replayed open loop;
+``--younger-than``: the recording told only of people in the scene for less than S
+seconds). Prints a Markdown table.
 """
 from __future__ import annotations
 
@@ -47,9 +49,11 @@ APPEARED_S = 1.0
 (the contract's ``obstacle_age_s``, G-MPC's ghost time)."""
 
 
-def told_the_recording(planner, scenario, mode: str) -> None:
+def told_the_recording(planner, scenario, mode: str, younger_than_s: float | None = None) -> None:
     """Replace ``planner.estimate`` (the GPC's forecasts, which its check reads too) by the
-    recording's future of each person it tracks (``mode`` as the module text says)."""
+    recording's future of each person it tracks (``mode`` as the module text says); with
+    ``younger_than_s``, only of the people in the scene for less than that (since their
+    track's first row), the others keep the planner's own forecast."""
     own = planner.estimate
     H, T = planner.config.horizon, planner.config.sample_time_s
 
@@ -57,6 +61,9 @@ def told_the_recording(planner, scenario, mode: str) -> None:
         out = []
         for f in own(obs):
             track = scenario.moving[f.obstacle_id]
+            if younger_than_s is not None and obs.t_s - track.times_s[0] >= younger_than_s:
+                out.append(f)
+                continue
             ahead = np.asarray(track.recorded_at(obs.t_s + T * np.arange(1, H + 1)), dtype=float)
             if mode == "recording":
                 out.append(replace(f, means_m=ahead, covs_m2=np.zeros((H, 2, 2))))
@@ -69,17 +76,18 @@ def told_the_recording(planner, scenario, mode: str) -> None:
     planner.estimate = estimate
 
 
-def run(count: int, seed: int, preset_name: str) -> dict:
+def run(count: int, seed: int, preset_name: str, rows_wanted=("stand",) + FORECASTS,
+        younger_than_s: float | None = None) -> dict:
     suite = Suite("ucy", count=count, seed=seed, behaviour="replay")
     config = preset(preset_name)
     rows = {}
-    for name in ("stand",) + FORECASTS:
+    for name in rows_wanted:
         episodes = []
         for i in range(count):
             sc = suite.scenario(i)
             ctl = make_controller("stand" if name == "stand" else "gpc", config, sc.robot)
             if name in ("recording", "next-sample"):
-                told_the_recording(ctl.policy, sc, name)
+                told_the_recording(ctl.policy, sc, name, younger_than_s)
             elif name == "people-noise":
                 ctl.policy.ekf_settings = replace(ctl.policy.ekf_settings, **PEOPLE_NOISE)
             log = simulate(sc, ctl, name)
@@ -94,7 +102,7 @@ def run(count: int, seed: int, preset_name: str) -> dict:
                       "approaching": sum(e["approaching"] for e in episodes),
                       "timed_out": sum(e["outcome"] == "timed_out" for e in episodes), "episodes": episodes}
     return {"suite": "ucy", "behaviour": "replay", "count": count, "seed": seed, "preset": preset_name,
-            "forecasts": rows}
+            "told_only_people_in_view_less_than_s": younger_than_s, "forecasts": rows}
 
 
 def main(argv=None) -> int:
@@ -103,8 +111,18 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--preset", default="improved")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--rows", default=",".join(("stand",) + FORECASTS),
+                    help="which robots, comma-separated (default: all)")
+    ap.add_argument("--younger-than", type=float, default=None, metavar="S",
+                    help="tell the recording only of people in the scene for less than S seconds")
     args = ap.parse_args(argv)
-    doc = run(args.count, args.seed, args.preset)
+    wanted = tuple(r for r in args.rows.split(",") if r)
+    unknown = [r for r in wanted if r not in ("stand",) + FORECASTS]
+    if unknown or not wanted:
+        ap.error(f"--rows: unknown {', '.join(unknown) or '(none given)'} (choose from stand, {', '.join(FORECASTS)})")
+    if args.younger_than is not None and not args.younger_than > 0:
+        ap.error(f"--younger-than must be positive, got {args.younger_than}")
+    doc = run(args.count, args.seed, args.preset, wanted, args.younger_than)
     print(f"ucy, replayed, {args.count} cases, seed {args.seed}, {args.preset}\n")
     print("| robot | reached | collided | of which appeared on it (< 1 s) | of which robot approaching | timed out |")
     print("|---|---|---|---|---|---|")

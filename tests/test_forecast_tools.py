@@ -75,3 +75,36 @@ def test_the_planner_told_the_recording_plans_with_the_recorded_future():
             np.testing.assert_allclose(f.means_m, ahead[0] + step * np.arange(H)[:, None], atol=1e-12)
             assert not np.allclose(f.means_m, ahead)  # the turn at 2 s is not in it
             assert np.all(f.covs_m2[:, 0, 0] > 0.0)
+
+
+def test_the_constant_velocity_row_repeats_the_last_measured_displacement():
+    """``tools/forecast_bound.py``'s ``constant-velocity``: the forecast is the person's last
+    measured position plus its displacement since the previous sample, repeated; at the first
+    sample (one measurement) it is the planner's own."""
+    fb = _tool("forecast_bound")
+    text = straight_line_toml("cv", 12.0, 4.0) + (
+        "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 6.0, 2.0], [10.0, -4.0, 1.0]]\n")
+    sc = scenario_from_dict(tomllib.loads(text), "cv.toml")
+    config = preset("improved")
+    H = config.horizon
+    ctl = make_controller("gpc", config, sc.robot)
+    fb.constant_velocity(ctl.policy)
+    ctl.reset()
+    own = make_controller("gpc", config, sc.robot)
+    own.reset()
+    episode = Episode(sc, config.sample_time_s)
+    seen = []
+    for k in range(3):
+        obs = episode.observation()
+        seen.append(np.asarray(obs.moving[0].position_m, dtype=float))
+        decision = ctl.decide(obs)
+        (f,) = decision.forecasts
+        (g,) = own.decide(obs).forecasts
+        if k == 0:
+            np.testing.assert_allclose(f.means_m, g.means_m)
+        else:
+            np.testing.assert_allclose(f.means_m, seen[-1] + (seen[-1] - seen[-2]) * np.arange(1, H + 1)[:, None])
+            if k == 2:  # with two measurements the filter's forecast is this one too; with three it smooths
+                assert not np.allclose(f.means_m, g.means_m)
+        np.testing.assert_allclose(f.covs_m2, g.covs_m2)
+        episode.step(decision)

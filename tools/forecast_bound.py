@@ -13,6 +13,9 @@ per decision (the check reads the planner's forecasts):
   (:data:`PEOPLE_NOISE`: the recorded positions fall within two standard deviations of its
   forecast 0.87 to 0.95 of the time on the shipped recordings, against 0.22 to 0.62 with the
   shipped noises; ``tools/forecast_accuracy.py --speed-noise 0.3 --heading-noise 0.05``);
+- ``constant-velocity``: Schöller et al.'s model on the robot's own measurements: the last
+  measured displacement over one sample, repeated, with the shipped forecast's uncertainty
+  (it predicts people better than the filter, ``tools/forecast_accuracy.py``);
 - ``recording``: each person's recorded positions at the H sample instants ahead, with no
   uncertainty (a perfect forecast);
 - ``next-sample``: the recorded position one sample ahead, then straight on at the recorded
@@ -42,7 +45,7 @@ from gpcnav.controllers import make_controller  # noqa: E402
 from scenarios.simulator import simulate  # noqa: E402
 from scenarios.suites import Suite  # noqa: E402
 
-FORECASTS = ("own", "people-noise", "recording", "next-sample")
+FORECASTS = ("own", "people-noise", "constant-velocity", "recording", "next-sample")
 PEOPLE_NOISE = {"speed_noise_mps2": 0.3, "heading_noise_rad": 0.05}
 APPEARED_S = 1.0
 """A collision with someone in the scene for less than this is one they appeared on the robot
@@ -76,6 +79,30 @@ def told_the_recording(planner, scenario, mode: str, younger_than_s: float | Non
     planner.estimate = estimate
 
 
+def constant_velocity(planner) -> None:
+    """Replace ``planner.estimate``'s means by the constant-velocity model on the measurements:
+    each person's last measured displacement over one sample, repeated (a person measured once,
+    or not at the previous sample, keeps the planner's own forecast)."""
+    own = planner.estimate
+    H, T = planner.config.horizon, planner.config.sample_time_s
+    last: dict[int, tuple[float, np.ndarray]] = {}
+
+    def estimate(obs):
+        now = {m.obstacle_id: np.asarray(m.position_m, dtype=float) for m in obs.moving if m.position_m is not None}
+        out = []
+        for f in own(obs):
+            before, z = last.get(f.obstacle_id), now.get(f.obstacle_id)
+            if z is None or before is None or abs(obs.t_s - before[0] - T) > 1e-6:
+                out.append(f)
+            else:
+                out.append(replace(f, means_m=z + (z - before[1]) * np.arange(1, H + 1)[:, None]))
+        last.clear()
+        last.update({i: (obs.t_s, z) for i, z in now.items()})
+        return out
+
+    planner.estimate = estimate
+
+
 def run(count: int, seed: int, preset_name: str, rows_wanted=("stand",) + FORECASTS,
         younger_than_s: float | None = None) -> dict:
     suite = Suite("ucy", count=count, seed=seed, behaviour="replay")
@@ -88,6 +115,8 @@ def run(count: int, seed: int, preset_name: str, rows_wanted=("stand",) + FORECA
             ctl = make_controller("stand" if name == "stand" else "gpc", config, sc.robot)
             if name in ("recording", "next-sample"):
                 told_the_recording(ctl.policy, sc, name, younger_than_s)
+            elif name == "constant-velocity":
+                constant_velocity(ctl.policy)
             elif name == "people-noise":
                 ctl.policy.ekf_settings = replace(ctl.policy.ekf_settings, **PEOPLE_NOISE)
             log = simulate(sc, ctl, name)

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..robot import RobotState, robot_step_float
 from .check import SafetyCheck, TrajectoryCheck, forecast_arrays, forecast_covariances
+from .walls import chord_segment_distance, wall_label
 
 __all__ = ["QuickScreen"]
 
@@ -26,9 +27,9 @@ class QuickScreen(TrajectoryCheck):
     # chord error. (Clamps are written as conditional expressions: ``b if b > a else a`` is
     # max(a, b) and ``b if b < a else a`` is min(a, b), ties included, without the calls,
     # which were a third of the screen's time.)
-    def _quick(self, robot: RobotState, wheels, forecasts, statics, poses=None):
+    def _quick(self, robot: RobotState, wheels, forecasts, statics, poses=None, walls=None):
         """(check, command, plan (H, 2) or None, limited) when the screen passes, else None.
-        ``poses``: see :meth:`filter`."""
+        ``poses``: see :meth:`filter`; ``walls``: the wall segments (:mod:`.walls`)."""
         H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
         if type(wheels) is tuple and len(wheels) == 2:  # a command as two floats (the policy's)
             w, rows, own = None, [wheels], False
@@ -65,7 +66,8 @@ class QuickScreen(TrajectoryCheck):
         obs = self._quick_obstacle_arrays(forecasts, statics) if many else self._quick_obstacles(forecasts, statics)
         if obs is None:
             return None
-        if not obs:
+        has_walls = walls is not None and len(walls) > 0
+        if not obs and not has_walls:
             return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", H * T), cmd, self._plan(own, w, seq, changed), \
                 limited
         p0 = complex(robot.x_m, robot.y_m)
@@ -100,8 +102,10 @@ class QuickScreen(TrajectoryCheck):
                     if g < low:
                         low, where = g, (j, k)
                     qk = qk1
+        if has_walls:
+            low, where = self._wall_bound(low, where, self.wall_bounds(p0, walls, reach), forecasts, statics)
         if low >= self.margin_m:
-            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]),
+            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, statics, where[0]),
                                 "bound" if own else "bound, then brake", H * T, False)
             return check, cmd, self._plan(own, w, seq, changed), limited
         # 2. chords: the plan (or the command, then the usual way out, reversing) at the
@@ -141,9 +145,12 @@ class QuickScreen(TrajectoryCheck):
                     g = abs(r0 + t * d) - tk - sk
                     if g < low:
                         low, where = g, (j, k)
+        if has_walls:  # the chords' distances to the segments, less the arcs' sag
+            gw = chord_segment_distance(np.array(pts), walls[:, 0], walls[:, 1]) - self.robot.radius_m - np.asarray(sag)
+            low, where = self._wall_bound(low, where, gw, forecasts, statics)
         if low >= self.margin_m:
-            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]), label,
-                                H * T, False)
+            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, statics, where[0]),
+                                label, H * T, False)
             return check, cmd, self._plan(own, w, seq, changed), limited
         return None
 
@@ -223,8 +230,20 @@ class QuickScreen(TrajectoryCheck):
         return q, touch
 
     @staticmethod
-    def _quick_label(forecasts, j: int) -> str:
-        return f"moving {forecasts[j].obstacle_id}" if j < len(forecasts) else f"static {j - len(forecasts)}"
+    def _wall_bound(low: float, where: tuple, walls_low: np.ndarray, forecasts, statics) -> tuple[float, tuple]:
+        """The smaller of the discs' bound ``low`` (at ``where``) and the walls' ``(nw, H)``
+        (the discs' on a tie), with where it is (walls indexed after the discs)."""
+        i = int(np.argmin(walls_low))
+        j, k = divmod(i, walls_low.shape[1])
+        g = float(walls_low[j, k])
+        return (g, (len(forecasts) + len(statics) + j, k)) if g < low else (low, where)
+
+    @staticmethod
+    def _quick_label(forecasts, statics, j: int) -> str:
+        n = len(forecasts)
+        if j < n:
+            return f"moving {forecasts[j].obstacle_id}"
+        return f"static {j - n}" if j < n + len(statics) else wall_label(j - n - len(statics))
 
 
 MANY_OBSTACLES = 4

@@ -255,12 +255,10 @@ class TrajectoryCheck(Clearances):
 
     def _escapes(self, cmd: np.ndarray, searched: bool = False) -> np.ndarray:
         """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there (``searched``:
-        each target of the searched grid, then each manoeuvre: with :attr:`search_way_out` a
-        command passes when some way out of the set the check itself would take keeps the
-        margin)."""
-        _, man = self.manoeuvres(cmd, self.horizon - 1)
-        if searched:
-            man = np.concatenate([self._searched(cmd, self.horizon - 1), man])
+        each target of the searched grid instead; with :attr:`search_way_out` a command passes
+        when some way out of the set the check itself would take, the grid and the manoeuvres,
+        keeps the margin)."""
+        man = self._searched(cmd, self.horizon - 1) if searched else self.manoeuvres(cmd, self.horizon - 1)[1]
         W = np.empty((len(man), self.horizon, 2))
         W[:, 0] = cmd
         W[:, 1:] = man
@@ -300,7 +298,10 @@ class TrajectoryCheck(Clearances):
         where the forecasts are uncertain, is not as bad as one in the next second), then
         the one with the largest smallest clearance, then the first (``within_reach``: see
         :meth:`clearances`)."""
-        found = self.clearances(state, wheels, obstacles, within_reach)
+        return self._pick(self.clearances(state, wheels, obstacles, within_reach), obstacles, labels)
+
+    def _pick(self, found: tuple, obstacles, labels: list[str]) -> SafetyCheck:
+        """:meth:`_check_best` of :meth:`clearances`' answer ``found``."""
         cmin, _, _, _, kept, contact = found
         i = 0
         if len(cmin) > 1:
@@ -362,17 +363,32 @@ class TrajectoryCheck(Clearances):
             plan_check = self._check_best(state, plan[None], obstacles, ["plan"], True)
             if plan_check.safe or (enough_s is not None and plan_check.kept_s >= enough_s - 1e-9):
                 return plan_check
-        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names, True)
+        way_out = self._way_out_after(state, cmd, obstacles)
+        if plan is not None and self._better(plan_check, way_out):
+            return plan_check
+        return way_out
+
+    def _way_out_after(self, state, cmd, obstacles) -> SafetyCheck:
+        """The best way out after one interval of ``cmd`` (:meth:`_assess`), made once per
+        command and state for the obstacles of one check (a command and its roll-out share it)."""
+        key = (float(cmd[0]), float(cmd[1]), *map(float, state))
+        way_out = obstacles.memo.get(key)
+        if way_out is not None:
+            return way_out
+        man = self.clearances(state, self._escapes(cmd), obstacles, True)
+        way_out = self._pick(man, obstacles, self._then_names)
         if self.search_way_out and not way_out.safe:
             # the fixed manoeuvres first (9 roll-outs); the searched grid (5 times as many) only
             # when none of them keeps the margin: the verdict is that of the whole set either way
             # (the best of the set is safe when any of it is), at a fifth of its cost when the
-            # manoeuvres suffice
-            searched = self._check_best(state, self._escapes(cmd, True), obstacles, self._then_search_names, True)
+            # manoeuvres suffice. Each sequence's numbers are its own, so the grid's are joined
+            # to the manoeuvres' already found, in the set's order (grid, then manoeuvres).
+            grid = self.clearances(state, self._escapes(cmd, True), obstacles, True)
+            searched = self._pick(tuple(np.concatenate(ab) for ab in zip(grid, man)), obstacles,
+                                  self._then_search_names)
             if self._better(searched, way_out):
                 way_out = searched
-        if plan is not None and self._better(plan_check, way_out):
-            return plan_check
+        obstacles.memo[key] = way_out
         return way_out
 
     def check(self, state, wheels, forecasts=(), statics=(), walls=None) -> SafetyCheck:

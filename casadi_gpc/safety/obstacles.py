@@ -48,13 +48,15 @@ class Obstacles:
     """The obstacles of one check at the sample instants, with their sub-sampled form made
     once when a roll-out needs it."""
 
-    __slots__ = ("q", "touch", "radii", "moving", "statics", "walls", "_filter", "_sub")
+    __slots__ = ("q", "touch", "radii", "moving", "statics", "walls", "memo", "_filter", "_sub")
 
     def __init__(self, q, touch, moving, statics, flt, radii=None, walls=None):
         self.q, self.touch, self.moving, self.statics, self._filter, self._sub = q, touch, moving, statics, flt, None
         self.radii = touch[:, 0] if radii is None else radii
         """``(n,)`` the distance at which the robot touches each obstacle's disc, not inflated."""
         self.walls = _NO_WALLS if walls is None else walls
+        self.memo: dict = {}
+        """What a check has found for these obstacles already (the way out after a command)."""
         """``(nw, 2)`` complex: the wall segments' ends (:mod:`casadi_gpc.safety.walls`), indexed
         after the discs."""
 

@@ -849,34 +849,46 @@ def test_the_filter_counts_its_searches():
     assert f.counters["searched"] == 1 and f.counters["interventions"] == 1
 
 
-def test_rolling_out_only_against_the_obstacles_within_reach_changes_no_verdict():
-    """``clearances(within_reach=True)`` leaves out the obstacles whose bound keeps more than
-    the margin (rolling all out where a left-out one's bound is below the smallest clearance
-    found): the same numbers as against all of them, so the same verdicts and searched way
-    out (random crowds)."""
+def _numpy_clearances(f, state, W, obs):
+    """The check's clearances in whole-array numpy (the form the compiled one replaced), as an
+    independent implementation: discs only."""
+    M, N = W.shape[0], f.horizon * f.substeps
+    q, touch = obs.sub_samples()
+    rel = f.rollout(state, W)[:, None, :] - q
+    r0, u = rel[..., :-1], rel[..., 1:] - rel[..., :-1]
+    cu = np.conj(u)
+    s = np.minimum(np.maximum(-(r0 * cu).real / ((u * cu).real + 1e-18), 0.0), 1.0)
+    dist = np.hypot((r0 + s * u).real, (r0 + s * u).imag)
+    gap = dist - touch
+    flat = gap.reshape(M, -1)
+    k = flat.argmin(axis=1)
+    now = (np.hypot(rel[..., 0].real, rel[..., 0].imag) - touch[:, 0]).min(axis=1)
+    below = gap.min(axis=1) < np.minimum(f.margin_m, now - 1e-6)[:, None]
+    now0 = (np.hypot(rel[..., 0].real, rel[..., 0].imag) - obs.radii).min(axis=1)
+    below0 = (dist - obs.radii[:, None]).min(axis=1) < np.minimum(0.0, now0 - 1e-6)[:, None]
+    return (flat[np.arange(M), k], now, k % N, k // N, np.where(below.any(axis=1), below.argmax(axis=1), N),
+            np.where(below0.any(axis=1), below0.argmax(axis=1), N))
+
+
+def test_the_compiled_clearances_are_the_whole_array_ones():
+    """The compiled clearances (:func:`casadi_gpc.safety.distances.chord_clearances`) against
+    the same arithmetic in whole-array numpy, among random crowds: the same smallest
+    clearances and clearances now (to rounding), the same obstacle of the smallest, and the
+    same chords where the margin is lost and where a disc is touched, for the manoeuvres and
+    the searched grid."""
     T, H = 0.5, 12
     rng = np.random.default_rng(11)
     f = SafetyFilter(ROBOT, T, H, search=True)
-
-    class _Every(SafetyFilter):  # the same check against every obstacle
-        def clearances(self, state, wheels, obstacles, within_reach=False):
-            return super().clearances(state, wheels, obstacles)
-
-    every = _Every(ROBOT, T, H, search=True)
-    left_out = 0
+    lost = 0
     for _ in range(60):
         state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), *rng.uniform(-0.2, 0.8, 2)])
         fc = _movers(rng, T, H, 10, 6.0, 0.5)
         obs = f.obstacle_tracks(fc, ())
         W = np.concatenate([f._searched(state[3:], H), f.manoeuvres(state[3:])[1]])
-        a, b = f.clearances(state, W, obs), f.clearances(state, W, obs, within_reach=True)
-        near = f._within_reach(state, W, obs)
-        left_out += 0 if near is None else len(fc) - len(near[0])
-        for x, y in zip(a, b):  # smallest clearance, now, its chord and obstacle, kept
+        got, ref = f.clearances(state, W, obs), _numpy_clearances(f, state, W, obs)
+        np.testing.assert_allclose(got[0], ref[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got[1], ref[1], rtol=0, atol=1e-12)
+        for x, y in zip(got[3:], ref[3:]):  # the obstacle, kept, contact
             assert np.array_equal(x, y)
-        wish = rng.uniform(-0.8, 0.8, 2)
-        ref, got = every.search(state, obs, wish), f.search(state, obs, wish)
-        cmd = rng.uniform(-0.8, 0.8, 2)
-        assert every.check(state, cmd, fc).safe == f.check(state, cmd, fc).safe
-        assert got[0] == ref[0] and got[2].safe == ref[2].safe and got[2].kept_s == ref[2].kept_s
-    assert left_out > 100  # the shortcut is taken
+        lost += int((got[4] < H * f.substeps).sum())
+    assert lost > 100  # the margin is lost in many of them: the chords are compared

@@ -108,7 +108,7 @@ def test_the_check_layer_measures_the_distance_to_a_walls_segments_exactly():
     from a point, as the scenario's own geometry measures it; from a chord (the robot's
     motion between two sub-samples), the least distance over points taken densely along it,
     to within the sampling's error, and zero where the chord crosses the wall."""
-    from casadi_gpc.safety.walls import chord_segment_distance, point_segment_distance, wall_segments
+    from casadi_gpc.safety.walls import path_segment_distances, point_segment_distance, wall_segments
     pts = ((0.0, 0.0), (3.0, 0.0), (3.0, 2.05))
     seg = wall_segments((pts,))
     rng = np.random.default_rng(0)
@@ -117,7 +117,7 @@ def test_the_check_layer_measures_the_distance_to_a_walls_segments_exactly():
     np.testing.assert_allclose(d, Wall(pts).distance_m(q), rtol=0, atol=1e-12)
     paths = rng.uniform((-1, -2), (5, 4), size=(300, 2, 2))
     p = paths[..., 0] + 1j * paths[..., 1]                                   # (300, 2): one chord each
-    got = chord_segment_distance(p, seg[:, 0], seg[:, 1]).min(axis=1)[:, 0]
+    got = np.array([path_segment_distances(np.ascontiguousarray(c), np.array(seg)).min() for c in p])
     s = np.linspace(0.0, 1.0, 4001)
     dense = p[:, :1] + s * (p[:, 1:] - p[:, :1])                            # (300, 4001)
     xy = np.stack([dense.real.ravel(), dense.imag.ravel()], axis=1)

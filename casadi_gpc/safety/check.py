@@ -290,15 +290,14 @@ class TrajectoryCheck(Clearances):
             seq = self.limit(state[3:5], seq)
         return seq[0].copy(), (seq if plan is not None else None), limited
 
-    def _check_best(self, state, wheels, obstacles, labels: list[str], within_reach: bool = False) -> SafetyCheck:
+    def _check_best(self, state, wheels, obstacles, labels: list[str]) -> SafetyCheck:
         """The check of the best sequence of ``wheels`` (M, H, 2) (:meth:`_better`'s order):
         one that keeps the margin over the horizon; else the one that stays longest clear of
         where the forecasts expect the obstacles (:attr:`SafetyCheck.contact_s`), then keeps
         the margin longest from their discs inflated by the forecasts' uncertainty (a violation late in the horizon,
         where the forecasts are uncertain, is not as bad as one in the next second), then
-        the one with the largest smallest clearance, then the first (``within_reach``: see
-        :meth:`clearances`)."""
-        return self._pick(self.clearances(state, wheels, obstacles, within_reach), obstacles, labels)
+        the one with the largest smallest clearance, then the first."""
+        return self._pick(self.clearances(state, wheels, obstacles), obstacles, labels)
 
     def _pick(self, found: tuple, obstacles, labels: list[str]) -> SafetyCheck:
         """:meth:`_check_best` of :meth:`clearances`' answer ``found``."""
@@ -360,7 +359,7 @@ class TrajectoryCheck(Clearances):
             return SafetyCheck(True, lower, lower, (k + 1) * self.sample_time_s, obstacles.label(j), "bound",
                                horizon_s)
         if plan is not None:
-            plan_check = self._check_best(state, plan[None], obstacles, ["plan"], True)
+            plan_check = self._check_best(state, plan[None], obstacles, ["plan"])
             if plan_check.safe or (enough_s is not None and plan_check.kept_s >= enough_s - 1e-9):
                 return plan_check
         way_out = self._way_out_after(state, cmd, obstacles)
@@ -375,7 +374,7 @@ class TrajectoryCheck(Clearances):
         way_out = obstacles.memo.get(key)
         if way_out is not None:
             return way_out
-        man = self.clearances(state, self._escapes(cmd), obstacles, True)
+        man = self.clearances(state, self._escapes(cmd), obstacles)
         way_out = self._pick(man, obstacles, self._then_names)
         if self.search_way_out and not way_out.safe:
             # the fixed manoeuvres first (9 roll-outs); the searched grid (5 times as many) only
@@ -383,7 +382,7 @@ class TrajectoryCheck(Clearances):
             # (the best of the set is safe when any of it is), at a fifth of its cost when the
             # manoeuvres suffice. Each sequence's numbers are its own, so the grid's are joined
             # to the manoeuvres' already found, in the set's order (grid, then manoeuvres).
-            grid = self.clearances(state, self._escapes(cmd, True), obstacles, True)
+            grid = self.clearances(state, self._escapes(cmd, True), obstacles)
             searched = self._pick(tuple(np.concatenate(ab) for ab in zip(grid, man)), obstacles,
                                   self._then_search_names)
             if self._better(searched, way_out):

@@ -52,7 +52,7 @@ class Obstacles:
 
     def __init__(self, q, touch, moving, statics, flt, radii=None, walls=None):
         self.q, self.touch, self.moving, self.statics, self._filter, self._sub = q, touch, moving, statics, flt, None
-        self.radii = touch[:, 0] if radii is None else radii
+        self.radii = np.ascontiguousarray(touch[:, 0] if radii is None else radii)
         """``(n,)`` the distance at which the robot touches each obstacle's disc, not inflated."""
         self.walls = _NO_WALLS if walls is None else walls
         self.memo: dict = {}
@@ -74,5 +74,4 @@ class Obstacles:
         return f"moving {self.moving[j].obstacle_id}" if j < n else f"static {j - n}"
 
 
-_NO_WALLS = np.zeros((0, 2), dtype=complex)
-_NO_WALLS.flags.writeable = False
+_NO_WALLS = np.zeros((0, 2), dtype=complex)  # empty: nothing to write

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..robot import RobotState, robot_step_float
 from .check import SafetyCheck, TrajectoryCheck, forecast_arrays, forecast_covariances
-from .walls import chord_segment_distance, wall_label
+from .walls import path_segment_distances, wall_label
 
 __all__ = ["QuickScreen"]
 
@@ -146,7 +146,7 @@ class QuickScreen(TrajectoryCheck):
                     if g < low:
                         low, where = g, (j, k)
         if has_walls:  # the chords' distances to the segments, less the arcs' sag
-            gw = chord_segment_distance(np.array(pts), walls[:, 0], walls[:, 1]) - self.robot.radius_m - np.asarray(sag)
+            gw = path_segment_distances(np.array(pts), walls) - self.robot.radius_m - np.asarray(sag)
             low, where = self._wall_bound(low, where, gw, forecasts, statics)
         if low >= self.margin_m:
             check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, statics, where[0]),

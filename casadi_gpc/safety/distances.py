@@ -14,14 +14,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, vectorize
+from numba import njit, types, vectorize
 
 from ..robot import robot_step_float
 
 _robot_step = njit(cache=True)(robot_step_float)  # the robot model's float form, compiled
 
 __all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "chord_clearances",
-           "path_segment_distances"]
+           "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound"]
 
 
 @njit("complex128[:, ::1](float64[::1], float64[:, :, ::1], float64[::1], float64, float64)", cache=True)
@@ -171,3 +171,70 @@ def path_segment_distances(p, walls):  # pragma: no cover (compiled)
         for c in range(p.shape[0] - 1):
             out[w, c] = chord_segment_distance(p[c], p[c + 1], walls[w, 0], walls[w, 1])
     return out
+
+
+def _screen_signature(readonly: bool):
+    """``screen_obstacles``' signature; the forecasts' arrays may be read-only (a batch's)."""
+    f3, f2 = types.Array(types.float64, 3, "C", readonly=readonly), types.Array(types.float64, 2, "C", readonly=readonly)
+    out = types.Tuple((types.complex128[:, ::1], types.float64[:, ::1]))
+    return out(f3, f2, types.float64[::1], types.float64, types.float64[:, ::1], types.float64[::1])
+
+
+@njit([_screen_signature(False), _screen_signature(True)], cache=True)
+def screen_obstacles(means, worst, base, sigmas, static_xy, static_base):  # pragma: no cover (compiled)
+    """The quick screen's obstacles: positions now and at steps 1..H, ``(n, H + 1)`` complex
+    (now: the step back from step 1, ``2 q_1 - q_2``), and touching distances ``(n, H)``
+    (``base`` = radius + the robot's, plus ``sigmas`` worst standard deviations
+    ``worst``); the movers ``means`` (``(nm, H, 2)``) first, then the static discs
+    (``static_xy`` ``(ns, 2)``, ``static_base`` ``(ns,)``)."""
+    nm, H, ns = means.shape[0], means.shape[1], static_xy.shape[0]
+    q = np.empty((nm + ns, H + 1), np.complex128)
+    touch = np.empty((nm + ns, H))
+    for j in range(nm):
+        for k in range(H):
+            q[j, k + 1] = complex(means[j, k, 0], means[j, k, 1])
+            touch[j, k] = base[j] + sigmas * worst[j, k]
+        if H > 1:
+            q[j, 0] = complex(2.0 * q[j, 1].real - q[j, 2].real, 2.0 * q[j, 1].imag - q[j, 2].imag)
+        else:
+            q[j, 0] = q[j, 1]
+    for i in range(ns):
+        for k in range(H + 1):
+            q[nm + i, k] = complex(static_xy[i, 0], static_xy[i, 1])
+        for k in range(H):
+            touch[nm + i, k] = static_base[i]
+    return q, touch
+
+
+@njit("Tuple((float64, int64, int64))(complex128, complex128[:, ::1], float64[:, ::1], float64[::1])", cache=True)
+def reach_bound(p0, q, touch, reach):  # pragma: no cover (compiled)
+    """The quick screen's reach bound (:meth:`~casadi_gpc.safety.screen.QuickScreen._quick`, 1.):
+    its least value ``|p0 - q_k| - |q_k - q_(k-1)| - touch_k - reach_k`` over obstacles and
+    steps, and where: the first (obstacle, step) in row order on a tie."""
+    best, bj, bk = math.inf, 0, 0
+    for j in range(q.shape[0]):
+        for k in range(q.shape[1] - 1):
+            a, b = p0 - q[j, k + 1], q[j, k + 1] - q[j, k]
+            g = math.hypot(a.real, a.imag) - math.hypot(b.real, b.imag) - touch[j, k] - reach[k]
+            if g < best or (j == 0 and k == 0):
+                best, bj, bk = g, j, k
+    return best, bj, bk
+
+
+@njit("Tuple((float64, int64, int64))(complex128[::1], complex128[:, ::1], float64[:, ::1], float64[::1])", cache=True)
+def chord_bound(pts, q, touch, sag):  # pragma: no cover (compiled)
+    """The quick screen's chord bound (:meth:`~casadi_gpc.safety.screen.QuickScreen._quick`, 2.):
+    the closest approach of the robot's chords between the sample instants ``pts`` to each
+    obstacle, less its touching distance and the arc's ``sag``; the least and where."""
+    best, bj, bk = math.inf, 0, 0
+    for j in range(q.shape[0]):
+        for k in range(pts.shape[0] - 1):
+            r0, r1 = pts[k] - q[j, k], pts[k + 1] - q[j, k + 1]
+            dr, di = r1.real - r0.real, r1.imag - r0.imag
+            dd = dr * dr + di * di
+            t = -(r0.real * dr + r0.imag * di) / dd if dd > 1e-18 else 0.0
+            t = min(max(t, 0.0), 1.0)
+            g = math.hypot(r0.real + t * dr, r0.imag + t * di) - touch[j, k] - sag[k]
+            if g < best or (j == 0 and k == 0):
+                best, bj, bk = g, j, k
+    return best, bj, bk

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..robot import RobotState, robot_step_float
 from .check import SafetyCheck, TrajectoryCheck, forecast_arrays, forecast_covariances
+from .distances import chord_bound, reach_bound, screen_obstacles
 from .walls import path_segment_distances, wall_label
 
 __all__ = ["QuickScreen"]
@@ -219,15 +220,9 @@ class QuickScreen(TrajectoryCheck):
                 return None
         else:
             m, w = np.zeros((0, H, 2)), np.zeros((0, H))
-        q = np.empty((n_mov + len(statics), H + 1), dtype=complex)
-        q[:n_mov, 1:] = m.view(complex)[..., 0]     # x + iy, without arithmetic
-        q[:n_mov, 0] = 2.0 * q[:n_mov, 1] - q[:n_mov, 2] if H > 1 else q[:n_mov, 1]
-        touch = np.empty((len(q), H))
-        touch[:n_mov] = (np.array([f.radius_m for f in forecasts], dtype=float)[:, None] + R) + k * w
-        for j, st in enumerate(statics, start=n_mov):
-            q[j] = complex(st.position_m[0], st.position_m[1])
-            touch[j] = st.radius_m + R
-        return q, touch
+        radii = np.array([f.radius_m for f in forecasts], dtype=float) + R
+        sxy = np.array([st.position_m for st in statics], dtype=float).reshape(-1, 2)
+        return screen_obstacles(m, w, radii, k, sxy, np.array([st.radius_m for st in statics], dtype=float) + R)
 
     @staticmethod
     def _wall_bound(low: float, where: tuple, walls_low: np.ndarray, forecasts, statics) -> tuple[float, tuple]:
@@ -247,39 +242,22 @@ class QuickScreen(TrajectoryCheck):
 
 
 MANY_OBSTACLES = 4
-"""From this many obstacles on, the quick screen's two bounds are taken with numpy over all
-obstacles and steps at once (the same operations on each entry); below it, plain floats
-cost less than numpy's per-call overhead. Measured in a crowd of ten walkers: the screen
+"""From this many obstacles on, the quick screen's two bounds are taken over arrays by compiled
+loops (:mod:`casadi_gpc.safety.distances`; the same operations on each entry); below it, plain
+floats cost less than making the arrays. Measured in a crowd of ten walkers: the screen
 took about half a millisecond in plain floats."""
 
 
-def _cabs(z: np.ndarray) -> np.ndarray:
-    """|z| as Python's ``abs`` of a complex number takes it (C's ``hypot``), to the last bit
-    (``np.abs`` of a complex array differs from it in the last bit now and then)."""
-    return np.hypot(z.real, z.imag)
-
-
 def _reach_bound_arrays(p0: complex, obs, reach) -> tuple[float, tuple[int, int]]:
-    """The reach bound (:meth:`QuickScreen._quick`, 1.) over arrays: its least value and
-    where, the first (obstacle, step) in row order on a tie, as the loop finds it."""
-    q, touch = obs
-    g = _cabs(p0 - q[:, 1:]) - _cabs(q[:, 1:] - q[:, :-1]) - touch - np.asarray(reach)
-    i = int(np.argmin(g))
-    j, k = divmod(i, g.shape[1])
-    return float(g[j, k]), (j, k)
+    """The reach bound (:meth:`QuickScreen._quick`, 1.) over arrays (compiled,
+    :func:`~casadi_gpc.safety.distances.reach_bound`): its least value and where, the first
+    (obstacle, step) in row order on a tie, as the loop finds it."""
+    g, j, k = reach_bound(p0, obs[0], obs[1], np.array(reach, dtype=float))
+    return g, (j, k)
 
 
 def _chord_bound_arrays(pts, obs, sag) -> tuple[float, tuple[int, int]]:
-    """The chord bound (:meth:`QuickScreen._quick`, 2.) over arrays, as the loop takes it."""
-    q, touch = obs
-    rel = np.asarray(pts)[None, :] - q              # robot - obstacle at the sample instants
-    r0, d = rel[:, :-1], rel[:, 1:] - rel[:, :-1]
-    dr, di = d.real, d.imag
-    dd = dr * dr + di * di
-    # -(r0 . d) / dd clamped to [0, 1], and 0 where the chord is a point (no division there)
-    t = np.divide(-(r0.real * dr + r0.imag * di), dd, out=np.zeros_like(dd), where=dd > 1e-18)
-    t = np.minimum(np.maximum(t, 0.0), 1.0)
-    g = _cabs(r0 + t * d) - touch - np.asarray(sag)
-    i = int(np.argmin(g))
-    j, k = divmod(i, g.shape[1])
-    return float(g[j, k]), (j, k)
+    """The chord bound (:meth:`QuickScreen._quick`, 2.) over arrays, as the loop takes it
+    (compiled, :func:`~casadi_gpc.safety.distances.chord_bound`)."""
+    g, j, k = chord_bound(np.array(pts, dtype=complex), obs[0], obs[1], np.array(sag, dtype=float))
+    return g, (j, k)

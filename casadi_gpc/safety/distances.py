@@ -121,35 +121,71 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse)
     threshold = min(margin, now - not_worse)
     threshold0 = min(0.0, now0 - not_worse)
     dist = np.empty((n + nw, N))
+    # a lower bound of each obstacle's distance to any path that stays within D of now: its
+    # sub-samples' least distance to where the robot is now, less its longest chord (a disc),
+    # or the distance from now to the segment (a wall); less 1e-9 (rounding), less D
+    near = np.empty(n + nw)
+    loose = np.empty(n + nw)  # the least touching distance an obstacle's gaps are taken at
+    for j in range(n):
+        e2, l2, tmax = math.inf, 0.0, touch[j, 0]
+        for c in range(N + 1):
+            r = p0 - q[j, c]
+            e2 = min(e2, r.real * r.real + r.imag * r.imag)
+            if c < N:
+                u = q[j, c + 1] - q[j, c]
+                l2 = max(l2, u.real * u.real + u.imag * u.imag)
+                tmax = max(tmax, touch[j, c])
+        near[j] = math.sqrt(e2) - math.sqrt(l2) - 1e-9
+        loose[j] = tmax
+    for w in range(nw):
+        near[n + w] = segment_distance(p0, walls[w, 0], walls[w, 1]) - 1e-9
+        loose[n + w] = robot_radius
+    floor = max(threshold, threshold0)  # a gap at or above both is below neither
+    computed = np.zeros(n + nw, np.bool_)
     for m in range(M):
+        reach2 = 0.0
+        for c in range(1, N + 1):
+            r = p[m, c] - p0
+            reach2 = max(reach2, r.real * r.real + r.imag * r.imag)
+        low = near - math.sqrt(reach2)
+        low -= loose  # below which no gap of the obstacle falls (its inflated, and so its expected, disc)
         best, bj, bc = math.inf, 0, 0
-        for j in range(n):
-            rr = p[m, 0] - q[j, 0]
-            for c in range(N):
-                r1 = p[m, c + 1] - q[j, c + 1]
-                ur, ui = r1.real - rr.real, r1.imag - rr.imag
-                s = (rr.real * ur + rr.imag * ui) / ((ur * ur + ui * ui) + 1e-18)
-                s = min(max(-s, 0.0), 1.0)
-                d = math.hypot(rr.real + s * ur, rr.imag + s * ui)
-                dist[j, c] = d
-                g = d - touch[j, c]
-                if g < best:
-                    best, bj, bc = g, j, c
-                rr = r1
-        for w in range(nw):
-            a, b = walls[w, 0], walls[w, 1]
-            for c in range(N):
-                d = chord_segment_distance(p[m, c], p[m, c + 1], a, b)
-                dist[n + w, c] = d
-                g = d - robot_radius
-                if g < best:
-                    best, bj, bc = g, n + w, c
+        # the nearest first, so that the far ones are left out once their bound is above the
+        # smallest gap found and the thresholds; the first in (obstacle, chord) order on a tie
+        for j in np.argsort(low):
+            if low[j] > best and low[j] >= floor:
+                computed[j] = False
+                continue
+            computed[j] = True
+            if j < n:
+                rr = p[m, 0] - q[j, 0]
+                for c in range(N):
+                    r1 = p[m, c + 1] - q[j, c + 1]
+                    ur, ui = r1.real - rr.real, r1.imag - rr.imag
+                    s = (rr.real * ur + rr.imag * ui) / ((ur * ur + ui * ui) + 1e-18)
+                    s = min(max(-s, 0.0), 1.0)
+                    d = math.hypot(rr.real + s * ur, rr.imag + s * ui)
+                    dist[j, c] = d
+                    g = d - touch[j, c]
+                    if g < best or (g == best and (j < bj or (j == bj and c < bc))):
+                        best, bj, bc = g, j, c
+                    rr = r1
+            else:
+                a, b = walls[j - n, 0], walls[j - n, 1]
+                for c in range(N):
+                    d = chord_segment_distance(p[m, c], p[m, c + 1], a, b)
+                    dist[j, c] = d
+                    g = d - robot_radius
+                    if g < best or (g == best and (j < bj or (j == bj and c < bc))):
+                        best, bj, bc = g, j, c
         cmin[m], which[m], chord[m] = best, bj, bc
         if M == 1 and best >= threshold:
             continue  # never below: no need to find where (clear of the inflated discs: of the expected ones too)
         k_kept, k_contact = N, N
         for c in range(N):
             for j in range(n + nw):
+                if not computed[j]:
+                    continue  # its gaps keep the margin and keep off its disc all along
                 t = touch[j, c] if j < n else robot_radius
                 r0 = radii[j] if j < n else robot_radius
                 if k_kept == N and dist[j, c] - t < threshold:

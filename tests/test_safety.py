@@ -163,12 +163,12 @@ def _movers(rng, T: float, H: int, n: int, spread: float, speed: float, **kw) ->
 def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
     """The plain-float screen that settles most checks: whenever it passes a candidate, its
     clearance is a lower bound of an independent brute force of the sequence it judged (the
-    plan, or the command then braking or reversing), and at least the margin; when it
-    cannot tell, it defers (None) to the exact check."""
+    plan, or the command then braking, reversing or another of the exact check's manoeuvres),
+    and at least the margin; when it cannot tell, it defers (None) to the exact check."""
     rng = np.random.default_rng(21)
-    passed = deferred = 0
-    for f, T, H, state, own, plan, cand in _screen_cases(rng, 40):
-        fcs = _movers(rng, T, H, rng.integers(1, 3), 5, 0.5)
+    passed = deferred = escapes = 0
+    for i, (f, T, H, state, own, plan, cand) in enumerate(_screen_cases(rng, 120)):
+        fcs = _movers(rng, T, H, rng.integers(1, 3) if i < 80 else rng.integers(6, 12), 5 if i < 80 else 3.5, 0.5)
         st = (StaticObstacle(tuple(rng.uniform(-5, 5, 2)), 0.3),)
         q = f._quick(RobotState(*state), cand, fcs, st)
         if q is None:
@@ -178,15 +178,18 @@ def test_quick_screen_passes_only_what_the_brute_force_keeps_clear():
         assert check.safe and not check.exact and check.min_clearance_m >= f.margin_m
         if own:
             judged = plan
-        else:  # the bound judges the command then braking, the chords then reversing
+        elif check.continuation in ("bound, then brake", "then reverse"):
+            # the reach bound judges the command then braking, the chords then reversing
             target = (0.0, 0.0) if check.continuation == "bound, then brake" else f._reverse_target
-            assert check.continuation in ("bound, then brake", "then reverse")
             judged = np.array(f._then_target(tuple(plan[0]), target))
+        else:  # the third bound: the command, then one of the exact check's manoeuvres
+            escapes += 1
+            judged = f._escapes(plan[0])[f._then_names.index(check.continuation)]
         truth = brute_clearance(state, judged, fcs, st, T, f.sigmas, n=200)
         assert check.min_clearance_m <= truth + 1e-9, (check, truth)
         assert (cmd[0], cmd[1]) == tuple(plan[0])
         passed += 1
-    assert passed > 10 and deferred > 10  # both branches exercised
+    assert passed > 10 and deferred > 10 and escapes > 3  # every branch exercised
 
 
 def test_quick_screen_among_many_obstacles_gives_the_few_obstacles_numbers(monkeypatch):

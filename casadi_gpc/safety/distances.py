@@ -21,7 +21,7 @@ from ..robot import robot_step_float
 _robot_step = njit(cache=True)(robot_step_float)  # the robot model's float form, compiled
 
 __all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "chord_clearances",
-           "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound"]
+           "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound", "escape_bounds"]
 
 
 @njit("complex128[:, ::1](float64[::1], float64[:, :, ::1], float64[::1], float64, float64)", cache=True)
@@ -274,3 +274,36 @@ def chord_bound(pts, q, touch, sag):  # pragma: no cover (compiled)
             if g < best or (j == 0 and k == 0):
                 best, bj, bk = g, j, k
     return best, bj, bk
+
+
+@njit("Tuple((float64, int64, int64, int64))(float64, float64, float64, float64[:, :, ::1], float64, float64, float64, "
+      "complex128[:, ::1], float64[:, ::1], complex128[:, ::1], float64)", cache=True)
+def escape_bounds(x, y, h, wheels, T, W, sag_scale, q, touch, walls, robot_radius):  # pragma: no cover (compiled)
+    """The quick screen's chord bound (:func:`chord_bound`) of each sequence of ``wheels``
+    (``(M, H, 2)``) rolled out at the sample instants from the pose ``(x, y, h)`` with the
+    robot model: the discs ``q``, ``touch`` as there, and the wall segments ``walls`` (the
+    chords' distances to them less ``robot_radius``), each interval less its arc's sag
+    (``|a + b| |a - b| sag_scale``). Returns the largest of the sequences' bounds (the first
+    on a tie), which sequence, and the (obstacle, interval) of its least."""
+    M, H = wheels.shape[0], wheels.shape[1]
+    n, nw = q.shape[0], walls.shape[0]
+    pts = np.empty(H + 1, np.complex128)
+    sag = np.empty(H)
+    best, bm, bj, bk = -math.inf, 0, 0, 0
+    for m in range(M):
+        px, py, ph = x, y, h
+        pts[0] = complex(px, py)
+        for k in range(H):
+            a, b = wheels[m, k, 0], wheels[m, k, 1]
+            sag[k] = abs(a + b) * abs(a - b) * sag_scale
+            px, py, ph = _robot_step(px, py, ph, a, b, T, W)
+            pts[k + 1] = complex(px, py)
+        low, lj, lk = chord_bound(pts, q, touch, sag) if n else (math.inf, 0, 0)
+        for w in range(nw):
+            for k in range(H):
+                g = chord_segment_distance(pts[k], pts[k + 1], walls[w, 0], walls[w, 1]) - robot_radius - sag[k]
+                if g < low:
+                    low, lj, lk = g, n + w, k
+        if low > best:
+            best, bm, bj, bk = low, m, lj, lk
+    return best, bm, bj, bk

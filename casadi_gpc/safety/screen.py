@@ -11,7 +11,7 @@ import numpy as np
 
 from ..robot import RobotState, robot_step_float
 from .check import SafetyCheck, TrajectoryCheck, forecast_arrays, forecast_covariances
-from .distances import chord_bound, reach_bound, screen_obstacles
+from .distances import chord_bound, escape_bounds, reach_bound, screen_obstacles
 from .walls import path_segment_distances, wall_label
 
 __all__ = ["QuickScreen"]
@@ -153,7 +153,30 @@ class QuickScreen(TrajectoryCheck):
             check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, statics, where[0]),
                                 label, H * T, False)
             return check, cmd, self._plan(own, w, seq, changed), limited
-        return None
+        if own:
+            return None
+        # 3. the command, then each of the exact check's fixed manoeuvres, at the sample
+        # instants as in 2. (compiled): one whose chords keep the margin is a way out
+        return self._quick_escapes(robot, cmd, obs, walls, limited, forecasts, statics)
+
+    def _quick_escapes(self, robot: RobotState, cmd, obs, walls, limited: bool, forecasts, statics):
+        """The screen's third bound (:meth:`_quick`): the best of the chord bounds of the
+        command followed by each manoeuvre (:meth:`_escapes`, the exact check's first set),
+        as the screen's answer when it keeps the margin, else None."""
+        H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
+        if isinstance(obs, list):  # the plain-float form, as arrays
+            q = np.array([o[0] for o in obs], dtype=complex).reshape(len(obs), H + 1)
+            touch = np.array([o[1] for o in obs], dtype=float).reshape(len(obs), H)
+        else:
+            q, touch = obs
+        low, m, j, k = escape_bounds(float(robot.x_m), float(robot.y_m), float(robot.heading_rad),
+                                     self._escapes(np.array(cmd, dtype=float)), T, W, T * T / (16.0 * W), q, touch,
+                                     _NO_WALLS if walls is None else walls, self.robot.radius_m)
+        if not low >= self.margin_m:
+            return None
+        check = SafetyCheck(True, low, low, (k + 1) * T, self._quick_label(forecasts, statics, j), self._then_names[m],
+                            H * T, False)
+        return check, cmd, None, limited
 
     @staticmethod
     def _plan(own: bool, w: np.ndarray, seq: list, changed: bool) -> np.ndarray | None:
@@ -261,3 +284,6 @@ def _chord_bound_arrays(pts, obs, sag) -> tuple[float, tuple[int, int]]:
     (compiled, :func:`~casadi_gpc.safety.distances.chord_bound`)."""
     g, j, k = chord_bound(np.array(pts, dtype=complex), obs[0], obs[1], np.array(sag, dtype=float))
     return g, (j, k)
+
+
+_NO_WALLS = np.zeros((0, 2), dtype=complex)  # empty: nothing to write

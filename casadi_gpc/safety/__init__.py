@@ -1,5 +1,6 @@
 """The safety check layer: check a controller's wheel speeds against the predicted
-obstacles and replace them when they come too close (numpy only: imports without CasADi).
+obstacles and replace them when they come too close (numpy, and numba for the compiled
+distances, :mod:`casadi_gpc.safety.distances`: imports without CasADi).
 
 :class:`Shield` puts any controller behind it (the GPC, the network, the peers, a user's
 own): ``Shield(policy)`` answers the same Policy protocol. Neither a network that imitates an

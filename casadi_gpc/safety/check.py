@@ -2,7 +2,7 @@
 sub-sampled inside every interval, the obstacles at the same instants, the clearances with
 the closest approach on every chord, a roll-out-free lower bound, and the verdict
 (:class:`SafetyCheck`) on a candidate: its own plan, or the command followed by the best
-way out of :data:`MANOEUVRES` (numpy only; see :mod:`casadi_gpc.safety`)."""
+way out of :data:`MANOEUVRES` (numpy and the compiled distances; see :mod:`casadi_gpc.safety`)."""
 from __future__ import annotations
 
 import math

@@ -1,7 +1,9 @@
 """The quick screen: most checks are passes, and numpy's per-call overhead would make them
 cost more than the network's own decision, so a candidate is first screened with plain
-floats by two lower bounds of the clearance that the exact roll-out would find (numpy only;
-see :mod:`casadi_gpc.safety`)."""
+floats (among many obstacles, compiled loops over arrays) by lower bounds of the clearance
+that the exact roll-out would find: the reach of the command then braking, the chords of the
+command then reversing, and the chords of the command then each fixed manoeuvre (see
+:mod:`casadi_gpc.safety`)."""
 from __future__ import annotations
 
 import math
@@ -21,9 +23,9 @@ class QuickScreen(TrajectoryCheck):
     """The exact check with the quick screen in front of it (:meth:`_quick`)."""
 
     # Most checks are passes; numpy's per-call overhead would make them cost more than the
-    # network's own decision. So a candidate is first screened with plain floats by two lower
-    # bounds of the clearance that the roll-out would find; only when neither keeps the
-    # margin does the exact check above run. Both bounds are conservative: they can only
+    # network's own decision. So a candidate is first screened with plain floats by lower
+    # bounds of the clearance that the roll-out would find; only when none keeps the
+    # margin does the exact check above run. All are conservative: they can only
     # send a case to the exact check, never pass one it would fail by more than its own
     # chord error. (Clamps are written as conditional expressions: ``b if b > a else a`` is
     # max(a, b) and ``b if b < a else a`` is min(a, b), ties included, without the calls,

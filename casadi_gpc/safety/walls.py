@@ -1,5 +1,5 @@
 """Walls for the check layer: each polyline's segments, and the robot's distance to them
-measured exactly (numpy only).
+measured exactly (numpy, and the compiled distances).
 
 A wall is touched when the robot's disc touches one of its segments (the simulator's rule),
 so the check's clearance to a wall is the distance from the robot's centre to the segment

@@ -267,6 +267,13 @@ def test_decisions_equal_the_recorded_ones(recorded, variant, tmp_path):
         ref = d[f"{variant}_{k}"]
         if v.dtype.kind in "biu":
             np.testing.assert_array_equal(v, ref, err_msg=k)
+        elif k == "safety_clearance_m":
+            # the check's reported clearance: the recorded one, or, where the quick screen's third
+            # bound (the command then a manoeuvre, added since the recording) now settles what the
+            # exact check settled, a lower bound of it at or above the margin (the verdict the same)
+            same = np.isclose(v, ref, rtol=0, atol=1e-9, equal_nan=True)
+            assert np.all(same | ((v <= ref + 1e-9) & (v >= 0.05))), k
+            assert same.mean() > 0.75, k  # most are still the exact check's
         else:
             np.testing.assert_allclose(v, ref, rtol=0, atol=1e-9 if k != "net_input" else 1e-6, equal_nan=True,
                                        err_msg=k)

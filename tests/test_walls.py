@@ -103,17 +103,28 @@ def test_plots_draw_the_walls(tmp_path):
     assert len(json.loads((tmp_path / "r.json").read_text())["walls"]) == 2
 
 
-def test_the_check_layers_wall_discs_never_claim_more_room_than_the_wall_leaves():
-    from casadi_gpc.safety.walls import WALL_SPACING_M, wall_discs
+def test_the_check_layer_measures_the_distance_to_a_walls_segments_exactly():
+    """The check's distance to a wall is the distance to its segments (the simulator's rule):
+    from a point, as the scenario's own geometry measures it; from a chord (the robot's
+    motion between two sub-samples), the least distance over points taken densely along it,
+    to within the sampling's error, and zero where the chord crosses the wall."""
+    from casadi_gpc.safety.walls import path_segment_distances, point_segment_distance, wall_segments
     pts = ((0.0, 0.0), (3.0, 0.0), (3.0, 2.05))
-    discs = wall_discs((pts,))
-    centres = np.array([d.position_m for d in discs])
+    seg = wall_segments((pts,))
     rng = np.random.default_rng(0)
     q = rng.uniform((-1, -2), (5, 4), size=(2000, 2))
-    disc_gap = (np.hypot(*(q[:, None, :] - centres[None]).transpose(2, 0, 1)) - discs[0].radius_m).min(axis=1)
-    true_gap = Wall(pts).distance_m(q)
-    assert np.all(disc_gap <= true_gap + 1e-12)
-    assert np.all(disc_gap >= true_gap - WALL_SPACING_M / 2 - 1e-12)
+    d = point_segment_distance(q[:, 0] + 1j * q[:, 1], seg[:, 0, None], seg[:, 1, None]).min(axis=0)
+    np.testing.assert_allclose(d, Wall(pts).distance_m(q), rtol=0, atol=1e-12)
+    paths = rng.uniform((-1, -2), (5, 4), size=(300, 2, 2))
+    p = paths[..., 0] + 1j * paths[..., 1]                                   # (300, 2): one chord each
+    got = np.array([path_segment_distances(np.ascontiguousarray(c), np.array(seg)).min() for c in p])
+    s = np.linspace(0.0, 1.0, 4001)
+    dense = p[:, :1] + s * (p[:, 1:] - p[:, :1])                            # (300, 4001)
+    xy = np.stack([dense.real.ravel(), dense.imag.ravel()], axis=1)
+    brute = Wall(pts).distance_m(xy).reshape(dense.shape).min(axis=1)
+    step = np.abs(p[:, 1] - p[:, 0]) / 4000
+    assert np.all(got <= brute + 1e-12) and np.all(got >= brute - step)
+    assert (got == 0.0).sum() > 10  # chords across the wall
 
 
 def test_behind_the_check_layer_a_controller_does_not_drive_into_a_wall():

@@ -1,5 +1,6 @@
 """The safety check layer: check a controller's wheel speeds against the predicted
-obstacles and replace them when they come too close (numpy only: imports without CasADi).
+obstacles and replace them when they come too close (numpy, and numba for the compiled
+distances, :mod:`casadi_gpc.safety.distances`: imports without CasADi).
 
 :class:`Shield` puts any controller behind it (the GPC, the network, the peers, a user's
 own): ``Shield(policy)`` answers the same Policy protocol. Neither a network that imitates an
@@ -64,15 +65,21 @@ competes with the candidate where nothing passes. With ``safer_alternatives`` (t
 trust time alone gives way to the first alternative that keeps the margin over the whole
 horizon (counted ``alternative_safer``).
 
-Rooms: ``check`` (the roll-out, the clearances and the verdict on a sequence, the
-manoeuvres and the grid a way out is searched in), ``search`` (the searched way out),
+Walls (``Observation.walls``) are judged as their segments: the clearance to a wall is the
+distance from the robot's centre to its nearest segment less the robot's radius, with the
+margin as for a static obstacle, and between two sub-samples the distance between the
+robot's chord and the segment (:mod:`casadi_gpc.safety.walls`).
+
+Rooms: ``check`` (the verdict on a sequence, the manoeuvres and the grid a way out is
+searched in), ``clearances`` (the roll-out and the clearances along it, to discs and to wall
+segments), ``search`` (the searched way out),
 ``obstacles`` (the forecasts as the arrays a check
 reads), ``screen`` (the quick screen in plain floats in front of the check),
 ``filter`` (:class:`SafetyFilter`: the interventions and their counters), ``settings``
 (:class:`CheckSettings`: what the check trusts from a controller and what it falls back
 on, one frozen object per controller), ``shield`` (:class:`Shield`: any controller behind
 the filter, its forecasts or the shield's own), ``standby`` (:class:`StandbyPlanner`, the
-planner kept in step behind the filter) and ``walls`` (the observation's walls as chains of static discs the check judges against).
+planner kept in step behind the filter) and ``walls`` (the observation's walls as segments, and the distances to them).
 """
 from .check import MANOEUVRES, SafetyCheck, TrajectoryCheck
 from .filter import ROLLOUT_TRUST_S, SAFER_ALTERNATIVES, SafetyFilter, SafetyVerdict, safer_alternatives_for

@@ -2,7 +2,7 @@
 sub-sampled inside every interval, the obstacles at the same instants, the clearances with
 the closest approach on every chord, a roll-out-free lower bound, and the verdict
 (:class:`SafetyCheck`) on a candidate: its own plan, or the command followed by the best
-way out of :data:`MANOEUVRES` (numpy only; see :mod:`casadi_gpc.safety`)."""
+way out of :data:`MANOEUVRES` (numpy and the compiled distances; see :mod:`casadi_gpc.safety`)."""
 from __future__ import annotations
 
 import math
@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..robot import RobotParams, followed_wheel, robot_step
+from ..robot import RobotParams, followed_wheel
+from .clearances import Clearances
 from .obstacles import Obstacles, forecast_arrays, forecast_covariances, shared_batch
 
 __all__ = ["MANOEUVRES", "SEARCH_SPEEDS", "SEARCH_TURNS", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
@@ -39,10 +40,6 @@ SEARCH_TURNS = (-0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5)
 fractions; every pair of the two within the limits, each target approached at the
 acceleration limit and held, beside :data:`MANOEUVRES`."""
 
-_FAR_M = 1e-3
-"""An obstacle is left out of a roll-out (:meth:`TrajectoryCheck.clearances`' ``within_reach``)
-only when its bound keeps this much more than the margin (well above any rounding, and above
-the clearance-now tolerance, so that what is below the threshold is the same)."""
 _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
 
 
@@ -50,7 +47,6 @@ def _best(among: np.ndarray, cmin: np.ndarray) -> int:
     """The first index of ``among`` (a mask) whose smallest clearance is the largest there
     (ties within :data:`_TIE_M`)."""
     return int(np.argmax(among & (cmin >= cmin[among].max() - _TIE_M)))
-_NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
 
 @dataclass(slots=True)  # made for every check: slots, not frozen (a frozen init costs 5x)
 class SafetyCheck:
@@ -87,7 +83,7 @@ class SafetyCheck:
 
 
 
-class TrajectoryCheck:
+class TrajectoryCheck(Clearances):
     """The exact check (see the module text); :class:`~casadi_gpc.safety.filter.SafetyFilter`
     adds the quick screen and the interventions.
 
@@ -167,9 +163,7 @@ class TrajectoryCheck:
         self._search_weights = 1.0 / np.arange(1, self.horizon + 1)
 
 
-    # --- roll-out and clearances ---------------------------------------------------------
-    # Written for speed: every step of the filter is a handful of whole-array operations
-    # (numpy's per-call overhead, not the arithmetic, is what costs at these sizes).
+    # --- limits and obstacles (the roll-out and the clearances: :mod:`.clearances`) -------
     def limit(self, v0, wheels: np.ndarray) -> np.ndarray:
         """``wheels`` (..., H, 2) followed within the limits from the current speeds ``v0``,
         exactly as the simulator clips them (rate first, then speed)."""
@@ -196,31 +190,12 @@ class TrajectoryCheck:
             return False
         return len(wheels) < 2 or bool(np.abs(wheels[1:] - wheels[:-1]).max() <= dv + tol)
 
-    def rollout(self, state, wheels: np.ndarray) -> np.ndarray:
-        """Robot positions at the sub-sample instants as complex numbers x + iy,
-        ``(M, H * substeps + 1)``, the first column now. ``state`` = (x, y, heading, ...),
-        ``wheels`` (M, H, 2)."""
-        T, W = self.sample_time_s, self.robot.wheel_base_m
-        vr, vl = wheels[..., 0], wheels[..., 1]
-        # heading at the start of each interval: the model turns by (vr - vl) T / W per interval
-        turn = (vr - vl) * (T / W)
-        h0 = (state[2] - turn) + np.add.accumulate(turn, axis=-1)
-        # one call of the model for every sub-sample of every interval, from a local origin
-        dx, dy, _ = robot_step(np, 0.0, 0.0, h0[..., None], vr[..., None], vl[..., None], self._tau, W)
-        d = dx + 1j * dy                                                      # (M, H, S)
-        # interval start points: the cumulated full-interval displacements (last sub-sample)
-        end = d[..., -1]
-        start = (complex(state[0], state[1]) - end) + np.add.accumulate(end, axis=-1)
-        M, N = wheels.shape[0], self.horizon * self.substeps
-        p = np.empty((M, N + 1), dtype=complex)
-        p[:, 0] = complex(state[0], state[1])
-        p[:, 1:] = (start[..., None] + d).reshape(M, N)
-        return p
-
-    def obstacle_tracks(self, forecasts, statics) -> "Obstacles":
+    def obstacle_tracks(self, forecasts, statics, walls=None) -> "Obstacles":
         """The obstacles at the sample instants: positions now and at steps 1..H (complex
         x + iy, ``(n, H + 1)``) and the distance at which the robot touches each one over
-        each interval ``(n, H)`` (radii plus k sigma at the end of the interval, m)."""
+        each interval ``(n, H)`` (radii plus k sigma at the end of the interval, m); and the
+        wall segments ``walls`` (``(nw, 2)`` complex ends, :mod:`.walls`), touched at the
+        robot's radius."""
         H = self.horizon
         nm, n = len(forecasts), len(forecasts) + len(statics)
         q = np.empty((n, H + 1), dtype=complex)
@@ -241,7 +216,7 @@ class TrajectoryCheck:
         for i, st in enumerate(statics):
             q[nm + i] = complex(st.position_m[0], st.position_m[1])
             touch[nm + i] = radii[nm + i] = st.radius_m + self.robot.radius_m
-        return Obstacles(q, touch, tuple(forecasts), tuple(statics), self, radii)
+        return Obstacles(q, touch, tuple(forecasts), tuple(statics), self, radii, walls)
 
     def bound(self, state, cmd, plan, obstacles: "Obstacles") -> tuple[float, int, int]:
         """A lower bound of the clearance over the horizon that needs no roll-out: over
@@ -255,86 +230,13 @@ class TrajectoryCheck:
             reach = np.add.accumulate(np.abs(plan[:, 0] + plan[:, 1])) * (0.5 * T)
         else:
             reach = abs(0.5 * float(cmd[0] + cmd[1])) * T + self._full_reach
-        q = obstacles.q
-        gap = (np.abs(q[:, 1:] - complex(state[0], state[1])) - np.abs(q[:, 1:] - q[:, :-1])) - obstacles.touch
+        q, p0 = obstacles.q, complex(state[0], state[1])
+        gap = (np.abs(q[:, 1:] - p0) - np.abs(q[:, 1:] - q[:, :-1])) - obstacles.touch
         low = gap - reach
+        if len(obstacles.walls):
+            low = np.concatenate([low, self.wall_bounds(p0, obstacles.walls, reach)])
         i = int(low.argmin())
         return float(low.flat[i]), i // self.horizon, i % self.horizon
-
-    def clearances(self, state, wheels: np.ndarray, obstacles: "Obstacles", within_reach: bool = False) -> tuple:
-        """For each sequence in ``wheels`` (M, H, 2): the smallest inflated clearance over the
-        horizon, the clearance now, the chord index and the obstacle of the minimum, and how
-        many chords pass before the clearance first falls below the threshold (the margin,
-        or, inside it, the clearance now): H * substeps when it never does; and how many pass
-        before it touches the obstacles' discs not inflated by their uncertainty (or, touching
-        one now, closes in), H * substeps when it never does.
-
-        ``within_reach``: the sequences are rolled out against the obstacles that one of them
-        can come near (:meth:`_within_reach`) only; the others keep more than the margin all
-        along, so the clearance now and how long each keeps the margin are the same, and so is
-        the smallest clearance unless a left-out obstacle's bound is below it, where all are
-        rolled out after all: the same numbers, at a fraction of the roll-outs in a crowd."""
-        M, N = wheels.shape[0], self.horizon * self.substeps
-        if not len(obstacles.q):
-            inf = np.full(M, np.inf)
-            return inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N), np.full(M, N)
-        q, touch = obstacles.sub_samples()
-        near = self._within_reach(state, wheels, obstacles) if within_reach else None
-        if near is not None:
-            idx, floor = near
-            now = np.full(M, (np.abs(complex(state[0], state[1]) - q[:, 0]) - touch[:, 0]).min())
-            if not len(idx):
-                return self.clearances(state, wheels, obstacles)
-            q, touch = q[idx], touch[idx]
-        rel = self.rollout(state, wheels)[:, None, :] - q                   # (M, n, N+1) robot - obstacle
-        r0 = rel[..., :-1]                                                  # chord starts
-        u = rel[..., 1:] - r0                                               # chord directions
-        # closest approach on each chord: the relative motion is linear between sub-samples;
-        # Re(r0 conj(u)) is the dot product, |u|^2 = Re(u conj(u))
-        cu = np.conj(u)
-        s = (r0 * cu).real / ((u * cu).real + 1e-18)
-        s = np.minimum(np.maximum(-s, 0.0), 1.0)
-        dist = np.abs(r0 + s * u)
-        gap = dist - touch
-        flat = gap.reshape(M, -1)
-        k = flat.argmin(axis=1)
-        cmin = flat[np.arange(M), k]
-        if near is None:
-            now = (np.abs(rel[..., 0]) - touch[:, 0]).min(axis=1)
-        threshold = np.minimum(self.margin_m, now - _NOT_WORSE_M)
-        if M == 1 and cmin[0] >= threshold[0]:
-            kept = np.full(1, N)  # never below: no need to find where
-            contact = kept  # clear of the inflated discs: of the expected ones too
-        else:
-            below = gap.min(axis=1) < threshold[:, None]
-            kept = np.where(below.any(axis=1), below.argmax(axis=1), N)
-            # how long before touching the discs where the forecasts expect the obstacles (not
-            # inflated; inside one, before closing in); those out of reach are never touched
-            radii = obstacles.radii if near is None else obstacles.radii[idx]
-            now0 = (np.abs(rel[..., 0]) - radii).min(axis=1)
-            below0 = (dist - radii[:, None]).min(axis=1) < np.minimum(0.0, now0 - _NOT_WORSE_M)[:, None]
-            contact = np.where(below0.any(axis=1), below0.argmax(axis=1), N)
-        if near is not None:
-            if (floor < cmin).any():  # a left-out obstacle might hold a smallest clearance: all of them
-                return self.clearances(state, wheels, obstacles)
-            return cmin, now, k % N, idx[k // N], kept, contact
-        return cmin, now, k % N, k // N, kept, contact
-
-    def _within_reach(self, state, wheels: np.ndarray, obstacles: "Obstacles"):
-        """The obstacles that some sequence of ``wheels`` (M, H, 2) can come near: those
-        whose bound (as :meth:`bound`, with the longest path any of the sequences drives over
-        each interval) is below the margin (and a little more: see :data:`_FAR_M`). Returns
-        ``(indices of those, the others' least bound)``, or None when every obstacle is near."""
-        if len(obstacles.q) < 2:
-            return None
-        q = obstacles.q
-        reach = np.add.accumulate(np.abs(wheels[..., 0] + wheels[..., 1]).max(axis=0)) * (0.5 * self.sample_time_s)
-        low = (np.abs(q[:, 1:] - complex(state[0], state[1])) - np.abs(q[:, 1:] - q[:, :-1])) - obstacles.touch - reach
-        per = low.min(axis=1)
-        near = per < self.margin_m + _FAR_M
-        if near.all():
-            return None
-        return np.flatnonzero(near), float(per[~near].min())
 
     # --- candidates ----------------------------------------------------------------------
     def manoeuvres(self, v0, steps: int | None = None) -> tuple[list[str], np.ndarray]:
@@ -353,12 +255,10 @@ class TrajectoryCheck:
 
     def _escapes(self, cmd: np.ndarray, searched: bool = False) -> np.ndarray:
         """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there (``searched``:
-        each target of the searched grid, then each manoeuvre: with :attr:`search_way_out` a
-        command passes when some way out of the set the check itself would take keeps the
-        margin)."""
-        _, man = self.manoeuvres(cmd, self.horizon - 1)
-        if searched:
-            man = np.concatenate([self._searched(cmd, self.horizon - 1), man])
+        each target of the searched grid instead; with :attr:`search_way_out` a command passes
+        when some way out of the set the check itself would take, the grid and the manoeuvres,
+        keeps the margin)."""
+        man = self._searched(cmd, self.horizon - 1) if searched else self.manoeuvres(cmd, self.horizon - 1)[1]
         W = np.empty((len(man), self.horizon, 2))
         W[:, 0] = cmd
         W[:, 1:] = man
@@ -390,15 +290,17 @@ class TrajectoryCheck:
             seq = self.limit(state[3:5], seq)
         return seq[0].copy(), (seq if plan is not None else None), limited
 
-    def _check_best(self, state, wheels, obstacles, labels: list[str], within_reach: bool = False) -> SafetyCheck:
+    def _check_best(self, state, wheels, obstacles, labels: list[str]) -> SafetyCheck:
         """The check of the best sequence of ``wheels`` (M, H, 2) (:meth:`_better`'s order):
         one that keeps the margin over the horizon; else the one that stays longest clear of
         where the forecasts expect the obstacles (:attr:`SafetyCheck.contact_s`), then keeps
         the margin longest from their discs inflated by the forecasts' uncertainty (a violation late in the horizon,
         where the forecasts are uncertain, is not as bad as one in the next second), then
-        the one with the largest smallest clearance, then the first (``within_reach``: see
-        :meth:`clearances`)."""
-        found = self.clearances(state, wheels, obstacles, within_reach)
+        the one with the largest smallest clearance, then the first."""
+        return self._pick(self.clearances(state, wheels, obstacles), obstacles, labels)
+
+    def _pick(self, found: tuple, obstacles, labels: list[str]) -> SafetyCheck:
+        """:meth:`_check_best` of :meth:`clearances`' answer ``found``."""
         cmin, _, _, _, kept, contact = found
         i = 0
         if len(cmin) > 1:
@@ -449,7 +351,7 @@ class TrajectoryCheck:
         ``enough_s``: a plan that keeps the margin this long is answer enough (a trusted
         planner's, :meth:`SafetyFilter.filter`'s ``trust_s``): the manoeuvres are not rolled out."""
         horizon_s = self.horizon * self.sample_time_s
-        if not len(obstacles.q):
+        if not len(obstacles.q) and not len(obstacles.walls):
             return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", horizon_s)
         lower, j, k = self.bound(state, cmd, plan, obstacles)
         if lower >= self.margin_m:
@@ -457,23 +359,38 @@ class TrajectoryCheck:
             return SafetyCheck(True, lower, lower, (k + 1) * self.sample_time_s, obstacles.label(j), "bound",
                                horizon_s)
         if plan is not None:
-            plan_check = self._check_best(state, plan[None], obstacles, ["plan"], True)
+            plan_check = self._check_best(state, plan[None], obstacles, ["plan"])
             if plan_check.safe or (enough_s is not None and plan_check.kept_s >= enough_s - 1e-9):
                 return plan_check
-        way_out = self._check_best(state, self._escapes(cmd), obstacles, self._then_names, True)
-        if self.search_way_out and not way_out.safe:
-            # the fixed manoeuvres first (9 roll-outs); the searched grid (5 times as many) only
-            # when none of them keeps the margin: the verdict is that of the whole set either way
-            # (the best of the set is safe when any of it is), at a fifth of its cost when the
-            # manoeuvres suffice
-            searched = self._check_best(state, self._escapes(cmd, True), obstacles, self._then_search_names, True)
-            if self._better(searched, way_out):
-                way_out = searched
+        way_out = self._way_out_after(state, cmd, obstacles)
         if plan is not None and self._better(plan_check, way_out):
             return plan_check
         return way_out
 
-    def check(self, state, wheels, forecasts=(), statics=()) -> SafetyCheck:
+    def _way_out_after(self, state, cmd, obstacles) -> SafetyCheck:
+        """The best way out after one interval of ``cmd`` (:meth:`_assess`), made once per
+        command and state for the obstacles of one check (a command and its roll-out share it)."""
+        key = (float(cmd[0]), float(cmd[1]), *map(float, state))
+        way_out = obstacles.memo.get(key)
+        if way_out is not None:
+            return way_out
+        man = self.clearances(state, self._escapes(cmd), obstacles)
+        way_out = self._pick(man, obstacles, self._then_names)
+        if self.search_way_out and not way_out.safe:
+            # the fixed manoeuvres first (9 roll-outs); the searched grid (5 times as many) only
+            # when none of them keeps the margin: the verdict is that of the whole set either way
+            # (the best of the set is safe when any of it is), at a fifth of its cost when the
+            # manoeuvres suffice. Each sequence's numbers are its own, so the grid's are joined
+            # to the manoeuvres' already found, in the set's order (grid, then manoeuvres).
+            grid = self.clearances(state, self._escapes(cmd, True), obstacles)
+            searched = self._pick(tuple(np.concatenate(ab) for ab in zip(grid, man)), obstacles,
+                                  self._then_search_names)
+            if self._better(searched, way_out):
+                way_out = searched
+        obstacles.memo[key] = way_out
+        return way_out
+
+    def check(self, state, wheels, forecasts=(), statics=(), walls=None) -> SafetyCheck:
         """The verdict on a candidate from ``state`` = (x, y, heading, v_right, v_left).
 
         ``wheels``: the command ``(2,)``, or the candidate's own plan ``(H, 2)`` whose first
@@ -487,7 +404,7 @@ class TrajectoryCheck:
         cmd, plan, _ = self._as_candidate(state, wheels)
         if cmd is None:
             return SafetyCheck(False, -math.inf, -math.inf, 0.0, "", "non-finite candidate", 0.0)
-        return self._assess(state, cmd, plan, self.obstacle_tracks(forecasts, statics))
+        return self._assess(state, cmd, plan, self.obstacle_tracks(forecasts, statics, walls))
 
     def best_manoeuvre(self, state, obstacles) -> tuple[str, np.ndarray, SafetyCheck]:
         """The best manoeuvre from now (see :meth:`_check_best`): name, (H, 2) wheels and its check."""

@@ -118,7 +118,8 @@ class SafetyFilter(WayOutSearch, QuickScreen):
             self.fallback.reset()
     # --- the filter ----------------------------------------------------------------------
     def filter(self, observation: Observation, wheels, forecasts=(), statics=None, poses=None,
-               alternatives=(), trust_s: float | None = None, previous=None, plan_on_demand=None) -> SafetyVerdict:
+               alternatives=(), trust_s: float | None = None, previous=None, plan_on_demand=None,
+               walls=None) -> SafetyVerdict:
         """Let the candidate ``wheels`` (``(2,)``, or its own plan ``(H, 2)``) through, or
         replace it (see :meth:`check`).
 
@@ -152,6 +153,8 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         shipped crowd network collided in 2.5 % of 200 crossings among 10 walkers; behind
         the planner on standby, 4.5 s collided in none of 2 600: :data:`ROLLOUT_TRUST_S`;
         docs/nn-crowds.md, "The network's roll-out as its plan").
+        ``walls``: the wall segments every option is judged against (``(nw, 2)`` complex
+        ends, :func:`~casadi_gpc.safety.walls.wall_segments_within`), as the static obstacles.
         """
         statics = observation.static if statics is None else statics
         r = observation.robot
@@ -159,7 +162,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         for f in forecasts:
             if not getattr(f, "initialised", True):
                 self.counters["unestimated_tracks"] += 1  # checked as the planner plans with it
-        quick = self._quick(r, wheels, forecasts, statics, poses)
+        quick = self._quick(r, wheels, forecasts, statics, poses, walls)
         if quick is not None:
             check, cmd, plan, limited = quick
             if limited:
@@ -168,7 +171,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
                 self.fallback.observe(observation)
             return SafetyVerdict(cmd[0], cmd[1], False, "", "candidate", check, plan)
         state = np.array([r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps], dtype=float)
-        obstacles = self.obstacle_tracks(forecasts, statics)
+        obstacles = self.obstacle_tracks(forecasts, statics, walls)
         cmd, plan, limited = self._as_candidate(state, wheels)
         if cmd is None:
             self.counters["non_finite_candidate"] += 1
@@ -180,7 +183,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         check = self._assess(state, cmd, plan, obstacles, trust_s)
         passed = _passes(check, trust_s)
         if not passed and plan is None and plan_on_demand is not None:
-            own = self._judge_rollout(r, state, plan_on_demand, forecasts, statics, obstacles)
+            own = self._judge_rollout(r, state, plan_on_demand, forecasts, statics, obstacles, walls)
             if own is not None:
                 (check, cmd, plan), passed = own, True
         if passed and not check.safe and alternatives and self.safer_alternatives:
@@ -222,7 +225,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
             if acmd is not None:
                 yield source, name, acmd, aplan, self._assess(state, acmd, aplan, obstacles, trust_s)
 
-    def _judge_rollout(self, robot, state, plan_on_demand, forecasts, statics, obstacles):
+    def _judge_rollout(self, robot, state, plan_on_demand, forecasts, statics, obstacles, walls=None):
         """``(check, command, plan)`` when the controller's own continuation passes as a plan
         (:meth:`filter`'s ``plan_on_demand``), else None."""
         got = plan_on_demand()
@@ -230,7 +233,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
             return None
         self.counters["rollouts"] += 1
         wheels, poses = got
-        quick = self._quick(robot, wheels, forecasts, statics, poses)
+        quick = self._quick(robot, wheels, forecasts, statics, poses, walls)
         if quick is not None:
             check, cmd, plan, _ = quick
         else:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..estimation.ekf import planning_covariances, worst_std_m
+from .walls import wall_label
 
 __all__ = ["Obstacles", "forecast_covariances", "forecast_arrays", "shared_batch"]
 
@@ -47,12 +48,17 @@ class Obstacles:
     """The obstacles of one check at the sample instants, with their sub-sampled form made
     once when a roll-out needs it."""
 
-    __slots__ = ("q", "touch", "radii", "moving", "statics", "_filter", "_sub")
+    __slots__ = ("q", "touch", "radii", "moving", "statics", "walls", "memo", "_filter", "_sub")
 
-    def __init__(self, q, touch, moving, statics, flt, radii=None):
+    def __init__(self, q, touch, moving, statics, flt, radii=None, walls=None):
         self.q, self.touch, self.moving, self.statics, self._filter, self._sub = q, touch, moving, statics, flt, None
-        self.radii = touch[:, 0] if radii is None else radii
+        self.radii = np.ascontiguousarray(touch[:, 0] if radii is None else radii)
         """``(n,)`` the distance at which the robot touches each obstacle's disc, not inflated."""
+        self.walls = _NO_WALLS if walls is None else walls
+        self.memo: dict = {}
+        """What a check has found for these obstacles already (the way out after a command)."""
+        """``(nw, 2)`` complex: the wall segments' ends (:mod:`casadi_gpc.safety.walls`), indexed
+        after the discs."""
 
     def sub_samples(self) -> tuple[np.ndarray, np.ndarray]:
         """Positions ``(n, H * substeps + 1)`` and touching distances ``(n, H * substeps)``."""
@@ -62,5 +68,10 @@ class Obstacles:
         return self._sub
 
     def label(self, j: int) -> str:
-        n = len(self.moving)
+        n, n_discs = len(self.moving), len(self.q)
+        if j >= n_discs:
+            return wall_label(j - n_discs)
         return f"moving {self.moving[j].obstacle_id}" if j < n else f"static {j - n}"
+
+
+_NO_WALLS = np.zeros((0, 2), dtype=complex)  # empty: nothing to write

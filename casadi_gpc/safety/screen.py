@@ -1,7 +1,9 @@
 """The quick screen: most checks are passes, and numpy's per-call overhead would make them
 cost more than the network's own decision, so a candidate is first screened with plain
-floats by two lower bounds of the clearance that the exact roll-out would find (numpy only;
-see :mod:`casadi_gpc.safety`)."""
+floats (among many obstacles, compiled loops over arrays) by lower bounds of the clearance
+that the exact roll-out would find: the reach of the command then braking, the chords of the
+command then reversing, and the chords of the command then each fixed manoeuvre (see
+:mod:`casadi_gpc.safety`)."""
 from __future__ import annotations
 
 import math
@@ -11,6 +13,8 @@ import numpy as np
 
 from ..robot import RobotState, robot_step_float
 from .check import SafetyCheck, TrajectoryCheck, forecast_arrays, forecast_covariances
+from .distances import chord_bound, escape_bounds, reach_bound, screen_obstacles
+from .walls import path_segment_distances, wall_label
 
 __all__ = ["QuickScreen"]
 
@@ -19,16 +23,16 @@ class QuickScreen(TrajectoryCheck):
     """The exact check with the quick screen in front of it (:meth:`_quick`)."""
 
     # Most checks are passes; numpy's per-call overhead would make them cost more than the
-    # network's own decision. So a candidate is first screened with plain floats by two lower
-    # bounds of the clearance that the roll-out would find; only when neither keeps the
-    # margin does the exact check above run. Both bounds are conservative: they can only
+    # network's own decision. So a candidate is first screened with plain floats by lower
+    # bounds of the clearance that the roll-out would find; only when none keeps the
+    # margin does the exact check above run. All are conservative: they can only
     # send a case to the exact check, never pass one it would fail by more than its own
     # chord error. (Clamps are written as conditional expressions: ``b if b > a else a`` is
     # max(a, b) and ``b if b < a else a`` is min(a, b), ties included, without the calls,
     # which were a third of the screen's time.)
-    def _quick(self, robot: RobotState, wheels, forecasts, statics, poses=None):
+    def _quick(self, robot: RobotState, wheels, forecasts, statics, poses=None, walls=None):
         """(check, command, plan (H, 2) or None, limited) when the screen passes, else None.
-        ``poses``: see :meth:`filter`."""
+        ``poses``: see :meth:`filter`; ``walls``: the wall segments (:mod:`.walls`)."""
         H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
         if type(wheels) is tuple and len(wheels) == 2:  # a command as two floats (the policy's)
             w, rows, own = None, [wheels], False
@@ -65,7 +69,8 @@ class QuickScreen(TrajectoryCheck):
         obs = self._quick_obstacle_arrays(forecasts, statics) if many else self._quick_obstacles(forecasts, statics)
         if obs is None:
             return None
-        if not obs:
+        has_walls = walls is not None and len(walls) > 0
+        if not obs and not has_walls:
             return SafetyCheck(True, math.inf, math.inf, 0.0, "", "", H * T), cmd, self._plan(own, w, seq, changed), \
                 limited
         p0 = complex(robot.x_m, robot.y_m)
@@ -100,8 +105,10 @@ class QuickScreen(TrajectoryCheck):
                     if g < low:
                         low, where = g, (j, k)
                     qk = qk1
+        if has_walls:
+            low, where = self._wall_bound(low, where, self.wall_bounds(p0, walls, reach), forecasts, statics)
         if low >= self.margin_m:
-            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]),
+            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, statics, where[0]),
                                 "bound" if own else "bound, then brake", H * T, False)
             return check, cmd, self._plan(own, w, seq, changed), limited
         # 2. chords: the plan (or the command, then the usual way out, reversing) at the
@@ -141,11 +148,37 @@ class QuickScreen(TrajectoryCheck):
                     g = abs(r0 + t * d) - tk - sk
                     if g < low:
                         low, where = g, (j, k)
+        if has_walls:  # the chords' distances to the segments, less the arcs' sag
+            gw = path_segment_distances(np.array(pts), walls) - self.robot.radius_m - np.asarray(sag)
+            low, where = self._wall_bound(low, where, gw, forecasts, statics)
         if low >= self.margin_m:
-            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, where[0]), label,
-                                H * T, False)
+            check = SafetyCheck(True, low, low, (where[1] + 1) * T, self._quick_label(forecasts, statics, where[0]),
+                                label, H * T, False)
             return check, cmd, self._plan(own, w, seq, changed), limited
-        return None
+        if own:
+            return None
+        # 3. the command, then each of the exact check's fixed manoeuvres, at the sample
+        # instants as in 2. (compiled): one whose chords keep the margin is a way out
+        return self._quick_escapes(robot, cmd, obs, walls, limited, forecasts, statics)
+
+    def _quick_escapes(self, robot: RobotState, cmd, obs, walls, limited: bool, forecasts, statics):
+        """The screen's third bound (:meth:`_quick`): the best of the chord bounds of the
+        command followed by each manoeuvre (:meth:`_escapes`, the exact check's first set),
+        as the screen's answer when it keeps the margin, else None."""
+        H, T, W = self.horizon, self.sample_time_s, self.robot.wheel_base_m
+        if isinstance(obs, list):  # the plain-float form, as arrays
+            q = np.array([o[0] for o in obs], dtype=complex).reshape(len(obs), H + 1)
+            touch = np.array([o[1] for o in obs], dtype=float).reshape(len(obs), H)
+        else:
+            q, touch = obs
+        low, m, j, k = escape_bounds(float(robot.x_m), float(robot.y_m), float(robot.heading_rad),
+                                     self._escapes(np.array(cmd, dtype=float)), T, W, T * T / (16.0 * W), q, touch,
+                                     _NO_WALLS if walls is None else walls, self.robot.radius_m)
+        if not low >= self.margin_m:
+            return None
+        check = SafetyCheck(True, low, low, (k + 1) * T, self._quick_label(forecasts, statics, j), self._then_names[m],
+                            H * T, False)
+        return check, cmd, None, limited
 
     @staticmethod
     def _plan(own: bool, w: np.ndarray, seq: list, changed: bool) -> np.ndarray | None:
@@ -212,55 +245,47 @@ class QuickScreen(TrajectoryCheck):
                 return None
         else:
             m, w = np.zeros((0, H, 2)), np.zeros((0, H))
-        q = np.empty((n_mov + len(statics), H + 1), dtype=complex)
-        q[:n_mov, 1:] = m.view(complex)[..., 0]     # x + iy, without arithmetic
-        q[:n_mov, 0] = 2.0 * q[:n_mov, 1] - q[:n_mov, 2] if H > 1 else q[:n_mov, 1]
-        touch = np.empty((len(q), H))
-        touch[:n_mov] = (np.array([f.radius_m for f in forecasts], dtype=float)[:, None] + R) + k * w
-        for j, st in enumerate(statics, start=n_mov):
-            q[j] = complex(st.position_m[0], st.position_m[1])
-            touch[j] = st.radius_m + R
-        return q, touch
+        radii = np.array([f.radius_m for f in forecasts], dtype=float) + R
+        sxy = np.array([st.position_m for st in statics], dtype=float).reshape(-1, 2)
+        return screen_obstacles(m, w, radii, k, sxy, np.array([st.radius_m for st in statics], dtype=float) + R)
 
     @staticmethod
-    def _quick_label(forecasts, j: int) -> str:
-        return f"moving {forecasts[j].obstacle_id}" if j < len(forecasts) else f"static {j - len(forecasts)}"
+    def _wall_bound(low: float, where: tuple, walls_low: np.ndarray, forecasts, statics) -> tuple[float, tuple]:
+        """The smaller of the discs' bound ``low`` (at ``where``) and the walls' ``(nw, H)``
+        (the discs' on a tie), with where it is (walls indexed after the discs)."""
+        i = int(np.argmin(walls_low))
+        j, k = divmod(i, walls_low.shape[1])
+        g = float(walls_low[j, k])
+        return (g, (len(forecasts) + len(statics) + j, k)) if g < low else (low, where)
+
+    @staticmethod
+    def _quick_label(forecasts, statics, j: int) -> str:
+        n = len(forecasts)
+        if j < n:
+            return f"moving {forecasts[j].obstacle_id}"
+        return f"static {j - n}" if j < n + len(statics) else wall_label(j - n - len(statics))
 
 
 MANY_OBSTACLES = 4
-"""From this many obstacles on, the quick screen's two bounds are taken with numpy over all
-obstacles and steps at once (the same operations on each entry); below it, plain floats
-cost less than numpy's per-call overhead. Measured in a crowd of ten walkers: the screen
+"""From this many obstacles on, the quick screen's two bounds are taken over arrays by compiled
+loops (:mod:`casadi_gpc.safety.distances`; the same operations on each entry); below it, plain
+floats cost less than making the arrays. Measured in a crowd of ten walkers: the screen
 took about half a millisecond in plain floats."""
 
 
-def _cabs(z: np.ndarray) -> np.ndarray:
-    """|z| as Python's ``abs`` of a complex number takes it (C's ``hypot``), to the last bit
-    (``np.abs`` of a complex array differs from it in the last bit now and then)."""
-    return np.hypot(z.real, z.imag)
-
-
 def _reach_bound_arrays(p0: complex, obs, reach) -> tuple[float, tuple[int, int]]:
-    """The reach bound (:meth:`QuickScreen._quick`, 1.) over arrays: its least value and
-    where, the first (obstacle, step) in row order on a tie, as the loop finds it."""
-    q, touch = obs
-    g = _cabs(p0 - q[:, 1:]) - _cabs(q[:, 1:] - q[:, :-1]) - touch - np.asarray(reach)
-    i = int(np.argmin(g))
-    j, k = divmod(i, g.shape[1])
-    return float(g[j, k]), (j, k)
+    """The reach bound (:meth:`QuickScreen._quick`, 1.) over arrays (compiled,
+    :func:`~casadi_gpc.safety.distances.reach_bound`): its least value and where, the first
+    (obstacle, step) in row order on a tie, as the loop finds it."""
+    g, j, k = reach_bound(p0, obs[0], obs[1], np.array(reach, dtype=float))
+    return g, (j, k)
 
 
 def _chord_bound_arrays(pts, obs, sag) -> tuple[float, tuple[int, int]]:
-    """The chord bound (:meth:`QuickScreen._quick`, 2.) over arrays, as the loop takes it."""
-    q, touch = obs
-    rel = np.asarray(pts)[None, :] - q              # robot - obstacle at the sample instants
-    r0, d = rel[:, :-1], rel[:, 1:] - rel[:, :-1]
-    dr, di = d.real, d.imag
-    dd = dr * dr + di * di
-    # -(r0 . d) / dd clamped to [0, 1], and 0 where the chord is a point (no division there)
-    t = np.divide(-(r0.real * dr + r0.imag * di), dd, out=np.zeros_like(dd), where=dd > 1e-18)
-    t = np.minimum(np.maximum(t, 0.0), 1.0)
-    g = _cabs(r0 + t * d) - touch - np.asarray(sag)
-    i = int(np.argmin(g))
-    j, k = divmod(i, g.shape[1])
-    return float(g[j, k]), (j, k)
+    """The chord bound (:meth:`QuickScreen._quick`, 2.) over arrays, as the loop takes it
+    (compiled, :func:`~casadi_gpc.safety.distances.chord_bound`)."""
+    g, j, k = chord_bound(np.array(pts, dtype=complex), obs[0], obs[1], np.array(sag, dtype=float))
+    return g, (j, k)
+
+
+_NO_WALLS = np.zeros((0, 2), dtype=complex)  # empty: nothing to write

@@ -26,7 +26,7 @@ class WayOutSearch:
         state = np.asarray(state, float)
         v0 = state[3:5]
         W = np.concatenate([self._searched(v0, self.horizon), self.manoeuvres(v0)[1]])
-        found = self.clearances(state, W, obstacles, True)
+        found = self.clearances(state, W, obstacles)
         cmin, _, _, _, kept, contact = found
         safe = kept == self.horizon * self.substeps
         if safe.any():

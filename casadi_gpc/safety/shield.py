@@ -35,7 +35,7 @@ from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
 from .standby import StandbyPlanner
-from .walls import wall_discs_within
+from .walls import wall_segments_within
 
 __all__ = ["Shield", "DEFAULT_HORIZON_S"]
 
@@ -123,12 +123,14 @@ class Shield:
             standby = GPCController(config, self.robot)
         return standby if isinstance(standby, StandbyPlanner) else StandbyPlanner(standby)
 
-    def _walls_near(self, obs: Observation) -> tuple:
-        """The walls' discs the robot could reach within the check's horizon (its top speed
-        for the whole horizon, its radius, and a margin of a metre beyond)."""
+    def _walls_near(self, obs: Observation):
+        """The wall segments the robot could reach within the check's horizon (its top speed
+        for the whole horizon, its radius, and a margin of a metre beyond), or None."""
+        if not obs.walls:
+            return None
         r = self.robot
         reach = r.max_wheel_speed_mps * self.horizon * self.sample_time_s + r.radius_m + 1.0
-        return wall_discs_within(obs.walls, (obs.robot.x_m, obs.robot.y_m), reach)
+        return wall_segments_within(obs.walls, (obs.robot.x_m, obs.robot.y_m), reach)
 
     @property
     def config(self):
@@ -198,10 +200,10 @@ class Shield:
         plan = dec.planned_wheels_mps
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
         cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
-        statics = obs.static + self._walls_near(obs) if obs.walls else obs.static  # every option judged against walls
-        v = self.filter.filter(obs, cand, forecasts, statics, dec.planned_poses if own else None,
+        v = self.filter.filter(obs, cand, forecasts, obs.static, dec.planned_poses if own else None,
                                dec.alternatives, self.filter.trust_planner_s if self.trust_plans else None,
-                               self._kept, None if own else self._rollout)
+                               self._kept, None if own else self._rollout,
+                               self._walls_near(obs))  # every option judged against the walls
         if self.previous_plan:
             p = v.planned_wheels_mps
             self._kept = None if p is None or p.shape != (self.horizon, 2) else np.concatenate([p[1:], p[-1:]])

@@ -1,4 +1,5 @@
-"""What the deployed policy runs: numpy and onnxruntime only, never torch or CasADi.
+"""What the deployed policy runs: numpy, onnxruntime and numba (the obstacle forecasts' and the
+check's compiled loops, in :mod:`casadi_gpc`) only, never torch or CasADi.
 
 Rooms: ``layouts`` (which inputs, in which order), ``situation`` (what the planner knows at
 one instant), ``features`` (the input values of a situation), ``tracker`` (situations from

@@ -1,4 +1,5 @@
-"""The deployed controller: the ONNX network run with onnxruntime (numpy + onnxruntime only).
+"""The deployed controller: the ONNX network run with onnxruntime (numpy, onnxruntime and, for the
+obstacle forecasts and the check, numba only).
 
 :class:`OnnxPolicy` answers ``decide(observation) -> ControlDecision`` like the GPC
 controller, with the same obstacle EKF and reference clock (through
@@ -194,7 +195,7 @@ class OnnxPolicy:
         its layout is not a set; None: never. Its decisions are counted (``crowd_network``).
 
     This is the bare network: deployed, it runs behind the safety check layer,
-    ``casadi_gpc.safety.Shield(OnnxPolicy())`` (numpy only as well), which checks every
+    ``casadi_gpc.safety.Shield(OnnxPolicy())`` (numpy and numba), which checks every
     command against the same forecasts (each decision hands over its track estimates,
     ``provides_forecasts``) and hands over to a fallback planner or a manoeuvre when it fails.
     """

@@ -31,7 +31,8 @@ __all__ = ["roll_out"]
 class _Ahead:
     """A track estimate as the features read it, ``j`` steps ahead on its forecast."""
 
-    __slots__ = ("obstacle_id", "radius_m", "initialised", "state_values", "means_m", "covs_m2", "cov")
+    __slots__ = ("obstacle_id", "radius_m", "initialised", "state_values", "means_m", "covs_m2", "cov", "batch_",
+                 "batch_index_")
 
     def __init__(self, track, xy, j: int):
         x, y, v, th, dth = track.state_values
@@ -39,6 +40,8 @@ class _Ahead:
         self.state_values = (xy[0], xy[1], v, th + j * dth, dth)
         self.means_m = track.means_m[j - 1:]          # where it goes from then on (a sort reads it)
         self.covs_m2, self.cov = track.covs_m2, track.cov
+        # a crowd's forecast rows: the uncertainty features read them together (the same numbers)
+        self.batch_, self.batch_index_ = getattr(track, "batch_", None), getattr(track, "batch_index_", 0)
 
 
 def roll_out(layout: FeatureLayout, answer, robot: RobotState, command: tuple[float, float], tracks, statics,

@@ -1,0 +1,309 @@
+"""The check's distances, compiled (numba): the closest approach of the robot to each
+obstacle disc and each wall segment on every chord of its roll-outs, and what the check reads
+off them (the smallest clearance and where, how long the margin is kept, how long the
+expected discs are not touched), in one call for all sequences, obstacles and chords; and the
+point-to-segment distance they are built on.
+
+In numpy the same took some 40 whole-array calls a check (their per-call cost, not the
+arithmetic, was most of the deployed decision's time among ten walkers: 0.3-0.5 ms a check
+that needed the roll-outs); here the arithmetic of each chord is written once, in the order
+the numpy form took it (tested against it and against brute force).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types, vectorize
+
+from ..robot import robot_step_float
+
+_robot_step = njit(cache=True)(robot_step_float)  # the robot model's float form, compiled
+
+__all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "chord_clearances",
+           "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound", "escape_bounds"]
+
+
+@njit("complex128[:, ::1](float64[::1], float64[:, :, ::1], float64[::1], float64, float64)", cache=True)
+def rollouts(state, wheels, tau, T, W):  # pragma: no cover (compiled)
+    """Robot positions at the sub-sample instants ``tau`` (``(S,)``, s into each interval)
+    of each wheel-speed sequence ``wheels`` (``(M, H, 2)``) from ``state`` (x, y, heading,
+    ...), as ``x + iy``, ``(M, H * S + 1)``, the first column now: the robot model
+    (:func:`~casadi_gpc.robot.robot_step_float`) from each interval's start, the heading there
+    the state's plus the turns before it, the start the sum of the intervals' displacements."""
+    M, H, S = wheels.shape[0], wheels.shape[1], tau.shape[0]
+    p = np.empty((M, H * S + 1), np.complex128)
+    p0 = complex(state[0], state[1])
+    for m in range(M):
+        p[m, 0] = p0
+        acc_turn, acc = 0.0, 0j
+        for k in range(H):
+            vr, vl = wheels[m, k, 0], wheels[m, k, 1]
+            turn = (vr - vl) * (T / W)
+            acc_turn += turn
+            h0 = (state[2] - turn) + acc_turn
+            start = 0j
+            for s in range(S):
+                dx, dy, _ = _robot_step(0.0, 0.0, h0, vr, vl, tau[s], W)
+                d = complex(dx, dy)
+                if s == S - 1:
+                    acc += d
+                    start = (p0 - d) + acc
+                p[m, 1 + k * S + s] = d
+            for s in range(S):
+                p[m, 1 + k * S + s] = start + p[m, 1 + k * S + s]
+    return p
+
+
+@njit("float64(complex128, complex128, complex128)", cache=True)
+def segment_distance(p, a, b):  # pragma: no cover (compiled)
+    """The distance from the point ``p`` to the segment ``a``-``b`` (complex ``x + iy``)."""
+    d = b - a
+    r = p - a
+    dd = d.real * d.real + d.imag * d.imag
+    t = (r.real * d.real + r.imag * d.imag) / dd if dd > 0.0 else 0.0
+    t = min(max(t, 0.0), 1.0)
+    return math.hypot(r.real - t * d.real, r.imag - t * d.imag)
+
+
+@vectorize(["float64(complex128, complex128, complex128)"], cache=True)
+def point_segment_distance(p, a, b):  # pragma: no cover (compiled)
+    """:func:`segment_distance`, broadcast over arrays."""
+    return segment_distance(p, a, b)
+
+
+@njit("float64(complex128, complex128, complex128, complex128)", cache=True)
+def chord_segment_distance(p0, p1, a, b):  # pragma: no cover (compiled)
+    """The smallest distance between the chord ``p0``-``p1`` and the segment ``a``-``b``:
+    zero where they cross, else the least of the four end-to-segment distances."""
+    d = min(segment_distance(p0, a, b), segment_distance(p1, a, b))
+    d = min(d, segment_distance(a, p0, p1))
+    d = min(d, segment_distance(b, p0, p1))
+    u, w = p1 - p0, b - a
+    ca = u.real * (a - p0).imag - u.imag * (a - p0).real
+    cb = u.real * (b - p0).imag - u.imag * (b - p0).real
+    c0 = w.real * (p0 - a).imag - w.imag * (p0 - a).real
+    c1 = w.real * (p1 - a).imag - w.imag * (p1 - a).real
+    return 0.0 if (ca * cb < 0.0 and c0 * c1 < 0.0) else d
+
+
+@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1]))(complex128[:, ::1], "
+      "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64)", cache=True)
+def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse):  # pragma: no cover (compiled)
+    """For the roll-outs ``p`` (``(M, N + 1)`` complex, the first column now), the discs at
+    ``q`` (``(n, N + 1)`` complex) touched at ``touch`` (``(n, N)``, inflated) and ``radii``
+    (``(n,)``, not inflated), and the wall segments ``walls`` (``(nw, 2)`` complex ends,
+    touched at ``robot_radius``): per sequence the smallest inflated clearance, the
+    clearance now (one number: the same for all), the chord and the obstacle of the smallest
+    (discs first, then walls; the first in that order on a tie), how many chords pass before
+    the clearance first falls below ``min(margin, now - not_worse)`` (N when never), and how
+    many before the discs not inflated, or a wall, are touched (inside one now, closed in on
+    by more than ``not_worse``). With one sequence that never falls below, both are N."""
+    M, N = p.shape[0], p.shape[1] - 1
+    n, nw = q.shape[0], walls.shape[0]
+    cmin = np.empty(M)
+    chord = np.zeros(M, np.int64)
+    which = np.zeros(M, np.int64)
+    kept = np.full(M, N, np.int64)
+    contact = np.full(M, N, np.int64)
+    p0 = p[0, 0]
+    # now: the inflated clearance and the distance to the expected discs and the walls
+    now, now0 = math.inf, math.inf
+    for j in range(n):
+        r = p0 - q[j, 0]
+        dj = math.hypot(r.real, r.imag)
+        now = min(now, dj - touch[j, 0])
+        now0 = min(now0, dj - radii[j])
+    for w in range(nw):
+        dw = segment_distance(p0, walls[w, 0], walls[w, 1]) - robot_radius
+        now = min(now, dw)
+        now0 = min(now0, dw)
+    threshold = min(margin, now - not_worse)
+    threshold0 = min(0.0, now0 - not_worse)
+    dist = np.empty((n + nw, N))
+    # a lower bound of each obstacle's distance to any path that stays within D of now: its
+    # sub-samples' least distance to where the robot is now, less its longest chord (a disc),
+    # or the distance from now to the segment (a wall); less 1e-9 (rounding), less D
+    near = np.empty(n + nw)
+    loose = np.empty(n + nw)  # the least touching distance an obstacle's gaps are taken at
+    for j in range(n):
+        e2, l2, tmax = math.inf, 0.0, touch[j, 0]
+        for c in range(N + 1):
+            r = p0 - q[j, c]
+            e2 = min(e2, r.real * r.real + r.imag * r.imag)
+            if c < N:
+                u = q[j, c + 1] - q[j, c]
+                l2 = max(l2, u.real * u.real + u.imag * u.imag)
+                tmax = max(tmax, touch[j, c])
+        near[j] = math.sqrt(e2) - math.sqrt(l2) - 1e-9
+        loose[j] = tmax
+    for w in range(nw):
+        near[n + w] = segment_distance(p0, walls[w, 0], walls[w, 1]) - 1e-9
+        loose[n + w] = robot_radius
+    floor = max(threshold, threshold0)  # a gap at or above both is below neither
+    computed = np.zeros(n + nw, np.bool_)
+    for m in range(M):
+        reach2 = 0.0
+        for c in range(1, N + 1):
+            r = p[m, c] - p0
+            reach2 = max(reach2, r.real * r.real + r.imag * r.imag)
+        low = near - math.sqrt(reach2)
+        low -= loose  # below which no gap of the obstacle falls (its inflated, and so its expected, disc)
+        best, bj, bc = math.inf, 0, 0
+        # the nearest first, so that the far ones are left out once their bound is above the
+        # smallest gap found and the thresholds; the first in (obstacle, chord) order on a tie
+        for j in np.argsort(low):
+            if low[j] > best and low[j] >= floor:
+                computed[j] = False
+                continue
+            computed[j] = True
+            if j < n:
+                rr = p[m, 0] - q[j, 0]
+                for c in range(N):
+                    r1 = p[m, c + 1] - q[j, c + 1]
+                    ur, ui = r1.real - rr.real, r1.imag - rr.imag
+                    s = (rr.real * ur + rr.imag * ui) / ((ur * ur + ui * ui) + 1e-18)
+                    s = min(max(-s, 0.0), 1.0)
+                    d = math.hypot(rr.real + s * ur, rr.imag + s * ui)
+                    dist[j, c] = d
+                    g = d - touch[j, c]
+                    if g < best or (g == best and (j < bj or (j == bj and c < bc))):
+                        best, bj, bc = g, j, c
+                    rr = r1
+            else:
+                a, b = walls[j - n, 0], walls[j - n, 1]
+                for c in range(N):
+                    d = chord_segment_distance(p[m, c], p[m, c + 1], a, b)
+                    dist[j, c] = d
+                    g = d - robot_radius
+                    if g < best or (g == best and (j < bj or (j == bj and c < bc))):
+                        best, bj, bc = g, j, c
+        cmin[m], which[m], chord[m] = best, bj, bc
+        if M == 1 and best >= threshold:
+            continue  # never below: no need to find where (clear of the inflated discs: of the expected ones too)
+        k_kept, k_contact = N, N
+        for c in range(N):
+            for j in range(n + nw):
+                if not computed[j]:
+                    continue  # its gaps keep the margin and keep off its disc all along
+                t = touch[j, c] if j < n else robot_radius
+                r0 = radii[j] if j < n else robot_radius
+                if k_kept == N and dist[j, c] - t < threshold:
+                    k_kept = c
+                if k_contact == N and dist[j, c] - r0 < threshold0:
+                    k_contact = c
+            if k_kept < N and k_contact < N:
+                break
+        kept[m], contact[m] = k_kept, k_contact
+    return cmin, now, chord, which, kept, contact
+
+
+@njit("float64[:, ::1](complex128[::1], complex128[:, ::1])", cache=True)
+def path_segment_distances(p, walls):  # pragma: no cover (compiled)
+    """``(nw, K)``: :func:`chord_segment_distance` of each chord of the path ``p``
+    (``(K + 1,)`` complex) to each wall segment (``(nw, 2)`` complex ends)."""
+    out = np.empty((walls.shape[0], p.shape[0] - 1))
+    for w in range(walls.shape[0]):
+        for c in range(p.shape[0] - 1):
+            out[w, c] = chord_segment_distance(p[c], p[c + 1], walls[w, 0], walls[w, 1])
+    return out
+
+
+def _screen_signature(readonly: bool):
+    """``screen_obstacles``' signature; the forecasts' arrays may be read-only (a batch's)."""
+    f3, f2 = types.Array(types.float64, 3, "C", readonly=readonly), types.Array(types.float64, 2, "C", readonly=readonly)
+    out = types.Tuple((types.complex128[:, ::1], types.float64[:, ::1]))
+    return out(f3, f2, types.float64[::1], types.float64, types.float64[:, ::1], types.float64[::1])
+
+
+@njit([_screen_signature(False), _screen_signature(True)], cache=True)
+def screen_obstacles(means, worst, base, sigmas, static_xy, static_base):  # pragma: no cover (compiled)
+    """The quick screen's obstacles: positions now and at steps 1..H, ``(n, H + 1)`` complex
+    (now: the step back from step 1, ``2 q_1 - q_2``), and touching distances ``(n, H)``
+    (``base`` = radius + the robot's, plus ``sigmas`` worst standard deviations
+    ``worst``); the movers ``means`` (``(nm, H, 2)``) first, then the static discs
+    (``static_xy`` ``(ns, 2)``, ``static_base`` ``(ns,)``)."""
+    nm, H, ns = means.shape[0], means.shape[1], static_xy.shape[0]
+    q = np.empty((nm + ns, H + 1), np.complex128)
+    touch = np.empty((nm + ns, H))
+    for j in range(nm):
+        for k in range(H):
+            q[j, k + 1] = complex(means[j, k, 0], means[j, k, 1])
+            touch[j, k] = base[j] + sigmas * worst[j, k]
+        if H > 1:
+            q[j, 0] = complex(2.0 * q[j, 1].real - q[j, 2].real, 2.0 * q[j, 1].imag - q[j, 2].imag)
+        else:
+            q[j, 0] = q[j, 1]
+    for i in range(ns):
+        for k in range(H + 1):
+            q[nm + i, k] = complex(static_xy[i, 0], static_xy[i, 1])
+        for k in range(H):
+            touch[nm + i, k] = static_base[i]
+    return q, touch
+
+
+@njit("Tuple((float64, int64, int64))(complex128, complex128[:, ::1], float64[:, ::1], float64[::1])", cache=True)
+def reach_bound(p0, q, touch, reach):  # pragma: no cover (compiled)
+    """The quick screen's reach bound (:meth:`~casadi_gpc.safety.screen.QuickScreen._quick`, 1.):
+    its least value ``|p0 - q_k| - |q_k - q_(k-1)| - touch_k - reach_k`` over obstacles and
+    steps, and where: the first (obstacle, step) in row order on a tie."""
+    best, bj, bk = math.inf, 0, 0
+    for j in range(q.shape[0]):
+        for k in range(q.shape[1] - 1):
+            a, b = p0 - q[j, k + 1], q[j, k + 1] - q[j, k]
+            g = math.hypot(a.real, a.imag) - math.hypot(b.real, b.imag) - touch[j, k] - reach[k]
+            if g < best or (j == 0 and k == 0):
+                best, bj, bk = g, j, k
+    return best, bj, bk
+
+
+@njit("Tuple((float64, int64, int64))(complex128[::1], complex128[:, ::1], float64[:, ::1], float64[::1])", cache=True)
+def chord_bound(pts, q, touch, sag):  # pragma: no cover (compiled)
+    """The quick screen's chord bound (:meth:`~casadi_gpc.safety.screen.QuickScreen._quick`, 2.):
+    the closest approach of the robot's chords between the sample instants ``pts`` to each
+    obstacle, less its touching distance and the arc's ``sag``; the least and where."""
+    best, bj, bk = math.inf, 0, 0
+    for j in range(q.shape[0]):
+        for k in range(pts.shape[0] - 1):
+            r0, r1 = pts[k] - q[j, k], pts[k + 1] - q[j, k + 1]
+            dr, di = r1.real - r0.real, r1.imag - r0.imag
+            dd = dr * dr + di * di
+            t = -(r0.real * dr + r0.imag * di) / dd if dd > 1e-18 else 0.0
+            t = min(max(t, 0.0), 1.0)
+            g = math.hypot(r0.real + t * dr, r0.imag + t * di) - touch[j, k] - sag[k]
+            if g < best or (j == 0 and k == 0):
+                best, bj, bk = g, j, k
+    return best, bj, bk
+
+
+@njit("Tuple((float64, int64, int64, int64))(float64, float64, float64, float64[:, :, ::1], float64, float64, float64, "
+      "complex128[:, ::1], float64[:, ::1], complex128[:, ::1], float64)", cache=True)
+def escape_bounds(x, y, h, wheels, T, W, sag_scale, q, touch, walls, robot_radius):  # pragma: no cover (compiled)
+    """The quick screen's chord bound (:func:`chord_bound`) of each sequence of ``wheels``
+    (``(M, H, 2)``) rolled out at the sample instants from the pose ``(x, y, h)`` with the
+    robot model: the discs ``q``, ``touch`` as there, and the wall segments ``walls`` (the
+    chords' distances to them less ``robot_radius``), each interval less its arc's sag
+    (``|a + b| |a - b| sag_scale``). Returns the largest of the sequences' bounds (the first
+    on a tie), which sequence, and the (obstacle, interval) of its least."""
+    M, H = wheels.shape[0], wheels.shape[1]
+    n, nw = q.shape[0], walls.shape[0]
+    pts = np.empty(H + 1, np.complex128)
+    sag = np.empty(H)
+    best, bm, bj, bk = -math.inf, 0, 0, 0
+    for m in range(M):
+        px, py, ph = x, y, h
+        pts[0] = complex(px, py)
+        for k in range(H):
+            a, b = wheels[m, k, 0], wheels[m, k, 1]
+            sag[k] = abs(a + b) * abs(a - b) * sag_scale
+            px, py, ph = _robot_step(px, py, ph, a, b, T, W)
+            pts[k + 1] = complex(px, py)
+        low, lj, lk = chord_bound(pts, q, touch, sag) if n else (math.inf, 0, 0)
+        for w in range(nw):
+            for k in range(H):
+                g = chord_segment_distance(pts[k], pts[k + 1], walls[w, 0], walls[w, 1]) - robot_radius - sag[k]
+                if g < low:
+                    low, lj, lk = g, n + w, k
+        if low > best:
+            best, bm, bj, bk = low, m, lj, lk
+    return best, bm, bj, bk

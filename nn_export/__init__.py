@@ -1,7 +1,7 @@
 """nn_export: the network side of gpcnav, on two floors.
 
 - ``nn_export.runtime``: what the deployed policy runs, numpy and onnxruntime only (and the
-  numpy-only modules of ``casadi_gpc``): the policy (``runtime.policy``), the one feature
+  CasADi-free modules of ``casadi_gpc``, whose check and forecasts numba compiles): the policy (``runtime.policy``), the one feature
   definition (``runtime.layouts``, ``runtime.features``), the situation and its tracker
   (``runtime.situation``, ``runtime.tracker``).
 - ``nn_export.training``: what only a training machine runs: the situation sampler, the GPC

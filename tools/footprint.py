@@ -3,7 +3,7 @@
     python tools/footprint.py [--preset improved] [--decisions 1000] [--movers 1]
 
 Starts a new Python process that imports only what the deployed policy needs
-(``nn_export.OnnxPolicy``: numpy and onnxruntime; torch and casadi are made unimportable),
+(``nn_export.OnnxPolicy``: numpy, onnxruntime and numba; torch and casadi are made unimportable),
 loads the model shipped for the preset, and makes N decisions on a straight reference with a
 head-on obstacle (``--movers M``: M obstacles abreast, which hands the decisions to the
 shipped crowd network, ``crowd_decisions``). Prints, as JSON: the time from the process start to the first decision's

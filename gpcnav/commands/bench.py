@@ -91,7 +91,7 @@ def network_rows(args, doc) -> None:
 
 def network_decisions(args, doc, config, scenarios) -> None:
     """The network as deployed (behind the planner-free check, the controller registry's
-    ``nn``: numpy and onnxruntime only) closed loop on the crowd scene(s):
+    ``nn``: numpy, onnxruntime and numba) closed loop on the crowd scene(s):
     ``doc["network_decisions"]``, and its speed-up over the GPC's decision on the same scene in
     this run, median, p99 and max (``doc["deployed_vs_gpc"]``)."""
     if getattr(args, "no_nn_rows", False) or not scenarios:
@@ -168,7 +168,7 @@ def run(args) -> int:
     for d in doc.get("network_decisions", []):
         t = d["time_s"]
         print(f"deployable decision on {d['scenario']} ({d['movers']} movers, closed loop, {d['controller']}: the "
-              f"network behind the planner-free check, numpy + onnxruntime): median {t['median'] * 1e6:.0f} us "
+              f"network behind the planner-free check, numpy + onnxruntime + numba): median {t['median'] * 1e6:.0f} us "
               f"(p95 {t['p95'] * 1e6:.0f}, p99 {t['p99'] * 1e6:.0f}, max {t['max'] * 1e6:.0f}); "
               f"{d['interventions']} interventions in {d['decisions']} decisions, {d['outcome']}")
         for key, label in (("parts_s", "medians"), ("parts_p99_s", "p99s")):

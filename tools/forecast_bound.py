@@ -31,7 +31,6 @@ seconds). Prints a Markdown table.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from dataclasses import replace
 from pathlib import Path

@@ -130,6 +130,11 @@ class PlannerConfig:
     matters at nearly every tick: six cold starts at half the ticks made the decision's
     median 11-13 ms among the UCY recordings, where a cold start costs ~4 ms
     (docs/pedestrians.md)."""
+    cold_start_gap: int = 0
+    """With :attr:`cold_starts`: ticks without a queued guess after each tick that solved one,
+    while a cycle runs (a cycle falling due, or a surprise, solves its guess at once). 0:
+    every tick. Among 30 walkers a cycle runs at nearly every tick, and its cold start is the
+    decision's median (docs/pedestrians.md)."""
     time_budget_s: float | None = None
     """Wall time one control step may spend solving; an answer later than this is not used
     and the step falls back (counted). None: the sample time."""
@@ -139,6 +144,8 @@ class PlannerConfig:
             raise ValueError(f"forecast must be one of {', '.join(FORECASTS)}, got {self.forecast!r}")
         if self.cold_starts is not None and self.cold_starts < 1:
             raise ValueError(f"cold_starts must be at least 1 (or None), got {self.cold_starts}")
+        if not (isinstance(self.cold_start_gap, int) and self.cold_start_gap >= 0):
+            raise ValueError(f"cold_start_gap must be a whole number, not negative, got {self.cold_start_gap!r}")
 
     def for_walls(self, walls: bool) -> "PlannerConfig":
         """These settings for a map with walls (``walls``): the NLP's wall slots

@@ -217,6 +217,15 @@ def test_spread_cold_starts_solve_a_due_multistart_over_the_next_ticks():
     from dataclasses import replace
     _, seen = ticks(replace(preset("improved"), cold_starts=None), 1)
     assert [g for g, c in seen[0][1][0] if c] == guesses
+    # cold_start_gap: a tick without a queued guess after each that solved one, the cycle's
+    # first at once; the same guesses in the same order, over twice the ticks
+    gpc, seen = ticks(preset("improved").with_overrides(cold_starts=2, cold_start_gap=1), 20)
+    cold = [[g for g, c in b[0] if c] for _, b in seen]
+    i = next(k for k in range(1, len(cold)) if cold[k])
+    assert cold[i:i + 5] == [guesses[0:2], [], guesses[2:4], [], guesses[4:6]]
+    assert gpc.counters["deferred_guesses"] >= 2
+    with pytest.raises(ValueError, match="cold_start_gap"):
+        preset("improved").with_overrides(cold_start_gap=-1)
 
 
 def test_a_spread_multistart_goes_on_with_the_next_guess_after_a_fallback():

@@ -131,6 +131,7 @@ class GPCController:
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self._warm: Plan | None = None
         self._pending: list[str] = []
+        self._since_guess = self.config.cold_start_gap  # ticks since a queued guess was solved
         """The fixed guesses of a full multi-start still to solve (``PlannerConfig.cold_starts``)."""
         self._walls_in_slots: list = []
         self._last_wheels: np.ndarray | None = None
@@ -321,8 +322,15 @@ class GPCController:
 
     def _take_pending(self, k: int, began: bool) -> list[str]:
         """The next ``k`` queued guesses (removed from the queue); ``began``: this tick began
-        the cycle (the others are counted ``queued_guesses``)."""
+        the cycle (the others are counted ``queued_guesses``). Within
+        ``PlannerConfig.cold_start_gap`` ticks of the last guess solved none, unless ``began``
+        (counted ``deferred_guesses``)."""
+        if not began and self._pending and self._since_guess < self.config.cold_start_gap:
+            self._since_guess += 1
+            self.counters["deferred_guesses"] = self.counters.get("deferred_guesses", 0) + 1
+            return []
         batch, self._pending = self._pending[:k], self._pending[k:]
+        self._since_guess = 0 if batch else self._since_guess + 1
         if batch and not began:
             self.counters["queued_guesses"] = self.counters.get("queued_guesses", 0) + len(batch)
         return batch

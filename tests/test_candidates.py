@@ -202,7 +202,7 @@ def test_spread_cold_starts_solve_a_due_multistart_over_the_next_ticks():
         return gpc, seen
 
     guesses = [g for g in TIE_ORDER if g in preset("improved").guesses]
-    gpc, seen = ticks(preset("improved").with_overrides(cold_starts=2), 16)
+    gpc, seen = ticks(preset("improved").with_overrides(cold_starts=2, cold_start_gap=0), 16)
     cold = [[g for g, c in b[0] if c] for _, b in seen]  # the tick's batch (then a ridge's swerves, a surprise)
     assert cold[0] == guesses[0:2]  # the first tick: no candidate yet (far from the obstacle: no more)
     i = next(k for k in range(1, len(cold)) if cold[k])  # the obstacle comes to matter

@@ -131,8 +131,8 @@ class GPCController:
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
         self._warm: Plan | None = None
         self._pending: list[str] = []
-        self._since_guess = self.config.cold_start_gap  # ticks since a queued guess was solved
         """The fixed guesses of a full multi-start still to solve (``PlannerConfig.cold_starts``)."""
+        self._since_guess = self.config.cold_start_gap  # ticks since a queued guess was solved
         self._walls_in_slots: list = []
         self._last_wheels: np.ndarray | None = None
         self._path_xy: np.ndarray | None = None

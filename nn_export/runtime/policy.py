@@ -350,34 +350,24 @@ class OnnxPolicy:
         self._last = None  # what rollout() needs, for a one-command decision
         crowd, walls = self._crowd, self._walls
         wall_rows = self._map_rows(obs.walls) if obs.walls else None
-        if walls is not None and wall_rows is not None and walls.near(obs.robot.x_m, obs.robot.y_m, wall_rows):
+        x, y = obs.robot.x_m, obs.robot.y_m
+        side = (walls, wall_rows) if walls is not None and wall_rows is not None and walls.near(x, y, wall_rows) else \
+            (crowd, None) if crowd is not None and crowd.needed(x, y, tracks, obs.static) else None
+        if side is not None:  # the walls network near a wall, else the crowd network where the main one cannot hold it
+            net, rows = side
             batch = getattr(tracks[0], "batch_", None) if tracks else None
             if batch is not None:
                 batch.arrays  # the forecasts made together, as the features and a check read them
             t1 = clock()
-            counters["walls_network"] += 1
-            values = feature_values_from(walls.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
-                                         counters["feature_report"], wall_rows)
-            if walls.steps > 1:
-                dec = _plan_decision(walls.plan(values), "one pass: walls network plan", tracks)
+            counters[net.role + "_network"] += 1
+            values = feature_values_from(net.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
+                                         counters["feature_report"], rows)
+            if net.steps > 1:
+                dec = _plan_decision(net.plan(values), f"one pass: {net.role} network plan", tracks)
             else:
-                vr, vl = walls.answer(values)
-                self._last = (walls.layout, walls.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, wall_rows)
-                dec = self._walls_decision(vr, vl, tracks)
-        elif crowd is not None and crowd.needed(obs.robot.x_m, obs.robot.y_m, tracks, obs.static):
-            batch = getattr(tracks[0], "batch_", None) if tracks else None
-            if batch is not None:
-                batch.arrays  # the forecasts made together, as the features and a check read them
-            t1 = clock()
-            counters["crowd_network"] += 1
-            values = feature_values_from(crowd.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
-                                         counters["feature_report"])
-            if crowd.steps > 1:
-                dec = _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
-            else:
-                vr, vl = crowd.answer(values)
-                self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, None)
-                dec = self._crowd_decision(vr, vl, tracks)
+                vr, vl = net.answer(values)
+                self._last = (net.layout, net.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, rows)
+                dec = (self._walls_decision if net is walls else self._crowd_decision)(vr, vl, tracks)
         elif not self.two_pass:
             t1 = clock()
             own_rows = wall_rows if self.layout.wall_sectors else None

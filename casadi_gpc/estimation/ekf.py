@@ -463,13 +463,11 @@ class ObstacleEKF:
 
     @staticmethod
     def update_together(filters: list, zs: list) -> list:
-        """:meth:`step` of many initialised filters (``measurements_seen_ >= 2``) of the same
-        settings and sample time, on finite measured positions ``zs`` (tuples of two floats),
-        in one compiled call (:func:`casadi_gpc.estimation.ekf_floats.update_rows`: the same
-        numbers, bit for bit): the filters whose measurement passed the gate are updated (the
-        step's ``"update"``); the others are left as they were, their ``step`` to be taken
-        (an outlier, a manoeuvre or a restart). Returns which were updated. Ten filters' steps
-        in Python floats took some 60 us of the deployed decision among ten walkers."""
+        """:meth:`step` of initialised filters of the same settings and sample time on finite
+        positions ``zs`` (tuples of two floats), in one compiled call (``update_rows`` of
+        :mod:`.ekf_floats`, bit for bit): those whose measurement passes the gate are updated;
+        the others are left as they were, their ``step`` to be taken. Returns which were
+        updated (ten steps in Python floats: some 60 us of a decision among ten walkers)."""
         f0 = filters[0]
         _, T, q, r = f0._constants()
         ok, states, uppers = _update_rows(np.array([f._s for f in filters]), np.array([f._U for f in filters]),

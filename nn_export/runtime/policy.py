@@ -48,6 +48,7 @@ from .features import RolloutFeatures, feature_values, feature_values_from
 from .layouts import FeatureLayout
 from .model_file import INPUT_NAME, OUTPUT_NAME, POLICY_FORMAT, _bind, _load_session, _validate, read_model_metadata
 from .rollout import roll_out
+from .set_slots import CrowdSlots
 from .situation import Situation, reference_rows
 from .tracker import SituationTracker
 
@@ -381,13 +382,17 @@ class OnnxPolicy:
                 batch.arrays  # the forecasts made together, as the features and a check read them
             t1 = clock()
             counters["crowd_network"] += 1
-            values = feature_values_from(crowd.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
-                                         counters["feature_report"])
+            r = obs.robot
+            slots = CrowdSlots.make(crowd.layout, tracks, obs.static)  # the slots compiled, where it answers
+            values = feature_values_from(crowd.layout, r, ref_rows, self.sample_time_s, tracks, obs.static,
+                                         counters["feature_report"]) if slots is None else \
+                slots.values(r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps, ref_rows, self.sample_time_s,
+                             counters["feature_report"])
             if crowd.steps > 1:
                 dec = _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
             else:
                 vr, vl = crowd.answer(values)
-                self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
+                self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, slots)
                 dec = self._crowd_decision(vr, vl, tracks)
         elif not self.two_pass:
             t1 = clock()
@@ -397,7 +402,7 @@ class OnnxPolicy:
                 dec = _plan_decision(self._net_plan(values), "one pass: plan", tracks)
             else:
                 vr, vl = self._net_values(values)
-                self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
+                self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m, None)
                 dec = self._one_pass_decision(vr, vl, tracks)
         else:
             t1 = clock()
@@ -415,9 +420,10 @@ class OnnxPolicy:
         last = self._last
         if last is None:
             return None
-        layout, answer, obs, tracks, vr, vl, s_m = last
+        layout, answer, obs, tracks, vr, vl, s_m, slots = last
         rows = reference_rows(obs.reference, s_m, self.sample_time_s, 2 * self.horizon - 1)
-        return roll_out(layout, answer, obs.robot, (vr, vl), tracks, obs.static, rows, self.sample_time_s, self.robot)
+        return roll_out(layout, answer, obs.robot, (vr, vl), tracks, obs.static, rows, self.sample_time_s, self.robot,
+                        slots)
 
     def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list) -> ControlDecision:
         """The paper's scheme (module docstring), from the sample's track estimates and the

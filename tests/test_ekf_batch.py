@@ -281,3 +281,26 @@ def test_a_crowds_bank_updated_together_is_the_bank_track_by_track():
         assert together.counters == alone.counters
     assert together.counters["outliers"] and together.counters["missed_measurements"]
     assert together.counters["manoeuvres"] + together.counters["ghosts"]
+
+
+def test_the_compiled_worst_deviation_is_numpys_bit_for_bit():
+    """ForecastBatch.worst_std_m (compiled, ekf_floats.worst_std_rows) against the numpy
+    worst_std_m on random covariances, flat ones, degenerate and slightly indefinite ones: the
+    same floats."""
+    from casadi_gpc.estimation.ekf import worst_std_m
+    from casadi_gpc.estimation.ekf_floats import worst_std_rows
+    rng = np.random.default_rng(9)
+    L = rng.normal(0, 0.4, (40, 12, 2, 2))
+    covs = L @ np.swapaxes(L, -1, -2)
+    covs[0] = 0.0
+    covs[1, :, 0, 1] = covs[1, :, 1, 0] = 0.0
+    covs[2] = np.array([[1e-3, 2e-3], [2e-3, 1e-3]])  # indefinite
+    covs[3] *= 1e12
+    covs[4] = -covs[4]  # negative: max(., 0)
+    covs = np.ascontiguousarray(covs)
+    assert np.array_equal(worst_std_rows(covs), worst_std_m(covs))
+    covs.flags.writeable = False
+    assert np.array_equal(worst_std_rows(covs), worst_std_m(covs))
+    filters = _random_filters(rng, 8, 0.5, seen_once=(3,))
+    batch = ForecastBatch([f.snapshot() for f in filters], 12)
+    assert np.array_equal(batch.worst_std_m, worst_std_m(batch.planning_covs))

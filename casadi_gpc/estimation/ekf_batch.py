@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ekf import _q_diagonal, worst_std_m
-from .ekf_floats import forecast_rows
+from .ekf import _q_diagonal
+from .ekf_floats import forecast_rows, worst_std_rows
 
 __all__ = ["forecast_many", "ForecastBatch", "MANY_TRACKS"]
 
@@ -83,7 +83,7 @@ class ForecastBatch:
         """:func:`~casadi_gpc.estimation.ekf.worst_std_m` of :attr:`planning_covs`, ``(N, H)``, read-only
         (the check's touching distances widen by it)."""
         if self._worst is None:
-            w = worst_std_m(self.planning_covs)
+            w = worst_std_rows(self.planning_covs)  # compiled, worst_std_m's numbers
             w.flags.writeable = False
             self._worst = w
         return self._worst

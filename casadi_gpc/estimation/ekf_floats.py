@@ -14,8 +14,8 @@ import numpy as np
 from numba import njit
 from numba.extending import register_jitable
 
-__all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "correct", "update_rows", "upper", "full",
-           "cov_array"]
+__all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "correct", "update_rows", "worst_std_rows",
+           "upper", "full", "cov_array"]
 
 _PI, _TWO_PI = math.pi, 2 * math.pi
 
@@ -222,6 +222,26 @@ def update_rows(states, uppers, z, T, q, r, gate):  # pragma: no cover (compiled
         for k in range(15):
             out_u[i, k] = N[k]
     return ok, out_s, out_u
+
+
+def _worst_signature(readonly: bool):
+    from numba import types
+    return types.float64[:, ::1](types.Array(types.float64, 4, "C", readonly=readonly))
+
+
+@njit([_worst_signature(False), _worst_signature(True)], cache=True)
+def worst_std_rows(covs):  # pragma: no cover (compiled)
+    """:func:`casadi_gpc.estimation.ekf.worst_std_m` of ``(N, H, 2, 2)`` covariances, ``(N, H)``,
+    compiled: ``sqrt(max((a + d) / 2 + hypot((a - d) / 2, b), 0))`` entry by entry, numpy's
+    numbers bit for bit (the same libm ``hypot`` and ``sqrt``; ``tests/test_ekf_batch.py``).
+    The check reads it for a crowd's forecasts at every decision (some 8 numpy calls)."""
+    n, h = covs.shape[0], covs.shape[1]
+    out = np.empty((n, h))
+    for i in range(n):
+        for k in range(h):
+            a, b, d = covs[i, k, 0, 0], covs[i, k, 0, 1], covs[i, k, 1, 1]
+            out[i, k] = np.sqrt(np.maximum((a + d) * 0.5 + math.hypot((a - d) * 0.5, b), 0.0))
+    return out
 
 
 def cov_array(U: tuple) -> np.ndarray:

@@ -382,17 +382,13 @@ class OnnxPolicy:
                 batch.arrays  # the forecasts made together, as the features and a check read them
             t1 = clock()
             counters["crowd_network"] += 1
-            r = obs.robot
-            slots = CrowdSlots.make(crowd.layout, tracks, obs.static)  # the slots compiled, where it answers
-            values = feature_values_from(crowd.layout, r, ref_rows, self.sample_time_s, tracks, obs.static,
-                                         counters["feature_report"]) if slots is None else \
-                slots.values(r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps, ref_rows, self.sample_time_s,
-                             counters["feature_report"])
+            values = feature_values_from(crowd.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
+                                         counters["feature_report"])
             if crowd.steps > 1:
                 dec = _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
             else:
                 vr, vl = crowd.answer(values)
-                self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, slots)
+                self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
                 dec = self._crowd_decision(vr, vl, tracks)
         elif not self.two_pass:
             t1 = clock()
@@ -402,7 +398,7 @@ class OnnxPolicy:
                 dec = _plan_decision(self._net_plan(values), "one pass: plan", tracks)
             else:
                 vr, vl = self._net_values(values)
-                self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m, None)
+                self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
                 dec = self._one_pass_decision(vr, vl, tracks)
         else:
             t1 = clock()
@@ -420,10 +416,12 @@ class OnnxPolicy:
         last = self._last
         if last is None:
             return None
-        layout, answer, obs, tracks, vr, vl, s_m, slots = last
+        layout, answer, obs, tracks, vr, vl, s_m = last
         rows = reference_rows(obs.reference, s_m, self.sample_time_s, 2 * self.horizon - 1)
+        # a crowd's features at each step from the compiled slots (the same values; the decision's
+        # own features stay in plain floats: one call, where making the arrays costs more)
         return roll_out(layout, answer, obs.robot, (vr, vl), tracks, obs.static, rows, self.sample_time_s, self.robot,
-                        slots)
+                        CrowdSlots.make(layout, tracks, obs.static))
 
     def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list) -> ControlDecision:
         """The paper's scheme (module docstring), from the sample's track estimates and the

@@ -2,12 +2,15 @@
 compiled twin of :func:`nn_export.runtime.features.feature_values_from` for that layout,
 held to it value for value by ``tests/test_set_slots.py``.
 
-Among ten walkers the crowd network's features took 25-35 us a decision in plain floats, most
-of it the twelve moving and six static slots (a list of nine values each, the tracks filtered
-by range); the network's own roll-out (:mod:`nn_export.runtime.rollout`) asks for them eleven
-times more, with each track moved along its forecast. Here the slots of all the tracks are
-written by one compiled call from arrays made once a decision (:class:`CrowdSlots`); the wheel
-speeds and the reference block are :mod:`~nn_export.runtime.features`' own functions.
+The network's own roll-out (:mod:`nn_export.runtime.rollout`) asks for the crowd network's
+features eleven times a roll-out, with each track moved along its forecast: in plain floats
+some 30 us a step among ten walkers (``_Ahead`` objects, twelve moving and six static slots
+of nine values, the reference windows made again). Here the slots of all the tracks are
+written by one compiled call from arrays made once a roll-out (:class:`CrowdSlots`); the
+wheel speeds and the reference block are :mod:`~nn_export.runtime.features`' own functions.
+The decision's own features (one call) stay in plain floats: making the arrays and the
+compiled call's first use in a decision cost more there, with the caches cold between
+decisions (measured in the simulator's loop).
 
 It answers only where no ordering is needed and the uncertainty inputs are the tracks' shared
 forecast batch's (a crowd's estimates, :func:`nn_export.runtime.situation.track_estimates`):
@@ -83,8 +86,7 @@ _NO_MEANS.flags.writeable = False
 
 class CrowdSlots:
     """A decision's tracks and static obstacles as the arrays :func:`set_slots` reads, made
-    once (:meth:`make`) and read for the decision's features and for each step of its
-    roll-out (:meth:`values`)."""
+    once (:meth:`make`) and read for each step of its roll-out (:meth:`values`)."""
 
     __slots__ = ("layout", "n_tracks", "n_statics", "X", "init", "radius", "std", "means", "statics", "_out")
 

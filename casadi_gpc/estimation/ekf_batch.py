@@ -28,8 +28,11 @@ def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) 
     upper triangles (``(N, 15)``, row by row: :data:`casadi_gpc.estimation.ekf_floats.upper`), all with
     the same sample time and Q diagonal ``q``: :func:`casadi_gpc.estimation.ekf_floats.forecast` of
     each, together."""
-    return forecast_rows(np.array(states, dtype=float).reshape(-1, 5), np.array(uppers, dtype=float).reshape(-1, 15),
-                         float(sample_time_s), np.array(q, dtype=float), int(horizon))
+    flat = []  # one array of both (in a decision among walkers each numpy call costs more than the arithmetic)
+    for st, u in zip(states, uppers):
+        flat += (*st, *u)
+    rows = np.array(flat, dtype=float).reshape(-1, 20)
+    return forecast_rows(rows[:, :5], rows[:, 5:], float(sample_time_s), np.array(q, dtype=float), int(horizon))
 
 
 class ForecastBatch:

@@ -75,7 +75,7 @@ def propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: 
 _cov_step = njit(cache=True)(cov_step)
 
 
-@njit("Tuple((float64[:, :, ::1], float64[:, :, :, ::1]))(float64[:, ::1], float64[:, ::1], float64, "
+@njit("Tuple((float64[:, :, ::1], float64[:, :, :, ::1]))(float64[:, :], float64[:, :], float64, "
       "float64[::1], int64)", cache=True)
 def forecast_rows(states, uppers, T, q, steps):  # pragma: no cover (compiled)
     """The predicted positions ``(N, steps, 2)`` and their covariances ``(N, steps, 2, 2)``
@@ -191,37 +191,36 @@ def correct(x: float, y: float, v: float, th: float, dth: float, U: tuple, zx: f
 _correct = njit(cache=True)(correct)
 
 
-@njit("Tuple((boolean[::1], float64[:, ::1], float64[:, ::1]))(float64[:, ::1], float64[:, ::1], float64[:, ::1], "
-      "float64, float64[::1], float64, float64)", cache=True)
-def update_rows(states, uppers, z, T, q, r, gate):  # pragma: no cover (compiled)
-    """One sample of N initialised filters (states ``(N, 5)``, covariances' upper triangles
-    ``(N, 15)``, measured positions ``z`` ``(N, 2)``, all with the same sample time, Q
-    diagonal ``q``, measurement variance ``r`` and ``gate``): the step of :func:`propagate`
-    (the same operations in the same order), then :func:`correct`, compiled. Returns which
-    rows were corrected and the new states and triangles (a gated row: its propagated ones,
-    which the caller leaves aside; ``tests/test_ekf_batch.py`` holds it to the filter's own
-    step bit for bit)."""
-    n = states.shape[0]
-    ok = np.empty(n, np.bool_)
-    out_s = np.empty((n, 5))
-    out_u = np.empty((n, 15))
-    qq = (q[0], q[1], q[2], q[3], q[4])
+@njit("float64[:, ::1](float64[:, ::1], float64, float64, float64, float64, float64, float64, float64, float64)",
+      cache=True)
+def update_rows(rows, T, q0, q1, q2, q3, q4, r, gate):  # pragma: no cover (compiled)
+    """One sample of N initialised filters, row by row ``rows`` ``(N, 22)``: the state (5),
+    the covariance's upper triangle (15) and the measured position (2), all with the same
+    sample time, Q diagonal ``q0..q4``, measurement variance ``r`` and ``gate`` (one array
+    in and one out: in a decision among walkers each numpy call costs more than the
+    arithmetic). The step of :func:`propagate` (the same operations in the same order), then
+    :func:`correct`, compiled. Returns ``(N, 21)``: 1.0 where the row was corrected (else
+    0.0: gated, the caller leaves it aside), then the new state and triangle
+    (``tests/test_ekf_batch.py`` holds it to the filter's own step bit for bit)."""
+    n = rows.shape[0]
+    out = np.empty((n, 21))
+    qq = (q0, q1, q2, q3, q4)
     for i in range(n):
-        x, y, v, th, dth = states[i, 0], states[i, 1], states[i, 2], states[i, 3], states[i, 4]
-        u = uppers[i]
+        x, y, v, th, dth = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4]
+        u = rows[i, 5:20]
         U = (u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], u[8], u[9], u[10], u[11], u[12], u[13], u[14])
         vT = v * T
         th += dth
         c, si = math.cos(th), math.sin(th)
         U = _cov_step(T * c, -v * T * si, T * si, v * T * c, U, qq)
         x, y = x + vT * c, y + vT * si
-        passed, s, N = _correct(x, y, v, th, dth, U, z[i, 0], z[i, 1], r, gate)
-        ok[i] = passed
+        passed, s, N = _correct(x, y, v, th, dth, U, rows[i, 20], rows[i, 21], r, gate)
+        out[i, 0] = 1.0 if passed else 0.0
         for k in range(5):
-            out_s[i, k] = s[k]
+            out[i, 1 + k] = s[k]
         for k in range(15):
-            out_u[i, k] = N[k]
-    return ok, out_s, out_u
+            out[i, 6 + k] = N[k]
+    return out
 
 
 def _worst_signature(readonly: bool):

@@ -463,11 +463,10 @@ class ObstacleEKF:
 
     @staticmethod
     def update_together(filters: list, zs: list) -> list:
-        """:meth:`step` of initialised filters of the same settings and sample time on finite
-        positions ``zs`` (tuples of two floats), in one compiled call (``update_rows`` of
-        :mod:`.ekf_floats`, bit for bit): those whose measurement passes the gate are updated;
-        the others are left as they were, their ``step`` to be taken. Returns which were
-        updated (ten steps in Python floats: some 60 us of a decision among ten walkers)."""
+        """:meth:`step` of initialised filters (same settings and sample time) on finite positions
+        ``zs``, in one compiled call (``update_rows`` of :mod:`.ekf_floats`, bit for bit): those
+        passing the gate are updated, the others left as they were for their own ``step``; returns
+        which were updated (ten steps in Python floats: some 60 us of a decision among ten walkers)."""
         f0 = filters[0]
         _, T, q, r = f0._constants()
         flat = []  # one array in, one out (each numpy call costs more than the arithmetic here)

@@ -66,10 +66,12 @@ def model_metadata(config: PlannerConfig, robot: RobotParams, layout, **override
 
 
 def tracker_model(path, preset_name: str = "improved", robot: RobotParams | None = None, layout_name: str = "paper",
-                  n_inputs: int | None = None, weight_fill: float | None = None, **meta_overrides) -> Path:
+                  n_inputs: int | None = None, weight_fill: float | None = None, extra_weights: dict | None = None,
+                  **meta_overrides) -> Path:
     """Write the obstacle-blind tracker as ``path``; ``n_inputs`` makes the graph's input
     another size than the layout's (a mismatched file), ``weight_fill`` overwrites every
-    weight (NaN: a file whose numbers are corrupt), ``meta_overrides`` change metadata."""
+    weight (NaN: a file whose numbers are corrupt), ``extra_weights`` (feature name ->
+    (right, left) weight) makes it read more inputs, ``meta_overrides`` change metadata."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
@@ -77,6 +79,8 @@ def tracker_model(path, preset_name: str = "improved", robot: RobotParams | None
     config = preset(preset_name)
     layout = layout_for(layout_name, config.horizon)
     W, b = tracker_weights(layout, config, robot)
+    for name, w in (extra_weights or {}).items():
+        W[layout.feature_names.index(name)] = w
     n = layout.size if n_inputs is None else int(n_inputs)
     if n != layout.size:
         W = np.resize(W, (n, 2))

@@ -232,9 +232,14 @@ class GPCController:
         return frozenset(near)
 
     def plan(self, p: np.ndarray, x0: np.ndarray, ref_speed_mps: float, multistart: bool,
-             warm: Plan | None = None) -> tuple[Plan, list[Plan]]:
+             warm: Plan | None = None, walls=None) -> tuple[Plan, list[Plan]]:
         """Solve from the warm start and, if ``multistart``, from the fixed guesses; keep the
-        cheapest successful plan. Exact ties keep the earliest guess (swerve right first)."""
+        cheapest successful plan. Exact ties keep the earliest guess (swerve right first).
+        ``walls``: the wall segments in ``p``'s slots (``(ax, ay, bx, by)`` each), whose
+        crossing guesses are not solved, as :meth:`decide` leaves them out (None: those of
+        the last :meth:`pose`)."""
+        if walls is not None:
+            self._walls_in_slots = list(walls)
         # The warm start is solved first (the likeliest answer, when the budget is short);
         # the candidates keep the guesses-then-warm order that breaks ties.
         starts = [] if warm is None else [("warm", *shift(warm, self.config.horizon))]

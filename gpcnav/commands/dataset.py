@@ -35,9 +35,10 @@ def add_arguments(p):
                    help="address of an existing Ray cluster (--backend ray; default: start a local one)")
     p.add_argument("--seed", type=int, default=0, help="seed of the situations (default 0)")
     add_preset_arguments(p)
-    p.add_argument("--layout", choices=("paper", "multi", "set"), default="paper",
-                   help="feature layout: the paper's (one moving obstacle), multi (3 moving + 3 static) or set "
-                        "(12 moving + 6 static as one set, for the set network)")
+    p.add_argument("--layout", choices=("paper", "multi", "set", "set-walls"), default="paper",
+                   help="feature layout: the paper's (one moving obstacle), multi (3 moving + 3 static), set "
+                        "(12 moving + 6 static as one set, for the set network) or set-walls (set, and the walls "
+                        "as a 24-sector scan; labelled by the planner with wall slots)")
     p.add_argument("--shard-size", type=int, default=1000, help="samples per shard (even; default 1000)")
     p.add_argument("--no-mirror", action="store_true", help="do not add the mirror image of each situation")
     p.add_argument("--mirror-check-every", type=int, default=25, metavar="K",
@@ -81,7 +82,8 @@ def add_arguments(p):
 def _layout_and_config(args):
     from nn_export.runtime.layouts import layout_for
     config = planner_config(args)
-    return config, layout_for(args.layout, config.horizon)
+    layout = layout_for(args.layout, config.horizon)
+    return config.for_walls(bool(layout.wall_sectors)), layout
 
 
 def run(args) -> int:
@@ -197,11 +199,13 @@ def _dagger(args) -> int:
     if part in man.get("parts", {}):
         raise UsageError(f"{args.out} already has a part {part} (round {args.round})")
     layout = layout_from_dict(man["feature_layout"])
+    # a layout that reads walls is labelled (and its GPC rounds driven) by the planner with wall slots
+    config = config.for_walls(bool(layout.wall_sectors))
     robot = RobotParams()
     factory = _driver(args, config, robot, by_gpc)
     solver = args.solver or label_solver(config)
     _check_solver_for(config, layout, solver)
-    suite = args.dagger_suite or ("random-multi" if layout.name in ("multi", "set") else "random")
+    suite = args.dagger_suite or ("random-multi" if layout.name in ("multi", "set", "set-walls") else "random")
     # episodes never repeat the evaluation suite (seed 1) nor each other (GPC parts: +500)
     suite_seed = args.seed + 1000 * args.round + (500 if by_gpc else 0)
     if args.movers < 0:

@@ -31,7 +31,7 @@ def add_arguments(p):
     p.add_argument("--relative", action="store_true",
                    help="learn the change from the current wheel speeds (the GPC decides increments); the exported "
                         "graph adds them back, so the model file answers wheel speeds as any other")
-    p.add_argument("--layout", choices=("paper", "multi", "set"), default=None,
+    p.add_argument("--layout", choices=("paper", "multi", "set", "set-walls"), default=None,
                    help="feature layout the datasets must have (default: whatever they have)")
     p.add_argument("--output-basis", choices=("speed_turn", "wheels"), default="speed_turn",
                    help="learn (mean speed, half difference) (default) or the two wheel speeds directly")
@@ -119,6 +119,7 @@ def run(args) -> int:
         except (ValueError, KeyError, OSError) as exc:
             raise UsageError(f"{d}: cannot read the dataset: {exc}") from None
     first = sets[0]
+    cfg = cfg.for_walls(bool(first.layout.wall_sectors))  # a layout that reads walls was labelled with wall slots
     for d, s in zip(args.datasets, sets):
         man = s.manifest
         if man.get("preset") != cfg.name:

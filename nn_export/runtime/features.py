@@ -56,6 +56,7 @@ from casadi_gpc.types import StaticObstacle
 
 from .layouts import FeatureLayout
 from .situation import Situation, TrackEstimate
+from .wall_scan import wall_scan, wall_segment_rows
 
 __all__ = ["order_by_distance", "compute_features", "feature_values", "feature_values_from", "compute_features_batch",
            "RolloutFeatures", "mirror_features", "wrap_pi"]
@@ -236,14 +237,17 @@ def feature_values(layout: FeatureLayout, situation: Situation, report: dict | N
     if ref_poses.shape != (layout.horizon + 1, 3):
         raise ValueError(f"expected desired poses of shape {(layout.horizon + 1, 3)}, got {ref_poses.shape}")
     return feature_values_from(layout, situation.robot, ref_poses.tolist(), situation.sample_time_s, situation.tracks,
-                               situation.statics, report)
+                               situation.statics, report,
+                               wall_segment_rows(situation.walls) if layout.wall_sectors and situation.walls else None)
 
 
 def feature_values_from(layout: FeatureLayout, robot: RobotState, ref_rows: list, sample_time_s: float,
-                        tracks=(), statics=(), report: dict | None = None) -> list[float]:
+                        tracks=(), statics=(), report: dict | None = None, wall_rows=None) -> list[float]:
     """:func:`feature_values` of the situation made of these pieces, the H + 1 desired
     poses given as rows ``(x, y, heading)`` (unchecked: the caller's; the deployed policy's
-    second pass builds no :class:`Situation` for them)."""
+    second pass builds no :class:`Situation` for them). ``wall_rows``: the map's wall
+    segments ``(ax, ay, bx, by)`` (:func:`~nn_export.runtime.wall_scan.wall_segment_rows`;
+    None: no walls), which a layout with a wall scan reads."""
     r = robot
     # plain floats (a simulator's state may hold numpy scalars, whose arithmetic costs more;
     # the numbers are the same)
@@ -288,6 +292,11 @@ def feature_values_from(layout: FeatureLayout, robot: RobotState, ref_rows: list
     n = layout.horizon + 1
     window = _window_tails(layout, ref_rows if len(ref_rows) == n else ref_rows[:n], sample_time_s)[0]
     f += _reference_values(rx, ry, heading, ref_rows[1], window, report, c, s)
+    if layout.wall_sectors:
+        if wall_rows is None or not len(wall_rows):
+            f += [layout.wall_range_m] * layout.wall_sectors
+        else:
+            f += wall_scan(wall_rows, rx, ry, heading, layout.wall_sectors, layout.wall_range_m)
     return f
 
 
@@ -325,6 +334,7 @@ class RolloutFeatures:
         self._windows = _window_tails(layout, self._P, self.sample_time_s)
         # the empty obstacle slots, as compute_features writes them for a situation without obstacles
         self._absent = layout._absent_obstacles
+        self._no_walls = (layout.wall_range_m,) * layout.wall_sectors  # and no wall: the scan reads its range
 
     def values(self, j: int, x: float, y: float, heading: float, v_right: float, v_left: float,
                report: dict | None = None) -> list[float]:
@@ -333,7 +343,7 @@ class RolloutFeatures:
         if not 0 <= j < self.windows:
             raise IndexError(f"window {j} of {self.windows}")
         return [v_right, v_left, *self._absent,
-                *_reference_values(x, y, heading, self._P[j + 1], self._windows[j], report)]
+                *_reference_values(x, y, heading, self._P[j + 1], self._windows[j], report), *self._no_walls]
 
     def fill(self, j: int, x: float, y: float, heading: float, v_right: float, v_left: float, out: np.ndarray,
              report: dict | None = None) -> np.ndarray:

@@ -45,6 +45,15 @@ velocity at heading theta + dtheta, in the robot's frame: no angle, so no wrap s
 (1 for a moving obstacle, 0 for a static one, whose velocity, turn and uncertainty are 0);
 then the reference block. An empty slot is all zeros: the network masks it out by its
 ``present`` input, so it holds no code at all.
+
+``set-walls`` (``set`` + :data:`~nn_export.runtime.wall_scan.WALL_SECTORS` inputs; 204 for
+H = 12): the ``set`` layout, then the walls as a range sensor would see them,
+``wall_{k}_m`` for k = 0..23: the distance from the robot's centre to the nearest wall point in
+the 15-degree sector centred on direction k * 15 degrees (counter-clockwise from straight
+ahead), capped at :data:`~nn_export.runtime.wall_scan.WALL_SCAN_RANGE_M` (4 m: no wall within
+range). :mod:`nn_export.runtime.wall_scan` computes it from the map's wall segments. Without
+walls every sector reads 4 m, so a situation without walls has the ``set`` layout's features
+followed by 24 fours.
 """
 from __future__ import annotations
 
@@ -54,13 +63,15 @@ from functools import cached_property
 
 import numpy as np
 
+from .wall_scan import WALL_SCAN_RANGE_M, WALL_SECTORS, sector_mirror
+
 __all__ = ["FEATURE_VERSION", "LAYOUTS", "WHEEL_INPUTS",
            "SET_ELEMENT", "SET_SLOTS", "OBSTACLE_RANGE_M", "CURVATURE_LIMIT_1PM",
            "FeatureLayout", "layout_for", "layout_from_dict"]
 
 FEATURE_VERSION = 1
 """Bumped whenever the meaning of any feature changes; datasets and models carry it."""
-LAYOUTS = ("paper", "multi", "set")
+LAYOUTS = ("paper", "multi", "set", "set-walls")
 WHEEL_INPUTS = ("v_right_prev_mps", "v_left_prev_mps")
 """The first two inputs of every layout: the wheel speeds applied over the last interval."""
 OBSTACLE_RANGE_M = 12.0
@@ -85,6 +96,10 @@ class FeatureLayout:
     version: int = FEATURE_VERSION
     range_m: float = OBSTACLE_RANGE_M
     curvature_limit_1pm: float = CURVATURE_LIMIT_1PM
+    wall_sectors: int = 0
+    """Sectors of the wall scan at the end of the input (``set-walls``); 0: the layout reads no walls."""
+    wall_range_m: float = WALL_SCAN_RANGE_M
+    """Where the wall scan stops (m): a sector without a wall within it reads this."""
 
     @cached_property
     def flags(self) -> bool:
@@ -95,7 +110,7 @@ class FeatureLayout:
     def is_set(self) -> bool:
         """Whether every obstacle slot is one element of a set (``set``: the same inputs for
         moving and static obstacles, zeros when empty)."""
-        return self.name == "set"
+        return self.name in ("set", "set-walls")
 
     @cached_property
     def set_slots(self) -> tuple[int, int, int]:
@@ -120,6 +135,7 @@ class FeatureLayout:
         names += ["ref_x_m", "ref_y_m", "ref_heading_rad"]
         names += [f"ref_curvature_{k}_1pm" for k in range(1, self.horizon + 1)]
         names += ["ref_speed_mps"]
+        names += [f"wall_{k}_m" for k in range(self.wall_sectors)]
         return tuple(names)
 
     @property
@@ -165,6 +181,9 @@ class FeatureLayout:
                 signs[i] = -1.0
         heading = np.array([i for i, n in enumerate(names) if n.endswith("_heading_rad") and n.startswith("mov")],
                            dtype=int)
+        if self.wall_sectors:  # sector k of the mirrored world is sector (n - k) mod n of this one
+            first = self.index("wall_0_m")
+            perm[first:first + self.wall_sectors] = first + sector_mirror(self.wall_sectors)
         return perm, signs, heading
 
     def index(self, name: str) -> int:
@@ -175,12 +194,13 @@ class FeatureLayout:
         return {"name": self.name, "version": self.version, "horizon": self.horizon,
                 "k_moving": self.k_moving, "k_static": self.k_static, "range_m": self.range_m,
                 "curvature_limit_1pm": self.curvature_limit_1pm, "size": self.size,
+                **({"wall_sectors": self.wall_sectors, "wall_range_m": self.wall_range_m} if self.wall_sectors else {}),
                 "feature_names": list(self.feature_names)}
 
 
 def layout_for(name: str, horizon: int, k: int = 3) -> FeatureLayout:
-    """The ``paper`` layout (one moving obstacle, no static), ``multi`` (``k`` of each) or
-    ``set`` (:data:`SET_SLOTS`; ``k`` unused)."""
+    """The ``paper`` layout (one moving obstacle, no static), ``multi`` (``k`` of each),
+    ``set`` (:data:`SET_SLOTS`; ``k`` unused) or ``set-walls`` (``set`` and the wall scan)."""
     if name not in LAYOUTS:
         raise ValueError(f"unknown feature layout {name!r} (choose from {', '.join(LAYOUTS)})")
     if int(horizon) < 1:
@@ -189,6 +209,8 @@ def layout_for(name: str, horizon: int, k: int = 3) -> FeatureLayout:
         return FeatureLayout("paper", int(horizon), 1, 0)
     if name == "set":
         return FeatureLayout("set", int(horizon), *SET_SLOTS)
+    if name == "set-walls":
+        return FeatureLayout("set-walls", int(horizon), *SET_SLOTS, wall_sectors=WALL_SECTORS)
     if int(k) < 1:
         raise ValueError(f"k must be at least 1, got {k}")
     return FeatureLayout("multi", int(horizon), int(k), int(k))
@@ -207,7 +229,9 @@ def layout_from_dict(d: dict) -> FeatureLayout:
     lay = layout_for(name, horizon, int(d.get("k_moving", 3)))
     lay = replace(lay, k_moving=int(d.get("k_moving", lay.k_moving)), k_static=int(d.get("k_static", lay.k_static)),
                   range_m=float(d.get("range_m", lay.range_m)),
-                  curvature_limit_1pm=float(d.get("curvature_limit_1pm", lay.curvature_limit_1pm)))
+                  curvature_limit_1pm=float(d.get("curvature_limit_1pm", lay.curvature_limit_1pm)),
+                  wall_sectors=int(d.get("wall_sectors", lay.wall_sectors)),
+                  wall_range_m=float(d.get("wall_range_m", lay.wall_range_m)))
     names = d.get("feature_names")
     if names is not None and tuple(names) != lay.feature_names:
         raise ValueError(f"feature names of layout {name!r} v{version} do not match this code's")

@@ -45,14 +45,16 @@ from casadi_gpc.robot import RobotParams, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation
 
 from .features import RolloutFeatures, feature_values, feature_values_from
-from .layouts import FeatureLayout
 from .model_file import INPUT_NAME, OUTPUT_NAME, POLICY_FORMAT, _bind, _load_session, _validate, read_model_metadata
 from .rollout import roll_out
 from .set_slots import CrowdSlots
 from .situation import Situation, reference_rows
+from .side_networks import CrowdNetwork, WallsNetwork
 from .tracker import SituationTracker
+from .wall_scan import wall_segment_rows
 
-__all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "SHIPPED",
+__all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "shipped_walls_model_path",
+           "SHIPPED",
            "read_model_metadata", "POLICY_FORMAT", "DEFAULT_SAFETY_DISTANCE_M"]
 
 MODELS_DIR = Path(__file__).parents[1] / "models"
@@ -70,60 +72,15 @@ def shipped_crowd_model_path(preset: str) -> Path:
     return MODELS_DIR / f"{preset}-crowd.onnx"
 
 
+def shipped_walls_model_path(preset: str) -> Path:
+    """The network that reads walls (``set-walls`` layout) the package ships for ``preset``
+    (it may not exist)."""
+    return MODELS_DIR / f"{preset}-walls.onnx"
+
+
 SHIPPED = "shipped"
 """``OnnxPolicy(crowd_model=SHIPPED)``: the crowd network shipped for the preset, if any,
 when the policy runs the model shipped for it."""
-
-
-class _CrowdNetwork:
-    """A second network, of the ``set`` layout, for the situations the main model's layout
-    cannot hold: more moving obstacles in range than its moving slots, or static obstacles
-    beyond its static slots. The same checks at load as the main model, one pass, its own
-    bound buffers; the policy's tracker feeds both."""
-
-    def __init__(self, path: Path, preset: str, robot: RobotParams, main: FeatureLayout):
-        self.session, data = _load_session(path)
-        meta = read_model_metadata(self.session)
-        self.layout, _, self.steps = _validate(path, self.session, meta, preset, robot)
-        if not self.layout.is_set or self.layout.horizon != main.horizon:
-            raise ValueError(f"{path}: a crowd network must have the set layout and horizon {main.horizon} "
-                             f"(it has {self.layout.name!r}, H={self.layout.horizon})")
-        if meta.get("decision_passes", "2") != "1":
-            raise ValueError(f"{path}: a crowd network runs one pass (export it with --passes 1)")
-        self.main_slots = (main.k_moving, main.k_static, main.range_m)
-        self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path,
-                                                                        2 * self.steps)
-        self.info = {"path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
-                     "feature_layout": self.layout.name, "n_features": self.layout.size,
-                     "validation_rmse_mps": float(meta["validation_rmse_mps"])}
-
-    def needed(self, x: float, y: float, tracks, statics) -> bool:
-        """Whether the main layout would drop an obstacle in range of the robot at ``(x, y)``."""
-        k_moving, k_static, rng = self.main_slots
-        hypot = math.hypot
-        if len(tracks) > k_moving:
-            n = 0
-            for t in tracks:
-                sv = t.state_values
-                n += hypot(sv[0] - x, sv[1] - y) <= rng
-            if n > k_moving:
-                return True
-        if len(statics) > k_static:
-            n = sum(hypot(st.position_m[0] - x, st.position_m[1] - y) <= rng for st in statics)
-            return n > k_static
-        return False
-
-    def answer(self, values: list[float]) -> tuple[float, float]:
-        self._write(*values)
-        self._run()
-        vr, vl = self._y[0, :2].tolist()
-        return vr, vl
-
-    def plan(self, values: list[float]) -> np.ndarray:
-        """The network's (steps, 2) wheel speeds on these feature values, float64."""
-        self._write(*values)
-        self._run()
-        return self._y.reshape(self.steps, 2).astype(float)
 
 
 def _plan_decision(plan: np.ndarray, reason: str, forecasts) -> ControlDecision:
@@ -194,6 +151,13 @@ class OnnxPolicy:
         one-obstacle model among walkers). ``"shipped"`` (default): the crowd network shipped
         for the preset (:func:`shipped_crowd_model_path`) when ``model`` is the shipped one and
         its layout is not a set; None: never. Its decisions are counted (``crowd_network``).
+    walls_model : path, None or ``"shipped"``
+        A network of the ``set-walls`` layout (one pass) that answers, in place of the other
+        two, whenever a wall of the map is within its scan's range of the robot.
+        ``"shipped"`` (default): the one shipped for the preset
+        (:func:`shipped_walls_model_path`) when ``model`` is the shipped one and reads no
+        walls; None: never. Its decisions are counted (``walls_network``). A map without
+        walls never hands a decision to it.
 
     This is the bare network: deployed, it runs behind the safety check layer,
     ``casadi_gpc.safety.Shield(OnnxPolicy())`` (numpy and numba), which checks every
@@ -206,7 +170,7 @@ class OnnxPolicy:
 
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
                  two_pass: bool | None = None, safety_distance_m: float | None = None,
-                 ekf_settings: EKFSettings | None = None, crowd_model=SHIPPED):
+                 ekf_settings: EKFSettings | None = None, crowd_model=SHIPPED, walls_model=SHIPPED):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
@@ -250,11 +214,20 @@ class OnnxPolicy:
         if isinstance(crowd_model, str) and crowd_model == SHIPPED:
             shipped = shipped_crowd_model_path(self.config.name)
             crowd_model = shipped if model is None and not self.layout.is_set and shipped.is_file() else None
-        self._crowd = None if crowd_model is None else _CrowdNetwork(Path(crowd_model), self.config.name, self.robot,
+        self._crowd = None if crowd_model is None else CrowdNetwork(Path(crowd_model), self.config.name, self.robot,
                                                                       self.layout)
         if self._crowd is not None:
             self.model_info["crowd_model"] = self._crowd.info
-        self.outputs_plans = self.steps > 1 or (self._crowd is not None and self._crowd.steps > 1)
+        if isinstance(walls_model, str) and walls_model == SHIPPED:
+            shipped = shipped_walls_model_path(self.config.name)
+            walls_model = shipped if model is None and not self.layout.wall_sectors and shipped.is_file() else None
+        self._walls = None if walls_model is None else WallsNetwork(Path(walls_model), self.config.name, self.robot,
+                                                                      self.layout)
+        self._walls_decision = _decision_maker("one pass: walls network")
+        if self._walls is not None:
+            self.model_info["walls_model"] = self._walls.info
+        self._wall_key, self._wall_rows = None, None  # the map's walls as segment rows, made once per map
+        self.outputs_plans = self.steps > 1 or any(n is not None and n.steps > 1 for n in (self._crowd, self._walls))
         """Whether a decision may carry the network's own plan (check it as a plan, keep the
         shifted previous one: ``casadi_gpc.safety.CheckSettings(previous_plan=True)``)."""
         self.model_info["output"] = "plan" if self.steps > 1 else "command"
@@ -264,7 +237,8 @@ class OnnxPolicy:
     # --- state -----------------------------------------------------------------------
     def reset(self) -> None:
         self.tracker.reset()
-        self._counters = {"decisions": 0, "second_pass": 0, "crowd_network": 0, "feature_report": {}}
+        self._counters = {"decisions": 0, "second_pass": 0, "crowd_network": 0, "walls_network": 0,
+                          "feature_report": {}}
         self._last = None
 
     @property
@@ -375,8 +349,23 @@ class OnnxPolicy:
         counters = self._counters
         counters["decisions"] += 1
         self._last = None  # what rollout() needs, for a one-command decision
-        crowd = self._crowd
-        if crowd is not None and crowd.needed(obs.robot.x_m, obs.robot.y_m, tracks, obs.static):
+        crowd, walls = self._crowd, self._walls
+        wall_rows = self._map_rows(obs.walls) if obs.walls else None
+        if walls is not None and wall_rows is not None and walls.near(obs.robot.x_m, obs.robot.y_m, wall_rows):
+            batch = getattr(tracks[0], "batch_", None) if tracks else None
+            if batch is not None:
+                batch.arrays  # the forecasts made together, as the features and a check read them
+            t1 = clock()
+            counters["walls_network"] += 1
+            values = feature_values_from(walls.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
+                                         counters["feature_report"], wall_rows)
+            if walls.steps > 1:
+                dec = _plan_decision(walls.plan(values), "one pass: walls network plan", tracks)
+            else:
+                vr, vl = walls.answer(values)
+                self._last = (walls.layout, walls.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, wall_rows)
+                dec = self._walls_decision(vr, vl, tracks)
+        elif crowd is not None and crowd.needed(obs.robot.x_m, obs.robot.y_m, tracks, obs.static):
             batch = getattr(tracks[0], "batch_", None) if tracks else None
             if batch is not None:
                 batch.arrays  # the forecasts made together, as the features and a check read them
@@ -388,17 +377,18 @@ class OnnxPolicy:
                 dec = _plan_decision(crowd.plan(values), "one pass: crowd network plan", tracks)
             else:
                 vr, vl = crowd.answer(values)
-                self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
+                self._last = (crowd.layout, crowd.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, None)
                 dec = self._crowd_decision(vr, vl, tracks)
         elif not self.two_pass:
             t1 = clock()
+            own_rows = wall_rows if self.layout.wall_sectors else None
             values = feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
-                                         counters["feature_report"])
+                                         counters["feature_report"], own_rows)
             if self.steps > 1:
                 dec = _plan_decision(self._net_plan(values), "one pass: plan", tracks)
             else:
                 vr, vl = self._net_values(values)
-                self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m)
+                self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m, own_rows)
                 dec = self._one_pass_decision(vr, vl, tracks)
         else:
             t1 = clock()
@@ -416,12 +406,21 @@ class OnnxPolicy:
         last = self._last
         if last is None:
             return None
-        layout, answer, obs, tracks, vr, vl, s_m = last
+        layout, answer, obs, tracks, vr, vl, s_m, wall_rows = last
         rows = reference_rows(obs.reference, s_m, self.sample_time_s, 2 * self.horizon - 1)
-        # a crowd's features at each step from the compiled slots (the same values; the decision's
-        # own features stay in plain floats: one call, where making the arrays costs more)
+        # a crowd's features at each step from the compiled slots, where they answer (the same
+        # values; not a layout that reads walls; the decision's own features stay in plain floats:
+        # one call, where making the arrays costs more)
+        slots = CrowdSlots.make(layout, tracks, obs.static) if wall_rows is None else None
         return roll_out(layout, answer, obs.robot, (vr, vl), tracks, obs.static, rows, self.sample_time_s, self.robot,
-                        CrowdSlots.make(layout, tracks, obs.static))
+                        wall_rows, slots)
+
+    def _map_rows(self, walls) -> np.ndarray:
+        """The map's walls as segment rows (:func:`~nn_export.runtime.wall_scan.wall_segment_rows`),
+        made again only when the map changes."""
+        if walls is not self._wall_key:
+            self._wall_key, self._wall_rows = walls, wall_segment_rows(walls)
+        return self._wall_rows
 
     def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list) -> ControlDecision:
         """The paper's scheme (module docstring), from the sample's track estimates and the

@@ -46,15 +46,17 @@ class _Ahead:
 
 
 def roll_out(layout: FeatureLayout, answer, robot: RobotState, command: tuple[float, float], tracks, statics,
-             reference_rows: list, sample_time_s: float, params: RobotParams,
+             reference_rows: list, sample_time_s: float, params: RobotParams, wall_rows=None,
              slots: CrowdSlots | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The plan ``(H, 2)`` whose first step is ``command`` and whose step j is the network's
     answer (``answer(values) -> (v_right, v_left)``) at step j, and the robot's poses after
     each step ``(H, 3)``. ``reference_rows``: the desired poses at steps 0..2H-1 (rows
     ``(x, y, heading)``); ``tracks``: the decision's track estimates (their forecasts cover
-    the H steps). ``slots``: the decision's :class:`~nn_export.runtime.set_slots.CrowdSlots`
-    of these tracks and statics, when it has them: the features of each step from its
-    compiled slots (the same values), the reference windows' tails made once."""
+    the H steps); ``wall_rows``: the map's wall segments, for a layout that reads walls (the
+    scan from each predicted pose). ``slots``: the decision's
+    :class:`~nn_export.runtime.set_slots.CrowdSlots` of these tracks and statics, when it has
+    them (a ``set`` layout, no walls): the features of each step from its compiled slots (the
+    same values), the reference windows' tails made once."""
     H, T = layout.horizon, float(sample_time_s)
     if len(reference_rows) < 2 * H:
         raise ValueError(f"a roll-out needs the desired poses at steps 0..{2 * H - 1}, got {len(reference_rows)}")
@@ -75,7 +77,7 @@ def roll_out(layout: FeatureLayout, answer, robot: RobotState, command: tuple[fl
     for j in range(1, H):
         ahead = [_Ahead(t, m[j - 1], j) for t, m in paths]
         nr, nl = answer(feature_values_from(layout, RobotState(x, y, th, vr, vl), reference_rows[j:j + H + 1], T,
-                                            ahead, statics, None))
+                                            ahead, statics, None, wall_rows))
         vr, vl = followed_wheel(vr, nr, dv, vmax), followed_wheel(vl, nl, dv, vmax)  # as the robot follows it
         x, y, th = robot_step_float(x, y, th, vr, vl, T, W)
         wheels.append((vr, vl))

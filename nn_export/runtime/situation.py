@@ -73,6 +73,11 @@ class Situation:
     statics: tuple[StaticObstacle, ...] = ()
     info: dict = field(default_factory=dict, compare=False)
     """Provenance (sampler draws), not used by the features."""
+    walls: tuple = ()
+    """The map's walls, each a polyline of ``(x_m, y_m)`` points (as
+    :attr:`casadi_gpc.types.Observation.walls`): the planner plans with them where its NLP has
+    wall slots, a ``set-walls`` layout reads them as a scan
+    (:mod:`nn_export.runtime.wall_scan`)."""
 
     @property
     def horizon(self) -> int:
@@ -87,7 +92,7 @@ class Situation:
         return replace(self, ref_poses=np.asarray(ref_poses, dtype=float))
 
     def without_obstacles(self) -> "Situation":
-        return replace(self, tracks=(), statics=())
+        return replace(self, tracks=(), statics=(), walls=())
 
     def transformed(self, rotation_rad: float, translation_m=(0.0, 0.0), mirror: bool = False) -> "Situation":
         """The situation seen in another world frame: an optional reflection about the world
@@ -123,7 +128,8 @@ class Situation:
             tracks.append(replace(tr, state=st, cov=J @ tr.cov @ J.T, means_m=pt(tr.means_m),
                                   covs_m2=R @ tr.covs_m2 @ R.T))
         statics = tuple(StaticObstacle(tuple(float(v) for v in pt(s.position_m)), s.radius_m) for s in self.statics)
-        return replace(self, robot=robot, ref_poses=ref, tracks=tuple(tracks), statics=statics)
+        walls = tuple(tuple(tuple(float(v) for v in p) for p in pt(np.asarray(w, dtype=float))) for w in self.walls)
+        return replace(self, robot=robot, ref_poses=ref, tracks=tuple(tracks), statics=statics, walls=walls)
 
     def mirrored(self) -> "Situation":
         """Reflected about the tangent of the reference at step 0 (the paper's symmetry)."""

@@ -78,4 +78,4 @@ class SituationTracker:
         :attr:`reference_ahead_` then holds the desired poses at steps 0..``reference_steps``."""
         tracks, _ = self.track(obs)
         return Situation(obs.robot, self.reference_ahead_[:self.config.horizon + 1], self.config.sample_time_s,
-                         obs.reference.speed_mps, tracks, tuple(obs.static))
+                         obs.reference.speed_mps, tracks, tuple(obs.static), walls=tuple(obs.walls))

@@ -40,7 +40,7 @@ import numpy as np
 from casadi_gpc.config import PlannerConfig
 from casadi_gpc.problem.cost import ParameterLayout
 from casadi_gpc.robot import RobotParams
-from casadi_gpc.problem.selection import pack_selection, select_obstacles
+from casadi_gpc.problem.selection import pack_selection, select_obstacles, select_walls
 
 from ..runtime.features import compute_features, mirror_features
 from ..runtime.layouts import FeatureLayout
@@ -246,7 +246,9 @@ class Labeller:
         self.robot = robot or RobotParams()
         self.fit_slots = bool(fit_slots)
         self.full_slots = (config.max_moving, config.max_static)
-        self.layout = ParameterLayout(config.horizon, *self.full_slots)
+        self.layout = ParameterLayout(config.horizon, *self.full_slots, config.max_walls)
+        self._walls: list = []
+        """The wall segments in the slots of the situation being labelled."""
         """The full NLP's parameter layout (:meth:`parameters`)."""
         self._controllers: dict = {}
         """``(solver, moving slots, static slots)`` -> controller, built on first need."""
@@ -303,8 +305,16 @@ class Labeller:
         return pack_selection(self.layout, x0, situation.ref_poses, self._select(situation), cfg)
 
     def _select(self, situation: Situation):
-        """The planner's choice of obstacles (with the full config's slots)."""
-        return select_obstacles(situation.robot.as_array(), situation.forecasts(), situation.statics, self.config)
+        """The planner's choice of obstacles (with the full config's slots), and of the wall
+        segments where its NLP has wall slots."""
+        x0 = situation.robot.as_array()
+        sel = select_obstacles(x0, situation.forecasts(), situation.statics, self.config)
+        if situation.walls:
+            if not self.config.max_walls:
+                raise ValueError("a situation with walls needs a planner with wall slots "
+                                 "(PlannerConfig.for_walls(True))")
+            sel.walls, sel.walls_left_out = select_walls(x0, situation.walls, self.config)
+        return sel
 
     def _parameters(self, situation: Situation):
         """The slots ``(moving, static)`` of the NLP that solves ``situation``, its parameter
@@ -313,6 +323,7 @@ class Labeller:
         slots = self.slots_for(len(sel.forecasts), len(sel.statics))
         layout = self.layout if slots == self.full_slots else self._controller(self.solver, slots).problem.layout
         p = pack_selection(layout, situation.robot.as_array(), situation.ref_poses, sel, self.config)
+        self._walls = getattr(sel, "walls", ())
         return slots, p, sel.forecasts, sel.statics
 
     def label(self, situation: Situation) -> Label:
@@ -349,7 +360,7 @@ class Labeller:
     def _label(self, ctl, solver: str, situation: Situation, p: np.ndarray, obstacle: np.ndarray | None = None
                ) -> Label:
         x0 = situation.robot.as_array()
-        best, candidates = ctl.plan(p, x0, situation.ref_speed_mps, True, None)
+        best, candidates = ctl.plan(p, x0, situation.ref_speed_mps, True, None, self._walls)
         self.counters["solves"] += len(candidates)
         if best is not None and obstacle is not None:
             return self._near_tie_label(ctl, solver, situation, p, obstacle, candidates)

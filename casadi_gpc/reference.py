@@ -10,6 +10,7 @@ from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from .robot import arc_step
 
@@ -131,16 +132,32 @@ class ReferencePath:
         return self.pose_at_arclength(self.arclength_at_time(t_s))
 
     def project(self, xy, s_guess: float, window_m: float = 2.0, samples: int = 81) -> float:
-        """Arc length of the path point nearest ``xy``, searched near ``s_guess``."""
+        """Arc length of the path point nearest ``xy``, searched near ``s_guess``: the nearest
+        of ``samples`` arc lengths spread evenly over the window (clipped to the path). On a
+        window inside one straight piece (every sample of a crossing; the deployed policy
+        projects every sample) the compiled :func:`_project_on_line` answers, the numbers of
+        :meth:`_project_samples` bit for bit (``tests/test_reference.py``)."""
+        if samples > 1:
+            arrays = self.__dict__.get("_line_arrays")  # made at the first call (a path unpickled has none)
+            if arrays is None:
+                arrays = self.__dict__["_line_arrays"] = (np.array(self._cum_list, dtype=float),
+                                                          np.array(self._table, dtype=float).reshape(-1, 7))
+            s = _project_on_line(float(xy[0]), float(xy[1]), float(s_guess), float(window_m), int(samples),
+                                 self._length, *arrays)
+            if s == s:  # not NaN: it answered
+                return s
+        return self._project_samples(xy, s_guess, window_m, samples)
+
+    def _project_samples(self, xy, s_guess: float, window_m: float = 2.0, samples: int = 81) -> float:
+        """:meth:`project` in numpy, on any window."""
         s = np.linspace(s_guess - window_m, s_guess + window_m, samples)
         s = np.minimum(np.maximum(s, 0.0), self._length)
         lo, hi = float(s[0]), float(s[-1])
         i = bisect_right(self._cum_list, lo) - 1
         c, x0, y0, _, curv, cos0, sin0 = self._table[i]
         if curv == 0.0 and (i == len(self._cum_list) - 1 or hi < self._cum_list[i + 1]):
-            # the window on one straight piece (every sample of a crossing): the points of
-            # _arc_at there, x0 + ds cos h0 (see poses_along), without its segment look-ups and
-            # sinc; the deployed policy projects every sample
+            # the window on one straight piece: the points of _arc_at there, x0 + ds cos h0
+            # (see poses_along), without its segment look-ups and sinc
             ds = s - c
             d2 = (ds * cos0 + (x0 - xy[0])) ** 2 + (ds * sin0 + (y0 - xy[1])) ** 2
         else:
@@ -151,3 +168,33 @@ class ReferencePath:
     def polyline(self, step_m: float = 0.05) -> np.ndarray:
         n = max(2, int(np.ceil(self.length_m / step_m)) + 1)
         return self.pose_at_arclength(np.linspace(0.0, self.length_m, n))
+
+
+@njit("float64(float64, float64, float64, float64, int64, float64, float64[::1], float64[:, ::1])", cache=True)
+def _project_on_line(px, py, s_guess, window_m, samples, length, starts, table):  # pragma: no cover (compiled)
+    """:meth:`ReferencePath._project_samples` where its window lies on one straight piece,
+    compiled: the same arc lengths (``np.linspace``'s ``k * step + start``, the last one
+    ``stop``), clipped as there, and the first nearest; NaN where the window is not on one
+    straight piece (the numpy form answers). ``starts``: where the pieces start; ``table``:
+    ``ReferencePath._table``'s rows."""
+    start, stop = s_guess - window_m, s_guess + window_m
+    div = samples - 1
+    delta = stop - start
+    step = delta / div
+    s = np.empty(samples)
+    for k in range(samples):
+        v = (k / div) * delta if step == 0 else k * step
+        s[k] = np.minimum(np.maximum(v + start if k < div else stop, 0.0), length)
+    i = np.searchsorted(starts, s[0], side="right") - 1
+    c, x0, y0, curv, cos0, sin0 = table[i, 0], table[i, 1], table[i, 2], table[i, 4], table[i, 5], table[i, 6]
+    if not (curv == 0.0 and (i == starts.shape[0] - 1 or s[div] < starts[i + 1])):
+        return math.nan
+    best, arg = math.inf, 0
+    for k in range(samples):
+        ds = s[k] - c
+        d2 = (ds * cos0 + (x0 - px)) ** 2 + (ds * sin0 + (y0 - py)) ** 2
+        if d2 < best or (k == 0) or (d2 != d2 and best == best):
+            best, arg = d2, k
+            if d2 != d2:
+                break  # argmin: the first NaN
+    return s[arg]

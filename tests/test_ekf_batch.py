@@ -206,3 +206,101 @@ def test_the_compiled_forecasts_cost_a_third_of_the_python_floats_or_less():
         compiled.append(t1 - t0)
         floats.append(t2 - t1)
     assert np.median(compiled) * 3 <= np.median(floats), (np.median(compiled), np.median(floats))
+
+
+def _filter_fields(f: ObstacleEKF) -> dict:
+    """Everything a filter holds (its arrays made afresh from its floats)."""
+    d = {k: v for k, v in vars(f).items() if k not in ("_state_a", "_cov_a", "_consts", "_last_z", "pending_z_")}
+    d["_last_z"] = None if f._last_z is None else tuple(np.asarray(f._last_z, dtype=float).tolist())
+    d["pending_z_"] = None if f.pending_z_ is None else tuple(np.asarray(f.pending_z_, dtype=float).tolist())
+    return d
+
+
+def test_filters_updated_together_are_each_filters_own_step_bit_for_bit():
+    """ObstacleEKF.update_together (compiled, ekf_floats.update_rows: the step's propagation and
+    ekf_floats.correct) against each filter's own step on copies: the same floats to the last bit
+    for the measurements that pass the gate, and the gated ones left untouched."""
+    import copy
+    rng = np.random.default_rng(21)
+    T = 0.5
+    for trial in range(20):
+        filters = _random_filters(rng, 12, T)
+        for f in filters:  # a few real steps first: covariances and states as a run leaves them
+            for _ in range(int(rng.integers(0, 4))):
+                f.step((f._s[0] + float(rng.normal(0, 0.05)), f._s[1] + float(rng.normal(0, 0.05))))
+        # near the prediction (passes), or far from it (gated: an outlier or a manoeuvre)
+        zs = []
+        for f in filters:
+            m, _ = f.predict(1)
+            far = rng.random() < 0.25
+            zs.append((float(m[0, 0] + rng.normal(0, 2.0 if far else 0.03)),
+                       float(m[0, 1] + rng.normal(0, 2.0 if far else 0.03))))
+        alone = copy.deepcopy(filters)
+        before = [_filter_fields(f) for f in filters]
+        ok = ObstacleEKF.update_together(filters, zs)
+        assert 0 < sum(ok) < len(ok) or trial  # both kinds, at least in the first draw
+        for f, g, z, updated, b in zip(filters, alone, zs, ok, before):
+            event = g.step(z)
+            if updated:
+                assert event == "update"
+                assert _filter_fields(f) == _filter_fields(g)  # the floats themselves, bit for bit
+                assert f._s == g._s and f._U == g._U
+            else:
+                assert event != "update" and _filter_fields(f) == b
+
+
+def test_a_crowds_bank_updated_together_is_the_bank_track_by_track():
+    """A bank of ten and more tracks (missed, gated, restarted, manoeuvring, new, gone) stepped
+    with its initialised tracks updated together, against the same bank one track at a time:
+    the same pairs in the same order, the same counters, every filter the same to the bit."""
+    from unittest import mock
+    from casadi_gpc.estimation import tracking
+    from casadi_gpc.estimation.tracking import TrackBank
+    rng = np.random.default_rng(2)
+    T = 0.5
+    together, alone = TrackBank(T), TrackBank(T)
+    pos = {i: rng.normal(0, 4, 2) for i in range(12)}
+    vel = {i: rng.normal(0, 0.4, 2) for i in range(12)}
+    for k in range(40):
+        moving = []
+        for i in range(12):
+            if (i == 11 and k < 5) or (i == 10 and 20 <= k < 23):  # late, and gone for a while
+                continue
+            pos[i] = pos[i] + vel[i] * T
+            if i == 3 and k == 15:
+                vel[i] = np.zeros(2)  # stops dead: a manoeuvre
+            z = pos[i] + rng.normal(0, 0.02, 2)
+            if rng.random() < 0.05:
+                z = z + rng.normal(0, 3, 2)  # a glitch
+            moving.append(ObstacleMeasurement(i, None if rng.random() < 0.05 else (float(z[0]), float(z[1])), 0.3))
+        a = together.step(moving)
+        with mock.patch.object(tracking, "UPDATED_TOGETHER", 10 ** 9):
+            b = alone.step(moving)
+        assert [m for m, _ in a] == [m for m, _ in b]
+        assert [_filter_fields(f) for _, f in a] == [_filter_fields(f) for _, f in b]
+        assert together.counters == alone.counters
+    assert together.counters["outliers"] and together.counters["missed_measurements"]
+    assert together.counters["manoeuvres"] + together.counters["ghosts"]
+
+
+def test_the_compiled_worst_deviation_is_numpys_bit_for_bit():
+    """ForecastBatch.worst_std_m (compiled, ekf_floats.worst_std_rows) against the numpy
+    worst_std_m on random covariances, flat ones, degenerate and slightly indefinite ones: the
+    same floats."""
+    from casadi_gpc.estimation.ekf import worst_std_m
+    from casadi_gpc.estimation.ekf_floats import worst_std_rows
+    rng = np.random.default_rng(9)
+    L = rng.normal(0, 0.4, (40, 12, 2, 2))
+    covs = L @ np.swapaxes(L, -1, -2)
+    covs[0] = 0.0
+    covs[1, :, 0, 1] = covs[1, :, 1, 0] = 0.0
+    covs[2] = np.array([[1e-3, 2e-3], [2e-3, 1e-3]])  # indefinite
+    covs[3] *= 1e12
+    covs[4] = -covs[4]  # negative: max(., 0)
+    covs = np.ascontiguousarray(covs)
+    assert np.array_equal(worst_std_rows(covs), worst_std_m(covs))
+    covs.flags.writeable = False
+    assert np.array_equal(worst_std_rows(covs), worst_std_m(covs))
+    filters = _random_filters(rng, 8, 0.5, seen_once=(3,))
+    batch = ForecastBatch([f.snapshot() for f in filters], 12)
+    assert np.array_equal(batch.worst_std_m, worst_std_m(batch.planning_covs))

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from casadi_gpc.reference import ReferencePath, Segment
+from casadi_gpc.reference import ReferencePath, Segment, _project_on_line
 
 
 def line_arc(angle_deg: float, radius: float = 3.0, line: float = 12.0, speed: float = 0.4) -> ReferencePath:
@@ -126,3 +126,28 @@ def test_projection_on_a_straight_piece_is_the_grid_search_of_the_path_s_points(
         p = paths[k % 2]
         s_guess, xy = rng.uniform(-1.0, p.length_m + 1.0), rng.uniform(-5.0, 5.0, 2)
         assert p.project(xy, s_guess, window_m=1.0) == grid(p, xy, s_guess)
+
+
+def test_the_compiled_projection_on_a_line_is_the_numpy_one_bit_for_bit():
+    """``project`` (the compiled ``_project_on_line`` where the window lies on one straight
+    piece) against its numpy form ``_project_samples`` on every kind of window: inside a
+    line, across a joint, on an arc, clipped at either end, tiny, zero-length and wide, with
+    the guess and the point anywhere: the same arc length to the last bit."""
+    import numpy as np
+
+    rng = np.random.default_rng(17)
+    paths = (ReferencePath((0.0, -4.0), np.pi / 2, (Segment.line(8.0),), 0.4),
+             ReferencePath((1.0, 2.0), 0.3, (Segment.line(3.0), Segment.arc(2.0, 1.2), Segment.line(4.0)), 0.4),
+             ReferencePath((-2.0, 0.5), -2.0, (Segment.arc(1.5, -0.8), Segment.line(0.7), Segment.line(2.0)), 0.3))
+    compiled = 0
+    for k in range(6000):
+        p = paths[k % 3]
+        window = (1.0, 2.0, 0.05, 0.0, 5.0)[k % 5]
+        samples = (81, 81, 2, 7, 161)[k // 5 % 5]
+        s_guess = float(rng.uniform(-2.0, p.length_m + 2.0))
+        xy = tuple(rng.uniform(-6.0, 6.0, 2).tolist())
+        got = p.project(xy, s_guess, window, samples)
+        assert got == p._project_samples(xy, s_guess, window, samples)
+        compiled += not math.isnan(_project_on_line(xy[0], xy[1], s_guess, window, samples, p._length,
+                                                    *p.__dict__["_line_arrays"]))
+    assert 1000 < compiled < 6000  # both ways taken

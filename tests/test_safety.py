@@ -14,6 +14,7 @@ from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
 from casadi_gpc.safety import CheckSettings, SafetyFilter, Shield, StandbyPlanner
+from casadi_gpc.safety.check import MANOEUVRES
 
 from conftest import PAPER_DIR, check_run_document
 from synthetic_models import tracker_model
@@ -917,3 +918,38 @@ def test_the_compiled_clearances_are_the_whole_array_ones():
             assert np.array_equal(x, y)
         lost += int((got[4] < H * f.substeps).sum())
     assert lost > 100  # the margin is lost in many of them: the chords are compared
+
+
+def test_the_compiled_manoeuvres_and_grid_are_the_numpy_expressions_bit_for_bit():
+    """TrajectoryCheck.manoeuvres, _searched and _escapes (compiled, distances.approach)
+    against the numpy expressions they replace (written out here) from random wheel speeds
+    inside and outside the limits, for several horizons: the same floats."""
+    rng = np.random.default_rng(31)
+    for T, H in ((0.5, 12), (0.25, 6), (1.0, 1)):
+        f = SafetyFilter(ROBOT, T, H)
+        vmax, dv = ROBOT.max_wheel_speed_mps, ROBOT.max_step_change_mps(T)
+        reach_all = dv * np.arange(1, H + 1)[None, :, None]
+        swerve = np.array([m[0].startswith("swerve") for m in MANOEUVRES])[:, None].astype(float)
+
+        def numpy_manoeuvres(v0, steps):
+            v0 = np.minimum(np.maximum(np.asarray(v0, dtype=float), -vmax), vmax)
+            tgt = f._fixed_targets + swerve * max(0.5 * float(v0[0] + v0[1]), 0.25 * vmax)
+            tgt = np.minimum(np.maximum(tgt, -vmax), vmax)
+            reach = reach_all[:, :steps]
+            return v0 + np.minimum(np.maximum(tgt[:, None, :] - v0, -reach), reach)
+
+        def numpy_searched(v0, steps):
+            v0 = np.minimum(np.maximum(np.asarray(v0, dtype=float), -vmax), vmax)
+            reach = reach_all[:, :steps]
+            return v0 + np.minimum(np.maximum(f._search_targets[:, None, :] - v0, -reach), reach)
+
+        for _ in range(300):
+            v0 = rng.uniform(-1.2, 1.2, 2) * rng.choice([0.0, 0.1, 1.0])
+            names, W = f.manoeuvres(v0)
+            assert names == [m[0] for m in MANOEUVRES]
+            assert np.array_equal(W, numpy_manoeuvres(v0, H)) and np.array_equal(f._searched(v0, H),
+                                                                                  numpy_searched(v0, H))
+            for searched in (False, True):
+                E = f._escapes(v0, searched)
+                want = numpy_searched(v0, H - 1) if searched else numpy_manoeuvres(v0, H - 1)
+                assert np.array_equal(E[:, 0], np.broadcast_to(v0, E[:, 0].shape)) and np.array_equal(E[:, 1:], want)

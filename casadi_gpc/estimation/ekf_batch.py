@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ekf import _q_diagonal, worst_std_m
-from .ekf_floats import forecast_rows
+from .ekf import _q_diagonal
+from .ekf_floats import forecast_rows, worst_std_rows
 
 __all__ = ["forecast_many", "ForecastBatch", "MANY_TRACKS"]
 
@@ -28,8 +28,11 @@ def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) 
     upper triangles (``(N, 15)``, row by row: :data:`casadi_gpc.estimation.ekf_floats.upper`), all with
     the same sample time and Q diagonal ``q``: :func:`casadi_gpc.estimation.ekf_floats.forecast` of
     each, together."""
-    return forecast_rows(np.array(states, dtype=float).reshape(-1, 5), np.array(uppers, dtype=float).reshape(-1, 15),
-                         float(sample_time_s), np.array(q, dtype=float), int(horizon))
+    flat = []  # one array of both (in a decision among walkers each numpy call costs more than the arithmetic)
+    for st, u in zip(states, uppers):
+        flat += (*st, *u)
+    rows = np.array(flat, dtype=float).reshape(-1, 20)
+    return forecast_rows(rows[:, :5], rows[:, 5:], float(sample_time_s), np.array(q, dtype=float), int(horizon))
 
 
 class ForecastBatch:
@@ -83,7 +86,7 @@ class ForecastBatch:
         """:func:`~casadi_gpc.estimation.ekf.worst_std_m` of :attr:`planning_covs`, ``(N, H)``, read-only
         (the check's touching distances widen by it)."""
         if self._worst is None:
-            w = worst_std_m(self.planning_covs)
+            w = worst_std_rows(self.planning_covs)  # compiled, worst_std_m's numbers
             w.flags.writeable = False
             self._worst = w
         return self._worst

@@ -12,8 +12,12 @@ from operator import itemgetter
 
 import numpy as np
 from numba import njit
+from numba.extending import register_jitable
 
-__all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "upper", "full", "cov_array"]
+__all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "correct", "update_rows", "worst_std_rows",
+           "upper", "full", "cov_array"]
+
+_PI, _TWO_PI = math.pi, 2 * math.pi
 
 
 def cov_step(a: float, b: float, e: float, g: float, U: tuple, q: tuple) -> tuple:
@@ -71,7 +75,7 @@ def propagate(x: float, y: float, v: float, th: float, dth: float, U: tuple, T: 
 _cov_step = njit(cache=True)(cov_step)
 
 
-@njit("Tuple((float64[:, :, ::1], float64[:, :, :, ::1]))(float64[:, ::1], float64[:, ::1], float64, "
+@njit("Tuple((float64[:, :, ::1], float64[:, :, :, ::1]))(float64[:, :], float64[:, :], float64, "
       "float64[::1], int64)", cache=True)
 def forecast_rows(states, uppers, T, q, steps):  # pragma: no cover (compiled)
     """The predicted positions ``(N, steps, 2)`` and their covariances ``(N, steps, 2, 2)``
@@ -113,6 +117,7 @@ full = itemgetter(0, 1, 2, 3, 4, 1, 5, 6, 7, 8, 2, 6, 9, 10, 11, 3, 7, 10, 12, 1
 """The flat symmetric 5x5 (25 floats) of an upper triangle."""
 
 
+@register_jitable  # a plain Python function, which compiled code may call too (correct)
 def joseph(U: tuple, g00: float, g01: float, g11: float, r: float) -> tuple[tuple, tuple]:
     """The EKF's correction of a position measurement (H = [I 0], R = r I) on plain floats:
     the gain ``K = P[:, :2] S^-1`` (rows ``(k_i0, k_i1)``, flat) and the Joseph form
@@ -156,6 +161,86 @@ def joseph(U: tuple, g00: float, g01: float, g11: float, r: float) -> tuple[tupl
          a34 - a30 * k40 - a31 * k41 + r * (k30 * k40 + k31 * k41),
          a44 - a40 * k40 - a41 * k41 + r * (k40 * k40 + k41 * k41))
     return (k00, k01, k10, k11, k20, k21, k30, k31, k40, k41), N
+
+
+def correct(x: float, y: float, v: float, th: float, dth: float, U: tuple, zx: float, zy: float, r: float,
+            gate: float) -> tuple[bool, tuple, tuple]:
+    """The correction of a propagated estimate ``(x, y, v, th, dth)`` with covariance ``U``
+    (:data:`upper`) by the position ``(zx, zy)`` measured with variance ``r``, unless the
+    innovation's squared Mahalanobis distance is above ``gate``: ``(True, state, U')``, the
+    state's heading wrapped to [-pi, pi); or ``(False, state, U)`` unchanged when gated out.
+
+    Plain arithmetic, the one definition of the filter's correction:
+    :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.step` calls it on floats, and the compiled
+    update of many filters (:func:`update_rows`) on its own compilation of it."""
+    i0, i1 = zx - x, zy - y
+    # S = P[:2, :2] + R is 2x2
+    s00, s01, s11 = U[0] + r, U[1], U[5] + r
+    det = s00 * s11 - s01 * s01
+    m2 = (s11 * i0 * i0 - 2.0 * s01 * i0 * i1 + s00 * i1 * i1) / det  # innov^T S^-1 innov
+    if m2 > gate:
+        return False, (x, y, v, th, dth), U
+    # gain K = P[:, :2] S^-1 (rows (k_i0, k_i1)) and the Joseph-form covariance
+    K, N = joseph(U, s11 / det, -s01 / det, s00 / det, r)
+    k00, k01, k10, k11, k20, k21, k30, k31, k40, k41 = K
+    th = th + k30 * i0 + k31 * i1
+    return True, (x + k00 * i0 + k01 * i1, y + k10 * i0 + k11 * i1, v + k20 * i0 + k21 * i1,
+                  (th + _PI) % _TWO_PI - _PI, dth + k40 * i0 + k41 * i1), N
+
+
+_correct = njit(cache=True)(correct)
+
+
+@njit("float64[:, ::1](float64[:, ::1], float64, float64, float64, float64, float64, float64, float64, float64)",
+      cache=True)
+def update_rows(rows, T, q0, q1, q2, q3, q4, r, gate):  # pragma: no cover (compiled)
+    """One sample of N initialised filters, row by row ``rows`` ``(N, 22)``: the state (5),
+    the covariance's upper triangle (15) and the measured position (2), all with the same
+    sample time, Q diagonal ``q0..q4``, measurement variance ``r`` and ``gate`` (one array
+    in and one out: in a decision among walkers each numpy call costs more than the
+    arithmetic). The step of :func:`propagate` (the same operations in the same order), then
+    :func:`correct`, compiled. Returns ``(N, 21)``: 1.0 where the row was corrected (else
+    0.0: gated, the caller leaves it aside), then the new state and triangle
+    (``tests/test_ekf_batch.py`` holds it to the filter's own step bit for bit)."""
+    n = rows.shape[0]
+    out = np.empty((n, 21))
+    qq = (q0, q1, q2, q3, q4)
+    for i in range(n):
+        x, y, v, th, dth = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4]
+        u = rows[i, 5:20]
+        U = (u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], u[8], u[9], u[10], u[11], u[12], u[13], u[14])
+        vT = v * T
+        th += dth
+        c, si = math.cos(th), math.sin(th)
+        U = _cov_step(T * c, -v * T * si, T * si, v * T * c, U, qq)
+        x, y = x + vT * c, y + vT * si
+        passed, s, N = _correct(x, y, v, th, dth, U, rows[i, 20], rows[i, 21], r, gate)
+        out[i, 0] = 1.0 if passed else 0.0
+        for k in range(5):
+            out[i, 1 + k] = s[k]
+        for k in range(15):
+            out[i, 6 + k] = N[k]
+    return out
+
+
+def _worst_signature(readonly: bool):
+    from numba import types
+    return types.float64[:, ::1](types.Array(types.float64, 4, "C", readonly=readonly))
+
+
+@njit([_worst_signature(False), _worst_signature(True)], cache=True)
+def worst_std_rows(covs):  # pragma: no cover (compiled)
+    """:func:`casadi_gpc.estimation.ekf.worst_std_m` of ``(N, H, 2, 2)`` covariances, ``(N, H)``,
+    compiled: ``sqrt(max((a + d) / 2 + hypot((a - d) / 2, b), 0))`` entry by entry, numpy's
+    numbers bit for bit (the same libm ``hypot`` and ``sqrt``; ``tests/test_ekf_batch.py``).
+    The check reads it for a crowd's forecasts at every decision (some 8 numpy calls)."""
+    n, h = covs.shape[0], covs.shape[1]
+    out = np.empty((n, h))
+    for i in range(n):
+        for k in range(h):
+            a, b, d = covs[i, k, 0, 0], covs[i, k, 0, 1], covs[i, k, 1, 1]
+            out[i, k] = np.sqrt(np.maximum((a + d) * 0.5 + math.hypot((a - d) * 0.5, b), 0.0))
+    return out
 
 
 def cov_array(U: tuple) -> np.ndarray:

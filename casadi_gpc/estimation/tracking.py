@@ -9,12 +9,17 @@ together by :mod:`casadi_gpc.estimation.ekf_batch`, the same to rounding).
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
 from .ekf import EKFSettings, ObstacleEKF, planning_covariances
 from ..types import ObstacleForecast, ObstacleMeasurement
 
-__all__ = ["TrackBank", "TRACK_COUNTERS"]
+__all__ = ["TrackBank", "TRACK_COUNTERS", "UPDATED_TOGETHER"]
+
+UPDATED_TOGETHER = 4
+"""From this many filters in a bank on, their steps are taken together in one compiled call
+(:meth:`TrackBank.step`); below it, one by one in Python floats (the same numbers)."""
 
 TRACK_COUNTERS = ("missed_measurements", "outliers", "unestimated_tracks", "manoeuvres", "ghosts")
 """What a bank counts: measurements missing (or not finite), measurements gated as
@@ -56,38 +61,63 @@ class TrackBank:
         """Fuse one sample's measurements (one step of every measured obstacle's filter);
         returns the ``(measurement, filter)`` pairs of the tracks that have a state, then
         those of their ghosts (a gated, plausible measurement: the obstacle standing there,
-        :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`), which every planner avoids as well."""
+        :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`), which every planner avoids as well.
+        From :data:`UPDATED_TOGETHER` filters on, the initialised tracks' steps with a finite
+        measurement are taken together (:meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.update_together`:
+        the same numbers), the rest one by one."""
         seen = []
-        counters, filters = self.counters, self.filters
-        pending = False  # a ghost to add (checked in the loop: a comprehension costs more)
+        filters = self.filters
+        together = [] if len(filters) >= UPDATED_TOGETHER else None  # (filter, measured position)
+        settings, T, isfinite = self.settings, self.sample_time_s, math.isfinite
         listed = 0
         for m in moving:
             listed += 1
             ekf = filters.get(m.obstacle_id)
             if ekf is None:
                 ekf = filters[m.obstacle_id] = ObstacleEKF(self.sample_time_s, self.settings)
-            event = ekf.step(m.position_m)
-            if event != "update":  # an update leaves an initialised track (the common case)
-                if event == "missed":
-                    counters["missed_measurements"] += 1
-                elif event == "outlier":
-                    counters["outliers"] += 1
-                elif event == "manoeuvre":
-                    counters["manoeuvres"] += 1
-                if not ekf.started:
+            if together is not None and ekf.measurements_seen_ >= 2 and ekf.settings is settings \
+                    and ekf.sample_time_s == T:
+                z = m.position_m  # the sensor's own form (the filter's step takes it so too)
+                if type(z) is tuple and len(z) == 2 and type(z[0]) is float and type(z[1]) is float \
+                        and isfinite(z[0]) and isfinite(z[1]):
+                    together.append((ekf, z))
+                    seen.append((m, ekf))
                     continue
-                if not ekf.initialised:
-                    counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
-            seen.append((m, ekf))
-            if ekf.pending_z_ is not None:
-                pending = True
+            if self._stepped(ekf, ekf.step(m.position_m)):
+                seen.append((m, ekf))
+        if together:
+            ok = ObstacleEKF.update_together([f for f, _ in together], [z for _, z in together])
+            for (ekf, z), updated in zip(together, ok):
+                if not updated:  # gated out: the filter's own step (an outlier, a manoeuvre, a restart)
+                    self._stepped(ekf, ekf.step(z))  # an initialised track keeps a state: it stays seen
         if listed < len(filters):
             self._forget(moving)
+        pending = False  # a ghost to add (a loop: a comprehension costs more)
+        for _, ekf in seen:
+            if ekf.pending_z_ is not None:
+                pending = True
+                break
         if not pending:
             return seen
         ghosts = [(m, ekf.ghost()) for m, ekf in seen if ekf.pending_z_ is not None]
-        counters["ghosts"] += len(ghosts)
+        self.counters["ghosts"] += len(ghosts)
         return seen + ghosts
+
+    def _stepped(self, ekf: ObstacleEKF, event: str) -> bool:
+        """Count the event of a filter's step; whether the track has a state (is seen)."""
+        if event != "update":  # an update leaves an initialised track (the common case)
+            counters = self.counters
+            if event == "missed":
+                counters["missed_measurements"] += 1
+            elif event == "outlier":
+                counters["outliers"] += 1
+            elif event == "manoeuvre":
+                counters["manoeuvres"] += 1
+            if not ekf.started:
+                return False
+            if not ekf.initialised:
+                counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
+        return True
 
     def _forget(self, moving) -> None:
         """Drop the filters of obstacles the sensor no longer lists (out of range, or gone

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..robot import RobotParams, followed_wheel
 from .clearances import Clearances
+from .distances import approach
 from .obstacles import Obstacles, forecast_arrays, forecast_covariances, shared_batch
 
 __all__ = ["MANOEUVRES", "SEARCH_SPEEDS", "SEARCH_TURNS", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
@@ -148,12 +149,12 @@ class TrajectoryCheck(Clearances):
         self._targets = np.array([m[1:] for m in MANOEUVRES], dtype=float)
         self._swerves = np.array([m[0].startswith("swerve") for m in MANOEUVRES])
         self._fixed_targets = self._targets * self.robot.max_wheel_speed_mps
-        self._swerve_rows = self._swerves[:, None].astype(float)
-        self._reach = self.robot.max_step_change_mps(T) * self._steps[None, :, None]
+        self._swerve_rows = self._swerves.astype(float)
         self._dv = self.robot.max_step_change_mps(T)
         grid = [(u + d, u - d) for u in SEARCH_SPEEDS for d in SEARCH_TURNS
                 if abs(u + d) <= 1.0 and abs(u - d) <= 1.0 and (u >= 0.0 or abs(d) <= 0.25)]
         self._search_targets = np.array(grid, dtype=float) * self.robot.max_wheel_speed_mps
+        self._no_swerves = np.zeros(len(grid))
         self._search_names = [f"search({0.5 * (r + l):+.2f},{0.5 * (r - l):+.2f})" for r, l in grid] + self._names
         self._then_search_names = ["then " + n for n in self._search_names]
         self.search_way_out = False
@@ -244,33 +245,39 @@ class TrajectoryCheck(Clearances):
         speeds (``steps`` = H by default), each target approached at the acceleration limit
         and then held."""
         steps = self.horizon if steps is None else steps
-        vmax = self.robot.max_wheel_speed_mps
-        v0 = np.minimum(np.maximum(np.asarray(v0, dtype=float), -vmax), vmax)
-        # the swerves keep the current mean speed (at least a quarter of the limit)
-        tgt = self._fixed_targets + self._swerve_rows * max(0.5 * float(v0[0] + v0[1]), 0.25 * vmax)
-        tgt = np.minimum(np.maximum(tgt, -vmax), vmax)                          # (M, 2)
-        reach = self._reach[:, :steps]                                           # (1, steps, 1)
-        # between v0 and the target, both within the limits: no speed clip needed
-        return self._names, v0 + np.minimum(np.maximum(tgt[:, None, :] - v0, -reach), reach)
+        out = np.empty((len(self._names), steps, 2))
+        self._approach(out, 0, v0, False)
+        return self._names, out
+
+    def _approach(self, out: np.ndarray, offset: int, v0, searched: bool) -> None:
+        """Fill ``out[:, offset:]`` with the manoeuvres (or the searched grid's targets) from
+        the wheel speeds ``v0``, each target approached at the acceleration limit and held
+        (:func:`~casadi_gpc.safety.distances.approach`, compiled): the swerves keep the
+        current mean speed (at least a quarter of the limit); between ``v0`` and the target,
+        both within the limits, no speed clip is needed."""
+        if searched:
+            approach(out, offset, float(v0[0]), float(v0[1]), self._search_targets, self._no_swerves, False,
+                     self.robot.max_wheel_speed_mps, self._dv)
+        else:
+            approach(out, offset, float(v0[0]), float(v0[1]), self._fixed_targets, self._swerve_rows, True,
+                     self.robot.max_wheel_speed_mps, self._dv)
 
     def _escapes(self, cmd: np.ndarray, searched: bool = False) -> np.ndarray:
         """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there (``searched``:
         each target of the searched grid instead; with :attr:`search_way_out` a command passes
         when some way out of the set the check itself would take, the grid and the manoeuvres,
         keeps the margin)."""
-        man = self._searched(cmd, self.horizon - 1) if searched else self.manoeuvres(cmd, self.horizon - 1)[1]
-        W = np.empty((len(man), self.horizon, 2))
+        W = np.empty((len(self._search_targets) if searched else len(self._names), self.horizon, 2))
         W[:, 0] = cmd
-        W[:, 1:] = man
+        self._approach(W, 1, cmd, searched)
         return W
 
     def _searched(self, v0, steps: int) -> np.ndarray:
         """(K, steps, 2): each target of the searched grid approached from ``v0`` at the
         acceleration limit and held."""
-        vmax = self.robot.max_wheel_speed_mps
-        v0 = np.minimum(np.maximum(np.asarray(v0, dtype=float), -vmax), vmax)
-        reach = self._reach[:, :steps]
-        return v0 + np.minimum(np.maximum(self._search_targets[:, None, :] - v0, -reach), reach)
+        out = np.empty((len(self._search_targets), steps, 2))
+        self._approach(out, 0, v0, True)
+        return out
 
     def _as_candidate(self, state, wheels) -> tuple[np.ndarray | None, np.ndarray | None, bool]:
         """(command (2,), own plan (H, 2) or None, whether it had to be limited); None

@@ -23,7 +23,7 @@ from ..robot import robot_step_float
 _robot_step = njit(cache=True)(robot_step_float)  # the robot model's float form, compiled
 
 __all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "chord_clearances",
-           "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound", "escape_bounds"]
+           "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound", "escape_bounds", "approach"]
 
 
 @njit("complex128[:, ::1](float64[::1], float64[:, :, ::1], float64[::1], float64, float64)", cache=True)
@@ -309,3 +309,27 @@ def escape_bounds(x, y, h, wheels, T, W, sag_scale, q, touch, walls, robot_radiu
         if low > best:
             best, bm, bj, bk = low, m, lj, lk
     return best, bm, bj, bk
+
+
+@njit("void(float64[:, :, ::1], int64, float64, float64, float64[:, ::1], float64[::1], boolean, float64, float64)",
+      cache=True)
+def approach(out, offset, v0r, v0l, targets, swerve, clip, vmax, dv):  # pragma: no cover (compiled)
+    """Wheel-speed sequences that approach targets at the acceleration limit and hold them:
+    ``out[m, offset + k] = v0 + min(max(t_m - v0, -dv (k + 1)), dv (k + 1))`` for the steps
+    after ``offset``, ``v0`` the wheel speeds ``(v0r, v0l)`` held to ``+-vmax``; the targets
+    ``t_m = targets[m] + swerve[m] * max(mean(v0), vmax / 4)`` (the swerves keep the current
+    mean speed), held to ``+-vmax`` when ``clip``. The check's manoeuvres and searched grid
+    (:meth:`~casadi_gpc.safety.check.TrajectoryCheck.manoeuvres`, ``_searched``), compiled: the
+    numpy expression's numbers bit for bit (``tests/test_safety.py``)."""
+    a = np.minimum(np.maximum(v0r, -vmax), vmax)
+    b = np.minimum(np.maximum(v0l, -vmax), vmax)
+    mean, quarter = 0.5 * (a + b), 0.25 * vmax
+    add = quarter if quarter > mean else mean  # max(mean, quarter), as Python's max takes it
+    for m in range(out.shape[0]):
+        tr, tl = targets[m, 0] + swerve[m] * add, targets[m, 1] + swerve[m] * add
+        if clip:
+            tr, tl = np.minimum(np.maximum(tr, -vmax), vmax), np.minimum(np.maximum(tl, -vmax), vmax)
+        for k in range(out.shape[1] - offset):
+            reach = dv * (k + 1)
+            out[m, offset + k, 0] = a + np.minimum(np.maximum(tr - a, -reach), reach)
+            out[m, offset + k, 1] = b + np.minimum(np.maximum(tl - b, -reach), reach)

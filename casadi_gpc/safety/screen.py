@@ -119,6 +119,15 @@ class QuickScreen(TrajectoryCheck):
         else:
             path, label = self._then_target(cmd, self._reverse_target), "then reverse"
         sag_scale = T * T / (16.0 * W)
+        if many and not own:  # the path's chord bound in one compiled call (the same numbers as below)
+            low, _, j, k = escape_bounds(float(robot.x_m), float(robot.y_m), float(robot.heading_rad),
+                                         np.array(path, dtype=float).reshape(1, H, 2), T, W, sag_scale, obs[0], obs[1],
+                                         walls if has_walls else _NO_WALLS, self.robot.radius_m)
+            if low >= self.margin_m:
+                check = SafetyCheck(True, low, low, (k + 1) * T, self._quick_label(forecasts, statics, j), label,
+                                    H * T, False)
+                return check, cmd, None, limited
+            return self._quick_escapes(robot, cmd, obs, walls, limited, forecasts, statics)
         sag = [abs(a + b) * abs(a - b) * sag_scale for a, b in path]
         if own and not changed and poses is not None:  # the caller's roll-out of this very plan
             xyh = poses.ravel().tolist()

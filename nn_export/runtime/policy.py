@@ -47,6 +47,7 @@ from casadi_gpc.types import ControlDecision, Observation
 from .features import RolloutFeatures, feature_values, feature_values_from
 from .model_file import INPUT_NAME, OUTPUT_NAME, POLICY_FORMAT, _bind, _load_session, _validate, read_model_metadata
 from .rollout import roll_out
+from .set_slots import CrowdSlots
 from .situation import Situation, reference_rows
 from .side_networks import CrowdNetwork, WallsNetwork
 from .tracker import SituationTracker
@@ -397,8 +398,12 @@ class OnnxPolicy:
             return None
         layout, answer, obs, tracks, vr, vl, s_m, wall_rows = last
         rows = reference_rows(obs.reference, s_m, self.sample_time_s, 2 * self.horizon - 1)
+        # a crowd's features at each step from the compiled slots, where they answer (the same
+        # values; not a layout that reads walls; the decision's own features stay in plain floats:
+        # one call, where making the arrays costs more)
+        slots = CrowdSlots.make(layout, tracks, obs.static) if wall_rows is None else None
         return roll_out(layout, answer, obs.robot, (vr, vl), tracks, obs.static, rows, self.sample_time_s, self.robot,
-                        wall_rows)
+                        wall_rows, slots)
 
     def _map_rows(self, walls) -> np.ndarray:
         """The map's walls as segment rows (:func:`~nn_export.runtime.wall_scan.wall_segment_rows`),

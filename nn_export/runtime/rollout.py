@@ -22,8 +22,9 @@ import numpy as np
 
 from casadi_gpc.robot import RobotParams, RobotState, followed_wheel, robot_step_float
 
-from .features import feature_values_from
+from .features import _window_tails, feature_values_from
 from .layouts import FeatureLayout
+from .set_slots import CrowdSlots
 
 __all__ = ["roll_out"]
 
@@ -45,14 +46,17 @@ class _Ahead:
 
 
 def roll_out(layout: FeatureLayout, answer, robot: RobotState, command: tuple[float, float], tracks, statics,
-             reference_rows: list, sample_time_s: float, params: RobotParams, wall_rows=None
-             ) -> tuple[np.ndarray, np.ndarray]:
+             reference_rows: list, sample_time_s: float, params: RobotParams, wall_rows=None,
+             slots: CrowdSlots | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The plan ``(H, 2)`` whose first step is ``command`` and whose step j is the network's
     answer (``answer(values) -> (v_right, v_left)``) at step j, and the robot's poses after
     each step ``(H, 3)``. ``reference_rows``: the desired poses at steps 0..2H-1 (rows
     ``(x, y, heading)``); ``tracks``: the decision's track estimates (their forecasts cover
     the H steps); ``wall_rows``: the map's wall segments, for a layout that reads walls (the
-    scan from each predicted pose)."""
+    scan from each predicted pose). ``slots``: the decision's
+    :class:`~nn_export.runtime.set_slots.CrowdSlots` of these tracks and statics, when it has
+    them (a ``set`` layout, no walls): the features of each step from its compiled slots (the
+    same values), the reference windows' tails made once."""
     H, T = layout.horizon, float(sample_time_s)
     if len(reference_rows) < 2 * H:
         raise ValueError(f"a roll-out needs the desired poses at steps 0..{2 * H - 1}, got {len(reference_rows)}")
@@ -60,6 +64,15 @@ def roll_out(layout: FeatureLayout, answer, robot: RobotState, command: tuple[fl
     vr, vl = float(command[0]), float(command[1])
     x, y, th = robot_step_float(float(robot.x_m), float(robot.y_m), float(robot.heading_rad), vr, vl, T, W)
     wheels, poses = [(vr, vl)], [(x, y, th)]
+    if slots is not None:
+        windows = _window_tails(layout, reference_rows[:2 * H], T)
+        for j in range(1, H):
+            nr, nl = answer(slots.values(x, y, th, vr, vl, reference_rows[j:j + H + 1], T, None, j, windows[j]))
+            vr, vl = followed_wheel(vr, nr, dv, vmax), followed_wheel(vl, nl, dv, vmax)  # as the robot follows it
+            x, y, th = robot_step_float(x, y, th, vr, vl, T, W)
+            wheels.append((vr, vl))
+            poses.append((x, y, th))
+        return np.array(wheels), np.array(poses)
     paths = [(t, t.means_m.tolist()) for t in tracks]
     for j in range(1, H):
         ahead = [_Ahead(t, m[j - 1], j) for t, m in paths]

@@ -61,6 +61,10 @@ def add_arguments(p):
                    help="--dagger MODEL: run the network bare (off, default: its own failure states get "
                         "labelled) or behind the safety check layer with the GPC (gpc) or only its manoeuvres "
                         "(brake) as fallback; --dagger gpc: the planner drives behind its check layer")
+    p.add_argument("--labels", choices=("cold", "closed-loop"), default="cold",
+                   help="--dagger: label each visited situation by the GPC solved afresh from its fixed guesses "
+                        "(cold, default) or by a GPC kept in step with the episode, as it commands in closed loop "
+                        "(closed-loop; nn_export/training/dataset/onpolicy.py)")
     p.add_argument("--episodes", type=int, default=100, help="episodes of the random suite for --dagger")
     p.add_argument("--round", type=int, default=1, help="DAgger round number (names the part: dagger<R>)")
     p.add_argument("--dagger-noise", type=float, default=0.0, metavar="SIGMA",
@@ -102,9 +106,11 @@ def run(args) -> int:
         raise UsageError(f"--tie-margin must be in [0, 1), got {args.tie_margin}")
     if args.dagger is not None and args.scheme != "sampled":
         raise UsageError("--scheme applies to sampled situations, not to --dagger rounds")
-    if args.dagger is None and (args.dagger_noise or args.start_offset or args.dagger_suite):
-        raise UsageError("--dagger-noise, --dagger-suite and --start-offset apply to on-policy rounds: "
+    if args.dagger is None and (args.dagger_noise or args.start_offset or args.dagger_suite or args.labels != "cold"):
+        raise UsageError("--dagger-noise, --dagger-suite, --start-offset and --labels apply to on-policy rounds: "
                          "they need --dagger")
+    if args.labels == "closed-loop" and args.tie_margin is not None:
+        raise UsageError("--tie-margin applies to cold labels, not --labels closed-loop")
     if args.dagger is not None:
         return _dagger(args)
     if args.samples is None:
@@ -214,7 +220,7 @@ def _dagger(args) -> int:
     options = OnPolicyOptions(config, layout, solver, robot,
                               mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
                               noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE,
-                              tie_margin=args.tie_margin)
+                              tie_margin=args.tie_margin, labels=args.labels)
     pool = WorkerPool(args.workers, args.backend, args.address)
     with connected(pool):
         arrays, stats = collect_on_policy_parallel(factory, scenarios, options, pool,
@@ -223,6 +229,7 @@ def _dagger(args) -> int:
     info = {"round": args.round, "model": str(args.dagger), "suite": suite, **crowd, "episodes": args.episodes,
             "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety,
             "driving_noise_mps": args.dagger_noise, "start_offset_m": args.start_offset, "tie_margin": args.tie_margin,
+            "labels": args.labels,
             "noise_applied": int(sum(e.get("noise_applied", 0) for e in stats["episodes"]))}
     try:
         doc = append_part(args.out, part, arrays, stats, info)

@@ -1,6 +1,21 @@
 """On-policy data (DAgger, and DART when the GPC itself drives): a driver runs episodes, every
-situation it visits is labelled afresh by the GPC, and the samples are appended to a
-dataset as a part of their own."""
+situation it visits is labelled by the GPC, and the samples are appended to a dataset as a
+part of their own.
+
+Two kinds of labels (:attr:`OnPolicyOptions.labels`):
+
+- ``cold`` (the default, and every shipped network before the walls network): each situation
+  solved afresh from the planner's fixed guesses (:class:`~nn_export.training.labels.Labeller`),
+  the answer of a planner that has just been switched on there;
+- ``closed-loop``: the answer of a planner that has driven along (a *shadow* GPC, bare, fed
+  the same observations as the driver from the episode's start, so its filters, reference
+  clock and kept candidates are what they would be in closed loop). This is what the closed
+  loop the network imitates actually commands. The two differ where the planner's kept
+  candidates hold it to a choice the cold multi-start does not find or does not prefer: on the
+  ``corner`` suite's GPC-driven episodes the cold label was more than 0.1 m/s from the GPC's
+  own command in 18 % of the situations, 30 % with a person within 2 m (docs/buildings.md).
+  The shadow's fallbacks (no converged plan) are not labelled, and counted as not converged.
+"""
 from __future__ import annotations
 
 import math
@@ -15,14 +30,16 @@ from casadi_gpc.robot import RobotParams, RobotState
 
 from ...runtime.layouts import FeatureLayout, layout_from_dict
 from ...runtime.tracker import SituationTracker
-from ..labels import Labeller
+from ..labels import GUESS_NAMES, Label, Labeller
 from .labelling import ShardBuilder, label_situations, labeller_for, new_stats
 from .shards import (MANIFEST, locked, manifest_document, merge_stats, read_manifest, shard_name, stats_summary,
                      write_manifest, write_shard)
 from .spec import SHARD_STRIDE, DatasetMismatch, digest
 
-__all__ = ["OnPolicyOptions", "Recorder", "perturb_start", "collect_on_policy", "collect_on_policy_parallel",
-           "append_part"]
+__all__ = ["OnPolicyOptions", "Recorder", "LABEL_KINDS", "closed_loop_label", "perturb_start", "collect_on_policy",
+           "collect_on_policy_parallel", "append_part"]
+
+LABEL_KINDS = ("cold", "closed-loop")
 
 
 class Recorder:
@@ -35,8 +52,10 @@ class Recorder:
     The labels are not affected: every recorded situation is labelled afresh by the GPC.
     The number of perturbed decisions is counted (``counters["driving_noise_applied"]``)."""
 
-    def __init__(self, policy, config: PlannerConfig, noise_mps: float = 0.0, seed: int = 0):
+    def __init__(self, policy, config: PlannerConfig, noise_mps: float = 0.0, seed: int = 0, shadow=None):
         self.policy = policy
+        self.shadow = shadow
+        """The planner that labels each situation in closed loop (None: cold labels later)."""
         self.tracker = SituationTracker(config)
         self.sample_time_s = policy.sample_time_s
         self.situations = []
@@ -53,18 +72,39 @@ class Recorder:
 
     def reset(self) -> None:
         self.policy.reset()
+        if self.shadow is not None:
+            self.shadow.reset()
         self.tracker.reset()
         self.situations = []
         self._perturbed = 0
 
     def decide(self, obs):
-        self.situations.append(self.tracker.update(obs))
+        sit = self.tracker.update(obs)
+        self.situations.append(sit if self.shadow is None else (sit, closed_loop_label(self.shadow.decide(obs))))
         dec = self.policy.decide(obs)
         if self.noise_mps > 0:
             e = self._rng.normal(0.0, self.noise_mps, 2)
             dec = replace(dec, v_right_mps=float(dec.v_right_mps + e[0]), v_left_mps=float(dec.v_left_mps + e[1]))
             self._perturbed += 1
         return dec
+
+
+def closed_loop_label(decision) -> Label:
+    """The :class:`~nn_export.training.labels.Label` of a GPC's decision in closed loop: its
+    plan's first step and whole plan, cost, winning candidate and iterations; not converged
+    where the planner fell back. The candidates' costs are not known (NaN)."""
+    H = None if decision.planned_wheels_mps is None else len(decision.planned_wheels_mps)
+    costs = np.full(len(GUESS_NAMES), np.nan)
+    info = decision.info
+    if decision.fallback or H is None:
+        n = H or 1
+        return Label(False, np.full(2, np.nan), np.full((n, 2), np.nan), float("nan"), decision.reason or "fallback",
+                     "", -1, costs, float(info.get("solve_time_s", 0.0)), int(info.get("candidates", 0)),
+                     str(info.get("solver", "")))
+    plan = np.asarray(decision.planned_wheels_mps, dtype=float)
+    return Label(True, plan[0].copy(), plan, float(decision.cost), "closed-loop", str(decision.reason),
+                 int(info.get("iterations", -1)), costs, float(info.get("solve_time_s", 0.0)),
+                 int(info.get("candidates", 0)), str(info.get("solver", "")))
 
 
 def perturb_start(scenario, rng: np.random.Generator, lateral_m: float, heading_rad: float):
@@ -104,6 +144,15 @@ class OnPolicyOptions:
     """The first situation id (a part's ids: ``round * PART_STRIDE`` and up)."""
     tie_margin: float | None = None
     """The labels' near-tie margin (:mod:`nn_export.training.ties`); None: the planner's choice."""
+    labels: str = "cold"
+    """``cold``: each situation solved afresh from the fixed guesses; ``closed-loop``: the
+    answer of a GPC kept in step with the episode (the module docstring)."""
+
+    def __post_init__(self):
+        if self.labels not in LABEL_KINDS:
+            raise ValueError(f"labels must be one of {', '.join(LABEL_KINDS)}, got {self.labels!r}")
+        if self.labels == "closed-loop" and self.tie_margin is not None:
+            raise ValueError("a near-tie margin applies to cold labels, not closed-loop ones")
 
 
 def collect_on_policy(policy, scenarios, options: OnPolicyOptions, labeller: Labeller | None = None
@@ -120,7 +169,9 @@ def collect_on_policy(policy, scenarios, options: OnPolicyOptions, labeller: Lab
     n = len(situations) * (2 if options.mirror else 1)
     builder = ShardBuilder(n, layout.size, config.horizon)
     stats = new_stats()
-    label_situations(builder, stats, iter(situations), layout, labeller, options.mirror, options.mirror_check_every,
+    # a closed-loop label is no cold multi-start's: the cold mirror check does not apply to it
+    check_every = options.mirror_check_every if options.labels == "cold" else 0
+    label_situations(builder, stats, iter(situations), layout, labeller, options.mirror, check_every,
                      options.id_base)
     arrays = {k: (v[: builder.k] if isinstance(v, np.ndarray) else v) for k, v in builder.arrays().items()}
     stats["episodes"] = episodes
@@ -130,7 +181,8 @@ def collect_on_policy(policy, scenarios, options: OnPolicyOptions, labeller: Lab
 def _drive(policy, scenarios, options: OnPolicyOptions) -> tuple[list, list[dict]]:
     """Run ``policy`` on every scenario: the situations it visited, and each episode's outcome."""
     from scenarios.simulator import simulate
-    recorder = Recorder(policy, options.config, options.noise_mps, options.noise_seed)
+    shadow = _shadow(options.config, options.robot) if options.labels == "closed-loop" else None
+    recorder = Recorder(policy, options.config, options.noise_mps, options.noise_seed, shadow)
     situations, episodes = [], []
     for sc in scenarios:
         log = simulate(sc, recorder, "on-policy")
@@ -139,6 +191,20 @@ def _drive(policy, scenarios, options: OnPolicyOptions) -> tuple[list, list[dict
                          "min_clearance_m": float(log.min_clearance_m),
                          "noise_applied": int(log.events.get("driving_noise_applied", 0))})
     return situations, episodes
+
+
+_SHADOWS: dict = {}
+"""The shadow planner of each worker process (closed-loop labels), built on first use."""
+
+
+def _shadow(config: PlannerConfig, robot: RobotParams):
+    """This process's bare GPC for ``(config, robot)``, built once (reset by the recorder
+    before every episode)."""
+    key = (config, robot)
+    if key not in _SHADOWS:
+        from casadi_gpc.planner.gpc import GPCController
+        _SHADOWS[key] = GPCController(config, robot)
+    return _SHADOWS[key]
 
 
 _POLICIES: dict = {}

@@ -4,6 +4,7 @@ with it, every intervention counted."""
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 
@@ -766,27 +767,35 @@ def test_the_planner_goes_behind_the_check_with_safer_alternatives_where_measure
 
 def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monkeypatch):
     """Safe beats unsafe; between two that lose the margin, the one that keeps it longer from
-    the obstacles' expected discs wins whatever the inflated discs say, then the inflated
-    order (kept longer, then the larger clearance) as before."""
+    the obstacles' expected discs wins whatever the inflated discs say, then the one that
+    keeps off the fixed obstacles (walls, static discs) longer, then the inflated order (kept
+    longer, then the larger clearance) as before."""
     from casadi_gpc.safety.check import SafetyCheck, TrajectoryCheck
     better = TrajectoryCheck._better
 
-    def check(safe, kept, contact, clearance=-0.1):
-        return SafetyCheck(safe, clearance, clearance, 0.0, "", "", kept, contact_s=contact)
+    def check(safe, kept, contact, clearance=-0.1, fixed=math.inf):
+        return SafetyCheck(safe, clearance, clearance, 0.0, "", "", kept, contact_s=contact, fixed_contact_s=fixed)
     late_expected, early_expected = check(False, 1.0, 6.0), check(False, 4.0, 2.0)
     assert better(late_expected, early_expected) and not better(early_expected, late_expected)
     assert better(check(True, 6.0, 6.0), late_expected) and not better(late_expected, check(True, 6.0, 6.0))
     assert better(check(False, 4.0, 6.0), late_expected)               # tie on the expected: inflated
     assert better(check(False, 1.0, 6.0, 0.2), late_expected)           # then the clearance
+    into_wall = check(False, 4.0, 0.0, 0.2, fixed=0.1)                  # all touch at once: not the wall too
+    assert better(check(False, 0.5, 0.0, -0.3), into_wall) and not better(into_wall, check(False, 0.5, 0.0, -0.3))
+    assert better(check(False, 1.0, 6.0, fixed=0.1), early_expected)    # the expected discs come first
     # the best of several sequences follows the same order
     f = SafetyFilter(ROBOT, 0.5, 12)
     N = 12 * f.substeps
-    kept, contact = np.array([40, 10, 30]), np.array([20, N, 20])
+    kept, contact, fixed = np.array([40, 10, 30]), np.array([20, N, 20]), np.full(3, N)
     monkeypatch.setattr(f, "clearances", lambda *a: (np.full(3, -0.2), np.zeros(3), np.zeros(3, int),
-                                                     np.zeros(3, int), kept, contact))
+                                                     np.zeros(3, int), kept, contact, fixed))
     obstacles = f.obstacle_tracks([forecast((3.0, 0.0), (0.0, 0.0), 0.5, 12)], ())
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "b" and not best.safe and best.contact_s == 6.0
+    contact[:], fixed[:] = [20, 20, 20], [20, 30, N]  # a tie on the expected discs: the one off the wall
+    best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
+    assert best.continuation == "c" and best.fixed_contact_s == 6.0 and best.kept_s < kept.max() * 0.5 / f.substeps
+    fixed[:] = N
     kept[:] = [N, 10, 30]  # one keeps the inflated margin all along: it wins
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.safe and best.continuation == "a"
@@ -853,9 +862,40 @@ def test_the_filter_counts_its_searches():
     assert f.counters["searched"] == 1 and f.counters["interventions"] == 1
 
 
+def test_being_inside_a_persons_disc_does_not_license_the_robot_into_a_wall():
+    """The robot 0.03 m off a wall and 0.15 m inside a person's disc (the person stands still):
+    turning into the wall and driving on loses the wall's margin, and touches the wall, when
+    it closes in on the wall, not 0.15 m deeper (where the person's overlap put the threshold
+    that the closest obstacle sets for the movers); among ways out that all lose the margin,
+    the one into the wall ranks below one that stays off it."""
+    from casadi_gpc.safety.walls import wall_segments
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H)
+    tau = T / f.substeps
+    r = ROBOT.radius_m
+    walls = wall_segments((((-5.0, -(r + 0.03)), (5.0, -(r + 0.03))),)).copy()  # as the filter gives them
+    person = forecast((-(r + 0.3 - 0.15), 0.0), (0.0, 0.0), T, H)  # behind the robot, overlapping by 0.15 m
+    obs = f.obstacle_tracks([person], (), walls)
+    state = np.array([0.0, 0.0, -0.6, 0.0, 0.0])  # heading 34 degrees towards the wall
+    into = np.tile([0.3, 0.3], (1, H, 1))           # straight on: into the wall
+    along, along_state = into.copy(), np.zeros(5)    # the same, heading along the wall
+    _, _, _, _, kept, contact, fixed = f.clearances(state, into, obs)
+    # the wall is closer than the margin now: the margin is lost as soon as the robot closes in on it
+    wall_gap = np.abs(f.rollout(state, into)[0].imag + (r + 0.03)) - r  # to the line y = -(r + 0.03)
+    first_closer = int(np.argmax(wall_gap[1:] < 0.03 - 1e-6))
+    assert kept[0] <= first_closer + 1
+    touch = int(np.argmax(wall_gap[1:] < 0.0))
+    assert contact[0] <= fixed[0] <= touch + 1 and fixed[0] * tau < 1.0  # the wall touched, not 0.15 m into it
+    assert f.clearances(along_state, along, obs)[6][0] == H * f.substeps
+    best = f._pick(tuple(np.concatenate([a, b]) for a, b in zip(f.clearances(state, into, obs),
+                                                                  f.clearances(along_state, along, obs))),
+                   obs, ["into the wall", "along it"])
+    assert best.continuation == "along it"
+
+
 def _numpy_clearances(f, state, W, obs):
     """The check's clearances in whole-array numpy (the form the compiled one replaced), as an
-    independent implementation: discs only."""
+    independent implementation: discs only (moving, then static)."""
     M, N = W.shape[0], f.horizon * f.substeps
     q, touch = obs.sub_samples()
     rel = f.rollout(state, W)[:, None, :] - q
@@ -866,12 +906,17 @@ def _numpy_clearances(f, state, W, obs):
     gap = dist - touch
     flat = gap.reshape(M, -1)
     k = flat.argmin(axis=1)
-    now = (np.hypot(rel[..., 0].real, rel[..., 0].imag) - touch[:, 0]).min(axis=1)
-    below = gap.min(axis=1) < np.minimum(f.margin_m, now - 1e-6)[:, None]
-    now0 = (np.hypot(rel[..., 0].real, rel[..., 0].imag) - obs.radii).min(axis=1)
-    below0 = (dist - obs.radii[:, None]).min(axis=1) < np.minimum(0.0, now0 - 1e-6)[:, None]
+    nm = len(obs.moving)
+    own = np.hypot(rel[..., 0].real, rel[..., 0].imag) - touch[:, 0]  # (M, n): each disc's now
+    own0 = np.hypot(rel[..., 0].real, rel[..., 0].imag) - obs.radii
+    now, now0 = own.min(axis=1), own0.min(axis=1)
+    ref, ref0 = own.copy(), own0.copy()  # a mover's threshold from the least, a static's from its own
+    ref[:, :nm], ref0[:, :nm] = now[:, None], now0[:, None]
+    below = (gap < np.minimum(f.margin_m, ref - 1e-6)[..., None]).any(axis=1)
+    touched = (dist - obs.radii[:, None]) < np.minimum(0.0, ref0 - 1e-6)[..., None]
+    below0, fixed = touched.any(axis=1), touched[:, len(obs.moving):].any(axis=1)
     return (flat[np.arange(M), k], now, k % N, k // N, np.where(below.any(axis=1), below.argmax(axis=1), N),
-            np.where(below0.any(axis=1), below0.argmax(axis=1), N))
+            np.where(below0.any(axis=1), below0.argmax(axis=1), N), np.where(fixed.any(axis=1), fixed.argmax(axis=1), N))
 
 
 @pytest.mark.benchmark
@@ -900,16 +945,18 @@ def test_the_compiled_clearances_are_the_whole_array_ones():
     """The compiled clearances (:func:`casadi_gpc.safety.distances.chord_clearances`) against
     the same arithmetic in whole-array numpy, among random crowds: the same smallest
     clearances and clearances now (to rounding), the same obstacle of the smallest, and the
-    same chords where the margin is lost and where a disc is touched, for the manoeuvres and
-    the searched grid."""
+    same chords where the margin is lost, where a disc is touched and where a static one is,
+    for the manoeuvres and the searched grid."""
     T, H = 0.5, 12
     rng = np.random.default_rng(11)
     f = SafetyFilter(ROBOT, T, H, search=True)
-    lost = 0
-    for _ in range(60):
+    lost = fixed_touched = 0
+    for i in range(60):
         state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), *rng.uniform(-0.2, 0.8, 2)])
         fc = _movers(rng, T, H, 10, 6.0, 0.5)
-        obs = f.obstacle_tracks(fc, ())
+        statics = tuple(StaticObstacle(tuple(rng.uniform(-2.5, 2.5, 2)), rng.uniform(0.1, 0.5)) for _ in range(i % 4))
+        statics = tuple(s for s in statics if np.hypot(*s.position_m) > s.radius_m + ROBOT.radius_m)
+        obs = f.obstacle_tracks(fc, statics)
         W = np.concatenate([f._searched(state[3:], H), f.manoeuvres(state[3:])[1]])
         got, ref = f.clearances(state, W, obs), _numpy_clearances(f, state, W, obs)
         np.testing.assert_allclose(got[0], ref[0], rtol=0, atol=1e-12)
@@ -917,7 +964,8 @@ def test_the_compiled_clearances_are_the_whole_array_ones():
         for x, y in zip(got[3:], ref[3:]):  # the obstacle, kept, contact
             assert np.array_equal(x, y)
         lost += int((got[4] < H * f.substeps).sum())
-    assert lost > 100  # the margin is lost in many of them: the chords are compared
+        fixed_touched += int((got[6] < H * f.substeps).sum())
+    assert lost > 100 and fixed_touched > 20  # the margin is lost, statics touched, in many: the chords are compared
 
 
 def test_the_compiled_manoeuvres_and_grid_are_the_numpy_expressions_bit_for_bit():

@@ -72,7 +72,8 @@ class SafetyCheck:
     ``plan_on_demand``)."""
     kept_s: float = math.inf
     """How long from now the clearance stays at or above the margin (or, inside the margin,
-    at or above the clearance now); the horizon when it always does."""
+    at or above the clearance now: the least of all for the movers, a wall's or static
+    obstacle's own for it); the horizon when it always does."""
     exact: bool = True
     """False when a quick screen settled it: ``min_clearance_m`` is then a lower bound."""
     contact_s: float = math.inf
@@ -81,6 +82,10 @@ class SafetyCheck:
     obstacles themselves), or, touching one now, does not close in further; the horizon when
     it always does. What ranks sequences that all lose the (inflated) margin
     (:meth:`TrajectoryCheck._better`)."""
+    fixed_contact_s: float = math.inf
+    """The same for the fixed obstacles alone (the walls and static discs): what ranks
+    sequences that lose the margin and touch an expected disc equally soon, so that among ways
+    out that all meet a person at once the robot does not also drive into a wall."""
 
 
 
@@ -308,28 +313,30 @@ class TrajectoryCheck(Clearances):
 
     def _pick(self, found: tuple, obstacles, labels: list[str]) -> SafetyCheck:
         """:meth:`_check_best` of :meth:`clearances`' answer ``found``."""
-        cmin, _, _, _, kept, contact = found
+        cmin, _, _, _, kept, contact, fixed = found
         i = 0
         if len(cmin) > 1:
             safe = kept == self.horizon * self.substeps
-            i = _best(safe, cmin) if safe.any() else self._best_unsafe(cmin, kept, contact)
+            i = _best(safe, cmin) if safe.any() else self._best_unsafe(cmin, kept, contact, fixed)
         return self._verdict(found, i, obstacles, labels[i])
 
     @staticmethod
-    def _best_unsafe(cmin, kept, contact) -> int:
+    def _best_unsafe(cmin, kept, contact, fixed) -> int:
         """The index of the best of sequences that all lose the margin, by :meth:`_better`'s
-        order: the longest clear of the expected discs, then the longest keeping the margin,
-        then the largest smallest clearance, then the first."""
+        order: the longest clear of the expected discs, then the longest off the fixed
+        obstacles, then the longest keeping the margin, then the largest smallest clearance,
+        then the first."""
         first = contact == contact.max()
+        first &= fixed == fixed[first].max()
         return _best(first & (kept == kept[first].max()), cmin)
 
     def _verdict(self, found: tuple, i: int, obstacles, label: str) -> SafetyCheck:
         """The :class:`SafetyCheck` of the ``i``-th sequence of :meth:`clearances`' answer ``found``."""
-        cmin, now, chord, which, kept, contact = found
+        cmin, now, chord, which, kept, contact, fixed = found
         N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
         return SafetyCheck(bool(kept[i] == N), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
                            obstacles.label(int(which[i])), label, float(kept[i]) * tau,
-                           contact_s=float(contact[i]) * tau)
+                           contact_s=float(contact[i]) * tau, fixed_contact_s=float(fixed[i]) * tau)
 
     @staticmethod
     def _better(a: SafetyCheck, b: SafetyCheck) -> bool:
@@ -349,6 +356,8 @@ class TrajectoryCheck(Clearances):
             return a.safe
         if not a.safe and abs(a.contact_s - b.contact_s) > 1e-12:
             return a.contact_s > b.contact_s
+        if not a.safe and abs(a.fixed_contact_s - b.fixed_contact_s) > 1e-12:
+            return a.fixed_contact_s > b.fixed_contact_s
         return a.kept_s > b.kept_s + 1e-12 or (abs(a.kept_s - b.kept_s) <= 1e-12
                                                and a.min_clearance_m > b.min_clearance_m + _TIE_M)
 

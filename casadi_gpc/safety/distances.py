@@ -89,9 +89,9 @@ def chord_segment_distance(p0, p1, a, b):  # pragma: no cover (compiled)
     return 0.0 if (ca * cb < 0.0 and c0 * c1 < 0.0) else d
 
 
-@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1]))(complex128[:, ::1], "
-      "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64)", cache=True)
-def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse):  # pragma: no cover (compiled)
+@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1]))(complex128[:, ::1], "
+      "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64)", cache=True)
+def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse, n_moving):  # pragma: no cover (compiled)
     """For the roll-outs ``p`` (``(M, N + 1)`` complex, the first column now), the discs at
     ``q`` (``(n, N + 1)`` complex) touched at ``touch`` (``(n, N)``, inflated) and ``radii``
     (``(n,)``, not inflated), and the wall segments ``walls`` (``(nw, 2)`` complex ends,
@@ -100,7 +100,11 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse)
     (discs first, then walls; the first in that order on a tie), how many chords pass before
     the clearance first falls below ``min(margin, now - not_worse)`` (N when never), and how
     many before the discs not inflated, or a wall, are touched (inside one now, closed in on
-    by more than ``not_worse``). With one sequence that never falls below, both are N."""
+    by more than ``not_worse``), and how many before a fixed obstacle is so touched. The fixed
+    obstacles are the walls and the discs after the first ``n_moving`` (the static ones); for
+    each of them ``now`` is its own clearance now, for a mover the least of all (so being
+    inside a person's margin does not license the robot into a wall). With one sequence that
+    never falls below, all three are N."""
     M, N = p.shape[0], p.shape[1] - 1
     n, nw = q.shape[0], walls.shape[0]
     cmin = np.empty(M)
@@ -108,20 +112,30 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse)
     which = np.zeros(M, np.int64)
     kept = np.full(M, N, np.int64)
     contact = np.full(M, N, np.int64)
+    fixed = np.full(M, N, np.int64)
     p0 = p[0, 0]
-    # now: the inflated clearance and the distance to the expected discs and the walls
-    now, now0 = math.inf, math.inf
+    # now: the inflated clearance and the distance to the expected discs and the walls, each
+    # obstacle's and the least of them
+    now_j, now0_j = np.empty(n + nw), np.empty(n + nw)
     for j in range(n):
         r = p0 - q[j, 0]
         dj = math.hypot(r.real, r.imag)
-        now = min(now, dj - touch[j, 0])
-        now0 = min(now0, dj - radii[j])
+        now_j[j], now0_j[j] = dj - touch[j, 0], dj - radii[j]
     for w in range(nw):
         dw = segment_distance(p0, walls[w, 0], walls[w, 1]) - robot_radius
-        now = min(now, dw)
-        now0 = min(now0, dw)
-    threshold = min(margin, now - not_worse)
-    threshold0 = min(0.0, now0 - not_worse)
+        now_j[n + w], now0_j[n + w] = dw, dw
+    now, now0 = math.inf, math.inf
+    for j in range(n + nw):
+        now, now0 = min(now, now_j[j]), min(now0, now0_j[j])
+    # the thresholds: inside the margin (or a disc) now, not to close in further. A mover's
+    # are the least over all obstacles (as near one as the robot is now to the nearest); a
+    # fixed obstacle's, its own: being pressed by people does not license the robot into a wall
+    thr, thr0 = np.empty(n + nw), np.empty(n + nw)
+    for j in range(n + nw):
+        fixed_j = j >= n_moving
+        thr[j] = min(margin, (now_j[j] if fixed_j else now) - not_worse)
+        thr0[j] = min(0.0, (now0_j[j] if fixed_j else now0) - not_worse)
+    highest = thr.max() if n + nw else margin  # a gap at or above it loses the margin nowhere
     dist = np.empty((n + nw, N))
     # a lower bound of each obstacle's distance to any path that stays within D of now: its
     # sub-samples' least distance to where the robot is now, less its longest chord (a disc),
@@ -142,7 +156,7 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse)
     for w in range(nw):
         near[n + w] = segment_distance(p0, walls[w, 0], walls[w, 1]) - 1e-9
         loose[n + w] = robot_radius
-    floor = max(threshold, threshold0)  # a gap at or above both is below neither
+    floor = np.maximum(thr, thr0)  # a gap at or above both is below neither
     computed = np.zeros(n + nw, np.bool_)
     for m in range(M):
         reach2 = 0.0
@@ -155,7 +169,7 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse)
         # the nearest first, so that the far ones are left out once their bound is above the
         # smallest gap found and the thresholds; the first in (obstacle, chord) order on a tie
         for j in np.argsort(low):
-            if low[j] > best and low[j] >= floor:
+            if low[j] > best and low[j] >= floor[j]:
                 computed[j] = False
                 continue
             computed[j] = True
@@ -181,23 +195,29 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse)
                     if g < best or (g == best and (j < bj or (j == bj and c < bc))):
                         best, bj, bc = g, j, c
         cmin[m], which[m], chord[m] = best, bj, bc
-        if M == 1 and best >= threshold:
+        if M == 1 and best >= highest:
             continue  # never below: no need to find where (clear of the inflated discs: of the expected ones too)
-        k_kept, k_contact = N, N
+        k_kept, k_contact, k_fixed = N, N, N
+        any_fixed = False  # a fixed obstacle near enough to be touched: its first touch is wanted too
+        for j in range(n_moving, n + nw):
+            any_fixed = any_fixed or computed[j]
         for c in range(N):
             for j in range(n + nw):
                 if not computed[j]:
                     continue  # its gaps keep the margin and keep off its disc all along
                 t = touch[j, c] if j < n else robot_radius
                 r0 = radii[j] if j < n else robot_radius
-                if k_kept == N and dist[j, c] - t < threshold:
+                if k_kept == N and dist[j, c] - t < thr[j]:
                     k_kept = c
-                if k_contact == N and dist[j, c] - r0 < threshold0:
-                    k_contact = c
-            if k_kept < N and k_contact < N:
+                if dist[j, c] - r0 < thr0[j]:
+                    if k_contact == N:
+                        k_contact = c
+                    if k_fixed == N and j >= n_moving:
+                        k_fixed = c
+            if k_kept < N and k_contact < N and (k_fixed < N or not any_fixed):
                 break
-        kept[m], contact[m] = k_kept, k_contact
-    return cmin, now, chord, which, kept, contact
+        kept[m], contact[m], fixed[m] = k_kept, k_contact, k_fixed
+    return cmin, now, chord, which, kept, contact, fixed
 
 
 @njit("float64[:, ::1](complex128[::1], complex128[:, ::1])", cache=True)

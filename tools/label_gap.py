@@ -1,11 +1,13 @@
-"""How far a cold label is from the command the GPC gives in closed loop, in the same situations.
+"""How far a cold label is from the closed-loop label (the command the GPC gives in closed loop), in the same situations.
 
-The GPC drives a suite's episodes (bare, as it drives when its episodes are recorded for
-labels); every situation it meets is also labelled as `gpcnav dataset` labels from cold (the
-multi-start from the fixed guesses, no kept candidate), and the largest wheel-speed difference
-between the two is reported: over all situations, and over those with a person within 2 m
-of the robot. What `--labels closed-loop` (docs/buildings.md, "The network reads walls") is
-for.
+The GPC drives a suite's episodes bare, recorded as `gpcnav dataset --dagger gpc --labels
+closed-loop` records them (:class:`~nn_export.training.dataset.onpolicy.Recorder` with a
+shadow GPC: its label is the driving GPC's command, bit for bit,
+``tests/test_closed_loop_labels.py``); every situation is also labelled as `gpcnav dataset`
+labels from cold (the multi-start from the fixed guesses, no kept candidate), and the largest
+wheel-speed difference between the two is reported: over all situations, and over those with
+a person within 2 m of the robot. What `--labels closed-loop` (docs/buildings.md, "The
+network reads walls") is for.
 
 Usage: ``python tools/label_gap.py --suite corner --count 4 [--seed 2000] [--movers 5]``
 """
@@ -16,39 +18,14 @@ import argparse
 import numpy as np
 
 from casadi_gpc.config import preset
+from casadi_gpc.planner.gpc import GPCController
 from casadi_gpc.robot import RobotParams
-from gpcnav.controllers import make_controller
-from nn_export.runtime.tracker import SituationTracker
+from nn_export.training.dataset.onpolicy import Recorder
 from nn_export.training.labels import Labeller
 from scenarios import Suite
 from scenarios.simulator import simulate
 
 WALL_SUITES = ("corridor", "doorway", "corner")
-
-
-class Recording:
-    """The GPC as it drives, and each situation it saw with the command it gave."""
-
-    def __init__(self, planner, cfg):
-        self.planner = planner
-        self.sample_time_s = planner.sample_time_s
-        self.tracker = SituationTracker(cfg)
-        self.rows = []
-
-    def reset(self):
-        self.planner.reset()
-        self.tracker.reset()
-        self.rows = []
-
-    def decide(self, observation):
-        situation = self.tracker.update(observation)
-        decision = self.planner.decide(observation)
-        self.rows.append((situation, (decision.v_right_mps, decision.v_left_mps)))
-        return decision
-
-    @property
-    def counters(self):
-        return {}
 
 
 def summary(gaps: np.ndarray) -> str:
@@ -64,19 +41,20 @@ def main() -> None:
     ap.add_argument("--movers", type=int, default=5)
     args = ap.parse_args()
     cfg = preset("improved").for_walls(args.suite in WALL_SUITES)
-    recording = Recording(make_controller("gpc", cfg, RobotParams(), shield="off"), cfg)
+    robot = RobotParams()
+    recorder = Recorder(GPCController(cfg, robot), cfg, shadow=GPCController(cfg, robot))
     labeller = Labeller(cfg)
     gaps, nearest = [], []
     for scenario in Suite(args.suite, args.count, args.seed, args.movers, "orca").scenarios():
-        log = simulate(scenario, recording, scenario.name)
-        for situation, command in recording.rows:
-            label = labeller.label(situation)
-            if not label.converged:
+        log = simulate(scenario, recorder, scenario.name)
+        for situation, closed_loop in recorder.situations:
+            cold = labeller.label(situation)
+            if not (cold.converged and closed_loop.converged):
                 continue
-            gaps.append(float(np.max(np.abs(np.asarray(command) - label.wheels_mps))))
-            robot = np.array([situation.robot.x_m, situation.robot.y_m])
-            nearest.append(min((float(np.hypot(*(t.state[:2] - robot))) for t in situation.tracks), default=np.inf))
-        print(f"{scenario.name}: {log.outcome}, {len(recording.rows)} decisions")
+            gaps.append(float(np.max(np.abs(closed_loop.wheels_mps - cold.wheels_mps))))
+            robot_xy = np.array([situation.robot.x_m, situation.robot.y_m])
+            nearest.append(min((float(np.hypot(*(t.state[:2] - robot_xy))) for t in situation.tracks), default=np.inf))
+        print(f"{scenario.name}: {log.outcome}, {len(recorder.situations)} decisions")
     gaps, nearest = np.array(gaps), np.array(nearest)
     print("all:", summary(gaps))
     if np.any(nearest < 2.0):

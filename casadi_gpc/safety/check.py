@@ -305,7 +305,8 @@ class TrajectoryCheck(Clearances):
     def _check_best(self, state, wheels, obstacles, labels: list[str]) -> SafetyCheck:
         """The check of the best sequence of ``wheels`` (M, H, 2) (:meth:`_better`'s order):
         one that keeps the margin over the horizon; else the one that stays longest clear of
-        where the forecasts expect the obstacles (:attr:`SafetyCheck.contact_s`), then keeps
+        where the forecasts expect the obstacles (:attr:`SafetyCheck.contact_s`), then off the
+        walls and static obstacles (:attr:`SafetyCheck.fixed_contact_s`), then keeps
         the margin longest from their discs inflated by the forecasts' uncertainty (a violation late in the horizon,
         where the forecasts are uncertain, is not as bad as one in the next second), then
         the one with the largest smallest clearance, then the first."""
@@ -343,9 +344,10 @@ class TrajectoryCheck(Clearances):
         """Whether ``a`` is strictly better than ``b``: safe over one that is not; between
         two that lose the margin, the one that stays clear of the obstacles' expected discs
         longer (:attr:`SafetyCheck.contact_s`: the walls' and static obstacles' own, the
-        movers' where the forecasts expect them), then the one that keeps the margin from
-        their inflated discs longer (:attr:`SafetyCheck.kept_s`); then the larger smallest
-        clearance.
+        movers' where the forecasts expect them), then the one that stays off the walls and
+        static obstacles longer (:attr:`SafetyCheck.fixed_contact_s`), then the one that keeps
+        the margin from their inflated discs longer (:attr:`SafetyCheck.kept_s`); then the
+        larger smallest clearance.
 
         Ranked by the inflated discs alone (metres wide a few seconds ahead in a dense
         crowd), the check swapped the planner's plan for whichever manoeuvre lost the margin

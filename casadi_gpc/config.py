@@ -60,6 +60,12 @@ class PlannerConfig:
     max_moving: int = 3
     """Moving-obstacle slots of the NLP (unused slots are switched off). With more movers,
     the most relevant fill them (:mod:`casadi_gpc.problem.selection`)."""
+    crowd_moving: int | None = None
+    """Moving-obstacle slots of a second NLP, solved at the ticks where the controller tracks
+    more movers than :attr:`max_moving` slots hold; the first NLP at every other tick, so a
+    scene with no more movers than ``max_moving`` is planned as without it (counted:
+    ``crowd_ticks``; :mod:`casadi_gpc.planner.tiers`). None, or not above ``max_moving``: one
+    NLP."""
     relevance_range_m: float = 2.5
     """A mover left out of the slots is counted (``left_out``) when its predicted clearance
     to the robot's predicted path is under this (the obstacle term's 1.5 m reach of the
@@ -144,6 +150,8 @@ class PlannerConfig:
             raise ValueError(f"forecast must be one of {', '.join(FORECASTS)}, got {self.forecast!r}")
         if self.cold_starts is not None and self.cold_starts < 1:
             raise ValueError(f"cold_starts must be at least 1 (or None), got {self.cold_starts}")
+        if self.crowd_moving is not None and not (isinstance(self.crowd_moving, int) and self.crowd_moving >= 1):
+            raise ValueError(f"crowd_moving must be a whole number of at least 1 (or None), got {self.crowd_moving!r}")
         if not (isinstance(self.cold_start_gap, int) and self.cold_start_gap >= 0):
             raise ValueError(f"cold_start_gap must be a whole number, not negative, got {self.cold_start_gap!r}")
 
@@ -152,6 +160,12 @@ class PlannerConfig:
         (:data:`WALL_SLOTS`) unless it has some; without walls, unchanged (the NLP it always
         had)."""
         return self.with_overrides(max_walls=WALL_SLOTS) if walls and not self.max_walls else self
+
+    def for_movers(self, n: int) -> "PlannerConfig":
+        """These settings for scenes of at most ``n`` movers: without the crowd NLP
+        (:attr:`crowd_moving`) where ``n`` fits the first NLP's slots, which is then all the
+        planner ever solves (the crowd NLP is built with the controller, about a second)."""
+        return replace(self, crowd_moving=None) if self.crowd_moving is not None and n <= self.max_moving else self
 
     def with_overrides(self, **changes) -> "PlannerConfig":
         return replace(self, **{k: v for k, v in changes.items() if v is not None})
@@ -192,6 +206,10 @@ PRESETS: dict[str, PlannerConfig] = {
         # collided there); 10 took circle crossings among 10 walkers from 5 collisions in 600
         # to none (docs/crowds.md, "The cost of a slot")
         max_moving=10,
+        # among 20 to 30 walkers more than 10 matter at once: 16 slots at those ticks took
+        # square crossings among 30 walkers from 10 collisions in 40 to 2 (development seed 4;
+        # docs/pedestrians.md, "Slots for a crowd")
+        crowd_moving=16,
         margin_smoothing_m=0.05,
         goal_weight=30.0,
         guesses=("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake"),

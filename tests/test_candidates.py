@@ -138,15 +138,15 @@ def test_a_head_on_mover_is_passed_on_the_right_whatever_the_solver():
 
 
 def test_a_plan_falls_off_the_ridge_only_from_straight_to_turning():
-    from casadi_gpc.planner.gpc import STRAIGHT_MPS, _fell_off_a_ridge
+    from casadi_gpc.planner.candidates import STRAIGHT_MPS, fell_off_a_ridge
     straight = plan("swerve_right", 1.0, np.tile([0.05, 0.05], H))
     turning = plan("warm", 1.0, np.tile([0.05, 0.05 - 3 * STRAIGHT_MPS], H))
     slightly = plan("warm", 1.0, np.tile([0.05, 0.05 - 0.5 * STRAIGHT_MPS], H))
-    assert _fell_off_a_ridge(straight, [turning])
-    assert not _fell_off_a_ridge(straight, [slightly])                  # still straight
-    assert not _fell_off_a_ridge(turning, [straight, turning])          # it was not on a ridge
-    assert not _fell_off_a_ridge(straight, [plan("warm", 1.0, turning.u, ok=False)])  # failed solves do not count
-    assert not _fell_off_a_ridge(None, [turning])
+    assert fell_off_a_ridge(straight, [turning])
+    assert not fell_off_a_ridge(straight, [slightly])                  # still straight
+    assert not fell_off_a_ridge(turning, [straight, turning])          # it was not on a ridge
+    assert not fell_off_a_ridge(straight, [plan("warm", 1.0, turning.u, ok=False)])  # failed solves do not count
+    assert not fell_off_a_ridge(None, [turning])
 
 
 def test_the_relevance_memory_in_samples_per_preset():

@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from casadi_gpc.config import preset  # noqa: E402
 from casadi_gpc.io import save_figure  # noqa: E402
-from gpcnav.commands.common import with_wall_slots  # noqa: E402
+from gpcnav.commands.common import for_run  # noqa: E402
 from gpcnav.commands.simulate import run_one  # noqa: E402
 from scenarios import load_scenario  # noqa: E402
 from scenarios.plots import plot_run  # noqa: E402
@@ -51,7 +51,7 @@ def main(argv=None) -> int:
     for ax in axes.flat[len(names):]:
         ax.set_visible(False)
     for ax, name in zip(axes.flat, names):
-        doc = run_one(sc, name, with_wall_slots(preset(args.preset), [sc]))
+        doc = run_one(sc, name, for_run(preset(args.preset), [sc]))
         clr = doc["min_clearance_m"]
         plot_run(ax, doc, sc.robot.radius_m, mark_every_s=4.0,
                  title=f"{name}: {doc['outcome']}, smallest clearance {clr:.2f} m")

@@ -162,3 +162,24 @@ class CandidateSet:
 def _rank(name: str) -> int:
     return START_ORDER.index(name) if name in START_ORDER else len(START_ORDER)
 
+
+STRAIGHT_MPS = 0.01
+"""A plan whose two wheels' increments differ by at most this at every step drives straight."""
+
+
+def fell_off_a_ridge(previous, solved) -> bool:
+    """Whether the one kept plan drove straight and its warm start now turns: a head-on mover
+    puts a straight plan on the ridge between passing left and right, and the warm start falls
+    to either side by the solver's round-off (IPOPT passed Fig. 7.1 on the left, the SQP on the
+    right). A straight plan that starts to turn for another reason (an obstacle coming
+    closer) costs two solves more at that one step."""
+    if previous is None or turns(previous.u):
+        return False
+    return any(c.success and turns(c.u) for c in solved)
+
+
+def turns(u) -> bool:
+    """Whether the plan's two wheels' increments differ by more than :data:`STRAIGHT_MPS` at
+    some step (``u``: the increments, right and left interleaved)."""
+    u = np.asarray(u)
+    return bool(np.max(np.abs(u[0::2] - u[1::2])) > STRAIGHT_MPS)

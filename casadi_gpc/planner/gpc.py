@@ -8,10 +8,9 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-from ..buffered import BufferedFunction
-from .candidates import CandidateSet, shift
+from .candidates import CandidateSet, fell_off_a_ridge, shift
 from ..config import PlannerConfig, preset
-from ..problem.cost import GPCProblem, build_problem
+from ..problem.cost import GPCProblem
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
 from .guesses import TIE_ORDER, crosses_walls, initial_guesses, swerve_guesses
@@ -19,16 +18,13 @@ from .lanes import SolveLanes
 from ..progress import ReferenceClock
 from ..robot import RobotParams, brake_wheels
 from ..problem.selection import planner_parameters
-from ..solvers import Backend, SolveResult, canonical_name, make_backend
+from ..solvers import Backend, SolveResult
 from ..estimation.tracking import TrackBank
+from .tiers import BACKUP_SHARE, SolveTier, build_tier, crowd_config, crowded
 from ..types import ControlDecision, Observation, ObstacleForecast
 
 __all__ = ["Plan", "Tick", "GPCController"]
 
-BACKUP_SHARE = 0.5
-"""The backup solver runs only while this share of the step's time budget is left, and stops
-itself after that long (IPOPT's ``max_wall_time``): with a 0.5 s budget it started with any
-time left and, given the whole budget, took one decision to 0.51 s under load."""
 TIE_RELATIVE = 1e-7  # candidates closer than this in cost are a tie; the earlier one wins
 _RESULT_FIELDS = tuple(f.name for f in fields(SolveResult))
 
@@ -79,25 +75,19 @@ class GPCController:
     budget lasts; counted in ``counters['backup_solves']``). None: no second try."""
 
     def __post_init__(self):
-        self.problem: GPCProblem = build_problem(self.config, self.robot)
         self.sample_time_s = self.config.sample_time_s
         budget = self.config.time_budget_s
         self.time_budget_s = float(self.config.sample_time_s if budget is None else budget)
         """Wall time one ``decide`` may spend solving (s); later answers are not used."""
-        # built once: IPOPT also stops itself at the budget (C code cannot be interrupted
-        # from Python); the SQP and fatrop are capped by their iteration limits.
-        self.backend: Backend = make_backend(self.config.solver, self.problem, max_wall_time_s=self.time_budget_s,
-                                             compiled=self.compile_solver, ipopt_options=self.ipopt_options)
+        # built once, each NLP with its solver (:mod:`casadi_gpc.planner.tiers`): the preset's,
+        # and the crowd's where ``crowd_moving`` is set (built now: at its first tick it
+        # would hold that decision past its sample time)
+        tiers = [self.config] + [c for c in (crowd_config(self.config),) if c is not None]
+        self._tiers = [build_tier(c, self.robot, self.time_budget_s, self.compile_solver, self.ipopt_options,
+                                  self.backup_solver) for c in tiers]
+        self._tier: SolveTier | None = None
+        self._use(self._tiers[0])
         self.solver_name = self.backend.name
-        self._lanes: SolveLanes | None = None
-        self.backup: Backend | None = None
-        if self.backup_solver is not None and canonical_name(self.backup_solver) != self.solver_name:
-            # the backup stops itself at half the budget, and starts only while half is left:
-            # its answer comes within the step (a decision never outlives its sample time)
-            self.backup = make_backend(self.backup_solver, self.problem, max_wall_time_s=BACKUP_SHARE * self.time_budget_s,
-                                       compiled=self.compile_solver, ipopt_options=self.ipopt_options)
-        self._ref_slice = self.problem.layout.slices()["ref"]
-        self._rollout = BufferedFunction(self.problem.rollout_fn)
         self._forecast_function = ForecastFunction(self.config.sample_time_s, self.config.horizon)
         self.horizon = self.config.horizon
         unknown = sorted(set(self.config.guesses) - set(TIE_ORDER))
@@ -177,6 +167,28 @@ class GPCController:
             self._lanes = SolveLanes(self.backend, self.config.solve_lanes)
         return self._lanes
 
+    def _use(self, tier: SolveTier) -> None:
+        """Solve on ``tier``'s NLP from now on (``problem``, ``backend``, ``backup``, the lanes
+        and the roll-out are its; a backend replaced from outside stays with its tier)."""
+        if tier is self._tier:
+            return
+        if self._tier is not None:
+            self._tier.backend, self._tier.backup, self._tier.lanes = self.backend, self.backup, self._lanes
+        self._tier = tier
+        self.problem: GPCProblem = tier.problem
+        self.backend: Backend = tier.backend
+        self.backup: Backend | None = tier.backup
+        self._lanes: SolveLanes | None = tier.lanes
+        self._ref_slice, self._rollout = tier.ref_slice, tier.rollout
+
+    def _use_for(self, p: np.ndarray) -> None:
+        """Solve on the tier whose NLP takes the parameters ``p`` (a tick posed earlier, a
+        parameter vector packed outside; the current tier if none matches)."""
+        for tier in self._tiers:
+            if tier.problem.layout.size == np.size(p):
+                self._use(tier)
+                return
+
     def solve_many(self, p: np.ndarray, starts: list[tuple]) -> list[Plan]:
         """The starts ``(guess, u0, lam_x, lam_g)`` solved at once on the controller's lanes
         (:mod:`casadi_gpc.planner.lanes`) by its backend (and, where that fails, by the backup solver),
@@ -238,6 +250,7 @@ class GPCController:
         ``walls``: the wall segments in ``p``'s slots (``(ax, ay, bx, by)`` each), whose
         crossing guesses are not solved, as :meth:`decide` leaves them out (None: those of
         the last :meth:`pose`)."""
+        self._use_for(p)
         if walls is not None:
             self._walls_in_slots = list(walls)
         # The warm start is solved first (the likeliest answer, when the budget is short);
@@ -272,7 +285,7 @@ class GPCController:
         if full:  # known now: the fixed guesses go with the warm starts, in one batch
             starts += self._guess_starts(p, x0, ref_speed_mps)
         solved = self.solve_many(p, starts)
-        if not full and near and len(cs.plans) == 1 and _fell_off_a_ridge(previous, solved):
+        if not full and near and len(cs.plans) == 1 and fell_off_a_ridge(previous, solved):
             solved = self._opening_solves(p, x0, ref_speed_mps) + solved
         if not full and near and self._surprised(previous, solved):
             full = True  # dearer than expected: look for a minimum no kept candidate is in
@@ -302,7 +315,7 @@ class GPCController:
         batch = self._take_pending(K, began=due)
         starts = [(name, u0, lam_x, lam_g) for name, (u0, lam_x, lam_g) in cs.starts(near, False)]
         solved = self.solve_many(p, starts + self._guess_starts(p, x0, ref_speed_mps, batch))
-        if not batch and near and len(cs.plans) == 1 and _fell_off_a_ridge(previous, solved):
+        if not batch and near and len(cs.plans) == 1 and fell_off_a_ridge(previous, solved):
             solved = self._opening_solves(p, x0, ref_speed_mps) + solved
         if not batch and near and self._surprised(previous, solved):
             self._pending = self._cycle()  # look for a minimum no kept candidate is in
@@ -347,7 +360,7 @@ class GPCController:
 
     def _opening_solves(self, p, x0, ref_speed_mps: float) -> list[Plan]:
         """The two swerves, solved when the one kept plan fell off the ridge between passing
-        left and right (:func:`_fell_off_a_ridge`); first in the list, so a tie goes right."""
+        left and right (:func:`fell_off_a_ridge`); first in the list, so a tie goes right."""
         openings = swerve_guesses(self.config, self.robot, x0, ref_speed_mps)
         out = self.solve_many(p, [(name, openings[name], None, None) for name in ("swerve_right", "swerve_left")])
         self.counters["opening_solves"] = self.counters.get("opening_solves", 0) + len(out)
@@ -386,11 +399,18 @@ class GPCController:
 
     def pose(self, obs: Observation, forecasts) -> tuple[Tick, object]:
         """This step's NLP (:class:`Tick`) and the obstacle selection behind it: the
-        reference clock advanced, the movers chosen for the slots, the parameters packed."""
+        reference clock advanced, the NLP chosen (the crowd's where more movers are tracked
+        than the preset's slots hold, :mod:`casadi_gpc.planner.tiers`), the movers chosen for its
+        slots, the parameters packed."""
         ref = self.desired_poses(obs)
         x0 = obs.robot.as_array()
-        p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.config,
-                                    self._predicted_path(ref), obs.walls)
+        path = self._predicted_path(ref)
+        crowd = len(self._tiers) > 1 and crowded(self.config, forecasts)
+        if crowd:
+            self.counters["crowd_ticks"] = self.counters.get("crowd_ticks", 0) + 1
+        self._use(self._tiers[int(crowd)])
+        p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self._tier.config,
+                                    path, obs.walls)
         self.counters["left_out"] += sel.left_out
         self._walls_in_slots = sel.walls
         if sel.walls_left_out:
@@ -404,6 +424,7 @@ class GPCController:
     def solve_tick(self, tick: Tick) -> tuple[Plan | None, list[Plan]]:
         """The best plan of one step and every solve it took (persistent candidates, or the
         full multi-start, as ``PlannerConfig.candidates`` says)."""
+        self._use_for(tick.p)
         if self.config.candidates == "persistent":
             return self.plan_persistent(tick.p, tick.x0, tick.ref_speed_mps, tick.near, tick.relevant)
         return self.plan(tick.p, tick.x0, tick.ref_speed_mps, tick.near, self._warm)
@@ -471,25 +492,3 @@ class GPCController:
         self._warm = None
         vr, vl = brake_wheels(obs.robot.v_right_mps, obs.robot.v_left_mps, dv)
         return ControlDecision(vr, vl, True, "brake; " + reason, forecasts=forecasts)
-
-
-STRAIGHT_MPS = 0.01
-"""A plan whose two wheels' increments differ by at most this at every step drives straight."""
-
-
-def _fell_off_a_ridge(previous, solved) -> bool:
-    """Whether the one kept plan drove straight and its warm start now turns: a head-on mover
-    puts a straight plan on the ridge between passing left and right, and the warm start falls
-    to either side by the solver's round-off (IPOPT passed Fig. 7.1 on the left, the SQP on the
-    right). A straight plan that starts to turn for another reason (an obstacle coming
-    closer) costs two solves more at that one step."""
-    if previous is None or _turns(previous.u):
-        return False
-    return any(c.success and _turns(c.u) for c in solved)
-
-
-def _turns(u) -> bool:
-    """Whether the plan's two wheels' increments differ by more than :data:`STRAIGHT_MPS` at
-    some step (``u``: the increments, right and left interleaved)."""
-    u = np.asarray(u)
-    return bool(np.max(np.abs(u[0::2] - u[1::2])) > STRAIGHT_MPS)

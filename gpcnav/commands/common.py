@@ -43,6 +43,14 @@ def with_wall_slots(config, scenarios):
     return config.for_walls(any(getattr(s, "walls", ()) for s in scenarios))
 
 
+def for_run(config, scenarios):
+    """``config`` for a run of ``scenarios``: the wall slots where one has walls
+    (:func:`with_wall_slots`), the crowd NLP only where one has more movers than the
+    preset's slots (:meth:`casadi_gpc.config.PlannerConfig.for_movers`)."""
+    movers = max((len(getattr(s, "moving", ())) for s in scenarios), default=0)
+    return with_wall_slots(config, scenarios).for_movers(movers)
+
+
 def planner_config(args):
     cfg = preset(args.preset)
     if args.sample_time is not None and not args.sample_time > 0:

@@ -13,7 +13,7 @@ from pathlib import Path
 from ..controllers import check, parse_controller_list, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, connected, planner_config,
-                     with_wall_slots)
+                     for_run)
 from .evaluate import (add_pool_arguments, add_resume_arguments, close_store, controller_extra, eval_doc, log_to_stderr,
                        open_store, pool_from_args, run_episodes, scenarios_from_args)
 
@@ -52,7 +52,7 @@ def run(args) -> int:
     from .compare_report import compare_figure, compare_table
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
-    config = with_wall_slots(planner_config(args), scenarios)
+    config = for_run(planner_config(args), scenarios)
     check_compare_outputs(args.out)
     specs = [spec_from_args(args, name) for name in parse_controller_list(args.controllers)]
     robot = scenarios[0].robot

@@ -14,7 +14,7 @@ from ..controllers import ControllerSpec, check, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
                      connected, planner_config, progress, suite_from_args,
-                     with_wall_slots)
+                     for_run)
 
 _WORKER = {}
 
@@ -233,7 +233,7 @@ def run(args) -> int:
     from casadi_gpc.io import write_json
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
-    config = with_wall_slots(planner_config(args), scenarios)
+    config = for_run(planner_config(args), scenarios)
     spec = spec_from_args(args)
     check(spec, config, scenarios[0].robot)
     check_output_files(out=args.out)

@@ -5,7 +5,7 @@ import sys
 from pathlib import Path
 
 from ..controllers import ControllerSpec, check, describe, make, spec_from_args
-from .common import add_controller_arguments, check_output_files, check_seed, planner_config, with_wall_slots
+from .common import add_controller_arguments, check_output_files, check_seed, planner_config, for_run
 
 
 def add_arguments(p):
@@ -48,7 +48,7 @@ def run(args) -> int:
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
-    config = with_wall_slots(planner_config(args), [scenario])
+    config = for_run(planner_config(args), [scenario])
     spec = spec_from_args(args)
     check(spec, config, scenario.robot)
     doc = run_one(scenario, spec, config)

@@ -271,7 +271,8 @@ class Labeller:
             # tolerance (at IPOPT's 1e-9 the first control differs by up to ~5e-6 m/s between
             # starts; at 1e-12 by ~1e-7). The SQP's own tolerance already gives ~1e-9.
             kw = {"ipopt_options": {"ipopt.tol": LABEL_TOLERANCE}} if solver.startswith("ipopt") else {}
-            cfg = self.config.with_overrides(solver=solver, max_moving=slots[0], max_static=slots[1])
+            # no crowd NLP: a situation fills at most the config's slots
+            cfg = replace(self.config, solver=solver, max_moving=slots[0], max_static=slots[1], crowd_moving=None)
             self._controllers[key] = GPCController(cfg, self.robot, **kw)
         return self._controllers[key]
 

@@ -1,0 +1,78 @@
+"""The NLPs one controller solves, each with what solves it: the preset's, and, where
+:attr:`casadi_gpc.config.PlannerConfig.crowd_moving` is set, a second with more mover slots
+for the ticks where more movers matter than the first holds.
+
+Among 30 walkers crossing a square, 10 slots left out the movers the plan then ran into
+(docs/pedestrians.md, "Slots for a crowd"); an NLP with more slots costs more at every
+solve, so it is solved only at those ticks. Everything an NLP's size shapes lives here: the
+problem, the backend and its backup, the roll-out, the lanes. A kept plan warm-starts either
+NLP whole: the decision variables (the increments) and the constraints (the wheels' speed
+limits) do not depend on the slots, only the parameters and the cost do
+(``tests/test_crowd_tiers.py``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..buffered import BufferedFunction
+from ..config import PlannerConfig
+from ..problem.cost import GPCProblem, build_problem
+from ..robot import RobotParams
+from ..solvers import Backend, canonical_name, make_backend
+from .lanes import SolveLanes
+
+BACKUP_SHARE = 0.5
+"""The backup solver runs only while this share of the step's time budget is left, and stops
+itself after that long (IPOPT's ``max_wall_time``): with a 0.5 s budget it started with any
+time left and, given the whole budget, took one decision to 0.51 s under load."""
+
+
+@dataclass
+class SolveTier:
+    """One NLP and what solves it."""
+
+    config: PlannerConfig
+    """The controller's settings with this NLP's slots (``max_moving``)."""
+    problem: GPCProblem
+    backend: Backend
+    backup: Backend | None
+    rollout: BufferedFunction
+    ref_slice: slice
+    lanes: SolveLanes | None = None
+
+
+def build_tier(config: PlannerConfig, robot: RobotParams, time_budget_s: float, compiled: bool,
+               ipopt_options: dict, backup_solver: str | None) -> SolveTier:
+    """The NLP of ``config`` for ``robot``, its backend (IPOPT also stops itself at the
+    budget: C code cannot be interrupted from Python; the SQP and fatrop are capped by their
+    iteration limits) and, unless it is the same solver, the backup that stops itself at
+    :data:`BACKUP_SHARE` of the budget (a decision never outlives its sample time)."""
+    problem = build_problem(config, robot)
+    backend = make_backend(config.solver, problem, max_wall_time_s=time_budget_s, compiled=compiled,
+                           ipopt_options=ipopt_options)
+    backup = None
+    if backup_solver is not None and canonical_name(backup_solver) != backend.name:
+        backup = make_backend(backup_solver, problem, max_wall_time_s=BACKUP_SHARE * time_budget_s,
+                              compiled=compiled, ipopt_options=ipopt_options)
+    return SolveTier(config, problem, backend, backup, BufferedFunction(problem.rollout_fn),
+                     problem.layout.slices()["ref"])
+
+
+def crowd_config(config: PlannerConfig) -> PlannerConfig | None:
+    """The settings of the crowd NLP (``crowd_moving`` slots), None without one."""
+    if config.crowd_moving is None or config.crowd_moving <= config.max_moving:
+        return None
+    return replace(config, max_moving=config.crowd_moving, crowd_moving=None)
+
+
+def crowded(config: PlannerConfig, forecasts) -> bool:
+    """Whether the controller tracks more movers than ``config.max_moving`` slots hold.
+
+    Not only the relevant ones (within ``relevance_range_m`` of the predicted path): among 30
+    walkers, the crowd NLP at the ticks where more than 10 were relevant was hit in 4 of 40
+    crossings on each of two development seeds, the crowd NLP at every tick of a crowd in 2 and
+    1 (docs/pedestrians.md, "Slots for a crowd"): a mover that is not relevant to the
+    predicted path now is there when the plan changes."""
+    return len(forecasts) > config.max_moving

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -73,7 +74,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     suite = Suite(args.suite, 1, args.seed, args.movers, args.behaviour)
     for slots in (int(s) for s in args.slots.split(",")):
-        cfg = preset("improved").with_overrides(max_moving=slots)
+        cfg = replace(preset("improved"), max_moving=slots, crowd_moving=None)  # one NLP of that many slots
         T, H = cfg.sample_time_s, cfg.horizon
         for i in (int(e) for e in args.episodes.split(",")):
             sc = suite.scenario(i)

@@ -45,7 +45,7 @@ def main(argv=None) -> int:
     base = preset("improved")
     rows = {}
     for m in slots:
-        ctl = GPCController(dataclasses.replace(base, max_moving=m), episodes[0].robot)
+        ctl = GPCController(dataclasses.replace(base, max_moving=m, crowd_moving=None), episodes[0].robot)
         solves, outcomes, left = [], [], 0
         original = ctl.solve_many
 

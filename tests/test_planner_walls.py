@@ -17,7 +17,7 @@ from casadi_gpc.problem.cost import ParameterLayout, build_problem  # noqa: E402
 from casadi_gpc.problem.selection import select_walls  # noqa: E402
 from casadi_gpc.robot import RobotParams  # noqa: E402
 from casadi_gpc.types import StaticObstacle  # noqa: E402
-from gpcnav.commands.common import with_wall_slots  # noqa: E402
+from gpcnav.commands.common import for_run, with_wall_slots  # noqa: E402
 from scenarios import scenario_from_dict  # noqa: E402
 
 CFG = preset("improved")
@@ -82,9 +82,9 @@ def test_the_planner_keeps_off_a_wall_it_is_driven_at():
     from casadi_gpc.planner.gpc import GPCController
     from scenarios.simulator import simulate
     sc = scenario_from_dict(tomllib.loads(BASE + "[[walls]]\npoints = [[2.0, 0.55], [4.0, 0.55]]\n"), "t")
-    log = simulate(sc, GPCController(with_wall_slots(CFG, [sc]), sc.robot))
+    log = simulate(sc, GPCController(for_run(CFG, [sc]), sc.robot))  # as the command line configures it
     assert log.outcome == "reached_goal" and log.min_clearance_m > 0.05
-    blind = simulate(sc, GPCController(CFG, sc.robot))
+    blind = simulate(sc, GPCController(CFG.for_movers(len(sc.moving)), sc.robot))
     assert blind.min_clearance_m < log.min_clearance_m
 
 

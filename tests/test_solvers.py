@@ -182,6 +182,37 @@ def test_compiled_functions_are_cached_on_disk_and_give_the_same_answer(tmp_path
     assert a.cost == pytest.approx(b.cost, rel=1e-12)
 
 
+def test_a_second_backend_of_the_same_settings_reuses_the_library_this_process_built(tmp_path, monkeypatch):
+    """The process remembers the compiled library of each backend kind and settings
+    (``compiling.known_library``): a second backend skips building the symbolic NLP and
+    generating its code, loads the same library and solves bit for bit as the first; other
+    settings, or another cache folder, are not taken for it."""
+    if solvers.c_compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    from casadi_gpc.solvers.compiling import known_library
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
+    problem = build_problem(SMALL)
+    x0 = np.array([0.0, 0.0, 0.0, 0.2, 0.2])
+    p = problem.layout.pack(x0, np.array([[0.4, 0.0, 0.0], [0.8, 0.1, 0.0]]))
+    for name, what in (("sqpmethod-daqp", ("sqpmethod", "sqpmethod-daqp", "daqp", SMALL, problem.robot)),
+                       ("fatrop", ("fatrop", "fatrop", SMALL, problem.robot))):
+        assert known_library(what) is None
+        first = make_backend(name, problem)
+        lib = known_library(what)
+        assert first.compiled and lib is not None and str(tmp_path) in lib
+        hits = COMPILE_EVENTS["cache_hits"]
+        second = make_backend(name, build_problem(SMALL))
+        assert second.compiled and COMPILE_EVENTS["cache_hits"] == hits + 1
+        assert any("(cached" in n for n in second.notes)
+        a, b = first.solve(p, np.zeros(4)), second.solve(p, np.zeros(4))
+        assert a.success and b.success
+        np.testing.assert_array_equal(a.u, b.u)
+        assert a.cost == b.cost
+        assert known_library((*what[:-2], replace(SMALL, lambda1=SMALL.lambda1 * 2), problem.robot)) is None
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path / "elsewhere"))
+    assert known_library(what) is None
+
+
 def test_without_a_compiler_the_backend_says_so_and_counts_the_fallback(tmp_path, monkeypatch):
     monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("CC", "no-such-compiler-gpcnav")

@@ -27,7 +27,8 @@ import casadi as ca
 
 from ..io import cache_dir  # where compiled libraries are kept (one rule, casadi-free)
 
-__all__ = ["CFLAGS", "COMPILE_EVENTS", "ANNOUNCE", "cache_dir", "c_compiler", "compiled_library", "build_nlpsol"]
+__all__ = ["CFLAGS", "COMPILE_EVENTS", "ANNOUNCE", "cache_dir", "c_compiler", "compiled_library", "build_nlpsol",
+           "known_library", "remember_library"]
 
 CFLAGS = ("-O1", "-fPIC", "-shared")
 """-O1: the generated code of the H = 12 problem takes ~100 s to compile at -O2 and ~8 s at
@@ -91,6 +92,31 @@ def _announced(what: str):
         stream.flush()
 
 
+_KNOWN: dict[tuple, str] = {}
+"""The libraries this process has loaded, by what determines their code (a backend's kind and
+options, the planner's settings and the robot's; :func:`known_library`) with the cache folder
+and the compiler: a second controller of the same settings skips building the symbolic NLP
+and generating its code only to find the same hash (about 0.6 s a controller)."""
+
+
+def known_library(what: tuple) -> str | None:
+    """The library this process already found or compiled for ``what`` (a tuple of everything
+    the generated code depends on, e.g. the backend's kind, its options and the problem's
+    ``config`` and ``robot``), in the current cache folder with the current compiler and
+    still there; counted as a cache hit. None: not known (build it, then
+    :func:`remember_library`)."""
+    lib = _KNOWN.get((what, str(cache_dir()), c_compiler()))
+    if lib is None or not Path(lib).exists():
+        return None
+    COMPILE_EVENTS["cache_hits"] += 1
+    return lib
+
+
+def remember_library(what: tuple, lib: str) -> None:
+    """Remember the library built or found for ``what`` (:func:`known_library`)."""
+    _KNOWN[(what, str(cache_dir()), c_compiler())] = lib
+
+
 def _library_key(plugin: str, nlp: dict, compiler: str, extra: dict) -> str:
     fn = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]])
     h = hashlib.sha256()
@@ -143,8 +169,16 @@ def compiled_library(solver: ca.Function, plugin: str, nlp: dict, extra: dict | 
     return str(lib), f"compiled functions (compiled {lib.name})"
 
 
-def build_nlpsol(name: str, plugin: str, nlp: dict, opts: dict, compiled: bool) -> tuple[ca.Function, bool, str]:
-    """``nlpsol`` of ``nlp``; with ``compiled``, from the compiled library when possible."""
+def build_nlpsol(name: str, plugin: str, nlp, opts: dict, compiled: bool, what: tuple | None = None
+                 ) -> tuple[ca.Function, bool, str]:
+    """``nlpsol`` of ``nlp``; with ``compiled``, from the compiled library when possible.
+    ``what``: everything the generated code depends on (:func:`known_library`), so that a
+    later call for the same skips building the NLP: ``nlp`` may then be a function that
+    builds it, called only when the library is not known."""
+    known = known_library(what) if compiled and what is not None else None
+    if known is not None:
+        return ca.nlpsol(name, plugin, known, opts), True, f"compiled functions (cached {Path(known).name})"
+    nlp = nlp() if callable(nlp) else nlp
     solver = ca.nlpsol(name, plugin, nlp, opts)
     if not compiled:
         return solver, False, "uncompiled CasADi functions"
@@ -153,5 +187,7 @@ def build_nlpsol(name: str, plugin: str, nlp: dict, opts: dict, compiled: bool) 
         COMPILE_EVENTS["fallbacks"] += 1
         warnings.warn(f"solver {name}: {note}", RuntimeWarning, stacklevel=3)
         return solver, False, note
+    if what is not None:
+        remember_library(what, lib)
     return ca.nlpsol(name, plugin, lib, opts), True, note
 

@@ -35,35 +35,41 @@ class FatropBackend(Backend):
         super().__init__(name, problem)
         cfg, robot = problem.config, problem.robot
         H, T = cfg.horizon, cfg.sample_time_s
-        p = ca.SX.sym("p", problem.layout.size)
-        P = parameter_blocks(problem.layout, p)
-        X = [ca.SX.sym(f"x{k}", 5) for k in range(H + 1)]
-        U = [ca.SX.sym(f"u{k}", 2) for k in range(H)]
-        w, g, J = [], [X[0] - P["x0"]], 0
         vmax, dv = robot.max_wheel_speed_mps, robot.max_step_change_mps(T)
         lbw, ubw = [], []
         for k in range(H + 1):
-            w.append(X[k])
             lim = np.inf if k == 0 else vmax  # X_0 is fixed by its equality constraint
             lbw += [-np.inf] * 3 + [-lim] * 2
             ubw += [np.inf] * 3 + [lim] * 2
-            if k > 0:
-                J += sum(state_cost(cfg, robot, P, k - 1, *(X[k][i] for i in range(5))))
             if k < H:
-                w.append(U[k])
                 lbw += [-dv] * 2
                 ubw += [dv] * 2
-                J += effort_cost(cfg, U[k][0], U[k][1])
-                vr, vl = X[k][3] + U[k][0], X[k][4] + U[k][1]
-                xn, yn, thn = robot_step(ca, X[k][0], X[k][1], X[k][2], vr, vl, T, robot.wheel_base_m)
-                g.append(X[k + 1] - ca.vertcat(xn, yn, thn, vr, vl))
-        G = ca.vertcat(*g)
-        nlp = {"x": ca.vertcat(*w), "p": p, "f": J, "g": G}
-        opts = {"structure_detection": "auto", "equality": [True] * G.numel(), "print_time": False,
+
+        def stagewise_nlp() -> dict:
+            p = ca.SX.sym("p", problem.layout.size)
+            P = parameter_blocks(problem.layout, p)
+            X = [ca.SX.sym(f"x{k}", 5) for k in range(H + 1)]
+            U = [ca.SX.sym(f"u{k}", 2) for k in range(H)]
+            w, g, J = [], [X[0] - P["x0"]], 0
+            for k in range(H + 1):
+                w.append(X[k])
+                if k > 0:
+                    J += sum(state_cost(cfg, robot, P, k - 1, *(X[k][i] for i in range(5))))
+                if k < H:
+                    w.append(U[k])
+                    J += effort_cost(cfg, U[k][0], U[k][1])
+                    vr, vl = X[k][3] + U[k][0], X[k][4] + U[k][1]
+                    xn, yn, thn = robot_step(ca, X[k][0], X[k][1], X[k][2], vr, vl, T, robot.wheel_base_m)
+                    g.append(X[k + 1] - ca.vertcat(xn, yn, thn, vr, vl))
+            return {"x": ca.vertcat(*w), "p": p, "f": J, "g": ca.vertcat(*g)}
+
+        n_g = 5 * (H + 1)  # X_0 = x0, then one state a stage
+        opts = {"structure_detection": "auto", "equality": [True] * n_g, "print_time": False,
                 "fatrop": dict(_FATROP)}
         if not compiled:
             opts["expand"] = True
-        solver, self.compiled, note = build_nlpsol(name, "fatrop", nlp, opts, compiled)
+        solver, self.compiled, note = build_nlpsol(name, "fatrop", stagewise_nlp, opts, compiled,
+                                                   ("fatrop", name, cfg, robot))
         self.notes.append(note)
         # inputs w0, p, lbw, ubw, lbg, ubg (zeros: equalities), lam_x0, lam_g0 (zeros: fatrop takes none)
         self.solver = BufferedFunction(solver)

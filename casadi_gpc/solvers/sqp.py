@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -14,7 +15,7 @@ import numpy as np
 from ..problem.cost import GPCProblem
 from ..buffered import BufferedFunction
 from .base import CasadiBackend, SolveResult
-from .compiling import COMPILE_EVENTS, compiled_library
+from .compiling import COMPILE_EVENTS, compiled_library, known_library, remember_library
 from .hessian import cost_hessian
 
 __all__ = ["SqpBackend", "ConvexifiedHessian", "CONVEXIFY_C", "SCALE_MAX_GRADIENT", "lagrangian_hessian",
@@ -91,6 +92,7 @@ static int gpc_convexify(casadi_real* H) {
 """
 """The C convexification compiled into the SQP's Hessian function (``GPC_N`` = n_u)."""
 
+_NOTE = "Hessian: exact + delta I (IPOPT-style inertia correction); objective scaled as IPOPT's gradient-based scaling"
 _HESS_NAME = "gpc_hess_cvx"
 _HESS_CALL = "  return casadi_f0(arg, res, iw, w, mem);"
 
@@ -193,6 +195,11 @@ class SqpBackend(CasadiBackend):
         scale = ca.SX.sym("scale")  # the objective's scale, appended to the parameters
         p_ext = ca.vertcat(nlp["p"], scale)
         scaled = {"x": nlp["x"], "p": p_ext, "f": scale * nlp["f"], "g": nlp["g"]}
+        what = ("sqpmethod", name, qpsol, problem.config, problem.robot)  # all the generated code depends on
+        known = known_library(what) if compiled else None
+        if known is not None:  # this process built it before: no symbolic NLP, no code to hash
+            self._from_library(tag, opts, known)
+            return
         hess = lagrangian_hessian(problem, scaled)
         grad_inf = ca.Function(_GRAD_NAME, [nlp["x"], p_ext], [ca.norm_inf(ca.gradient(nlp["f"], nlp["x"]))])
         solver, note = None, "uncompiled CasADi functions"
@@ -207,16 +214,25 @@ class SqpBackend(CasadiBackend):
                 COMPILE_EVENTS["fallbacks"] += 1
                 warnings.warn(f"solver {name}: {note}", RuntimeWarning, stacklevel=3)
             else:
-                solver = ca.nlpsol(tag, "sqpmethod", lib, dict(opts, hess_lag=ca.external(_HESS_NAME, lib)))
-                grad_inf = ca.external(_GRAD_NAME, lib)
-                self.compiled = True
+                remember_library(what, lib)
+                self._from_library(tag, opts, lib, note)
+                return
         if solver is None:
             self._hessian = ConvexifiedHessian(hess)  # a Callback must outlive the solver
             solver = ca.nlpsol(tag, "sqpmethod", scaled, dict(opts, hess_lag=self._hessian))
         self._setup(solver)
         self._bind_gradient(grad_inf)
-        self.notes.append(note + "; Hessian: exact + delta I (IPOPT-style inertia correction); "
-                                 "objective scaled as IPOPT's gradient-based scaling")
+        self.notes.append(note + "; " + _NOTE)
+
+    def _from_library(self, tag: str, opts: dict, lib: str, note: str | None = None) -> None:
+        """The solver of the compiled library ``lib`` (its functions, the convexified Hessian
+        and the gradient's norm)."""
+        solver = ca.nlpsol(tag, "sqpmethod", lib, dict(opts, hess_lag=ca.external(_HESS_NAME, lib)))
+        self.compiled = True
+        self._setup(solver)
+        self._bind_gradient(ca.external(_GRAD_NAME, lib))
+        note = note or f"compiled functions (cached {Path(lib).name})"
+        self.notes.append(note + "; " + _NOTE)
 
     def fork(self) -> "SqpBackend | None":
         if not self.compiled:  # the numpy Hessian is a Python callback inside the solver

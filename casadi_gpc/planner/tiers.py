@@ -1,6 +1,6 @@
 """The NLPs one controller solves, each with what solves it: the preset's, and, where
 :attr:`casadi_gpc.config.PlannerConfig.crowd_moving` is set, a second with more mover slots
-for the ticks where more movers matter than the first holds.
+for the ticks where the controller tracks more movers than the first holds (:func:`crowded`).
 
 Among 30 walkers crossing a square, 10 slots left out the movers the plan then ran into
 (docs/pedestrians.md, "Slots for a crowd"); an NLP with more slots costs more at every

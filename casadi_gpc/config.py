@@ -164,7 +164,8 @@ class PlannerConfig:
     def for_movers(self, n: int) -> "PlannerConfig":
         """These settings for scenes of at most ``n`` movers: without the crowd NLP
         (:attr:`crowd_moving`) where ``n`` fits the first NLP's slots, which is then all the
-        planner ever solves (the crowd NLP is built with the controller, about a second)."""
+        planner ever solves (the crowd NLP is built with the controller: about a second the
+        first time in a process, 0.3 s after, docs/solvers.md)."""
         return replace(self, crowd_moving=None) if self.crowd_moving is not None and n <= self.max_moving else self
 
     def with_overrides(self, **changes) -> "PlannerConfig":

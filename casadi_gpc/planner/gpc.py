@@ -409,7 +409,7 @@ class GPCController:
         if crowd:
             self.counters["crowd_ticks"] = self.counters.get("crowd_ticks", 0) + 1
         self._use(self._tiers[int(crowd)])
-        p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self._tier.config,
+        p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.problem.config,
                                     path, obs.walls)
         self.counters["left_out"] += sel.left_out
         self._walls_in_slots = sel.walls

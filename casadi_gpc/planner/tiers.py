@@ -31,10 +31,9 @@ time left and, given the whole budget, took one decision to 0.51 s under load.""
 
 @dataclass
 class SolveTier:
-    """One NLP and what solves it."""
+    """One NLP and what solves it (``problem.config``: the controller's settings with this
+    NLP's slots)."""
 
-    config: PlannerConfig
-    """The controller's settings with this NLP's slots (``max_moving``)."""
     problem: GPCProblem
     backend: Backend
     backup: Backend | None
@@ -56,7 +55,7 @@ def build_tier(config: PlannerConfig, robot: RobotParams, time_budget_s: float, 
     if backup_solver is not None and canonical_name(backup_solver) != backend.name:
         backup = make_backend(backup_solver, problem, max_wall_time_s=BACKUP_SHARE * time_budget_s,
                               compiled=compiled, ipopt_options=ipopt_options)
-    return SolveTier(config, problem, backend, backup, BufferedFunction(problem.rollout_fn),
+    return SolveTier(problem, backend, backup, BufferedFunction(problem.rollout_fn),
                      problem.layout.slices()["ref"])
 
 

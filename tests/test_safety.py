@@ -766,7 +766,8 @@ def test_the_planner_goes_behind_the_check_with_safer_alternatives_where_measure
 
 
 def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monkeypatch):
-    """Safe beats unsafe; between two that lose the margin, the one that keeps it longer from
+    """Safe beats unsafe; between two that lose the margin, the one that drives into a contact
+    later within the commitment time, then the one that keeps it longer from
     the obstacles' expected discs wins whatever the inflated discs say, then the one that
     keeps off the fixed obstacles (walls, static discs) longer, then the inflated order (kept
     longer, then the larger clearance) as before."""
@@ -786,9 +787,9 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     # the best of several sequences follows the same order
     f = SafetyFilter(ROBOT, 0.5, 12)
     N = 12 * f.substeps
-    kept, contact, fixed = np.array([40, 10, 30]), np.array([20, N, 20]), np.full(3, N)
+    kept, contact, fixed, toward = np.array([40, 10, 30]), np.array([20, N, 20]), np.full(3, N), np.zeros(3)
     monkeypatch.setattr(f, "clearances", lambda *a: (np.full(3, -0.2), np.zeros(3), np.zeros(3, int),
-                                                     np.zeros(3, int), kept, contact, fixed))
+                                                     np.zeros(3, int), kept, contact, fixed, toward))
     obstacles = f.obstacle_tracks([forecast((3.0, 0.0), (0.0, 0.0), 0.5, 12)], ())
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "b" and not best.safe and best.contact_s == 6.0
@@ -796,9 +797,28 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "c" and best.fixed_contact_s == 6.0 and best.kept_s < kept.max() * 0.5 / f.substeps
     fixed[:] = N
+    # driving into a contact within the commitment time (1.5 s here: 12 chords) ranks below
+    # being run into sooner; a contact driven into later ranks by its time like any other
+    assert f.commit_s == 1.5 and f._commit_chords == 12
+    kept[:], contact[:], toward[:] = [0, 0, 0], [10, 4, 6], [0.3, 0.0, 0.04]
+    best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
+    assert best.continuation == "c" and best.drives_in_s == f.commit_s and best.contact_s == 6 * 0.125
+    toward[2] = 0.06  # now 'c' drives in too, sooner than 'a': 'b', run into at once, wins
+    best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
+    assert best.continuation == "b" and best.contact_s == 4 * 0.125
+    contact[:], toward[:] = [14, 4, 13], [0.3, 0.0, 0.3]  # driven into after the commitment time: by time
+    best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
+    assert best.continuation == "a" and best.drives_in_s == f.commit_s
+    contact[:], toward[:] = [5, 3, 8], [0.3, 0.2, 0.5]  # all driven in within it: the latest
+    best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
+    assert best.continuation == "c" and best.drives_in_s == 1.0
+    driven, run_into = check(False, 4.0, 1.0), check(False, 4.0, 0.5)
+    driven.drives_in_s, run_into.drives_in_s = 1.0, 1.5
+    assert better(run_into, driven) and not better(driven, run_into)
+    toward[:] = 0.0
     kept[:] = [N, 10, 30]  # one keeps the inflated margin all along: it wins
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
-    assert best.safe and best.continuation == "a"
+    assert best.safe and best.continuation == "a" and best.drives_in_s == math.inf
 
 
 # --- the searched way out (the planner-free check a robot deploys) ----------------------------
@@ -879,7 +899,7 @@ def test_being_inside_a_persons_disc_does_not_license_the_robot_into_a_wall():
     state = np.array([0.0, 0.0, -0.6, 0.0, 0.0])  # heading 34 degrees towards the wall
     into = np.tile([0.3, 0.3], (1, H, 1))           # straight on: into the wall
     along, along_state = into.copy(), np.zeros(5)    # the same, heading along the wall
-    _, _, _, _, kept, contact, fixed = f.clearances(state, into, obs)
+    _, _, _, _, kept, contact, fixed, _ = f.clearances(state, into, obs)
     # the wall is closer than the margin now: the margin is lost as soon as the robot closes in on it
     wall_gap = np.abs(f.rollout(state, into)[0].imag + (r + 0.03)) - r  # to the line y = -(r + 0.03)
     first_closer = int(np.argmax(wall_gap[1:] < 0.03 - 1e-6))
@@ -915,8 +935,18 @@ def _numpy_clearances(f, state, W, obs):
     below = (gap < np.minimum(f.margin_m, ref - 1e-6)[..., None]).any(axis=1)
     touched = (dist - obs.radii[:, None]) < np.minimum(0.0, ref0 - 1e-6)[..., None]
     below0, fixed = touched.any(axis=1), touched[:, len(obs.moving):].any(axis=1)
+    first = np.where(below0.any(axis=1), below0.argmax(axis=1), N)
+    # the robot's speed towards the first disc touched (the first in order), at the touch
+    p = f.rollout(state, W)
+    toward = np.zeros(M)
+    for m in np.flatnonzero(first < N):
+        c = first[m]
+        j = int(np.argmax(touched[m, :, c]))
+        u = q[j, c + 1] - p[m, c + 1]
+        v = (p[m, c + 1] - p[m, c]) / (f.sample_time_s / f.substeps)
+        toward[m] = (v * np.conj(u)).real / abs(u)
     return (flat[np.arange(M), k], now, k % N, k // N, np.where(below.any(axis=1), below.argmax(axis=1), N),
-            np.where(below0.any(axis=1), below0.argmax(axis=1), N), np.where(fixed.any(axis=1), fixed.argmax(axis=1), N))
+            first, np.where(fixed.any(axis=1), fixed.argmax(axis=1), N), toward)
 
 
 @pytest.mark.benchmark
@@ -950,7 +980,7 @@ def test_the_compiled_clearances_are_the_whole_array_ones():
     T, H = 0.5, 12
     rng = np.random.default_rng(11)
     f = SafetyFilter(ROBOT, T, H, search=True)
-    lost = fixed_touched = 0
+    lost = fixed_touched = driven = run_into = 0
     for i in range(60):
         state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), *rng.uniform(-0.2, 0.8, 2)])
         fc = _movers(rng, T, H, 10, 6.0, 0.5)
@@ -961,11 +991,15 @@ def test_the_compiled_clearances_are_the_whole_array_ones():
         got, ref = f.clearances(state, W, obs), _numpy_clearances(f, state, W, obs)
         np.testing.assert_allclose(got[0], ref[0], rtol=0, atol=1e-12)
         np.testing.assert_allclose(got[1], ref[1], rtol=0, atol=1e-12)
-        for x, y in zip(got[3:], ref[3:]):  # the obstacle, kept, contact
+        for x, y in zip(got[3:7], ref[3:7]):  # the obstacle, kept, contact
             assert np.array_equal(x, y)
+        np.testing.assert_allclose(got[7], ref[7], rtol=0, atol=1e-9)  # the speed towards the first touch
+        driven += int((got[7] > 0.05).sum())
+        run_into += int(((got[7] <= 0.05) & (got[5] < H * f.substeps)).sum())
         lost += int((got[4] < H * f.substeps).sum())
         fixed_touched += int((got[6] < H * f.substeps).sum())
     assert lost > 100 and fixed_touched > 20  # the margin is lost, statics touched, in many: the chords are compared
+    assert driven > 20 and run_into > 20  # touches driven into and run into, both compared
 
 
 def test_the_compiled_manoeuvres_and_grid_are_the_numpy_expressions_bit_for_bit():

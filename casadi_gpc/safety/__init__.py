@@ -40,8 +40,14 @@ the filter **intervenes**, in this order:
    samples in a row, each reverse keeping the margin a little longer than the GPC's swerve.)
 2. else the best of a small fixed set of manoeuvres within the speed and acceleration
    limits (brake, swerve left/right, slow turns, reverse, dash ahead), each a constant
-   wheel-speed target approached at the acceleration limit. Best means: the clearance stays
-   above the margin for the longest time (a violation late in the horizon, where the
+   wheel-speed target approached at the acceleration limit. Best means
+   (:meth:`TrajectoryCheck._better`): one that keeps the margin over the horizon (the
+   largest smallest clearance among those); among those that all lose it, the one that
+   drives into a contact latest within the commitment time
+   (:attr:`SafetyCheck.drives_in_s`: a contact that cannot be avoided is met standing or
+   giving way, not driving), then the one that stays clear of the obstacles' expected discs
+   longest (:attr:`SafetyCheck.contact_s`), then off the walls and static obstacles longest,
+   then the one that keeps the margin longest (a violation late in the horizon, where the
    forecast's uncertainty has grown, is not as bad as one in the next second), then the
    largest smallest clearance, then the earlier one in :data:`MANOEUVRES` (braking first).
    If none is better than the candidate itself, the candidate is kept and that is counted

@@ -43,6 +43,11 @@ acceleration limit and held, beside :data:`MANOEUVRES`."""
 
 _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
 
+DRIVEN_MPS = 0.05
+"""A sequence whose robot moves towards what it first touches faster than this, at the touch,
+drives into it; slower, it is run into (../shared/CONTRACT.md: the same speed marks a
+collision as the robot's own doing)."""
+
 
 def _best(among: np.ndarray, cmin: np.ndarray) -> int:
     """The first index of ``among`` (a mask) whose smallest clearance is the largest there
@@ -86,6 +91,13 @@ class SafetyCheck:
     """The same for the fixed obstacles alone (the walls and static discs): what ranks
     sequences that lose the margin and touch an expected disc equally soon, so that among ways
     out that all meet a person at once the robot does not also drive into a wall."""
+    drives_in_s: float = math.inf
+    """When the sequence drives into what it first touches (the robot's speed towards it
+    above :data:`DRIVEN_MPS` at the touch), if that is sooner than the check's commitment
+    time (:attr:`TrajectoryCheck.commit_s`); else that time (``inf`` for a sequence that keeps
+    the margin). What ranks first among sequences that lose the margin: a contact the robot
+    can no longer brake out of is better taken standing or giving way than driving
+    (:meth:`TrajectoryCheck._better`)."""
 
 
 
@@ -167,6 +179,13 @@ class TrajectoryCheck(Clearances):
         searched grid and the manoeuvres, not the manoeuvres alone (set by the filter)."""
         # the wish's weight per step: the near steps count most (the next command is what is applied)
         self._search_weights = 1.0 / np.arange(1, self.horizon + 1)
+        self.commit_s = T + self.robot.max_wheel_speed_mps / self.robot.max_wheel_accel_mps2
+        """The commitment time: the command is held one interval, and from any speed the next
+        decision can stop the robot within ``max_wheel_speed / max_wheel_accel`` after it. A
+        contact the sequence drives into sooner than this is one no later decision can brake
+        out of (passive safety: if a contact cannot be avoided, meet it standing or giving
+        way); a later one is still the next decision's to avoid."""
+        self._commit_chords = min(N, math.ceil(self.commit_s * S / T - 1e-9))
 
 
     # --- limits and obstacles (the roll-out and the clearances: :mod:`.clearances`) -------
@@ -314,35 +333,49 @@ class TrajectoryCheck(Clearances):
 
     def _pick(self, found: tuple, obstacles, labels: list[str]) -> SafetyCheck:
         """:meth:`_check_best` of :meth:`clearances`' answer ``found``."""
-        cmin, _, _, _, kept, contact, fixed = found
+        cmin, kept = found[0], found[4]
         i = 0
         if len(cmin) > 1:
             safe = kept == self.horizon * self.substeps
-            i = _best(safe, cmin) if safe.any() else self._best_unsafe(cmin, kept, contact, fixed)
+            i = _best(safe, cmin) if safe.any() else self._best_unsafe(found)
         return self._verdict(found, i, obstacles, labels[i])
 
-    @staticmethod
-    def _best_unsafe(cmin, kept, contact, fixed) -> int:
+    def _drives_in(self, found: tuple) -> np.ndarray:
+        """Per sequence of :meth:`clearances`' answer ``found``, the chord where it drives into
+        what it first touches (:attr:`SafetyCheck.drives_in_s`), or the commitment time's chord
+        when it does not do so sooner."""
+        contact, toward = found[5], found[7]
+        return np.where((contact < self._commit_chords) & (toward > DRIVEN_MPS), contact, self._commit_chords)
+
+    def _best_unsafe(self, found: tuple) -> int:
         """The index of the best of sequences that all lose the margin, by :meth:`_better`'s
-        order: the longest clear of the expected discs, then the longest off the fixed
-        obstacles, then the longest keeping the margin, then the largest smallest clearance,
-        then the first."""
-        first = contact == contact.max()
+        order: the latest to drive into a contact within the commitment time, then the longest
+        clear of the expected discs, then the longest off the fixed obstacles, then the longest
+        keeping the margin, then the largest smallest clearance, then the first."""
+        cmin, kept, contact, fixed = found[0], found[4], found[5], found[6]
+        driven = self._drives_in(found)
+        first = driven == driven.max()
+        first &= contact == contact[first].max()
         first &= fixed == fixed[first].max()
         return _best(first & (kept == kept[first].max()), cmin)
 
     def _verdict(self, found: tuple, i: int, obstacles, label: str) -> SafetyCheck:
         """The :class:`SafetyCheck` of the ``i``-th sequence of :meth:`clearances`' answer ``found``."""
-        cmin, now, chord, which, kept, contact, fixed = found
+        cmin, now, chord, which, kept, contact, fixed, _ = found
         N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
-        return SafetyCheck(bool(kept[i] == N), float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
+        safe = bool(kept[i] == N)
+        return SafetyCheck(safe, float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
                            obstacles.label(int(which[i])), label, float(kept[i]) * tau,
-                           contact_s=float(contact[i]) * tau, fixed_contact_s=float(fixed[i]) * tau)
+                           contact_s=float(contact[i]) * tau, fixed_contact_s=float(fixed[i]) * tau,
+                           drives_in_s=math.inf if safe else float(self._drives_in(found)[i]) * tau)
 
     @staticmethod
     def _better(a: SafetyCheck, b: SafetyCheck) -> bool:
         """Whether ``a`` is strictly better than ``b``: safe over one that is not; between
-        two that lose the margin, the one that stays clear of the obstacles' expected discs
+        two that lose the margin, the one that drives into a contact later, within the
+        commitment time (:attr:`SafetyCheck.drives_in_s`: met standing or giving way, a contact
+        is not the robot's doing, and a person who sees the robot can still avoid it), then
+        the one that stays clear of the obstacles' expected discs
         longer (:attr:`SafetyCheck.contact_s`: the walls' and static obstacles' own, the
         movers' where the forecasts expect them), then the one that stays off the walls and
         static obstacles longer (:attr:`SafetyCheck.fixed_contact_s`), then the one that keeps
@@ -356,6 +389,8 @@ class TrajectoryCheck(Clearances):
         corridor's wall 0.3 s on was taken (docs/pedestrians.md)."""
         if a.safe != b.safe:
             return a.safe
+        if not a.safe and abs(a.drives_in_s - b.drives_in_s) > 1e-12:
+            return a.drives_in_s > b.drives_in_s
         if not a.safe and abs(a.contact_s - b.contact_s) > 1e-12:
             return a.contact_s > b.contact_s
         if not a.safe and abs(a.fixed_contact_s - b.fixed_contact_s) > 1e-12:

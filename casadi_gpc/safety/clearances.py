@@ -32,19 +32,22 @@ class Clearances:
         now): H * substeps when it never does; and how many pass before it touches the
         obstacles' discs not inflated by their uncertainty, or a wall (or, touching one now,
         closes in), H * substeps when it never does; and the same for the fixed obstacles
-        alone, the walls and static discs (:func:`~casadi_gpc.safety.distances.chord_clearances`,
+        alone, the walls and static discs; and the robot's speed towards what it first
+        touches, at that touch (m/s, positive when it drives into it; 0 when it touches
+        nothing) (:func:`~casadi_gpc.safety.distances.chord_clearances`,
         compiled: every sequence against every obstacle, at less than the numpy form's cost
         against the few within reach)."""
         M, N = wheels.shape[0], self.horizon * self.substeps
         walls = obstacles.walls
         if not len(obstacles.q) + len(walls):
             inf = np.full(M, np.inf)
-            return inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N), np.full(M, N), np.full(M, N)
+            return (inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N), np.full(M, N), np.full(M, N),
+                    np.zeros(M))
         q, touch = obstacles.sub_samples()
-        cmin, now, chord, which, kept, contact, fixed = chord_clearances(
+        cmin, now, chord, which, kept, contact, fixed, toward = chord_clearances(
             self.rollout(state, wheels), q, touch, obstacles.radii, walls, self.robot.radius_m, self.margin_m,
             NOT_WORSE_M, len(obstacles.moving))
-        return cmin, np.full(M, now), chord, which, kept, contact, fixed
+        return cmin, np.full(M, now), chord, which, kept, contact, fixed, toward * (self.substeps / self.sample_time_s)
 
     def wall_bounds(self, p0: complex, walls: np.ndarray, reach) -> np.ndarray:
         """``(nw, len(reach))``: the clearance to each wall that a robot within path length

@@ -22,7 +22,7 @@ from ..robot import robot_step_float
 
 _robot_step = njit(cache=True)(robot_step_float)  # the robot model's float form, compiled
 
-__all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "chord_clearances",
+__all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "closest_on_segment", "chord_clearances",
            "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound", "escape_bounds", "approach"]
 
 
@@ -89,7 +89,17 @@ def chord_segment_distance(p0, p1, a, b):  # pragma: no cover (compiled)
     return 0.0 if (ca * cb < 0.0 and c0 * c1 < 0.0) else d
 
 
-@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1]))(complex128[:, ::1], "
+@njit("complex128(complex128, complex128, complex128)", cache=True)
+def closest_on_segment(p, a, b):  # pragma: no cover (compiled)
+    """The point of the segment ``a``-``b`` nearest to ``p`` (complex ``x + iy``)."""
+    d = b - a
+    r = p - a
+    dd = d.real * d.real + d.imag * d.imag
+    t = (r.real * d.real + r.imag * d.imag) / dd if dd > 0.0 else 0.0
+    return a + min(max(t, 0.0), 1.0) * d
+
+
+@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], float64[::1]))(complex128[:, ::1], "
       "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64)", cache=True)
 def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse, n_moving):  # pragma: no cover (compiled)
     """For the roll-outs ``p`` (``(M, N + 1)`` complex, the first column now), the discs at
@@ -104,7 +114,11 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     obstacles are the walls and the discs after the first ``n_moving`` (the static ones); for
     each of them ``now`` is its own clearance now, for a mover the least of all (so being
     inside a person's margin does not license the robot into a wall). With one sequence that
-    never falls below, all three are N."""
+    never falls below, all three are N. Last, per sequence, how far the robot moves towards
+    what it first touches on the chord where it first touches it (its displacement on that
+    chord along the direction from its end to the disc's centre, or to the wall's nearest
+    point; m a chord, positive towards): whether the robot drives into the contact or is
+    run into; 0 when it touches nothing."""
     M, N = p.shape[0], p.shape[1] - 1
     n, nw = q.shape[0], walls.shape[0]
     cmin = np.empty(M)
@@ -113,6 +127,7 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     kept = np.full(M, N, np.int64)
     contact = np.full(M, N, np.int64)
     fixed = np.full(M, N, np.int64)
+    toward = np.zeros(M)
     p0 = p[0, 0]
     # now: the inflated clearance and the distance to the expected discs and the walls, each
     # obstacle's and the least of them
@@ -212,12 +227,18 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
                 if dist[j, c] - r0 < thr0[j]:
                     if k_contact == N:
                         k_contact = c
+                        end = p[m, c + 1]
+                        u = (q[j, c + 1] if j < n else closest_on_segment(end, walls[j - n, 0], walls[j - n, 1])) - end
+                        du = math.hypot(u.real, u.imag)
+                        if du > 0.0:
+                            v = end - p[m, c]
+                            toward[m] = (v.real * u.real + v.imag * u.imag) / du
                     if k_fixed == N and j >= n_moving:
                         k_fixed = c
             if k_kept < N and k_contact < N and (k_fixed < N or not any_fixed):
                 break
         kept[m], contact[m], fixed[m] = k_kept, k_contact, k_fixed
-    return cmin, now, chord, which, kept, contact, fixed
+    return cmin, now, chord, which, kept, contact, fixed, toward
 
 
 @njit("float64[:, ::1](complex128[::1], complex128[:, ::1])", cache=True)

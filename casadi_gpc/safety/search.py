@@ -27,8 +27,7 @@ class WayOutSearch:
         v0 = state[3:5]
         W = np.concatenate([self._searched(v0, self.horizon), self.manoeuvres(v0)[1]])
         found = self.clearances(state, W, obstacles)
-        cmin, _, _, _, kept, contact, fixed = found
-        safe = kept == self.horizon * self.substeps
+        safe = found[4] == self.horizon * self.substeps
         if safe.any():
             w = np.asarray(wish, dtype=float)
             w = np.broadcast_to(w, (self.horizon, 2)) if w.shape == (2,) else w
@@ -37,6 +36,6 @@ class WayOutSearch:
             cost = (((W - w) ** 2).sum(axis=2) * self._search_weights).sum(axis=1)
             i = int(np.argmin(np.where(safe, cost, np.inf)))
         else:  # the check's own order
-            i = self._best_unsafe(cmin, kept, contact, fixed)
+            i = self._best_unsafe(found)
         name = self._search_names[i]
         return name, W[i], self._verdict(found, i, obstacles, name)

@@ -16,6 +16,7 @@ from casadi_gpc.robot import RobotParams, RobotState, robot_step
 from casadi_gpc.types import ControlDecision, ObstacleForecast, ObstacleMeasurement, Observation, StaticObstacle
 from casadi_gpc.safety import CheckSettings, SafetyFilter, Shield, StandbyPlanner
 from casadi_gpc.safety.check import MANOEUVRES
+from casadi_gpc.safety.clearances import DRIVEN_MPS
 
 from conftest import PAPER_DIR, check_run_document
 from synthetic_models import tracker_model
@@ -787,9 +788,9 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     # the best of several sequences follows the same order
     f = SafetyFilter(ROBOT, 0.5, 12)
     N = 12 * f.substeps
-    kept, contact, fixed, toward = np.array([40, 10, 30]), np.array([20, N, 20]), np.full(3, N), np.zeros(3)
+    kept, contact, fixed, drives = np.array([40, 10, 30]), np.array([20, N, 20]), np.full(3, N), np.full(3, N)
     monkeypatch.setattr(f, "clearances", lambda *a: (np.full(3, -0.2), np.zeros(3), np.zeros(3, int),
-                                                     np.zeros(3, int), kept, contact, fixed, toward))
+                                                     np.zeros(3, int), kept, contact, fixed, drives))
     obstacles = f.obstacle_tracks([forecast((3.0, 0.0), (0.0, 0.0), 0.5, 12)], ())
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "b" and not best.safe and best.contact_s == 6.0
@@ -800,22 +801,22 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     # driving into a contact within the commitment time (1.5 s here: 12 chords) ranks below
     # being run into sooner; a contact driven into later ranks by its time like any other
     assert f.commit_s == 1.5 and f._commit_chords == 12
-    kept[:], contact[:], toward[:] = [0, 0, 0], [10, 4, 6], [0.3, 0.0, 0.04]
+    kept[:], contact[:], drives[:] = [0, 0, 0], [10, 4, 6], [10, N, N]
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "c" and best.drives_in_s == f.commit_s and best.contact_s == 6 * 0.125
-    toward[2] = 0.06  # now 'c' drives in too, sooner than 'a': 'b', run into at once, wins
+    drives[2] = 8  # now 'c' drives in too, sooner than 'a': 'b', run into at once, wins
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "b" and best.contact_s == 4 * 0.125
-    contact[:], toward[:] = [14, 4, 13], [0.3, 0.0, 0.3]  # driven into after the commitment time: by time
+    contact[:], drives[:] = [14, 4, 13], [N, N, N]  # driven into only after the commitment time: by time
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "a" and best.drives_in_s == f.commit_s
-    contact[:], toward[:] = [5, 3, 8], [0.3, 0.2, 0.5]  # all driven in within it: the latest
+    contact[:], drives[:] = [5, 3, 2], [5, 3, 8]  # all drive in within it: the latest, whoever touches first
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
-    assert best.continuation == "c" and best.drives_in_s == 1.0
+    assert best.continuation == "c" and best.drives_in_s == 1.0 and best.contact_s == 0.25
     driven, run_into = check(False, 4.0, 1.0), check(False, 4.0, 0.5)
     driven.drives_in_s, run_into.drives_in_s = 1.0, 1.5
     assert better(run_into, driven) and not better(driven, run_into)
-    toward[:] = 0.0
+    drives[:] = N
     kept[:] = [N, 10, 30]  # one keeps the inflated margin all along: it wins
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.safe and best.continuation == "a" and best.drives_in_s == math.inf
@@ -887,7 +888,8 @@ def test_being_inside_a_persons_disc_does_not_license_the_robot_into_a_wall():
     turning into the wall and driving on loses the wall's margin, and touches the wall, when
     it closes in on the wall, not 0.15 m deeper (where the person's overlap put the threshold
     that the closest obstacle sets for the movers); among ways out that all lose the margin,
-    the one into the wall ranks below one that stays off it."""
+    the one into the wall ranks below one that stays off it. Driving on into the wall is
+    driving into it; backing into the person too; driving along the wall, neither."""
     from casadi_gpc.safety.walls import wall_segments
     T, H = 0.5, 12
     f = SafetyFilter(ROBOT, T, H)
@@ -907,6 +909,10 @@ def test_being_inside_a_persons_disc_does_not_license_the_robot_into_a_wall():
     touch = int(np.argmax(wall_gap[1:] < 0.0))
     assert contact[0] <= fixed[0] <= touch + 1 and fixed[0] * tau < 1.0  # the wall touched, not 0.15 m into it
     assert f.clearances(along_state, along, obs)[6][0] == H * f.substeps
+    # driven into: the wall where it is touched; the person (behind the robot) only backing into it
+    assert f.clearances(state, into, obs)[7][0] == fixed[0]
+    assert f.clearances(along_state, along, obs)[7][0] == H * f.substeps
+    assert f.clearances(along_state, -along, obs)[7][0] == 0
     best = f._pick(tuple(np.concatenate([a, b]) for a, b in zip(f.clearances(state, into, obs),
                                                                   f.clearances(along_state, along, obs))),
                    obs, ["into the wall", "along it"])
@@ -935,18 +941,15 @@ def _numpy_clearances(f, state, W, obs):
     below = (gap < np.minimum(f.margin_m, ref - 1e-6)[..., None]).any(axis=1)
     touched = (dist - obs.radii[:, None]) < np.minimum(0.0, ref0 - 1e-6)[..., None]
     below0, fixed = touched.any(axis=1), touched[:, len(obs.moving):].any(axis=1)
-    first = np.where(below0.any(axis=1), below0.argmax(axis=1), N)
-    # the robot's speed towards the first disc touched (the first in order), at the touch
+    # the first chord within the commitment time on which the robot touches a disc and moves
+    # towards its centre faster than DRIVEN_MPS
     p = f.rollout(state, W)
-    toward = np.zeros(M)
-    for m in np.flatnonzero(first < N):
-        c = first[m]
-        j = int(np.argmax(touched[m, :, c]))
-        u = q[j, c + 1] - p[m, c + 1]
-        v = (p[m, c + 1] - p[m, c]) / (f.sample_time_s / f.substeps)
-        toward[m] = (v * np.conj(u)).real / abs(u)
+    toward = ((p[:, None, 1:] - p[:, None, :-1]) * np.conj(q[None, :, 1:] - p[:, None, 1:])).real \
+        / np.abs(q[None, :, 1:] - p[:, None, 1:]) / (f.sample_time_s / f.substeps)   # (M, n, N), m/s
+    driven = (touched & (toward > DRIVEN_MPS)).any(axis=1)[:, :f._commit_chords]
     return (flat[np.arange(M), k], now, k % N, k // N, np.where(below.any(axis=1), below.argmax(axis=1), N),
-            first, np.where(fixed.any(axis=1), fixed.argmax(axis=1), N), toward)
+            np.where(below0.any(axis=1), below0.argmax(axis=1), N), np.where(fixed.any(axis=1), fixed.argmax(axis=1), N),
+            np.where(driven.any(axis=1), driven.argmax(axis=1), N))
 
 
 @pytest.mark.benchmark
@@ -991,15 +994,15 @@ def test_the_compiled_clearances_are_the_whole_array_ones():
         got, ref = f.clearances(state, W, obs), _numpy_clearances(f, state, W, obs)
         np.testing.assert_allclose(got[0], ref[0], rtol=0, atol=1e-12)
         np.testing.assert_allclose(got[1], ref[1], rtol=0, atol=1e-12)
-        for x, y in zip(got[3:7], ref[3:7]):  # the obstacle, kept, contact
+        for x, y in zip(got[3:], ref[3:]):  # the obstacle, kept, contact, fixed, driven into
             assert np.array_equal(x, y)
-        np.testing.assert_allclose(got[7], ref[7], rtol=0, atol=1e-9)  # the speed towards the first touch
-        driven += int((got[7] > 0.05).sum())
-        run_into += int(((got[7] <= 0.05) & (got[5] < H * f.substeps)).sum())
+        soon = got[5] < f._commit_chords  # touched within the commitment time
+        driven += int((soon & (got[7] < H * f.substeps)).sum())
+        run_into += int((soon & (got[7] == H * f.substeps)).sum())
         lost += int((got[4] < H * f.substeps).sum())
         fixed_touched += int((got[6] < H * f.substeps).sum())
     assert lost > 100 and fixed_touched > 20  # the margin is lost, statics touched, in many: the chords are compared
-    assert driven > 20 and run_into > 20  # touches driven into and run into, both compared
+    assert driven > 20 and run_into > 20  # touched soon, driven into or only run into: both compared
 
 
 def test_the_compiled_manoeuvres_and_grid_are_the_numpy_expressions_bit_for_bit():

@@ -43,10 +43,6 @@ acceleration limit and held, beside :data:`MANOEUVRES`."""
 
 _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
 
-DRIVEN_MPS = 0.05
-"""A sequence whose robot moves towards what it first touches faster than this, at the touch,
-drives into it; slower, it is run into (../shared/CONTRACT.md: the same speed marks a
-collision as the robot's own doing)."""
 
 
 def _best(among: np.ndarray, cmin: np.ndarray) -> int:
@@ -92,12 +88,12 @@ class SafetyCheck:
     sequences that lose the margin and touch an expected disc equally soon, so that among ways
     out that all meet a person at once the robot does not also drive into a wall."""
     drives_in_s: float = math.inf
-    """When the sequence drives into what it first touches (the robot's speed towards it
-    above :data:`DRIVEN_MPS` at the touch), if that is sooner than the check's commitment
-    time (:attr:`TrajectoryCheck.commit_s`); else that time (``inf`` for a sequence that keeps
-    the margin). What ranks first among sequences that lose the margin: a contact the robot
-    can no longer brake out of is better taken standing or giving way than driving
-    (:meth:`TrajectoryCheck._better`)."""
+    """When the sequence first drives into an obstacle's expected disc or a wall (touching it
+    and moving towards it faster than :data:`~casadi_gpc.safety.clearances.DRIVEN_MPS`), if
+    that is sooner than the check's commitment time (:attr:`TrajectoryCheck.commit_s`); else
+    that time (``inf`` for a sequence that keeps the margin). What ranks first among
+    sequences that lose the margin: a contact the robot can no longer brake out of is better
+    met standing or giving way than driving (:meth:`TrajectoryCheck._better`)."""
 
 
 
@@ -341,11 +337,10 @@ class TrajectoryCheck(Clearances):
         return self._verdict(found, i, obstacles, labels[i])
 
     def _drives_in(self, found: tuple) -> np.ndarray:
-        """Per sequence of :meth:`clearances`' answer ``found``, the chord where it drives into
-        what it first touches (:attr:`SafetyCheck.drives_in_s`), or the commitment time's chord
-        when it does not do so sooner."""
-        contact, toward = found[5], found[7]
-        return np.where((contact < self._commit_chords) & (toward > DRIVEN_MPS), contact, self._commit_chords)
+        """Per sequence of :meth:`clearances`' answer ``found``, the chord where it first
+        drives into a contact (:attr:`SafetyCheck.drives_in_s`), or the commitment time's
+        chord when it does not do so sooner."""
+        return np.minimum(found[7], self._commit_chords)
 
     def _best_unsafe(self, found: tuple) -> int:
         """The index of the best of sequences that all lose the margin, by :meth:`_better`'s

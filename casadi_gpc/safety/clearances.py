@@ -8,8 +8,12 @@ import numpy as np
 
 from .distances import chord_clearances, point_segment_distance, rollouts
 
-__all__ = ["Clearances", "NOT_WORSE_M"]
+__all__ = ["Clearances", "NOT_WORSE_M", "DRIVEN_MPS"]
 NOT_WORSE_M = 1e-6  # inside the margin, a candidate may lose this much clearance and pass
+
+DRIVEN_MPS = 0.05
+"""A robot that moves towards what it touches faster than this drives into it; slower, it is
+run into (../shared/CONTRACT.md: the same speed marks a collision as the robot's own doing)."""
 
 
 class Clearances:
@@ -32,9 +36,10 @@ class Clearances:
         now): H * substeps when it never does; and how many pass before it touches the
         obstacles' discs not inflated by their uncertainty, or a wall (or, touching one now,
         closes in), H * substeps when it never does; and the same for the fixed obstacles
-        alone, the walls and static discs; and the robot's speed towards what it first
-        touches, at that touch (m/s, positive when it drives into it; 0 when it touches
-        nothing) (:func:`~casadi_gpc.safety.distances.chord_clearances`,
+        alone, the walls and static discs; and how many pass, within the commitment time,
+        before it drives into what it touches (moving towards it faster than
+        :data:`DRIVEN_MPS` while touching it; H * substeps when it does not so soon)
+        (:func:`~casadi_gpc.safety.distances.chord_clearances`,
         compiled: every sequence against every obstacle, at less than the numpy form's cost
         against the few within reach)."""
         M, N = wheels.shape[0], self.horizon * self.substeps
@@ -42,12 +47,12 @@ class Clearances:
         if not len(obstacles.q) + len(walls):
             inf = np.full(M, np.inf)
             return (inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N), np.full(M, N), np.full(M, N),
-                    np.zeros(M))
+                    np.full(M, N))
         q, touch = obstacles.sub_samples()
-        cmin, now, chord, which, kept, contact, fixed, toward = chord_clearances(
+        cmin, now, chord, which, kept, contact, fixed, drives = chord_clearances(
             self.rollout(state, wheels), q, touch, obstacles.radii, walls, self.robot.radius_m, self.margin_m,
-            NOT_WORSE_M, len(obstacles.moving))
-        return cmin, np.full(M, now), chord, which, kept, contact, fixed, toward * (self.substeps / self.sample_time_s)
+            NOT_WORSE_M, len(obstacles.moving), DRIVEN_MPS * self.sample_time_s / self.substeps, self._commit_chords)
+        return cmin, np.full(M, now), chord, which, kept, contact, fixed, drives
 
     def wall_bounds(self, p0: complex, walls: np.ndarray, reach) -> np.ndarray:
         """``(nw, len(reach))``: the clearance to each wall that a robot within path length

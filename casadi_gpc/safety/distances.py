@@ -99,9 +99,11 @@ def closest_on_segment(p, a, b):  # pragma: no cover (compiled)
     return a + min(max(t, 0.0), 1.0) * d
 
 
-@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], float64[::1]))(complex128[:, ::1], "
-      "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64)", cache=True)
-def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse, n_moving):  # pragma: no cover (compiled)
+@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1]))(complex128[:, ::1], "
+      "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64, float64, int64)",
+      cache=True)
+def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse, n_moving, drive_step,
+                     commit):  # pragma: no cover (compiled)
     """For the roll-outs ``p`` (``(M, N + 1)`` complex, the first column now), the discs at
     ``q`` (``(n, N + 1)`` complex) touched at ``touch`` (``(n, N)``, inflated) and ``radii``
     (``(n,)``, not inflated), and the wall segments ``walls`` (``(nw, 2)`` complex ends,
@@ -114,11 +116,12 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     obstacles are the walls and the discs after the first ``n_moving`` (the static ones); for
     each of them ``now`` is its own clearance now, for a mover the least of all (so being
     inside a person's margin does not license the robot into a wall). With one sequence that
-    never falls below, all three are N. Last, per sequence, how far the robot moves towards
-    what it first touches on the chord where it first touches it (its displacement on that
-    chord along the direction from its end to the disc's centre, or to the wall's nearest
-    point; m a chord, positive towards): whether the robot drives into the contact or is
-    run into; 0 when it touches nothing."""
+    never falls below, all three are N. Last, per sequence, how many chords pass, among the
+    first ``commit``, before the robot drives into what it touches: a chord on which it
+    touches a disc not inflated, or a wall, as above, and moves towards it by more than
+    ``drive_step`` (its displacement on that chord along the direction from the chord's end
+    to the disc's centre there, or to the wall's nearest point); N when it does not within
+    them."""
     M, N = p.shape[0], p.shape[1] - 1
     n, nw = q.shape[0], walls.shape[0]
     cmin = np.empty(M)
@@ -127,7 +130,7 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     kept = np.full(M, N, np.int64)
     contact = np.full(M, N, np.int64)
     fixed = np.full(M, N, np.int64)
-    toward = np.zeros(M)
+    drives = np.full(M, N, np.int64)
     p0 = p[0, 0]
     # now: the inflated clearance and the distance to the expected discs and the walls, each
     # obstacle's and the least of them
@@ -212,7 +215,7 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
         cmin[m], which[m], chord[m] = best, bj, bc
         if M == 1 and best >= highest:
             continue  # never below: no need to find where (clear of the inflated discs: of the expected ones too)
-        k_kept, k_contact, k_fixed = N, N, N
+        k_kept, k_contact, k_fixed, k_drives = N, N, N, N
         any_fixed = False  # a fixed obstacle near enough to be touched: its first touch is wanted too
         for j in range(n_moving, n + nw):
             any_fixed = any_fixed or computed[j]
@@ -227,18 +230,19 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
                 if dist[j, c] - r0 < thr0[j]:
                     if k_contact == N:
                         k_contact = c
+                    if k_fixed == N and j >= n_moving:
+                        k_fixed = c
+                    if k_drives == N and c < commit:
                         end = p[m, c + 1]
                         u = (q[j, c + 1] if j < n else closest_on_segment(end, walls[j - n, 0], walls[j - n, 1])) - end
                         du = math.hypot(u.real, u.imag)
-                        if du > 0.0:
-                            v = end - p[m, c]
-                            toward[m] = (v.real * u.real + v.imag * u.imag) / du
-                    if k_fixed == N and j >= n_moving:
-                        k_fixed = c
-            if k_kept < N and k_contact < N and (k_fixed < N or not any_fixed):
+                        v = end - p[m, c]
+                        if du > 0.0 and (v.real * u.real + v.imag * u.imag) > drive_step * du:
+                            k_drives = c
+            if k_kept < N and k_contact < N and (k_fixed < N or not any_fixed) and (k_drives < N or c + 1 >= commit):
                 break
-        kept[m], contact[m], fixed[m] = k_kept, k_contact, k_fixed
-    return cmin, now, chord, which, kept, contact, fixed, toward
+        kept[m], contact[m], fixed[m], drives[m] = k_kept, k_contact, k_fixed, k_drives
+    return cmin, now, chord, which, kept, contact, fixed, drives
 
 
 @njit("float64[:, ::1](complex128[::1], complex128[:, ::1])", cache=True)

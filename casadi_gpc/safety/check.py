@@ -44,7 +44,6 @@ acceleration limit and held, beside :data:`MANOEUVRES`."""
 _TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
 
 
-
 def _best(among: np.ndarray, cmin: np.ndarray) -> int:
     """The first index of ``among`` (a mask) whose smallest clearance is the largest there
     (ties within :data:`_TIE_M`)."""

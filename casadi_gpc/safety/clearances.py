@@ -18,8 +18,8 @@ run into (../shared/CONTRACT.md: the same speed marks a collision as the robot's
 
 class Clearances:
     """:meth:`rollout`, :meth:`clearances` and :meth:`wall_bounds` for a
-    :class:`~casadi_gpc.safety.check.TrajectoryCheck` (its horizon, sub-steps, robot and
-    sub-sample times)."""
+    :class:`~casadi_gpc.safety.check.TrajectoryCheck` (its horizon, sub-steps, robot,
+    sub-sample times and commitment time)."""
 
     def rollout(self, state, wheels: np.ndarray) -> np.ndarray:
         """Robot positions at the sub-sample instants as complex numbers x + iy,

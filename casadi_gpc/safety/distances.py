@@ -22,8 +22,8 @@ from ..robot import robot_step_float
 
 _robot_step = njit(cache=True)(robot_step_float)  # the robot model's float form, compiled
 
-__all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "closest_on_segment", "chord_clearances",
-           "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound", "escape_bounds", "approach"]
+__all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "closest_on_segment",
+           "chord_clearances", "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound", "escape_bounds", "approach"]
 
 
 @njit("complex128[:, ::1](float64[::1], float64[:, :, ::1], float64[::1], float64, float64)", cache=True)
@@ -57,14 +57,21 @@ def rollouts(state, wheels, tau, T, W):  # pragma: no cover (compiled)
     return p
 
 
+@njit("float64(complex128, complex128)", cache=True)
+def _along(r, d):  # pragma: no cover (compiled)
+    """Where on a segment from its start, as a fraction of ``d`` (its end less its start), the
+    point ``r`` from its start is nearest."""
+    dd = d.real * d.real + d.imag * d.imag
+    t = (r.real * d.real + r.imag * d.imag) / dd if dd > 0.0 else 0.0
+    return min(max(t, 0.0), 1.0)
+
+
 @njit("float64(complex128, complex128, complex128)", cache=True)
 def segment_distance(p, a, b):  # pragma: no cover (compiled)
     """The distance from the point ``p`` to the segment ``a``-``b`` (complex ``x + iy``)."""
     d = b - a
     r = p - a
-    dd = d.real * d.real + d.imag * d.imag
-    t = (r.real * d.real + r.imag * d.imag) / dd if dd > 0.0 else 0.0
-    t = min(max(t, 0.0), 1.0)
+    t = _along(r, d)
     return math.hypot(r.real - t * d.real, r.imag - t * d.imag)
 
 
@@ -92,11 +99,7 @@ def chord_segment_distance(p0, p1, a, b):  # pragma: no cover (compiled)
 @njit("complex128(complex128, complex128, complex128)", cache=True)
 def closest_on_segment(p, a, b):  # pragma: no cover (compiled)
     """The point of the segment ``a``-``b`` nearest to ``p`` (complex ``x + iy``)."""
-    d = b - a
-    r = p - a
-    dd = d.real * d.real + d.imag * d.imag
-    t = (r.real * d.real + r.imag * d.imag) / dd if dd > 0.0 else 0.0
-    return a + min(max(t, 0.0), 1.0) * d
+    return a + _along(p - a, b - a) * (b - a)
 
 
 @njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1]))(complex128[:, ::1], "

@@ -61,7 +61,10 @@ class FatropBackend(Backend):
                     vr, vl = X[k][3] + U[k][0], X[k][4] + U[k][1]
                     xn, yn, thn = robot_step(ca, X[k][0], X[k][1], X[k][2], vr, vl, T, robot.wheel_base_m)
                     g.append(X[k + 1] - ca.vertcat(xn, yn, thn, vr, vl))
-            return {"x": ca.vertcat(*w), "p": p, "f": J, "g": ca.vertcat(*g)}
+            G = ca.vertcat(*g)
+            if G.numel() != n_g:  # the options below are made before the NLP (a known library skips it)
+                raise AssertionError(f"fatrop NLP has {G.numel()} equality constraints, its options {n_g}")
+            return {"x": ca.vertcat(*w), "p": p, "f": J, "g": G}
 
         n_g = 5 * (H + 1)  # X_0 = x0, then one state a stage
         opts = {"structure_detection": "auto", "equality": [True] * n_g, "print_time": False,

@@ -99,6 +99,11 @@ class MoverWorld:
             self._static_discs = [core.Disc(np.asarray(s.position_m, float), s.radius_m) for s in self._statics]
             self._lines = [core.LineSegment(np.asarray(a, float), np.asarray(b, float))
                            for w in walls for a, b in zip(w.points[:-1], w.points[1:])]
+            # each behaviour's environment, fetched once (every fetch through navground's binding
+            # costs as much as the assignment); the walls never change: given once
+            self._envs = [b.environment_state for b in self._behaviours]
+            for env in self._envs:
+                env.line_obstacles = self._lines
             start = np.array([self.movers[j].position_m for j in self._walkers], dtype=float)
             self._grid = [start]                       # walker positions at grid instants 0, 1, ...
             self._vel = np.zeros_like(start)            # velocity over the current grid step
@@ -155,12 +160,14 @@ class MoverWorld:
         if self._walkers:
             if ts.max(initial=0.0) > self.advanced_to_s + 1e-9:
                 raise ValueError(f"walkers known until {self.advanced_to_s:.2f} s, asked for {ts.max():.2f} s")
-            grid = np.stack(self._grid)                        # (K + 1, w, 2)
-            u = np.clip(ts / CROWD_TIME_STEP_S, 0.0, len(self._grid) - 1)
-            k = np.minimum(np.floor(u).astype(int), len(self._grid) - 2) if len(self._grid) > 1 else np.zeros(len(ts), int)
+            grid, last = self._grid, len(self._grid) - 1      # positions at grid instants 0..last
+            u = np.clip(ts / CROWD_TIME_STEP_S, 0.0, last)
+            k = np.minimum(np.floor(u).astype(int), last - 1) if last > 0 else np.zeros(len(ts), int)
             a = (u - k)[:, None, None]
-            nxt = grid[np.minimum(k + 1, len(self._grid) - 1)]
-            out[:, self._walkers, :] = (1.0 - a) * grid[k] + a * nxt
+            # only the rows asked for (stacking the whole history made each call grow with the episode)
+            now = np.stack([grid[i] for i in k.tolist()])
+            nxt = np.stack([grid[min(i + 1, last)] for i in k.tolist()])
+            out[:, self._walkers, :] = (1.0 - a) * now + a * nxt
         for j in self._tracked:
             out[~self.movers[j].exists_at(ts), j, :] = np.nan
         return out if t.ndim else out[0]
@@ -210,30 +217,38 @@ class MoverWorld:
             robot_xy = np.array((rx, ry))
             robot_neighbour = core.Neighbor(robot_xy, self._robot_radius, np.array((rvx, rvy)), -1)
         vel = np.zeros_like(now)
-        for i, (j, b) in enumerate(zip(self._walkers, self._behaviours)):
+        # every walker's centre distance to every mover at once (the same arithmetic, element by
+        # element, as one walker's row: NaN for a mover not in the scene, which is never near)
+        with np.errstate(invalid="ignore"):
+            within = np.hypot(pos_all[None, :, 0] - now[:, None, 0],
+                              pos_all[None, :, 1] - now[:, None, 1]) <= PERCEPTION_RANGE_M
+        within[np.arange(len(self._walkers)), self._walkers] = False
+        for i, (j, b, env) in enumerate(zip(self._walkers, self._behaviours, self._envs)):
             if self._arrived[i] or not present[j]:
                 continue
             m = self.movers[j]
             if hasattr(m, "track"):
                 if not bool(m.exists_at(t + CROWD_TIME_STEP_S)):
                     continue  # leaves the scene at its last row
-                _aim_at_recording(b, m, now[i], t)
-            with np.errstate(invalid="ignore"):
-                near = np.hypot(*(pos_all - now[i]).T) <= PERCEPTION_RANGE_M
-            near[j] = False
-            agents = [seen[o] for o in np.flatnonzero(near) if o not in standing]
-            discs = [seen[o] for o in np.flatnonzero(near) if o in standing]
+                target = _aim_at_recording(b, m, now[i], t)
+            else:
+                target = m.goal_m
+            near = np.flatnonzero(within[i]).tolist()
+            if standing:
+                agents = [seen[o] for o in near if o not in standing]
+                discs = [seen[o] for o in near if o in standing]
+            else:
+                agents, discs = [seen[o] for o in near], []
             if m.sees_robot and math.hypot(*(robot_xy - now[i])) <= PERCEPTION_RANGE_M:
                 agents.append(robot_neighbour)
             b.position = now[i]
             b.velocity = self._vel[i]
-            b.environment_state.neighbors = agents
-            b.environment_state.static_obstacles = self._static_discs + discs
-            b.environment_state.line_obstacles = self._lines
+            env.neighbors = agents
+            env.static_obstacles = self._static_discs + discs
             cmd = b.compute_cmd(CROWD_TIME_STEP_S, core.Frame.absolute)
             v = np.asarray(cmd.velocity, dtype=float)
             # never overshoot the goal within one grid step: stop on it
-            to_goal = np.asarray(b.target.position if hasattr(m, "track") else m.goal_m, dtype=float) - now[i]
+            to_goal = np.asarray(target, dtype=float) - now[i]
             d = math.hypot(*to_goal)
             if math.hypot(*v) * CROWD_TIME_STEP_S > d > 0:
                 v = to_goal / CROWD_TIME_STEP_S
@@ -264,11 +279,13 @@ def _make_behaviour(mover):
     return b
 
 
-def _aim_at_recording(b, mover, position, t_s: float) -> None:
+def _aim_at_recording(b, mover, position, t_s: float) -> np.ndarray:
     """Point a track walker's behaviour at where its recording is :data:`TRACK_LOOKAHEAD_S`
-    ahead, at the speed that gets it there in that time (within its top speed)."""
+    ahead, at the speed that gets it there in that time (within its top speed); that point."""
     from navground import core
     goal = mover.recorded_at(min(t_s + TRACK_LOOKAHEAD_S, mover.end_s))
     speed = min(float(np.hypot(*(goal - position))) / TRACK_LOOKAHEAD_S, b.max_speed)
     b.optimal_speed = max(speed, 1e-3)
-    b.target = core.Target.Point(np.asarray(goal, dtype=float), GOAL_TOLERANCE_M)
+    goal = np.asarray(goal, dtype=float)
+    b.target = core.Target.Point(goal, GOAL_TOLERANCE_M)
+    return goal

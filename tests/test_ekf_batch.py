@@ -304,3 +304,47 @@ def test_the_compiled_worst_deviation_is_numpys_bit_for_bit():
     filters = _random_filters(rng, 8, 0.5, seen_once=(3,))
     batch = ForecastBatch([f.snapshot() for f in filters], 12)
     assert np.array_equal(batch.worst_std_m, worst_std_m(batch.planning_covs))
+
+
+@pytest.mark.parametrize("straight", [True, False])
+def test_a_banks_forecasts_made_together_are_each_tracks_own_bit_for_bit(straight):
+    """TrackBank.forecasts (the planner's: from MANY_TRACKS pairs on, the filters seen twice
+    made in one compiled call) against TrackBank.forecast of each pair, with the planner's
+    traced forecast and without: over 30 samples of a bank of 14 tracks (new ones seen once,
+    gated measurements and their ghosts, a track gone and back), the same ids, radii, means and
+    planning covariances to the bit, in the same order; below MANY_TRACKS, the same too."""
+    from casadi_gpc.estimation.forecast_function import ForecastFunction
+    from casadi_gpc.estimation.tracking import TrackBank
+    rng = np.random.default_rng(7)
+    T, H = 0.5, 12
+    bank = TrackBank(T, straight=straight)
+    traced = ForecastFunction(T, H)
+    pos = {i: rng.normal(0, 4, 2) for i in range(14)}
+    vel = {i: rng.normal(0, 0.5, 2) for i in range(14)}
+    seen_once = made_together = 0
+    for k in range(30):
+        moving = []
+        for i in range(14):
+            if (i >= 12 and k < 4 + 3 * (i - 12)) or (i == 5 and 10 <= k < 13):
+                continue
+            pos[i] = pos[i] + vel[i] * T
+            z = pos[i] + rng.normal(0, 0.02, 2)
+            if rng.random() < 0.06:
+                z = z + rng.normal(0, 2, 2)  # gated: a ghost waits for confirmation
+            moving.append(ObstacleMeasurement(i, (float(z[0]), float(z[1])), 0.25 + 0.01 * i))
+        pairs = bank.step(moving)
+        for function in (traced, None):
+            many = bank.forecasts(pairs, H, function)
+            one = [bank.forecast(m, f, H, function) for m, f in pairs]
+            assert len(many) == len(one) == len(pairs)
+            for a, b in zip(many, one):
+                assert (a.obstacle_id, a.radius_m) == (b.obstacle_id, b.radius_m)
+                assert a.means_m.shape == b.means_m.shape == (H, 2)
+                assert a.means_m.tobytes() == b.means_m.tobytes()
+                assert a.covs_m2.tobytes() == b.covs_m2.tobytes()
+        seen_once += sum(not f.initialised for _, f in pairs)
+        made_together += sum(f.initialised for _, f in pairs) if len(pairs) >= MANY_TRACKS else 0
+    assert seen_once >= 3 and made_together > 200 and bank.counters["ghosts"] > 0
+    few = bank.step(moving[:MANY_TRACKS - 1])
+    assert [f.means_m.tobytes() for f in bank.forecasts(few, H, traced)] == \
+        [bank.forecast(m, f, H, traced).means_m.tobytes() for m, f in few]

@@ -145,9 +145,7 @@ class GPCController:
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
         """Fuse this sample's measurements and predict every track over the horizon."""
-        H = self.config.horizon
-        forecast, function = self.bank.forecast, self._forecast_function
-        return [forecast(m, ekf, H, function) for m, ekf in self.bank.step(obs.moving)]
+        return self.bank.forecasts(self.bank.step(obs.moving), self.config.horizon, self._forecast_function)
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
         """Advance the reference clock; the desired poses at steps 0..H, shape (H + 1, 3)

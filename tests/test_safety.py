@@ -847,6 +847,33 @@ def test_search_takes_the_safe_sequence_nearest_the_wish_by_brute_force():
     assert name.startswith("search(+") and float(name[8:12]) > 0
 
 
+def test_the_searched_grid_reaches_the_wheels_limits_backwards_as_forwards():
+    """The searched targets are within the wheel-speed limits, include driving straight at
+    the limit forwards and backwards, and back away as fast as the wheels allow: a walker
+    faster than the robot's reversing speed caught a robot whose grid reversed at half the
+    limit (docs/nn-deploy.md). Held from a standstill, the straight reverse target reaches the
+    limit within the horizon and, against a walker following at 0.5 m/s from 1 m away, keeps
+    it off where the old grid's fastest reverse (half the limit) is caught."""
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H, search=True)
+    vmax = ROBOT.max_wheel_speed_mps
+    targets = f._search_targets
+    assert np.all(np.abs(targets) <= vmax + 1e-12)
+    assert any(np.allclose(t, (vmax, vmax)) for t in targets)
+    assert any(np.allclose(t, (-vmax, -vmax)) for t in targets)
+    means = 0.5 * (targets[:, 0] + targets[:, 1])
+    assert means.min() == pytest.approx(-vmax) and means.max() == pytest.approx(vmax)
+    state = np.array([0.0, 0.0, 0.0, 0.0, 0.0])
+    W = f._searched(state[3:], H)
+    i = f._search_names.index("search(-1.00,+0.00)")
+    assert np.allclose(W[i, -1], (-vmax, -vmax))
+    fc = [forecast((1.0, 0.0), (-0.5, 0.0), T, H)]  # walks at the robot's front, straight on
+    full = brute_clearance(state, W[i], fc, (), T, 0.0, n=200)
+    j = f._search_names.index("search(-0.50,+0.00)")
+    half = brute_clearance(state, W[j], fc, (), T, 0.0, n=200)
+    assert full > 0.0 > half
+
+
 def test_with_the_search_a_command_passes_when_a_searched_way_out_keeps_the_margin():
     """A command is judged with the ways out the check itself would take: behind the search,
     the command then any searched target (or manoeuvre); the continuation says which. Where

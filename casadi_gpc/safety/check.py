@@ -33,9 +33,11 @@ MANOEUVRES: tuple[tuple[str, float, float], ...] = (
 are offsets added to the current mean wheel speed (at least a quarter of the limit), the
 others are absolute targets. 'right'/'left' name the side the robot turns towards."""
 
-SEARCH_SPEEDS = (-0.5, 0.0, 0.25, 0.5, 0.75, 1.0)
+SEARCH_SPEEDS = (-1.0, -0.75, -0.5, 0.0, 0.25, 0.5, 0.75, 1.0)
 """The searched way out (:meth:`~casadi_gpc.safety.search.WayOutSearch.search`): mean wheel-speed targets, as
-fractions of the speed limit ..."""
+fractions of the speed limit, backwards as far as forwards: the wheels' limits, not a
+reversing speed picked below them (reversing at most half the limit, walkers at 0.5 m/s
+caught a robot backing away from them: docs/nn-deploy.md, "Reversing at the wheels' limit") ..."""
 SEARCH_TURNS = (-0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5)
 """... and half the difference of the two wheels' targets (positive turns left), the same
 fractions; every pair of the two within the limits, each target approached at the

@@ -60,3 +60,13 @@ def test_the_command_summarises_by_outcome_and_refuses_a_bad_file(tmp_path, caps
     bad.write_text("{}")
     assert rt.main([str(bad)]) == 2
     assert "bad.json" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, says", [(["--suite", "nope"], "unknown suite"),
+                                        (["--suite", "corridor", "--controller", "nope"], "not a controller"),
+                                        (["--suite", "corridor", "--count", "0"], "count must be at least 1"),
+                                        ([], "one of the two")])
+def test_bad_arguments_are_refused_in_one_line(argv, says, capsys):
+    assert _tool().main(argv) == 2
+    err = capsys.readouterr().err
+    assert says in err and err.count("\n") == 1

@@ -63,17 +63,18 @@ def episode(run: dict) -> dict:
             "path_length_m": float(run["path_length_m"])}
 
 
-def suite_runs(name: str, count: int, seed: int, movers: int, controller: str, preset_name: str):
+def suite_runs(name: str, count: int, seed: int, movers: int, controller: str, preset_name: str) -> list[dict]:
     """The RUN documents of a seeded suite's first ``count`` episodes, as ``gpcnav simulate``
     writes them (the controller behind its default check layer)."""
     from casadi_gpc.config import preset
     from gpcnav.commands.common import for_run
     from gpcnav.commands.simulate import run_one
+    from gpcnav.controllers import ControllerSpec, check
     from scenarios.suites import Suite
-    suite = Suite(name, count=count, seed=seed, movers=movers)
-    for i in range(count):
-        sc = suite.scenario(i)
-        yield run_one(sc, controller, for_run(preset(preset_name), [sc]))
+    suite, config = Suite(name, count=count, seed=seed, movers=movers), preset(preset_name)
+    scenarios = [suite.scenario(i) for i in range(count)]
+    check(ControllerSpec(controller), config, scenarios[0].robot)
+    return [run_one(sc, controller, for_run(config, [sc])) for sc in scenarios]
 
 
 def summary(rows: list[dict]) -> dict:
@@ -103,8 +104,13 @@ def main(argv=None) -> int:
         return 2
     rows = []
     if args.suite:
-        rows = [episode(r) for r in suite_runs(args.suite, args.count, args.seed, args.movers, args.controller,
-                                               args.preset)]
+        from gpcnav.errors import UsageError
+        try:
+            runs = suite_runs(args.suite, args.count, args.seed, args.movers, args.controller, args.preset)
+        except (ValueError, UsageError) as exc:  # an unknown suite, controller or preset, a count below 1
+            print(f"retreat: {exc}", file=sys.stderr)
+            return 2
+        rows = [episode(r) for r in runs]
     for f in args.runs:
         try:
             rows.append(episode(json.loads(Path(f).read_text())))

@@ -12,11 +12,8 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
-import numpy as np
-
 from .ekf import EKFSettings, ObstacleEKF, planning_covariances, straightened
-from .ekf_batch import MANY_TRACKS
-from .ekf_floats import forecast_rows
+from .ekf_batch import MANY_TRACKS, forecast_many
 from ..types import ObstacleForecast, ObstacleMeasurement
 
 __all__ = ["TrackBank", "TRACK_COUNTERS", "UPDATED_TOGETHER"]
@@ -136,13 +133,13 @@ class TrackBank:
         """:meth:`forecast` of each ``(measurement, filter)`` pair (:meth:`step`'s answer), in
         order. From :data:`~casadi_gpc.estimation.ekf_batch.MANY_TRACKS` pairs on, the filters
         seen twice or more (with the bank's sample time and process noise) are forecast
-        together, in one compiled call (:func:`~casadi_gpc.estimation.ekf_floats.forecast_rows`,
-        :func:`~casadi_gpc.estimation.ekf_floats.propagate`'s operations in its order: the same
+        together, in one compiled call (:func:`~casadi_gpc.estimation.ekf_batch.forecast_many`:
+        :func:`~casadi_gpc.estimation.ekf_floats.propagate`'s operations in its order, the same
         numbers as one by one, tested); the others one by one."""
         if len(pairs) < MANY_TRACKS:
             return [self.forecast(m, ekf, horizon, function) for m, ekf in pairs]
         T, straight = self.sample_time_s, self.straight
-        flat, rows, q_all = [], [], None
+        states, uppers, rows, q_all = [], [], [], None
         for i, (_, ekf) in enumerate(pairs):
             if ekf.measurements_seen_ < 2 or ekf.sample_time_s != T:
                 continue
@@ -153,12 +150,12 @@ class TrackBank:
                 q_all = q
             elif q != q_all:
                 continue
-            flat += (*state, *upper)
+            states.append(state)
+            uppers.append(upper)
             rows.append(i)
         out = [None] * len(pairs)
         if rows:
-            a = np.array(flat, dtype=float).reshape(-1, 20)
-            means, covs = forecast_rows(a[:, :5], a[:, 5:], float(T), np.array(q_all, dtype=float), int(horizon))
+            means, covs = forecast_many(states, uppers, T, q_all, horizon)
             for k, i in enumerate(rows):
                 m = pairs[i][0]
                 out[i] = ObstacleForecast(m.obstacle_id, m.radius_m, means[k], covs[k])  # seen twice: as forecast

@@ -12,7 +12,7 @@ casadi = pytest.importorskip("casadi")
 
 from casadi_gpc.config import WALL_SLOTS, preset  # noqa: E402
 from conftest import straight_line_toml  # noqa: E402
-from casadi_gpc.planner.guesses import crosses_walls  # noqa: E402
+from casadi_gpc.planner.guesses import meets_walls  # noqa: E402
 from casadi_gpc.problem.cost import ParameterLayout, build_problem  # noqa: E402
 from casadi_gpc.problem.selection import select_walls  # noqa: E402
 from casadi_gpc.robot import RobotParams  # noqa: E402
@@ -67,13 +67,19 @@ def test_the_nearest_segments_fill_the_slots_and_the_rest_are_counted():
     assert len(chosen) == 1 and left_out == 1        # the other 1 m away is relevant and left out
 
 
-def test_a_guess_through_a_wall_is_known():
+def test_a_guess_through_a_wall_or_onto_one_is_known():
     robot = RobotParams()
     x0 = np.array([0.0, 0.0, 0.0, 0.4, 0.4])
     straight = np.zeros(2 * CFG.horizon)            # 0.4 m/s for 6 s: to x = 2.4
-    assert crosses_walls(CFG, robot, x0, straight, [(2.0, -1.0, 2.0, 1.0)])
-    assert not crosses_walls(CFG, robot, x0, straight, [(3.0, -1.0, 3.0, 1.0)])
-    assert not crosses_walls(CFG, robot, x0, straight, [(0.0, 1.0, 5.0, 1.0)])
+    assert meets_walls(CFG, robot, x0, straight, [(2.0, -1.0, 2.0, 1.0)])
+    assert not meets_walls(CFG, robot, x0, straight, [(3.0, -1.0, 3.0, 1.0)])
+    assert not meets_walls(CFG, robot, x0, straight, [(0.0, 1.0, 5.0, 1.0)])
+    # not crossed, but its disc (0.35 m) would touch it: 0.2 m beyond the path's end
+    assert meets_walls(CFG, robot, x0, straight, [(2.6, -1.0, 2.6, 1.0)])
+    # a robot already nearer a wall than its radius is not held to more than keeping its distance
+    along = [(0.0, 0.3, 5.0, 0.3)]
+    assert not meets_walls(CFG, robot, x0, straight, along)
+    assert meets_walls(CFG, robot, x0, np.tile([0.02, 0.0], CFG.horizon), along)  # turning left into it
 
 
 def test_the_planner_keeps_off_a_wall_it_is_driven_at():
@@ -113,3 +119,42 @@ def test_the_cost_s_nearest_wall_point_is_the_geometry_s():
         assert float(tw[3]) == pytest.approx(float(ts[3]), rel=1e-6)
         assert float(tw[4]) == pytest.approx(float(ts[4]), rel=1e-6, abs=1e-12)
     assert ends == {-1, 0, 1}  # inside, and at each end, all met
+
+
+def test_in_a_corridor_the_sideways_guesses_are_narrowed_to_fit_and_counted():
+    """In a 2.5 m corridor the full swerves and the 1.5 m detours meet a wall: each is made
+    narrower until it keeps off them (so the robot still has a cold guess to either side),
+    and what nothing narrows (straight on, into a wall across the way) is left out. With one
+    cold start a tick (the ``improved`` preset) a guess left out gives its turn to the next
+    of the queue, so a tick still solves one."""
+    from casadi_gpc.planner.gpc import GPCController
+    from casadi_gpc.planner.guesses import NARROWER, initial_guesses
+    from scenarios.simulator import Episode
+    walls = ("[[walls]]\npoints = [[-1.0, 1.25], [30.0, 1.25]]\n"
+             "[[walls]]\npoints = [[-1.0, -1.25], [30.0, -1.25]]\n")
+    sc = scenario_from_dict(tomllib.loads(BASE + walls), "corridor")
+    ctl = GPCController(for_run(CFG, [sc]), sc.robot)
+    obs = Episode(sc, CFG.sample_time_s).observation()
+    tick, _ = ctl.pose(obs, ctl.estimate(obs))
+    segs = ctl._walls_in_slots
+    assert len(segs) == 2
+    full = initial_guesses(ctl.problem, tick.x0, 0.4, np.asarray(tick.p[ctl._ref_slice]).reshape(-1, 3))
+    met = {n for n, u in full.items() if meets_walls(CFG, ctl.robot, tick.x0, u, segs)}
+    assert {"swerve_right", "swerve_left", "detour_right", "detour_left"} <= met
+    starts = ctl._guess_starts(tick.p, tick.x0, 0.4)
+    names = [s[0] for s in starts]
+    assert names == ["swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake"]
+    for name, u0, _, _ in starts:
+        assert not meets_walls(CFG, ctl.robot, tick.x0, u0, segs), name
+    assert ctl.counters["guesses_narrowed"] == 4 and ctl.counters["guesses_through_walls"] == 0
+    assert min(NARROWER) < 1.0
+    # a wall across the way 2 m ahead: straight on (0.4 m/s for 6 s) meets it, no narrowing helps
+    ctl._walls_in_slots = segs + [(2.0, -1.25, 2.0, 1.25)]
+    names = [s[0] for s in ctl._guess_starts(tick.p, tick.x0, 0.4)]
+    assert "straight" not in names and ctl.counters["guesses_through_walls"] >= 1
+    # one guess a tick: the queue's straight is left out, and the next guess is solved instead
+    ctl._pending = ["detour_right", "brake", "swerve_left"]
+    batch = ["straight"]
+    got = ctl._queued_starts(tick.p, tick.x0, 0.4, batch, keep_one=False)
+    assert [s[0] for s in got] == ["brake"] and batch == ["straight", "detour_right", "brake"]
+    assert ctl._pending == ["swerve_left"]

@@ -13,7 +13,7 @@ from ..config import PlannerConfig, preset
 from ..problem.cost import GPCProblem
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
-from .guesses import TIE_ORDER, crosses_walls, initial_guesses, swerve_guesses
+from .guesses import NARROWER, SIDEWAYS, TIE_ORDER, initial_guesses, meets_walls, swerve_guesses
 from .lanes import SolveLanes
 from ..progress import ReferenceClock
 from ..robot import RobotParams, brake_wheels
@@ -255,7 +255,7 @@ class GPCController:
         # the candidates keep the guesses-then-warm order that breaks ties.
         starts = [] if warm is None else [("warm", *shift(warm, self.config.horizon))]
         if multistart or warm is None:
-            starts += self._guess_starts(p, x0, ref_speed_mps)
+            starts += self._guess_starts(p, x0, ref_speed_mps, keep_one=not starts)
         solved = self.solve_many(p, starts)
         candidates = [c for c in solved if c.guess != "warm"] + [c for c in solved if c.guess == "warm"]
         best = None
@@ -281,14 +281,14 @@ class GPCController:
         previous = cs.incumbent
         starts = [(name, u0, lam_x, lam_g) for name, (u0, lam_x, lam_g) in cs.starts(near, full)]
         if full:  # known now: the fixed guesses go with the warm starts, in one batch
-            starts += self._guess_starts(p, x0, ref_speed_mps)
+            starts += self._guess_starts(p, x0, ref_speed_mps, keep_one=not starts)
         solved = self.solve_many(p, starts)
         if not full and near and len(cs.plans) == 1 and fell_off_a_ridge(previous, solved):
             solved = self._opening_solves(p, x0, ref_speed_mps) + solved
         if not full and near and self._surprised(previous, solved):
             full = True  # dearer than expected: look for a minimum no kept candidate is in
             cs.reason = "surprise"
-            solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps))
+            solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps, keep_one=False))
         if full:
             self._count_multistart(cs.reason)
         return cs.update(solved, full, TIE_RELATIVE), solved
@@ -312,15 +312,27 @@ class GPCController:
             self._count_multistart(cs.reason)
         batch = self._take_pending(K, began=due)
         starts = [(name, u0, lam_x, lam_g) for name, (u0, lam_x, lam_g) in cs.starts(near, False)]
-        solved = self.solve_many(p, starts + self._guess_starts(p, x0, ref_speed_mps, batch))
+        guesses = self._queued_starts(p, x0, ref_speed_mps, batch, keep_one=not starts)
+        solved = self.solve_many(p, starts + guesses)
         if not batch and near and len(cs.plans) == 1 and fell_off_a_ridge(previous, solved):
             solved = self._opening_solves(p, x0, ref_speed_mps) + solved
         if not batch and near and self._surprised(previous, solved):
             self._pending = self._cycle()  # look for a minimum no kept candidate is in
             self._count_multistart("surprise")
             batch = self._take_pending(K, began=True)
-            solved += self.solve_many(p, self._guess_starts(p, x0, ref_speed_mps, batch))
+            solved += self.solve_many(p, self._queued_starts(p, x0, ref_speed_mps, batch, keep_one=False))
         return cs.update(solved, bool(batch), TIE_RELATIVE), solved
+
+    def _queued_starts(self, p, x0, ref_speed_mps: float, batch: list, keep_one: bool) -> list[tuple]:
+        """The starts of the queued guesses ``batch`` (:meth:`_guess_starts`); for each one
+        left out because it meets a wall however narrowed, the next guess of the queue
+        instead (``batch`` grows by it), so that a tick still solves its ``cold_starts``."""
+        starts, want = self._guess_starts(p, x0, ref_speed_mps, batch, keep_one), len(batch)
+        while len(starts) < want and self._pending:
+            more, self._pending = self._pending[:1], self._pending[1:]
+            batch += more
+            starts += self._guess_starts(p, x0, ref_speed_mps, more, keep_one=False)
+        return starts
 
     def _surprised(self, previous, solved) -> bool:
         """Whether this tick's best warm start costs more than ``PlannerConfig.surprise_ratio``
@@ -364,20 +376,35 @@ class GPCController:
         self.counters["opening_solves"] = self.counters.get("opening_solves", 0) + len(out)
         return out
 
-    def _guess_starts(self, p, x0, ref_speed_mps: float, names=None) -> list[tuple]:
+    def _guess_starts(self, p, x0, ref_speed_mps: float, names=None, keep_one: bool = True) -> list[tuple]:
         """The fixed guesses as starts ``(name, u0, None, None)``, in tie order (``names``:
-        only those; a guess through a wall in the NLP's slots is left out, counted)."""
+        only those). A guess that meets a wall in the NLP's slots (:func:`meets_walls`) is
+        made narrower (:data:`NARROWER`, counted ``guesses_narrowed``) if it goes sideways,
+        else left out (counted ``guesses_through_walls``): a wall, unlike a disc, is passed on
+        one side only. ``keep_one``: when every guess would be left out, they are all solved
+        as they are (there is nothing else to start from)."""
         if names is not None and not names:
             return []
         ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
-        starts = [(name, u0, None, None)
-                  for name, u0 in initial_guesses(self.problem, x0, ref_speed_mps, ref_poses, names).items()]
-        if self._walls_in_slots:  # a guess through a wall is no start: the wall is not passed on either side
-            kept = [s for s in starts if not crosses_walls(self.config, self.robot, x0, s[1], self._walls_in_slots)]
-            if kept:
-                self.counters["guesses_through_walls"] = self.counters.get("guesses_through_walls", 0) + \
-                    len(starts) - len(kept)
-                starts = kept
+        guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses, names)
+        walls = self._walls_in_slots
+        if not walls:
+            return [(name, u0, None, None) for name, u0 in guesses.items()]
+        starts, narrowed = [], 0
+        for name, u0 in guesses.items():
+            fit = u0 if not meets_walls(self.config, self.robot, x0, u0, walls) else None
+            for scale in NARROWER if fit is None and name in SIDEWAYS else ():
+                u = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses, (name,), scale)[name]
+                if not meets_walls(self.config, self.robot, x0, u, walls):
+                    fit, narrowed = u, narrowed + 1
+                    break
+            if fit is not None:
+                starts.append((name, fit, None, None))
+        if not starts and keep_one:
+            return [(name, u0, None, None) for name, u0 in guesses.items()]
+        c = self.counters
+        c["guesses_through_walls"] = c.get("guesses_through_walls", 0) + len(guesses) - len(starts)
+        c["guesses_narrowed"] = c.get("guesses_narrowed", 0) + narrowed
         return starts
 
     def _out_of_time(self) -> bool:

@@ -13,14 +13,22 @@ import math
 
 import numpy as np
 
-from ..geometry import segments_cross
+from ..geometry import distance_to_segments_m, segments_cross
 from ..robot import robot_step_float
 
-__all__ = ["TIE_ORDER", "wheels_to_increments", "swerve_guesses", "detour_guesses", "brake_guess", "initial_guesses",
-           "crosses_walls"]
+__all__ = ["TIE_ORDER", "SIDEWAYS", "NARROWER", "wheels_to_increments", "swerve_guesses", "detour_guesses",
+           "brake_guess", "initial_guesses", "meets_walls"]
 
 TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake")
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
+SIDEWAYS = frozenset({"swerve_right", "swerve_left", "detour_right", "detour_left"})
+"""The guesses that leave the reference sideways, by a turn rate or a lateral offset."""
+NARROWER = (0.5, 0.25)
+"""A sideways guess that meets a wall (:func:`meets_walls`) is made again with its turn rate
+or offset scaled by each of these in turn, and the first that keeps off the walls is solved:
+in a 2.5 m corridor the full swerve (0.5 rad/s for half the horizon) and the 1.5 m detours
+leave it, and without a narrower one the robot's only cold guesses there are straight on and
+braking (docs/buildings.md, "Guesses that fit the corridor")."""
 
 
 def _follow(v: float, target: float, dv_max: float, v_max: float) -> float:
@@ -41,28 +49,32 @@ def wheels_to_increments(v0, wheels, dv_max: float, v_max: float) -> np.ndarray:
     return np.array(u)
 
 
-def swerve_guesses(cfg, robot, x0, ref_speed_mps: float) -> dict[str, np.ndarray]:
-    """Turn one way for half the horizon and back the other way (and straight on)."""
+def swerve_guesses(cfg, robot, x0, ref_speed_mps: float, scale: float = 1.0) -> dict[str, np.ndarray]:
+    """Turn one way for half the horizon and back the other way (and straight on); ``scale``
+    multiplies the turn rate."""
     H, W = cfg.horizon, robot.wheel_base_m
     dv_max, v_max = robot.max_step_change_mps(cfg.sample_time_s), robot.max_wheel_speed_mps
     v = float(np.clip(ref_speed_mps, 0.0, v_max))
     half = max(1, H // 2)
     out = {}
     for name, sign in (("swerve_right", -1.0), ("swerve_left", 1.0), ("straight", 0.0)):
-        w = np.where(np.arange(H) < half, sign, -sign) * cfg.swerve_turn_rate_rad_s
+        w = np.where(np.arange(H) < half, sign, -sign) * cfg.swerve_turn_rate_rad_s * scale
         wheels = np.stack([v + 0.5 * w * W, v - 0.5 * w * W], axis=1)
         out[name] = wheels_to_increments(x0[3:5], wheels, dv_max, v_max)
     return out
 
 
-def detour_guesses(cfg, robot, x0, ref_poses, ref_speed_mps: float, gain: float = 1.5) -> dict[str, np.ndarray]:
+def detour_guesses(cfg, robot, x0, ref_poses, ref_speed_mps: float, gain: float = 1.5,
+                   scale: float = 1.0) -> dict[str, np.ndarray]:
     """Steer towards the reference shifted sideways (a way around what blocks the path):
-    a simple pursuit of the shifted points, rolled out with the robot model."""
+    a simple pursuit of the shifted points, rolled out with the robot model; ``scale``
+    multiplies the shift."""
     H, W, T = cfg.horizon, robot.wheel_base_m, cfg.sample_time_s
     dv_max, v_max = robot.max_step_change_mps(T), robot.max_wheel_speed_mps
     ref = np.asarray(ref_poses, dtype=float).tolist()
     out = {}
     for name, offset in zip(("detour_right", "detour_left"), DETOUR_OFFSETS_M):
+        offset *= scale
         x, y, th = float(x0[0]), float(x0[1]), float(x0[2])
         vr, vl = float(x0[3]), float(x0[4])
         u = []
@@ -87,26 +99,29 @@ def brake_guess(cfg, robot, x0) -> np.ndarray:
     return wheels_to_increments(x0[3:5], np.zeros((H, 2)), dv_max, v_max)
 
 
-def initial_guesses(problem, x0, ref_speed_mps: float, ref_poses=None, names=None) -> dict[str, np.ndarray]:
+def initial_guesses(problem, x0, ref_speed_mps: float, ref_poses=None, names=None,
+                    scale: float = 1.0) -> dict[str, np.ndarray]:
     """The configuration's fixed guesses (``PlannerConfig.guesses``; ``names``: only those
-    of them) in tie-break order (detours only when the reference is known)."""
+    of them) in tie-break order (detours only when the reference is known); ``scale``
+    multiplies the sideways guesses' turn rate and offset (:data:`NARROWER`)."""
     cfg, wanted = problem.config, set(problem.config.guesses)
     if names is not None:
         wanted &= set(names)
-    guesses = swerve_guesses(cfg, problem.robot, x0, ref_speed_mps) if wanted & {"swerve_right", "swerve_left",
+    guesses = swerve_guesses(cfg, problem.robot, x0, ref_speed_mps, scale) if wanted & {"swerve_right", "swerve_left",
                                                                                   "straight"} else {}
     if ref_poses is not None and wanted & {"detour_right", "detour_left"}:
-        guesses.update(detour_guesses(cfg, problem.robot, x0, ref_poses, ref_speed_mps))
+        guesses.update(detour_guesses(cfg, problem.robot, x0, ref_poses, ref_speed_mps, scale=scale))
     if "brake" in wanted:
         guesses["brake"] = brake_guess(cfg, problem.robot, x0)
     return {k: guesses[k] for k in TIE_ORDER if k in guesses and k in wanted}
 
 
-def crosses_walls(config, robot, x0, u0, segments) -> bool:
-    """Whether the path the increments ``u0`` roll out to from ``x0`` (straight chords between
-    the samples) crosses one of the wall ``segments`` (``(ax, ay, bx, by)`` each). A wall,
-    unlike a disc, cannot be passed on either side: a guess through it starts the solver
-    deep inside a penalty it cannot leave."""
+def meets_walls(config, robot, x0, u0, segments) -> bool:
+    """Whether the path the increments ``u0`` roll out to from ``x0`` crosses one of the wall
+    ``segments`` (``(ax, ay, bx, by)`` each; straight chords between the samples) or brings the
+    robot's disc onto one at a sample (nearer than its radius, and nearer than it is now). A
+    wall, unlike a disc, cannot be passed on either side: a guess through it starts the
+    solver deep inside a penalty it cannot leave."""
     if not len(segments):
         return False
     x, y, th, vr, vl = (float(v) for v in x0)
@@ -116,4 +131,8 @@ def crosses_walls(config, robot, x0, u0, segments) -> bool:
         x, y, th = robot_step_float(x, y, th, vr, vl, config.sample_time_s, robot.wheel_base_m)
         pts.append((x, y))
     seg = np.asarray(segments, dtype=float).reshape(-1, 4)
-    return bool(segments_cross(pts[:-1], pts[1:], seg[:, :2], seg[:, 2:]).any())
+    a, b = seg[:, :2], seg[:, 2:]
+    if segments_cross(pts[:-1], pts[1:], a, b).any():
+        return True
+    d = distance_to_segments_m(np.asarray(pts), a, b)          # (H + 1, m)
+    return bool((d[1:] < np.minimum(robot.radius_m, d[0]) - 1e-9).any())

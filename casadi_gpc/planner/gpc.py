@@ -13,7 +13,7 @@ from ..config import PlannerConfig, preset
 from ..problem.cost import GPCProblem
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
-from .guesses import NARROWER, SIDEWAYS, TIE_ORDER, initial_guesses, meets_walls, swerve_guesses
+from .guesses import TIE_ORDER, fitted_guesses, initial_guesses, swerve_guesses
 from .lanes import SolveLanes
 from ..progress import ReferenceClock
 from ..robot import RobotParams, brake_wheels
@@ -224,9 +224,6 @@ class GPCController:
             self.counters["failed_solves"] += 1
         return plan
 
-    def obstacles_near(self, x0: np.ndarray, forecasts, statics) -> bool:
-        return bool(self.near_obstacles(x0, forecasts, statics))
-
     def near_obstacles(self, x0: np.ndarray, forecasts, statics) -> frozenset:
         """The obstacles (``("moving", id)``, ``("static", index)``) within the robot's reach
         in one horizon plus ``multistart_range_m``: the ones that make the cost non-convex."""
@@ -324,9 +321,8 @@ class GPCController:
         return cs.update(solved, bool(batch), TIE_RELATIVE), solved
 
     def _queued_starts(self, p, x0, ref_speed_mps: float, batch: list, keep_one: bool) -> list[tuple]:
-        """The starts of the queued guesses ``batch`` (:meth:`_guess_starts`); for each one
-        left out because it meets a wall however narrowed, the next guess of the queue
-        instead (``batch`` grows by it), so that a tick still solves its ``cold_starts``."""
+        """The queued guesses ``batch``'s starts; for one left out (a wall), the queue's next
+        (``batch`` grows by it): a tick still solves its ``cold_starts``."""
         starts, want = self._guess_starts(p, x0, ref_speed_mps, batch, keep_one), len(batch)
         while len(starts) < want and self._pending:
             more, self._pending = self._pending[:1], self._pending[1:]
@@ -378,34 +374,18 @@ class GPCController:
 
     def _guess_starts(self, p, x0, ref_speed_mps: float, names=None, keep_one: bool = True) -> list[tuple]:
         """The fixed guesses as starts ``(name, u0, None, None)``, in tie order (``names``:
-        only those). A guess that meets a wall in the NLP's slots (:func:`meets_walls`) is
-        made narrower (:data:`NARROWER`, counted ``guesses_narrowed``) if it goes sideways,
-        else left out (counted ``guesses_through_walls``): a wall, unlike a disc, is passed on
-        one side only. ``keep_one``: when every guess would be left out, they are all solved
-        as they are (there is nothing else to start from)."""
+        only those), fitted to the NLP's walls (:func:`fitted_guesses`, counted); all of them
+        as they are if none fits and ``keep_one`` (nothing else to start from)."""
         if names is not None and not names:
             return []
         ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
         guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses, names)
-        walls = self._walls_in_slots
-        if not walls:
-            return [(name, u0, None, None) for name, u0 in guesses.items()]
-        starts, narrowed = [], 0
-        for name, u0 in guesses.items():
-            fit = u0 if not meets_walls(self.config, self.robot, x0, u0, walls) else None
-            for scale in NARROWER if fit is None and name in SIDEWAYS else ():
-                u = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses, (name,), scale)[name]
-                if not meets_walls(self.config, self.robot, x0, u, walls):
-                    fit, narrowed = u, narrowed + 1
-                    break
-            if fit is not None:
-                starts.append((name, fit, None, None))
-        if not starts and keep_one:
-            return [(name, u0, None, None) for name, u0 in guesses.items()]
-        c = self.counters
-        c["guesses_through_walls"] = c.get("guesses_through_walls", 0) + len(guesses) - len(starts)
-        c["guesses_narrowed"] = c.get("guesses_narrowed", 0) + narrowed
-        return starts
+        fitted, narrowed = fitted_guesses(self.problem, x0, ref_speed_mps, ref_poses, guesses, self._walls_in_slots)
+        if self._walls_in_slots and (fitted or not keep_one):
+            for key, n in (("guesses_through_walls", len(guesses) - len(fitted)), ("guesses_narrowed", narrowed)):
+                self.counters[key] = self.counters.get(key, 0) + n
+            guesses = fitted
+        return [(name, u0, None, None) for name, u0 in guesses.items()]
 
     def _out_of_time(self) -> bool:
         return self._deadline is not None and time.perf_counter() > self._deadline

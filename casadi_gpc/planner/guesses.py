@@ -17,7 +17,7 @@ from ..geometry import distance_to_segments_m, segments_cross
 from ..robot import robot_step_float
 
 __all__ = ["TIE_ORDER", "SIDEWAYS", "NARROWER", "wheels_to_increments", "swerve_guesses", "detour_guesses",
-           "brake_guess", "initial_guesses", "meets_walls"]
+           "brake_guess", "initial_guesses", "meets_walls", "fitted_guesses"]
 
 TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake")
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
@@ -136,3 +136,24 @@ def meets_walls(config, robot, x0, u0, segments) -> bool:
         return True
     d = distance_to_segments_m(np.asarray(pts), a, b)          # (H + 1, m)
     return bool((d[1:] < np.minimum(robot.radius_m, d[0]) - 1e-9).any())
+
+
+def fitted_guesses(problem, x0, ref_speed_mps: float, ref_poses, guesses: dict, segments) -> tuple[dict, int]:
+    """``guesses`` (name -> increments, as :func:`initial_guesses` gives them) fitted to the
+    wall ``segments``: one that meets a wall (:func:`meets_walls`) is made again narrower if it
+    goes sideways (:data:`NARROWER`, the first scale that keeps off the walls), else left
+    out. The kept guesses in their order, and how many were narrowed."""
+    cfg, robot = problem.config, problem.robot
+    if not len(segments):
+        return dict(guesses), 0
+    out, narrowed = {}, 0
+    for name, u0 in guesses.items():
+        if not meets_walls(cfg, robot, x0, u0, segments):
+            out[name] = u0
+            continue
+        for scale in NARROWER if name in SIDEWAYS else ():
+            u = initial_guesses(problem, x0, ref_speed_mps, ref_poses, (name,), scale)[name]
+            if not meets_walls(cfg, robot, x0, u, segments):
+                out[name], narrowed = u, narrowed + 1
+                break
+    return out, narrowed

@@ -107,8 +107,8 @@ def initial_guesses(problem, x0, ref_speed_mps: float, ref_poses=None, names=Non
     cfg, wanted = problem.config, set(problem.config.guesses)
     if names is not None:
         wanted &= set(names)
-    guesses = swerve_guesses(cfg, problem.robot, x0, ref_speed_mps, scale) if wanted & {"swerve_right", "swerve_left",
-                                                                                  "straight"} else {}
+    swerving = wanted & {"swerve_right", "swerve_left", "straight"}
+    guesses = swerve_guesses(cfg, problem.robot, x0, ref_speed_mps, scale) if swerving else {}
     if ref_poses is not None and wanted & {"detour_right", "detour_left"}:
         guesses.update(detour_guesses(cfg, problem.robot, x0, ref_poses, ref_speed_mps, scale=scale))
     if "brake" in wanted:

@@ -380,11 +380,12 @@ class GPCController:
             return []
         ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
         guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses, names)
-        fitted, narrowed = fitted_guesses(self.problem, x0, ref_speed_mps, ref_poses, guesses, self._walls_in_slots)
-        if self._walls_in_slots and (fitted or not keep_one):
-            for key, n in (("guesses_through_walls", len(guesses) - len(fitted)), ("guesses_narrowed", narrowed)):
-                self.counters[key] = self.counters.get(key, 0) + n
-            guesses = fitted
+        if self._walls_in_slots:
+            fitted, narrowed = fitted_guesses(self.problem, x0, ref_speed_mps, ref_poses, guesses, self._walls_in_slots)
+            if fitted or not keep_one:
+                for key, n in (("guesses_through_walls", len(guesses) - len(fitted)), ("guesses_narrowed", narrowed)):
+                    self.counters[key] = self.counters.get(key, 0) + n
+                guesses = fitted
         return [(name, u0, None, None) for name, u0 in guesses.items()]
 
     def _out_of_time(self) -> bool:

@@ -6,6 +6,7 @@ and the measurements behind the choices.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, replace
 
 __all__ = ["PlannerConfig", "PRESETS", "preset", "DEFAULT_PRESET"]
@@ -54,6 +55,13 @@ class PlannerConfig:
     outside it: the robot keeps a few cm more."""
     uncertainty_sigmas: float = 2.0
     """k: how many predicted position standard deviations inflate the margin."""
+    beyond_horizon_s: tuple[float, ...] = ()
+    """Instants after the horizon's end (s) at which the robot, standing where the plan leaves
+    it, must still keep the clearance margin from each mover carried on straight at the
+    velocity of its forecast's last step (the margin's penalty, the sigma of the forecast's
+    last step). A plan that ends standing in a mover's way pays for it although the contact
+    lies beyond the horizon: the passive-safety idea (end where staying put is safe), written
+    into the cost. Empty: the horizon alone (the paper)."""
     max_lead_m: float | None = None
     """If set, the reference point never runs more than this far ahead of the robot's
     projection on the path (it waits while the robot yields). None: the paper's clock."""
@@ -152,6 +160,8 @@ class PlannerConfig:
             raise ValueError(f"cold_starts must be at least 1 (or None), got {self.cold_starts}")
         if self.crowd_moving is not None and not (isinstance(self.crowd_moving, int) and self.crowd_moving >= 1):
             raise ValueError(f"crowd_moving must be a whole number of at least 1 (or None), got {self.crowd_moving!r}")
+        if any(not (math.isfinite(t) and t > 0) for t in self.beyond_horizon_s):
+            raise ValueError(f"beyond_horizon_s must hold times above 0 s, got {self.beyond_horizon_s!r}")
         if not (isinstance(self.cold_start_gap, int) and self.cold_start_gap >= 0):
             raise ValueError(f"cold_start_gap must be a whole number, not negative, got {self.cold_start_gap!r}")
 

@@ -11,6 +11,10 @@ Cost (``docs/model.md``)::
       + sum_j sum_i  xi / (P_ij dist_ij^2)          (paper; or xi/P (1/d - 1/d0)_+^2)
       [+ sum_j sum_i  w (margin_ij - dist_ij)_+^2]   (improved: soft clearance constraint,
                                                        ( )_+ smoothed, PlannerConfig.margin_smoothing_m)
+      [+ sum_j sum_s  w (margin_jH - dist_js)_+^2]   (improved: the robot standing at its last
+                                                       position, each mover carried on straight s
+                                                       seconds beyond the horizon,
+                                                       PlannerConfig.beyond_horizon_s)
 
 with ``dist`` the clearance between the robot's disc and the obstacle's disc and ``w_i`` the
 goal factor of desired pose i (``PlannerConfig.goal_weight`` at the end of the path, else 1).
@@ -29,7 +33,7 @@ from ..robot import RobotParams, robot_step
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["ParameterLayout", "GPCProblem", "build_problem", "parameter_blocks", "effort_cost", "state_cost", "rollout_states",
-           "FAR_AWAY_M"]
+           "FAR_AWAY_M", "beyond_horizon_cost"]
 
 FAR_AWAY_M = 1.0e4  # where unused obstacle slots are parked
 
@@ -205,6 +209,8 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
         dx, dy = bx - ax, by - ay
         t = ca.fmin(ca.fmax(((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy + 1e-12), 0.0), 1.0)
         obstacles.append((ax + t * dx, ay + t * dy, 0.0, P["wall_on"][j], 1.0, 0.0, config.xi_static))
+    if i == H - 1:
+        margin_pen += beyond_horizon_cost(config, robot, P, x, y)
     for ox, oy, r_o, on, p_unc, sigma, xi in obstacles:
         centre = ca.sqrt((x - ox) ** 2 + (y - oy) ** 2 + 1e-12)
         d = centre - robot.radius_m - r_o
@@ -219,6 +225,28 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
             violation = ca.fmax(m - d, 0.0) if e is None else _smooth_positive(m - d, e)
             margin_pen += on * config.clearance_penalty * violation ** 2
     return tracking, turning, obst, margin_pen
+
+
+def beyond_horizon_cost(config: PlannerConfig, robot: RobotParams, P: dict, x, y):
+    """The margin's penalty at :attr:`PlannerConfig.beyond_horizon_s` after the horizon's end,
+    the robot standing at ``(x, y)`` (the plan's last position) and each mover carried on
+    straight from its forecast's last position at the velocity of its last step (0 where
+    the setting is empty, the preset has no margin or the horizon is one step)."""
+    H, M, T = config.horizon, config.max_moving, config.sample_time_s
+    if not config.beyond_horizon_s or config.clearance_margin_m is None or H < 2:
+        return 0
+    pen = 0
+    e = config.margin_smoothing_m
+    for j in range(M):
+        k, k0 = (j * H + H - 1) * 2, (j * H + H - 2) * 2
+        px, py = P["mov_xy"][k], P["mov_xy"][k + 1]
+        vx, vy = (px - P["mov_xy"][k0]) / T, (py - P["mov_xy"][k0 + 1]) / T
+        m = config.clearance_margin_m + config.uncertainty_sigmas * P["mov_sigma"][j * H + H - 1]
+        for s in config.beyond_horizon_s:
+            d = ca.sqrt((x - px - vx * s) ** 2 + (y - py - vy * s) ** 2 + 1e-12) - robot.radius_m - P["mov_r"][j]
+            violation = ca.fmax(m - d, 0.0) if e is None else _smooth_positive(m - d, e)
+            pen += P["mov_on"][j] * config.clearance_penalty * violation ** 2
+    return pen
 
 
 def rollout_states(config: PlannerConfig, robot: RobotParams, x0, u) -> list[tuple]:

@@ -152,7 +152,8 @@ def test_numpy_only_modules_import_without_casadi_or_torch():
     onnx, scipy and matplotlib blocked."""
     names = ["nn_export.runtime.layouts", "nn_export.runtime.situation", "nn_export.runtime.features",
              "nn_export.runtime.tracker", "nn_export.runtime.policy", "casadi_gpc.estimation",
-             "casadi_gpc.estimation.tracking", "casadi_gpc.estimation.ekf_batch", "casadi_gpc.problem.selection",
+             "casadi_gpc.estimation.tracking", "casadi_gpc.estimation.track_rows", "casadi_gpc.estimation.ekf_batch",
+             "casadi_gpc.problem.selection",
              "casadi_gpc.planner", "casadi_gpc.safety", "casadi_gpc.pool", "casadi_gpc.io", "casadi_gpc.robot",
              "casadi_gpc.geometry"]
     script = BLOCKER + "import importlib\n" + "".join(f"importlib.import_module({n!r})\n" for n in names) + \

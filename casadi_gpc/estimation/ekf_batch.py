@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ekf import _q_diagonal
+from .ekf import FilterState, _q_diagonal
 from .ekf_floats import forecast_rows, worst_std_rows
 
 __all__ = ["forecast_many", "ForecastBatch", "MANY_TRACKS"]
@@ -40,29 +40,80 @@ class ForecastBatch:
     (:class:`~casadi_gpc.estimation.ekf.FilterState`, from one bank: same sample time and settings),
     made together when first read: :meth:`FilterState.predict
     <casadi_gpc.estimation.ekf.FilterState.predict>`'s numbers up to rounding, one row per estimate.
-    Estimates seen once (standing, their own forecast) are made one by one."""
+    Estimates seen once (standing, their own forecast) are made one by one. Made from the
+    estimates themselves, or from a bank that holds them as rows (:meth:`of_rows`)."""
 
-    __slots__ = ("snapshots", "horizon", "_arrays", "_planning", "_worst")
+    __slots__ = ("_snapshots", "horizon", "_seen", "_rows", "_made", "_time_settings", "_arrays", "_planning",
+                 "_worst")
 
     def __init__(self, snapshots, horizon: int):
-        self.snapshots, self.horizon = tuple(snapshots), int(horizon)
+        self._snapshots, self.horizon = tuple(snapshots), int(horizon)
+        self._seen = [s.measurements_seen for s in self._snapshots]
+        self._rows = self._made = self._time_settings = None
         self._arrays = self._planning = self._worst = None
 
+    @classmethod
+    def of_rows(cls, rows: np.ndarray, seen: list, sample_time_s: float, settings, horizon: int,
+                forecasts: tuple | None = None) -> "ForecastBatch":
+        """The batch of the estimates a bank holds as rows ``(N, 20)``, the state and the
+        covariance's upper triangle (:class:`~casadi_gpc.estimation.track_rows.RowBank`; ``seen``:
+        how many positions each has fused; ``sample_time_s``, ``settings``: the bank's): the
+        forecasts made from the rows, not gathered from the estimates, which are made from the
+        rows only when read (:meth:`snapshot`). ``forecasts``: the rows' forecasts made already,
+        as if each had been seen twice (:attr:`~casadi_gpc.estimation.track_rows.SeenRows.forecasts`:
+        means, covariances, worst deviations; taken as they are and made read-only)."""
+        b = cls.__new__(cls)
+        b._snapshots, b.horizon, b._seen, b._rows, b._made = None, int(horizon), seen, rows, forecasts
+        b._time_settings = (sample_time_s, settings)
+        b._arrays = b._planning = b._worst = None
+        return b
+
+    @property
+    def snapshots(self) -> tuple:
+        """The estimates, one per row."""
+        if self._snapshots is None:
+            self._snapshots = tuple(self.snapshot(i) for i in range(len(self._seen)))
+        return self._snapshots
+
+    def snapshot(self, i: int):
+        """The estimate of row ``i``."""
+        if self._snapshots is not None:
+            return self._snapshots[i]
+        row = self._rows[i].tolist()
+        T, settings = self._time_settings
+        return FilterState(tuple(row[:5]), tuple(row[5:20]), self._seen[i], T, settings)
+
     def __len__(self) -> int:
-        return len(self.snapshots)
+        return len(self._seen)
 
     @property
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """Means ``(N, H, 2)`` and covariances ``(N, H, 2, 2)``, read-only."""
         if self._arrays is None:
-            snaps, H = self.snapshots, self.horizon
-            s0 = snaps[0]
-            means, covs = forecast_many([s.state for s in snaps], [s.cov_upper for s in snaps], s0.sample_time_s,
-                                        _q_diagonal(s0.settings, s0.sample_time_s), H)
-            st, T = s0.settings, s0.sample_time_s
-            for i, s in enumerate(snaps):
-                if s.measurements_seen < 2 or (s.settings is not st and s.settings != st) or s.sample_time_s != T:
-                    means[i], covs[i] = s.predict(H)  # standing, or another filter's noise: its own
+            H, rows, made = self.horizon, self._rows, self._made
+            if rows is None:
+                snaps = self._snapshots
+                s0 = snaps[0]
+                st, T = s0.settings, s0.sample_time_s
+                means, covs = forecast_many([s.state for s in snaps], [s.cov_upper for s in snaps], T,
+                                            _q_diagonal(st, T), H)
+                for i, s in enumerate(snaps):
+                    if s.measurements_seen < 2 or (s.settings is not st and s.settings != st) or s.sample_time_s != T:
+                        means[i], covs[i] = s.predict(H)  # standing, or another filter's noise: its own
+            else:  # one bank's rows: one sample time and settings
+                T, st = self._time_settings
+                if made is not None:
+                    means, covs, worst = made
+                else:
+                    means, covs = forecast_rows(rows[:, :5], rows[:, 5:20], float(T), np.array(_q_diagonal(st, T)), H)
+                own = False
+                for i, seen in enumerate(self._seen):
+                    if seen < 2:
+                        means[i], covs[i] = self.snapshot(i).predict(H)  # standing: its own
+                        own = True
+                if made is not None and not own:  # each row's own covariances, the planning ones: their worst
+                    worst.flags.writeable = False
+                    self._worst = worst
             means.flags.writeable = covs.flags.writeable = False
             self._arrays = means, covs
         return self._arrays
@@ -73,7 +124,7 @@ class ForecastBatch:
         of each row), read-only."""
         if self._planning is None:
             covs = self.arrays[1]
-            once = [i for i, s in enumerate(self.snapshots) if s.measurements_seen < 2]
+            once = [i for i, seen in enumerate(self._seen) if seen < 2]
             if once:
                 covs = covs.copy()
                 covs[once] = covs[once, :1]
@@ -86,7 +137,10 @@ class ForecastBatch:
         """:func:`~casadi_gpc.estimation.ekf.worst_std_m` of :attr:`planning_covs`, ``(N, H)``, read-only
         (the check's touching distances widen by it)."""
         if self._worst is None:
-            w = worst_std_rows(self.planning_covs)  # compiled, worst_std_m's numbers
+            covs = self.planning_covs  # (the forecasts made already may bring their worst deviations)
+            if self._worst is not None:
+                return self._worst
+            w = worst_std_rows(covs)  # compiled, worst_std_m's numbers
             w.flags.writeable = False
             self._worst = w
         return self._worst

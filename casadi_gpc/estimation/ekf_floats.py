@@ -14,8 +14,8 @@ import numpy as np
 from numba import njit
 from numba.extending import register_jitable
 
-__all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "correct", "update_rows", "worst_std_rows",
-           "upper", "full", "cov_array"]
+__all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "correct", "update_rows", "step_rows",
+           "frame_rows", "step_frame_rows", "worst_std_rows", "upper", "full", "cov_array"]
 
 _PI, _TWO_PI = math.pi, 2 * math.pi
 
@@ -191,6 +191,23 @@ def correct(x: float, y: float, v: float, th: float, dth: float, U: tuple, zx: f
 _correct = njit(cache=True)(correct)
 
 
+@njit(cache=True)
+def _row_update(row, zx, zy, T, qq, r, gate):  # pragma: no cover (compiled)
+    """One sample of the initialised filter whose state (5) and covariance's upper triangle (15)
+    are ``row[:20]``, measured at ``(zx, zy)``: the step of :func:`propagate` (the same operations
+    in the same order), then :func:`correct`. The one compiled step, which :func:`update_rows`
+    and :func:`step_rows` run."""
+    x, y, v, th, dth = row[0], row[1], row[2], row[3], row[4]
+    u = row[5:20]
+    U = (u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], u[8], u[9], u[10], u[11], u[12], u[13], u[14])
+    vT = v * T
+    th += dth
+    c, si = math.cos(th), math.sin(th)
+    U = _cov_step(T * c, -v * T * si, T * si, v * T * c, U, qq)
+    x, y = x + vT * c, y + vT * si
+    return _correct(x, y, v, th, dth, U, zx, zy, r, gate)
+
+
 @njit("float64[:, ::1](float64[:, ::1], float64, float64, float64, float64, float64, float64, float64, float64)",
       cache=True)
 def update_rows(rows, T, q0, q1, q2, q3, q4, r, gate):  # pragma: no cover (compiled)
@@ -206,21 +223,40 @@ def update_rows(rows, T, q0, q1, q2, q3, q4, r, gate):  # pragma: no cover (comp
     out = np.empty((n, 21))
     qq = (q0, q1, q2, q3, q4)
     for i in range(n):
-        x, y, v, th, dth = rows[i, 0], rows[i, 1], rows[i, 2], rows[i, 3], rows[i, 4]
-        u = rows[i, 5:20]
-        U = (u[0], u[1], u[2], u[3], u[4], u[5], u[6], u[7], u[8], u[9], u[10], u[11], u[12], u[13], u[14])
-        vT = v * T
-        th += dth
-        c, si = math.cos(th), math.sin(th)
-        U = _cov_step(T * c, -v * T * si, T * si, v * T * c, U, qq)
-        x, y = x + vT * c, y + vT * si
-        passed, s, N = _correct(x, y, v, th, dth, U, rows[i, 20], rows[i, 21], r, gate)
+        passed, s, N = _row_update(rows[i], rows[i, 20], rows[i, 21], T, qq, r, gate)
         out[i, 0] = 1.0 if passed else 0.0
         for k in range(5):
             out[i, 1 + k] = s[k]
         for k in range(15):
             out[i, 6 + k] = N[k]
     return out
+
+
+@njit("float64[::1](float64[:, ::1], float64[:, ::1], float64, float64, float64, float64, float64, float64, float64, "
+      "float64)", cache=True)
+def step_rows(bank, jobs, T, q0, q1, q2, q3, q4, r, gate):  # pragma: no cover (compiled)
+    """One sample of the initialised filters held as rows of ``bank`` (``(capacity, 23)``:
+    the state (5), the covariance's upper triangle (15), the last fused position (2) and the
+    samples since it (1); :class:`casadi_gpc.estimation.track_rows.RowBank`), in place: ``jobs``
+    ``(N, 3)``, the row's index and the measured position. Each row is :func:`update_rows`'
+    step; one that passes the gate is written back (its last fused position the measurement, 0
+    samples since), one gated out is left as it was. Returns 1.0 where the row was corrected,
+    else 0.0 (its filter's own step follows: an outlier, a manoeuvre, a restart)."""
+    n = jobs.shape[0]
+    passed = np.empty(n)
+    qq = (q0, q1, q2, q3, q4)
+    for j in range(n):
+        i = int(jobs[j, 0])
+        zx, zy = jobs[j, 1], jobs[j, 2]
+        ok, s, N = _row_update(bank[i], zx, zy, T, qq, r, gate)
+        if ok:
+            for k in range(5):
+                bank[i, k] = s[k]
+            for k in range(15):
+                bank[i, 5 + k] = N[k]
+            bank[i, 20], bank[i, 21], bank[i, 22] = zx, zy, 0.0
+        passed[j] = 1.0 if ok else 0.0
+    return passed
 
 
 def _worst_signature(readonly: bool):
@@ -241,6 +277,35 @@ def worst_std_rows(covs):  # pragma: no cover (compiled)
             a, b, d = covs[i, k, 0, 0], covs[i, k, 0, 1], covs[i, k, 1, 1]
             out[i, k] = np.sqrt(np.maximum((a + d) * 0.5 + math.hypot((a - d) * 0.5, b), 0.0))
     return out
+
+
+@njit("Tuple((float64[:, ::1], float64[:, :, ::1], float64[:, :, :, ::1], float64[:, ::1]))(float64[:, ::1], "
+      "int64[::1], float64, float64[::1], int64)", cache=True)
+def frame_rows(bank, order, T, q, steps):  # pragma: no cover (compiled)
+    """The rows ``order`` of a bank held as rows (:func:`step_rows`), copied out as ``(N, 20)``
+    (the state and the covariance's upper triangle), with their forecasts
+    (:func:`forecast_rows`) and the forecasts' worst deviations (:func:`worst_std_rows`): one
+    call from the bank to what a check reads."""
+    n = order.shape[0]
+    rows = np.empty((n, 20))
+    for j in range(n):
+        i = order[j]
+        for k in range(20):
+            rows[j, k] = bank[i, k]
+    means, covs = forecast_rows(rows[:, :5], rows[:, 5:], T, q, steps)
+    return rows, means, covs, worst_std_rows(covs)
+
+
+@njit("Tuple((float64[::1], float64[:, ::1], float64[:, :, ::1], float64[:, :, :, ::1], float64[:, ::1]))("
+      "float64[:, ::1], float64[:, ::1], int64[::1], float64, float64[::1], float64, float64, int64)", cache=True)
+def step_frame_rows(bank, jobs, order, T, q, r, gate, steps):  # pragma: no cover (compiled)
+    """:func:`step_rows` (``q``: the diagonal of Q), then :func:`frame_rows` of the rows
+    ``order``, in one call: the flags of :func:`step_rows`, then the rows, their forecasts and
+    worst deviations (those of a row gated out are its estimate before the step: its own step
+    follows, and the caller makes them again)."""
+    passed = step_rows(bank, jobs, T, q[0], q[1], q[2], q[3], q[4], r, gate)
+    rows, means, covs, worst = frame_rows(bank, order, T, q, steps)
+    return passed, rows, means, covs, worst
 
 
 def cov_array(U: tuple) -> np.ndarray:

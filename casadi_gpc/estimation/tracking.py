@@ -1,11 +1,13 @@
 """The bank of obstacle filters: one :class:`~casadi_gpc.estimation.ekf.ObstacleEKF` per obstacle id,
 stepped once per sample, and the forecasts a planner plans with (numpy only).
 
-The planner (:meth:`casadi_gpc.planner.gpc.GPCController.estimate`) and the deployed policy's
-situation tracker (:class:`nn_export.runtime.tracker.SituationTracker`) both keep their
-tracks here, so the network sees exactly the estimates the planner would see (their
-forecasts: the planner's bit for bit, or, for the network among six tracks or more, made
-together by :mod:`casadi_gpc.estimation.ekf_batch`, the same to rounding).
+The planner (:meth:`casadi_gpc.planner.gpc.GPCController.estimate`) keeps its tracks here; the
+deployed policy's situation tracker (:class:`nn_export.runtime.tracker.SituationTracker`) keeps
+the same filters in :class:`~casadi_gpc.estimation.track_rows.RowBank`, their estimates held as
+arrays (the same events, counts and floats, tested against this bank), so the network sees
+exactly the estimates the planner would see (their forecasts: the planner's bit for bit, or,
+for the network among six tracks or more, made together by :mod:`casadi_gpc.estimation.ekf_batch`,
+the same to rounding).
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from .ekf import EKFSettings, ObstacleEKF, planning_covariances, straightened
 from .ekf_batch import MANY_TRACKS, forecast_many
 from ..types import ObstacleForecast, ObstacleMeasurement
 
-__all__ = ["TrackBank", "TRACK_COUNTERS", "UPDATED_TOGETHER"]
+__all__ = ["TrackBank", "TRACK_COUNTERS", "UPDATED_TOGETHER", "counted"]
 
 UPDATED_TOGETHER = 4
 """From this many filters in a bank on, their steps are taken together in one compiled call
@@ -29,6 +31,25 @@ unknown; planned standing, :func:`~casadi_gpc.estimation.ekf.planning_covariance
 manoeuvres (two gated measurements that agree: the velocity estimated afresh) and ghosts
 (samples a gated measurement waited for confirmation, its position planned as an obstacle
 standing there too, :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`)."""
+
+
+def counted(counters: dict, ekf: ObstacleEKF, event: str) -> bool:
+    """Count in ``counters`` (:data:`TRACK_COUNTERS`) the ``event`` of ``ekf``'s step (its
+    :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.step`'s answer); whether the track has a state
+    (is seen). Every bank counts its filters' steps here (:class:`TrackBank`,
+    :class:`~casadi_gpc.estimation.track_rows.RowBank`)."""
+    if event != "update":  # an update leaves an initialised track (the common case)
+        if event == "missed":
+            counters["missed_measurements"] += 1
+        elif event == "outlier":
+            counters["outliers"] += 1
+        elif event == "manoeuvre":
+            counters["manoeuvres"] += 1
+        if not ekf.started:
+            return False
+        if not ekf.initialised:
+            counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
+    return True
 
 
 class TrackBank:
@@ -106,19 +127,7 @@ class TrackBank:
 
     def _stepped(self, ekf: ObstacleEKF, event: str) -> bool:
         """Count the event of a filter's step; whether the track has a state (is seen)."""
-        if event != "update":  # an update leaves an initialised track (the common case)
-            counters = self.counters
-            if event == "missed":
-                counters["missed_measurements"] += 1
-            elif event == "outlier":
-                counters["outliers"] += 1
-            elif event == "manoeuvre":
-                counters["manoeuvres"] += 1
-            if not ekf.started:
-                return False
-            if not ekf.initialised:
-                counters["unestimated_tracks"] += 1  # planned with its next step's uncertainty
-        return True
+        return event == "update" or counted(self.counters, ekf, event)
 
     def _forget(self, moving) -> None:
         """Drop the filters of obstacles the sensor no longer lists (out of range, or gone

@@ -20,13 +20,14 @@ from functools import cached_property
 
 import numpy as np
 
-from casadi_gpc.estimation.ekf import ObstacleEKF, planning_covariances
+from casadi_gpc.estimation.ekf import FilterState, ObstacleEKF, planning_covariances
 from casadi_gpc.estimation.ekf_batch import MANY_TRACKS, ForecastBatch
 from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotState
 from casadi_gpc.types import ObstacleForecast, StaticObstacle
 
-__all__ = ["TrackEstimate", "Situation", "reference_poses", "reference_rows", "track_estimate", "track_estimates"]
+__all__ = ["TrackEstimate", "Situation", "reference_poses", "reference_rows", "track_estimate", "track_estimates",
+           "row_track_estimates"]
 
 
 @dataclass(frozen=True)
@@ -161,6 +162,12 @@ class _FilterTrack(TrackEstimate):
     bare network reads only the state, a check layer behind it the forecast (made once)."""
 
     @cached_property
+    def _filter(self):
+        """The filter's frozen estimate (set when made from one; else made from its batch's row
+        when first read, :meth:`~casadi_gpc.estimation.ekf_batch.ForecastBatch.snapshot`)."""
+        return self.batch_.snapshot(self.batch_index_)
+
+    @cached_property
     def state(self) -> np.ndarray:
         return self._filter.state_array()
 
@@ -212,6 +219,29 @@ def track_estimates(pairs, horizon: int) -> tuple[TrackEstimate, ...]:
     batch = ForecastBatch(snaps, horizon)
     return tuple(_filter_track(s, m.obstacle_id, m.radius_m, horizon, batch, i)
                  for i, (s, (m, _)) in enumerate(zip(snaps, pairs)))
+
+
+def row_track_estimates(seen, sample_time_s: float, settings, horizon: int) -> tuple[TrackEstimate, ...]:
+    """:func:`track_estimates` of a :class:`~casadi_gpc.estimation.track_rows.RowBank`'s step
+    (``seen``: its :class:`~casadi_gpc.estimation.track_rows.SeenRows`; ``sample_time_s`` and
+    ``settings``: the bank's): the same estimates, made from the sample's rows (a crowd's
+    forecasts from the rows themselves, not gathered from the snapshots again)."""
+    measurements, rows, counts, forecasts = seen
+    states = list(map(tuple, rows[:, :5].tolist()))  # what the features read; the rest made when read
+    if len(states) < MANY_TRACKS:
+        return tuple([_filter_track(FilterState(s, tuple(u), c, sample_time_s, settings), m.obstacle_id, m.radius_m,
+                                    horizon) for s, u, c, m in zip(states, rows[:, 5:].tolist(), counts, measurements)])
+    if forecasts is not None and forecasts[0].shape[1] != horizon:
+        forecasts = None
+    batch = ForecastBatch.of_rows(rows, counts, sample_time_s, settings, horizon, forecasts)
+    out = []  # _filter_track's fields, but the estimate: made from the batch's row when read (_FilterTrack._filter)
+    for i, (s, c, m) in enumerate(zip(states, counts, measurements)):
+        t = _new(_FilterTrack)
+        d = t.__dict__
+        d["obstacle_id"], d["radius_m"], d["initialised"] = int(m.obstacle_id), float(m.radius_m), c >= 2
+        d["state_values"], d["_horizon"], d["batch_"], d["batch_index_"] = s, int(horizon), batch, i
+        out.append(t)
+    return tuple(out)
 
 
 def _filter_track(snap, obstacle_id: int, radius_m: float, horizon: int, batch: ForecastBatch | None = None,

@@ -7,18 +7,20 @@ import numpy as np
 from casadi_gpc.config import PlannerConfig
 from casadi_gpc.estimation.ekf import EKFSettings
 from casadi_gpc.progress import ReferenceClock
-from casadi_gpc.estimation.tracking import TrackBank
+from casadi_gpc.estimation.track_rows import RowBank
 from casadi_gpc.types import Observation
 
-from .situation import Situation, TrackEstimate, reference_rows, track_estimates
+from .situation import Situation, TrackEstimate, reference_rows, row_track_estimates
 
 __all__ = ["SituationTracker"]
 
 
 class SituationTracker:
     """Builds the :class:`Situation` from the stream of observations, exactly as the GPC
-    does: the planner's bank of obstacle filters (:class:`~casadi_gpc.estimation.tracking.TrackBank`),
-    stepped once per sample, and the preset's :class:`ReferenceClock`. ``update(observation)``
+    does: the planner's obstacle filters, in the bank that holds their estimates as arrays
+    (:class:`~casadi_gpc.estimation.track_rows.RowBank`: the planner's
+    :class:`~casadi_gpc.estimation.tracking.TrackBank`'s numbers), stepped once per sample, and the
+    preset's :class:`ReferenceClock`. ``update(observation)``
     once per sample.
 
     Used by the deployed policy and by on-policy (DAgger) labelling, so the network sees
@@ -37,7 +39,7 @@ class SituationTracker:
     def reset(self) -> None:
         self._rows: list | None = None  # the desired poses of the last update, as rows
         self._ahead: np.ndarray | None = None  # ... as an array, once asked for
-        self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings)
+        self.bank = RowBank(self.config.sample_time_s, self.ekf_settings, horizon=self.config.horizon)
         self.clock = ReferenceClock(self.config.sample_time_s, self.config.max_lead_m)
 
     @property
@@ -66,7 +68,8 @@ class SituationTracker:
         situation's arrays cost more than using them)."""
         cfg = self.config
         H = cfg.horizon
-        tracks = track_estimates(self.bank.step(obs.moving), H)
+        bank = self.bank
+        tracks = row_track_estimates(bank.step(obs.moving), bank.sample_time_s, bank.settings, H)
         r, ref = obs.robot, obs.reference
         s_m = self.clock.update(ref, obs.t_s, (r.x_m, r.y_m))
         self._rows = rows = reference_rows(ref, s_m, cfg.sample_time_s, self.reference_steps)

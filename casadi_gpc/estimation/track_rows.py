@@ -28,6 +28,7 @@ import numpy as np
 
 from .ekf import EKFSettings, ObstacleEKF
 from .ekf_floats import frame_rows, step_frame_rows, step_rows
+from .ekf_batch import MANY_TRACKS
 from .tracking import TRACK_COUNTERS, counted
 from ..types import ObstacleMeasurement
 
@@ -50,7 +51,9 @@ class SeenRows(NamedTuple):
     seen: list
     """How many positions each has fused (1: speed and heading unknown, planned standing)."""
     forecasts: tuple | None = None
-    """Where the bank was given a horizon H and no ghost was added: every row's forecast made as
+    """Where the bank was given a horizon H, the sample has at least
+    :data:`~casadi_gpc.estimation.ekf_batch.MANY_TRACKS` tracks (fewer are forecast one by one,
+    when read) and no ghost was added: every row's forecast made as
     if it had been seen twice, :func:`~casadi_gpc.estimation.ekf_floats.forecast_rows`' means
     ``(n, H, 2)`` and covariances ``(n, H, 2, 2)``, and their worst deviations ``(n, H)``
     (:func:`~casadi_gpc.estimation.ekf_floats.frame_rows`: in the one call that copies the rows
@@ -123,6 +126,8 @@ class RowBank:
             fs.append(ekf)
             ms.append(m)
         frame, H = None, self.horizon  # the rows copied out, and their forecasts where the bank has a horizon
+        if H is not None and len(order) < MANY_TRACKS:  # each track's own forecast, when read (row_track_estimates)
+            H = None
         if jobs:
             jobs = np.array(jobs).reshape(len(together), 3)
             T, q0, q1, q2, q3, q4, r, gate = self._constants

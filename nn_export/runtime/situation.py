@@ -227,10 +227,11 @@ def row_track_estimates(seen, sample_time_s: float, settings, horizon: int) -> t
     ``settings``: the bank's): the same estimates, made from the sample's rows (a crowd's
     forecasts from the rows themselves, not gathered from the snapshots again)."""
     measurements, rows, counts, forecasts = seen
+    if len(counts) < MANY_TRACKS:  # a few: each its estimate now (one list per row)
+        return tuple([_filter_track(FilterState(tuple(r[:5]), tuple(r[5:20]), c, sample_time_s, settings),
+                                    m.obstacle_id, m.radius_m, horizon)
+                      for r, c, m in zip(rows.tolist(), counts, measurements)])
     states = list(map(tuple, rows[:, :5].tolist()))  # what the features read; the rest made when read
-    if len(states) < MANY_TRACKS:
-        return tuple([_filter_track(FilterState(s, tuple(u), c, sample_time_s, settings), m.obstacle_id, m.radius_m,
-                                    horizon) for s, u, c, m in zip(states, rows[:, 5:].tolist(), counts, measurements)])
     if forecasts is not None and forecasts[0].shape[1] != horizon:
         forecasts = None
     batch = ForecastBatch.of_rows(rows, counts, sample_time_s, settings, horizon, forecasts)

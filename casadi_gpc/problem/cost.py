@@ -11,10 +11,10 @@ Cost (``docs/model.md``)::
       + sum_j sum_i  xi / (P_ij dist_ij^2)          (paper; or xi/P (1/d - 1/d0)_+^2)
       [+ sum_j sum_i  w (margin_ij - dist_ij)_+^2]   (improved: soft clearance constraint,
                                                        ( )_+ smoothed, PlannerConfig.margin_smoothing_m)
-      [+ sum_j sum_s  w (margin_jH - dist_js)_+^2]   (improved: the robot standing at its last
-                                                       position, each mover carried on straight s
-                                                       seconds beyond the horizon,
-                                                       PlannerConfig.beyond_horizon_s)
+      [+ sum_j sum_s  w (margin_jH - dist_js)_+^2]   (an option in neither preset: the robot
+                                                       standing at its last position, each mover
+                                                       carried on straight s seconds beyond the
+                                                       horizon, PlannerConfig.beyond_horizon_s)
 
 with ``dist`` the clearance between the robot's disc and the obstacle's disc and ``w_i`` the
 goal factor of desired pose i (``PlannerConfig.goal_weight`` at the end of the path, else 1).

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from math import isfinite
 
 import numpy as np
 
@@ -50,6 +51,18 @@ def _best(among: np.ndarray, cmin: np.ndarray) -> int:
     """The first index of ``among`` (a mask) whose smallest clearance is the largest there
     (ties within :data:`_TIE_M`)."""
     return int(np.argmax(among & (cmin >= cmin[among].max() - _TIE_M)))
+
+def _within_limits(v0r: float, v0l: float, rows: list, dv_tol: float, vmax_tol: float) -> bool:
+    """:meth:`TrajectoryCheck.within_limits` of the finite rows ``rows`` (``[[vr, vl], ...]``,
+    plain floats) from ``(v0r, v0l)``, with its bounds ``dv + 1e-9`` and ``vmax + 1e-9``: each
+    comparison the one numpy makes on the maximum (the maximum is one of the values)."""
+    prev_r, prev_l = v0r, v0l
+    for r, l in rows:
+        if abs(r) > vmax_tol or abs(l) > vmax_tol or abs(r - prev_r) > dv_tol or abs(l - prev_l) > dv_tol:
+            return False
+        prev_r, prev_l = r, l
+    return True
+
 
 @dataclass(slots=True)  # made for every check: slots, not frozen (a frozen init costs 5x)
 class SafetyCheck:
@@ -171,6 +184,19 @@ class TrajectoryCheck(Clearances):
         self._no_swerves = np.zeros(len(grid))
         self._search_names = [f"search({0.5 * (r + l):+.2f},{0.5 * (r - l):+.2f})" for r, l in grid] + self._names
         self._then_search_names = ["then " + n for n in self._search_names]
+        # grid targets that are also a fixed manoeuvre's (not a swerve; the same float bits):
+        # approached from the same speeds they are the same sequences, bit for bit, so their
+        # numbers are the manoeuvre's, not rolled out and measured a second time. _grid_own: the
+        # grid rows rolled out; _set_rows: the set's rows that are (those, then the manoeuvres);
+        # _set_order: the set's numbers (grid, then manoeuvres) from theirs
+        twins = [next((k for k in range(len(MANOEUVRES)) if not self._swerves[k]
+                       and self._fixed_targets[k].tobytes() == t.tobytes()), -1) for t in self._search_targets]
+        own = [i for i, k in enumerate(twins) if k < 0]
+        self._grid_own = np.array(own, dtype=np.int64)
+        self._own_targets = np.ascontiguousarray(self._search_targets[self._grid_own])
+        self._set_rows = np.array(own + [len(grid) + k for k in range(len(MANOEUVRES))], dtype=np.int64)
+        self._set_order = np.array([own.index(i) if k < 0 else len(own) + k for i, k in enumerate(twins)]
+                                   + [len(own) + k for k in range(len(MANOEUVRES))], dtype=np.int64)
         self.search_way_out = False
         """Whether the way out is searched (:meth:`search`) and a command's escapes are the
         searched grid and the manoeuvres, not the manoeuvres alone (set by the filter)."""
@@ -203,6 +229,14 @@ class TrajectoryCheck(Clearances):
             v = np.minimum(np.maximum(np.minimum(np.maximum(wheels[..., i, :], v - dv), v + dv), -vmax), vmax)
             out[..., i, :] = v
         return out
+
+    @property
+    def _dv_tol(self) -> float:
+        return self.robot.max_step_change_mps(self.sample_time_s) + 1e-9  # within_limits' bounds
+
+    @property
+    def _vmax_tol(self) -> float:
+        return self.robot.max_wheel_speed_mps + 1e-9
 
     def within_limits(self, v0, wheels: np.ndarray) -> bool:
         """Whether the (H, 2) sequence ``wheels`` already keeps the speed and rate limits."""
@@ -283,11 +317,18 @@ class TrajectoryCheck(Clearances):
             approach(out, offset, float(v0[0]), float(v0[1]), self._fixed_targets, self._swerve_rows, True,
                      self.robot.max_wheel_speed_mps, self._dv)
 
-    def _escapes(self, cmd: np.ndarray, searched: bool = False) -> np.ndarray:
+    def _escapes(self, cmd: np.ndarray, searched: bool = False, own_only: bool = False) -> np.ndarray:
         """(M, H, 2): ``cmd`` for one interval, then each manoeuvre from there (``searched``:
         each target of the searched grid instead; with :attr:`search_way_out` a command passes
         when some way out of the set the check itself would take, the grid and the manoeuvres,
-        keeps the margin)."""
+        keeps the margin). ``own_only`` (with ``searched``): only the grid's rows that are not
+        also a manoeuvre's (``_grid_own``; the same rows as ``_escapes(cmd, True)[_grid_own]``)."""
+        if searched and own_only:
+            W = np.empty((len(self._grid_own), self.horizon, 2))
+            W[:, 0] = cmd
+            approach(W, 1, float(cmd[0]), float(cmd[1]), self._own_targets, self._no_swerves[:len(self._grid_own)],
+                     False, self.robot.max_wheel_speed_mps, self._dv)
+            return W
         W = np.empty((len(self._search_targets) if searched else len(self._names), self.horizon, 2))
         W[:, 0] = cmd
         self._approach(W, 1, cmd, searched)
@@ -310,10 +351,11 @@ class TrajectoryCheck(Clearances):
             plan = w
         else:
             raise ValueError(f"candidate wheel speeds must have shape (2,) or ({self.horizon}, 2), got {w.shape}")
-        if not np.all(np.isfinite(w)):
-            return None, None, False
         seq = w.reshape(-1, 2)
-        limited = not self.within_limits(state[3:5], seq)
+        flat = seq.tolist()  # plain floats: the same tests as np.isfinite and within_limits, a tenth of the cost
+        if not all(isfinite(a) and isfinite(b) for a, b in flat):
+            return None, None, False
+        limited = not _within_limits(float(state[3]), float(state[4]), flat, self._dv_tol, self._vmax_tol)
         if limited:
             seq = self.limit(state[3:5], seq)
         return seq[0].copy(), (seq if plan is not None else None), limited
@@ -431,8 +473,10 @@ class TrajectoryCheck(Clearances):
             # (the best of the set is safe when any of it is), at a fifth of its cost when the
             # manoeuvres suffice. Each sequence's numbers are its own, so the grid's are joined
             # to the manoeuvres' already found, in the set's order (grid, then manoeuvres).
-            grid = self.clearances(state, self._escapes(cmd, True), obstacles)
-            searched = self._pick(tuple(np.concatenate(ab) for ab in zip(grid, man)), obstacles,
+            # (the grid's rows that are manoeuvres too take the manoeuvres' numbers: _set_order)
+            grid = self.clearances(state, self._escapes(cmd, True, own_only=True), obstacles)
+            order = self._set_order
+            searched = self._pick(tuple(np.concatenate(ab)[order] for ab in zip(grid, man)), obstacles,
                                   self._then_search_names)
             if self._better(searched, way_out):
                 way_out = searched

@@ -156,6 +156,16 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         ``walls``: the wall segments every option is judged against (``(nw, 2)`` complex
         ends, :func:`~casadi_gpc.safety.walls.wall_segments_within`), as the static obstacles.
         """
+        self._screen_memo = None
+        try:
+            return self._filter(observation, wheels, forecasts, statics, poses, alternatives, trust_s, previous,
+                                plan_on_demand, walls)
+        finally:
+            self._screen_memo = None
+
+    def _filter(self, observation, wheels, forecasts, statics, poses, alternatives, trust_s, previous,
+                plan_on_demand, walls) -> SafetyVerdict:
+        """:meth:`filter`'s body."""
         statics = observation.static if statics is None else statics
         r = observation.robot
         self.counters["checks"] += 1

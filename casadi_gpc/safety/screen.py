@@ -22,6 +22,8 @@ __all__ = ["QuickScreen"]
 class QuickScreen(TrajectoryCheck):
     """The exact check with the quick screen in front of it (:meth:`_quick`)."""
 
+    _screen_memo = None  # (forecasts, statics, the screen's arrays) within one filter call
+
     # Most checks are passes; numpy's per-call overhead would make them cost more than the
     # network's own decision. So a candidate is first screened with plain floats by lower
     # bounds of the clearance that the roll-out would find; only when none keeps the
@@ -66,7 +68,17 @@ class QuickScreen(TrajectoryCheck):
             vr, vl = nr, nl
         cmd = seq[0]
         many = len(forecasts) + len(statics) >= MANY_OBSTACLES
-        obs = self._quick_obstacle_arrays(forecasts, statics) if many else self._quick_obstacles(forecasts, statics)
+        if many:
+            # the command's screen and its roll-out's read the same obstacles in one filter call:
+            # their arrays made once (filter() clears the memo when it starts and ends)
+            memo = self._screen_memo
+            if memo is not None and memo[0] is forecasts and memo[1] is statics:
+                obs = memo[2]
+            else:
+                obs = self._quick_obstacle_arrays(forecasts, statics)
+                self._screen_memo = (forecasts, statics, obs)
+        else:
+            obs = self._quick_obstacles(forecasts, statics)
         if obs is None:
             return None
         has_walls = walls is not None and len(walls) > 0

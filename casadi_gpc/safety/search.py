@@ -26,7 +26,10 @@ class WayOutSearch:
         state = np.asarray(state, float)
         v0 = state[3:5]
         W = np.concatenate([self._searched(v0, self.horizon), self.manoeuvres(v0)[1]])
-        found = self.clearances(state, W, obstacles)
+        # the grid's rows that are manoeuvres too are the same sequences: measured once (_set_rows),
+        # their numbers taken for both (_set_order)
+        order = self._set_order
+        found = tuple(a[order] for a in self.clearances(state, W[self._set_rows], obstacles))
         safe = found[4] == self.horizon * self.substeps
         if safe.any():
             w = np.asarray(wish, dtype=float)

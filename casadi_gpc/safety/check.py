@@ -15,6 +15,7 @@ from ..robot import RobotParams, followed_wheel
 from .clearances import Clearances
 from .distances import approach
 from .obstacles import Obstacles, forecast_arrays, forecast_covariances, shared_batch
+from .ranking import TIE_M, best_unsafe_index, pick_index, within_limits_floats
 
 __all__ = ["MANOEUVRES", "SEARCH_SPEEDS", "SEARCH_TURNS", "SafetyCheck", "TrajectoryCheck", "Obstacles", "forecast_covariances", "forecast_arrays",
            "shared_batch"]
@@ -44,24 +45,7 @@ SEARCH_TURNS = (-0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5)
 fractions; every pair of the two within the limits, each target approached at the
 acceleration limit and held, beside :data:`MANOEUVRES`."""
 
-_TIE_M = 1e-9  # manoeuvres whose clearances differ by less than this are a tie
-
-
-def _best(among: np.ndarray, cmin: np.ndarray) -> int:
-    """The first index of ``among`` (a mask) whose smallest clearance is the largest there
-    (ties within :data:`_TIE_M`)."""
-    return int(np.argmax(among & (cmin >= cmin[among].max() - _TIE_M)))
-
-def _within_limits(v0r: float, v0l: float, rows: list, dv_tol: float, vmax_tol: float) -> bool:
-    """:meth:`TrajectoryCheck.within_limits` of the finite rows ``rows`` (``[[vr, vl], ...]``,
-    plain floats) from ``(v0r, v0l)``, with its bounds ``dv + 1e-9`` and ``vmax + 1e-9``: each
-    comparison the one numpy makes on the maximum (the maximum is one of the values)."""
-    prev_r, prev_l = v0r, v0l
-    for r, l in rows:
-        if abs(r) > vmax_tol or abs(l) > vmax_tol or abs(r - prev_r) > dv_tol or abs(l - prev_l) > dv_tol:
-            return False
-        prev_r, prev_l = r, l
-    return True
+_TIE_M = TIE_M  # sequences whose clearances differ by less than this are a tie (ranking.TIE_M)
 
 
 @dataclass(slots=True)  # made for every check: slots, not frozen (a frozen init costs 5x)
@@ -355,7 +339,7 @@ class TrajectoryCheck(Clearances):
         flat = seq.tolist()  # plain floats: the same tests as np.isfinite and within_limits, a tenth of the cost
         if not all(isfinite(a) and isfinite(b) for a, b in flat):
             return None, None, False
-        limited = not _within_limits(float(state[3]), float(state[4]), flat, self._dv_tol, self._vmax_tol)
+        limited = not within_limits_floats(float(state[3]), float(state[4]), flat, self._dv_tol, self._vmax_tol)
         if limited:
             seq = self.limit(state[3:5], seq)
         return seq[0].copy(), (seq if plan is not None else None), limited
@@ -372,11 +356,8 @@ class TrajectoryCheck(Clearances):
 
     def _pick(self, found: tuple, obstacles, labels: list[str]) -> SafetyCheck:
         """:meth:`_check_best` of :meth:`clearances`' answer ``found``."""
-        cmin, kept = found[0], found[4]
-        i = 0
-        if len(cmin) > 1:
-            safe = kept == self.horizon * self.substeps
-            i = _best(safe, cmin) if safe.any() else self._best_unsafe(found)
+        i = pick_index(found[0], found[4], found[5], found[6], found[7], self.horizon * self.substeps,
+                       self._commit_chords)  # compiled (ranking.py: the numpy form's index)
         return self._verdict(found, i, obstacles, labels[i])
 
     def _drives_in(self, found: tuple) -> np.ndarray:
@@ -390,12 +371,7 @@ class TrajectoryCheck(Clearances):
         order: the latest to drive into a contact within the commitment time, then the longest
         clear of the expected discs, then the longest off the fixed obstacles, then the longest
         keeping the margin, then the largest smallest clearance, then the first."""
-        cmin, kept, contact, fixed = found[0], found[4], found[5], found[6]
-        driven = self._drives_in(found)
-        first = driven == driven.max()
-        first &= contact == contact[first].max()
-        first &= fixed == fixed[first].max()
-        return _best(first & (kept == kept[first].max()), cmin)
+        return best_unsafe_index(found[0], found[4], found[5], found[6], found[7], self._commit_chords)
 
     def _verdict(self, found: tuple, i: int, obstacles, label: str) -> SafetyCheck:
         """The :class:`SafetyCheck` of the ``i``-th sequence of :meth:`clearances`' answer ``found``."""
@@ -405,7 +381,7 @@ class TrajectoryCheck(Clearances):
         return SafetyCheck(safe, float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
                            obstacles.label(int(which[i])), label, float(kept[i]) * tau,
                            contact_s=float(contact[i]) * tau, fixed_contact_s=float(fixed[i]) * tau,
-                           drives_in_s=math.inf if safe else float(self._drives_in(found)[i]) * tau)
+                           drives_in_s=math.inf if safe else float(min(int(found[7][i]), self._commit_chords)) * tau)
 
     @staticmethod
     def _better(a: SafetyCheck, b: SafetyCheck) -> bool:

@@ -181,7 +181,9 @@ class SafetyFilter(WayOutSearch, QuickScreen):
                 self.fallback.observe(observation)
             return SafetyVerdict(cmd[0], cmd[1], False, "", "candidate", check, plan)
         state = np.array([r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps], dtype=float)
-        obstacles = self.obstacle_tracks(forecasts, statics, walls)
+        obstacles = self._screened_obstacles(forecasts, statics, walls)  # the screen's arrays, when it made them
+        if obstacles is None:
+            obstacles = self.obstacle_tracks(forecasts, statics, walls)
         cmd, plan, limited = self._as_candidate(state, wheels)
         if cmd is None:
             self.counters["non_finite_candidate"] += 1

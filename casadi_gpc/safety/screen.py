@@ -14,6 +14,7 @@ import numpy as np
 from ..robot import RobotState, robot_step_float
 from .check import SafetyCheck, TrajectoryCheck, forecast_arrays, forecast_covariances
 from .distances import chord_bound, escape_bounds, reach_bound, screen_obstacles
+from .obstacles import Obstacles
 from .walls import path_segment_distances, wall_label
 
 __all__ = ["QuickScreen"]
@@ -269,6 +270,21 @@ class QuickScreen(TrajectoryCheck):
         radii = np.array([f.radius_m for f in forecasts], dtype=float) + R
         sxy = np.array([st.position_m for st in statics], dtype=float).reshape(-1, 2)
         return screen_obstacles(m, w, radii, k, sxy, np.array([st.radius_m for st in statics], dtype=float) + R)
+
+    def _screened_obstacles(self, forecasts, statics, walls):
+        """:meth:`obstacle_tracks` made from the screen's arrays of this filter call (:meth:`_quick`
+        among many obstacles), or None when it made none for these obstacles. The same numbers:
+        an obstacle's position now is ``2 q_1 - q_2`` in both (in the exact form's product with
+        ``_known`` that subtraction is the one rounding: the other products are by 1, 2, -1 and
+        0, exact), its later positions are copies, its touching distances the same sums."""
+        memo = self._screen_memo
+        if memo is None or memo[0] is not forecasts or memo[1] is not statics or memo[2] is None:
+            return None
+        q, touch = memo[2]
+        R = self.robot.radius_m
+        radii = np.concatenate([np.array([f.radius_m for f in forecasts], dtype=float) + R,
+                                np.array([st.radius_m for st in statics], dtype=float) + R])
+        return Obstacles(q, touch, tuple(forecasts), tuple(statics), self, radii, walls)
 
     @staticmethod
     def _wall_bound(low: float, where: tuple, walls_low: np.ndarray, forecasts, statics) -> tuple[float, tuple]:

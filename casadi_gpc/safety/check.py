@@ -360,12 +360,6 @@ class TrajectoryCheck(Clearances):
                        self._commit_chords)  # compiled (ranking.py: the numpy form's index)
         return self._verdict(found, i, obstacles, labels[i])
 
-    def _drives_in(self, found: tuple) -> np.ndarray:
-        """Per sequence of :meth:`clearances`' answer ``found``, the chord where it first
-        drives into a contact (:attr:`SafetyCheck.drives_in_s`), or the commitment time's
-        chord when it does not do so sooner."""
-        return np.minimum(found[7], self._commit_chords)
-
     def _best_unsafe(self, found: tuple) -> int:
         """The index of the best of sequences that all lose the margin, by :meth:`_better`'s
         order: the latest to drive into a contact within the commitment time, then the longest

@@ -11,12 +11,46 @@ import pytest
 
 from casadi_gpc.robot import RobotParams
 from casadi_gpc.safety import SafetyFilter
-from casadi_gpc.safety.ranking import (best_unsafe_index, best_unsafe_index_numpy, pick_index, pick_index_numpy,
-                                       within_limits_floats)
+from casadi_gpc.safety.ranking import TIE_M, best_unsafe_index, pick_index, within_limits_floats
 from casadi_gpc.types import ObstacleForecast, StaticObstacle
 
 ROBOT = RobotParams()
 H, T = 12, 0.5
+
+
+# The numpy forms the compiled ones replaced (the references; the shipped code no longer has them)
+
+def _best_numpy(among: np.ndarray, cmin: np.ndarray) -> int:
+    """The first index of ``among`` whose smallest clearance is the largest there (ties within TIE_M)."""
+    return int(np.argmax(among & (cmin >= cmin[among].max() - TIE_M)))
+
+
+def best_unsafe_index_numpy(cmin, kept, contact, fixed, drives, commit: int) -> int:
+    """:func:`best_unsafe_index` as numpy took it (the reference)."""
+    driven = np.minimum(drives, commit)
+    first = driven == driven.max()
+    first &= contact == contact[first].max()
+    first &= fixed == fixed[first].max()
+    return _best_numpy(first & (kept == kept[first].max()), cmin)
+
+
+def pick_index_numpy(cmin, kept, contact, fixed, drives, n_chords: int, commit: int) -> int:
+    """:func:`pick_index` as numpy took it (the reference)."""
+    if len(cmin) <= 1:
+        return 0
+    safe = kept == n_chords
+    return _best_numpy(safe, cmin) if safe.any() else best_unsafe_index_numpy(cmin, kept, contact, fixed, drives,
+                                                                              commit)
+
+
+def within_limits_numpy(robot, sample_time_s, v0, wheels: np.ndarray) -> bool:
+    """``TrajectoryCheck.within_limits`` as it was: whether the (H, 2) sequence keeps the
+    speed and rate limits."""
+    dv, vmax = robot.max_step_change_mps(sample_time_s), robot.max_wheel_speed_mps
+    tol = 1e-9
+    if np.abs(wheels).max() > vmax + tol or np.abs(wheels[0] - v0).max() > dv + tol:
+        return False
+    return len(wheels) < 2 or bool(np.abs(wheels[1:] - wheels[:-1]).max() <= dv + tol)
 
 
 def _filter() -> SafetyFilter:
@@ -70,7 +104,7 @@ def test_within_limits_floats_is_the_numpy_form():
         w = np.clip(v0 + steps.cumsum(axis=0), -vmax - rng.choice([0.0, 1e-9, 1e-8]), vmax + 1e-9)
         for seq in (w, w[:1]):
             assert within_limits_floats(float(v0[0]), float(v0[1]), seq.tolist(), f._dv_tol, f._vmax_tol) == \
-                f.within_limits(v0, seq)
+                within_limits_numpy(ROBOT, T, v0, seq)
 
 
 def test_grid_rows_that_are_manoeuvres_are_the_same_sequences():

@@ -45,8 +45,6 @@ SEARCH_TURNS = (-0.5, -0.25, -0.1, 0.0, 0.1, 0.25, 0.5)
 fractions; every pair of the two within the limits, each target approached at the
 acceleration limit and held, beside :data:`MANOEUVRES`."""
 
-_TIE_M = TIE_M  # sequences whose clearances differ by less than this are a tie (ranking.TIE_M)
-
 
 @dataclass(slots=True)  # made for every check: slots, not frozen (a frozen init costs 5x)
 class SafetyCheck:
@@ -216,19 +214,11 @@ class TrajectoryCheck(Clearances):
 
     @property
     def _dv_tol(self) -> float:
-        return self.robot.max_step_change_mps(self.sample_time_s) + 1e-9  # within_limits' bounds
+        return self.robot.max_step_change_mps(self.sample_time_s) + 1e-9  # the limits' bounds, with their tolerance
 
     @property
     def _vmax_tol(self) -> float:
         return self.robot.max_wheel_speed_mps + 1e-9
-
-    def within_limits(self, v0, wheels: np.ndarray) -> bool:
-        """Whether the (H, 2) sequence ``wheels`` already keeps the speed and rate limits."""
-        dv, vmax = self.robot.max_step_change_mps(self.sample_time_s), self.robot.max_wheel_speed_mps
-        tol = 1e-9
-        if np.abs(wheels).max() > vmax + tol or np.abs(wheels[0] - v0).max() > dv + tol:
-            return False
-        return len(wheels) < 2 or bool(np.abs(wheels[1:] - wheels[:-1]).max() <= dv + tol)
 
     def obstacle_tracks(self, forecasts, statics, walls=None) -> "Obstacles":
         """The obstacles at the sample instants: positions now and at steps 1..H (complex
@@ -336,7 +326,7 @@ class TrajectoryCheck(Clearances):
         else:
             raise ValueError(f"candidate wheel speeds must have shape (2,) or ({self.horizon}, 2), got {w.shape}")
         seq = w.reshape(-1, 2)
-        flat = seq.tolist()  # plain floats: the same tests as np.isfinite and within_limits, a tenth of the cost
+        flat = seq.tolist()  # plain floats: the same tests as numpy's, a tenth of the cost
         if not all(isfinite(a) and isfinite(b) for a, b in flat):
             return None, None, False
         limited = not within_limits_floats(float(state[3]), float(state[4]), flat, self._dv_tol, self._vmax_tol)
@@ -404,7 +394,7 @@ class TrajectoryCheck(Clearances):
         if not a.safe and abs(a.fixed_contact_s - b.fixed_contact_s) > 1e-12:
             return a.fixed_contact_s > b.fixed_contact_s
         return a.kept_s > b.kept_s + 1e-12 or (abs(a.kept_s - b.kept_s) <= 1e-12
-                                               and a.min_clearance_m > b.min_clearance_m + _TIE_M)
+                                               and a.min_clearance_m > b.min_clearance_m + TIE_M)
 
     def _assess(self, state, cmd, plan, obstacles, enough_s: float | None = None) -> SafetyCheck:
         """The check of a command (and its own plan, if any): its plan first; if that fails

@@ -7,21 +7,20 @@ the longest off the fixed obstacles, then the longest keeping the margin, then t
 smallest clearance; the first on a tie, clearances within :data:`TIE_M` a tie).
 
 The numpy form it replaces took some ten whole-array calls a pick (three to five picks in a
-decision whose command fails the check); it is kept here (:func:`pick_index_numpy`) as the
-reference ``tests/test_safety_ranking.py`` holds the compiled one to, index for index. Only
+decision whose command fails the check); ``tests/test_safety_ranking.py`` keeps it as the
+reference the compiled one is held to, index for index. Only
 comparisons, maxima and one subtraction (the tie's): the same numbers, NaN included (numpy's
 maximum is NaN where a NaN is among the values).
 
 The candidate's limits in plain floats (:func:`within_limits_floats`) are here too: the
-numpy form's comparisons on the maxima, one value at a time.
+numpy form's comparisons on the maxima (kept in the same test), one value at a time.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit, types
 
-__all__ = ["TIE_M", "pick_index", "best_unsafe_index", "pick_index_numpy", "best_unsafe_index_numpy",
-           "within_limits_floats"]
+__all__ = ["TIE_M", "pick_index", "best_unsafe_index", "within_limits_floats"]
 
 TIE_M = 1e-9
 """Sequences whose smallest clearances differ by less than this are a tie (m)."""
@@ -89,32 +88,10 @@ def pick_index(cmin, kept, contact, fixed, drives, n_chords, commit):  # pragma:
     return best_unsafe_index(cmin, kept, contact, fixed, drives, commit)
 
 
-def _best_numpy(among: np.ndarray, cmin: np.ndarray) -> int:
-    return int(np.argmax(among & (cmin >= cmin[among].max() - TIE_M)))
-
-
-def best_unsafe_index_numpy(cmin, kept, contact, fixed, drives, commit: int) -> int:
-    """:func:`best_unsafe_index` as numpy took it (the reference)."""
-    driven = np.minimum(drives, commit)
-    first = driven == driven.max()
-    first &= contact == contact[first].max()
-    first &= fixed == fixed[first].max()
-    return _best_numpy(first & (kept == kept[first].max()), cmin)
-
-
-def pick_index_numpy(cmin, kept, contact, fixed, drives, n_chords: int, commit: int) -> int:
-    """:func:`pick_index` as numpy took it (the reference)."""
-    if len(cmin) <= 1:
-        return 0
-    safe = kept == n_chords
-    return _best_numpy(safe, cmin) if safe.any() else best_unsafe_index_numpy(cmin, kept, contact, fixed, drives,
-                                                                              commit)
-
-
 def within_limits_floats(v0r: float, v0l: float, rows: list, dv_tol: float, vmax_tol: float) -> bool:
-    """:meth:`~casadi_gpc.safety.check.TrajectoryCheck.within_limits` of the finite rows
-    ``rows`` (``[[vr, vl], ...]``, plain floats) from ``(v0r, v0l)``, its bounds ``dv + 1e-9``
-    and ``vmax + 1e-9`` given: each of numpy's comparisons on a maximum made on every value
+    """Whether the finite wheel speeds ``rows`` (``[[vr, vl], ...]``, plain floats), from
+    ``(v0r, v0l)``, keep the speed limit ``vmax_tol`` and the rate limit ``dv_tol`` (each with
+    its 1e-9 tolerance): each of the numpy form's comparisons on a maximum, made on every value
     (the maximum is one of them)."""
     prev_r, prev_l = v0r, v0l
     for r, l in rows:

@@ -51,3 +51,58 @@ def test_walkers_that_see_the_robot_have_no_oracle():
     seeing = dataclasses.replace(sc, moving=tuple(dataclasses.replace(m, sees_robot=True) for m in sc.moving))
     with pytest.raises(SystemExit, match="see the robot"):
         oracle.true_positions(seeing, T, 12)
+
+
+@pytest.mark.parametrize("suite, enters_and_leaves", [("corridor", False), ("doorway", True)])
+def test_walkers_among_walls_that_enter_and_leave_are_the_simulator_s_too(suite, enters_and_leaves):
+    """The wall suites' walkers follow tracks: they enter and leave the scene (the simulator
+    gives NaN outside), and they avoid the walls. The true futures take the walls and put an
+    absent walker far away (GONE_M), where the simulator has NaN."""
+    sc = Suite(suite, 74, 1, 5).scenario(73)
+    truth = oracle.true_positions(sc, T, 12)
+    log = simulate(sc, _Wheels(0.0, 0.0), "wheels")
+    seen = np.array(log.obstacle_xy, dtype=float)[:, :len(sc.moving)]
+    gone = ~np.isfinite(seen)
+    assert gone.any() == enters_and_leaves and np.isfinite(truth).all()
+    np.testing.assert_array_equal(truth[:len(seen)][gone], oracle.GONE_M)
+    np.testing.assert_array_equal(truth[:len(seen)][~gone], seen[~gone])
+
+
+class _Forecasts:
+    """Stands for the planner's own estimate: one forecast per walker, a covariance of its own."""
+
+    def __init__(self, ids):
+        self.ids = ids
+
+    def __call__(self, obs):
+        from casadi_gpc.types import ObstacleForecast
+        return [ObstacleForecast(j, 0.3, np.zeros((12, 2)), np.full((12, 2, 2), 0.01 * (j + 1))) for j in self.ids]
+
+
+@pytest.mark.parametrize("present", [False, True])
+def test_the_oracle_s_forecasts_are_the_truth_or_the_present_carried_on(present, monkeypatch):
+    """``--forecast truth``: the true positions at steps 1..H with the given deviation;
+    ``--forecast present``: the true position now plus k times the last interval's true
+    displacement at step k, with the planner's own covariances; only the walkers it tracks."""
+    from casadi_gpc.config import preset
+    from casadi_gpc.planner.gpc import GPCController
+    rng = np.random.default_rng(3)
+    truth = rng.normal(0.0, 3.0, (30, 4, 2))
+    monkeypatch.setattr(GPCController, "estimate", lambda self, obs: _Forecasts([0, 2])(obs))
+    gpc = object.__new__(oracle.OracleGPC)  # no NLP: only the forecasts are under test
+    gpc.config = preset("improved")
+    gpc.use_truth(truth, [0.3] * 4, 0.05, present_only=present)
+
+    class _Obs:
+        t_s = 7 * T
+    got = gpc.estimate(_Obs())
+    assert [f.obstacle_id for f in got] == [0, 2]
+    for f in got:
+        j = f.obstacle_id
+        if present:
+            want = truth[7, j] + np.arange(1, 13)[:, None] * (truth[7, j] - truth[6, j])
+            np.testing.assert_allclose(f.means_m, want, rtol=0, atol=1e-12)
+            np.testing.assert_array_equal(f.covs_m2, np.full((12, 2, 2), 0.01 * (j + 1)))
+        else:
+            np.testing.assert_array_equal(f.means_m, truth[8:20, j])
+            np.testing.assert_allclose(f.covs_m2, np.tile(np.eye(2) * 0.05 ** 2, (12, 1, 1)))

@@ -1,17 +1,28 @@
 """Is it the forecast or the planner? The GPC with the walkers' true futures as its forecasts
-(docs/crowds.md, "The cost of a slot").
+(docs/crowds.md, "The cost of a slot"; docs/pedestrians.md, "What a better forecast of the
+walkers would buy").
 
     python tools/oracle_forecasts.py --seed 1 --episodes 109,173 [--slots 6,10] [--std 0.05]
-        [--suite circle-crossing] [--movers 10] [--behaviour orca]
+        [--suite circle-crossing] [--movers 10] [--behaviour orca] [--forecast truth|present]
 
-Walkers that do not see the robot (the crowd suites' default) move the same whatever the
-robot does, so their positions at every future sample can be computed before the episode
+Walkers that do not see the robot (the crowd and wall suites' default) move the same whatever
+the robot does, so their positions at every future sample can be computed before the episode
 (the simulator's own mover world, advanced sample by sample). The planner is then given those
-positions as its forecasts, with a small standard deviation (``--std``), instead of its EKF's,
-and runs behind its check layer as ``gpcnav --controller gpc`` does. If it still collides, a
-better forecast of the walkers would not have saved it. Prints per slot count and episode the
-outcome, the smallest clearance, and the worst clearance of its own plans against the true
-positions (negative: it planned into a walker it knew about, or one left out of its NLP).
+positions as its forecasts instead of its EKF's, and runs behind its check layer as ``gpcnav
+--controller gpc`` runs it (the same check settings), the rest of the planner as shipped for
+the scene (its walls' slots, its crowd NLP). If it still collides, a better forecast of the
+walkers would not have saved it.
+
+``--forecast truth`` (the default): the true positions at steps 1..H, with a standard
+deviation of ``--std``. ``--forecast present``: only the present known exactly: the true
+position now, carried on straight at the true velocity of the last sample interval, with the
+filter's own covariances (what a perfect sensor and a constant-velocity model would give; the
+robot's sensor has 0.02 m of noise). A walker that has left the scene is forecast far away.
+
+``--slots``: plan with one NLP of that many mover slots instead of the shipped ones (a comma
+list runs each). Prints per slot count and episode the outcome, the smallest clearance, and
+the worst clearance of its own plans against the true positions (negative: it planned into a
+walker it knew about, or one left out of its NLP); and a summary line.
 """
 from __future__ import annotations
 
@@ -26,40 +37,53 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from casadi_gpc.config import preset  # noqa: E402
 from casadi_gpc.planner.gpc import GPCController  # noqa: E402
+from casadi_gpc.safety import Shield  # noqa: E402
+from casadi_gpc.types import ObstacleForecast  # noqa: E402
+from gpcnav.commands.common import for_run  # noqa: E402
+from gpcnav.controllers import check_settings  # noqa: E402
+from scenarios import Suite  # noqa: E402
 from scenarios.movers import MoverWorld  # noqa: E402
 from scenarios.simulator import simulate  # noqa: E402
-from casadi_gpc.types import ObstacleForecast  # noqa: E402
-from casadi_gpc.safety import CheckSettings, Shield  # noqa: E402
-from scenarios import Suite  # noqa: E402
+
+GONE_M = 1e4
+"""Where a walker that is not in the scene is put (far from everything)."""
 
 
 def true_positions(scenario, sample_time_s: float, extra_steps: int) -> np.ndarray:
     """The movers' positions at every sample, shape (samples, movers, 2), as the simulator
-    moves them (walkers blind to the robot only)."""
+    moves them (walkers blind to the robot only); a mover not in the scene at :data:`GONE_M`."""
     if any(getattr(m, "sees_robot", False) for m in scenario.moving):
         raise SystemExit("the walkers see the robot: their futures depend on it, no oracle")
-    world = MoverWorld(scenario.moving, scenario.static, scenario.robot.radius_m)
+    world = MoverWorld(scenario.moving, scenario.static, scenario.robot.radius_m, scenario.walls)
     n = int(scenario.duration_s / sample_time_s) + extra_steps + 2
     out = [world.positions(0.0)]
     for k in range(1, n):
         world.advance(k * sample_time_s, lambda t: (1e6, 1e6, 0.0, 0.0))  # a robot nobody sees
         out.append(world.positions(k * sample_time_s))
-    return np.array(out)
+    out = np.array(out, dtype=float)
+    return np.where(np.isfinite(out), out, GONE_M)
 
 
 class OracleGPC(GPCController):
     """The GPC whose forecasts are the movers' true positions (``truth``, per sample)."""
 
-    def use_truth(self, truth: np.ndarray, radii, std_m: float) -> None:
-        self.truth, self.radii = truth, list(radii)
+    def use_truth(self, truth: np.ndarray, radii, std_m: float, present_only: bool = False) -> None:
+        """``present_only``: the true position now carried on at the last interval's true
+        velocity, with the filter's covariances (the module's ``--forecast present``)."""
+        self.truth, self.radii, self.present_only = truth, list(radii), present_only
         self.cov = np.tile(np.eye(2) * std_m ** 2, (self.config.horizon, 1, 1))
 
     def estimate(self, obs):
-        self.bank.step(obs.moving)  # the filters run as usual (their counters), unused
+        own = super().estimate(obs)  # the filters run as usual (their counters, the covariances)
         H, k = self.config.horizon, int(round(obs.t_s / self.config.sample_time_s))
-        seen = {m.obstacle_id for m in obs.moving}
-        return [ObstacleForecast(j, self.radii[j], self.truth[k + 1:k + H + 1, j].copy(), self.cov.copy())
-                for j in range(len(self.radii)) if j in seen]
+        if self.present_only:
+            steps = np.arange(1, H + 1)[:, None]
+            return [ObstacleForecast(f.obstacle_id, f.radius_m,
+                                     self.truth[k, f.obstacle_id] + steps * (self.truth[k, f.obstacle_id]
+                                                                            - self.truth[max(k - 1, 0), f.obstacle_id]),
+                                     np.asarray(f.covs_m2)) for f in own]
+        return [ObstacleForecast(f.obstacle_id, self.radii[f.obstacle_id],
+                                 self.truth[k + 1:k + H + 1, f.obstacle_id].copy(), self.cov.copy()) for f in own]
 
 
 def main(argv=None) -> int:
@@ -68,31 +92,46 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--movers", type=int, default=10)
     ap.add_argument("--behaviour", default="orca")
-    ap.add_argument("--episodes", default="109")
-    ap.add_argument("--slots", default="6,10", help="comma-separated max_moving values")
-    ap.add_argument("--std", type=float, default=0.05, help="the oracle's forecast standard deviation, m")
+    ap.add_argument("--episodes", default="109", help="comma-separated episode indices (from 0), or a range A-B")
+    ap.add_argument("--slots", default="", help="comma-separated max_moving values (default: as shipped)")
+    ap.add_argument("--std", type=float, default=0.05, help="the true future's standard deviation, m")
+    ap.add_argument("--forecast", choices=("truth", "present"), default="truth")
     args = ap.parse_args(argv)
-    suite = Suite(args.suite, 1, args.seed, args.movers, args.behaviour)
-    for slots in (int(s) for s in args.slots.split(",")):
-        cfg = replace(preset("improved"), max_moving=slots, crowd_moving=None)  # one NLP of that many slots
-        T, H = cfg.sample_time_s, cfg.horizon
-        for i in (int(e) for e in args.episodes.split(",")):
+    if "-" in args.episodes:
+        a, b = (int(v) for v in args.episodes.split("-"))
+        episodes = list(range(a, b + 1))
+    else:
+        episodes = [int(e) for e in args.episodes.split(",")]
+    suite = Suite(args.suite, max(episodes) + 1, args.seed, args.movers, args.behaviour)
+    outcomes = {}
+    for slots in [int(s) for s in args.slots.split(",") if s] or [None]:
+        for i in episodes:
             sc = suite.scenario(i)
+            cfg = for_run(preset("improved"), [sc])  # as the command line plans this scene
+            if slots is not None:
+                cfg = replace(cfg, max_moving=slots, crowd_moving=None)  # one NLP of that many slots
+            T, H = cfg.sample_time_s, cfg.horizon
             truth = true_positions(sc, T, H)
             gpc = OracleGPC(cfg, sc.robot)
-            gpc.use_truth(truth, [m.radius_m for m in sc.moving], args.std)
-            log = simulate(sc, Shield(gpc, sc.robot, CheckSettings(trust_plans=True)), "gpc-oracle")
-            recorded = np.array(log.obstacle_xy)[:, :len(sc.moving)]
+            gpc.use_truth(truth, [m.radius_m for m in sc.moving], args.std, args.forecast == "present")
+            log = simulate(sc, Shield(gpc, sc.robot, check_settings("gpc", gpc, cfg, "on"), planner_config=cfg),
+                           "gpc-oracle")
+            recorded = np.array(log.obstacle_xy, dtype=float)[:, :len(sc.moving)]
+            recorded = np.where(np.isfinite(recorded), recorded, GONE_M)
             assert np.array_equal(truth[:len(recorded)], recorded), "the oracle's positions are not the simulator's"
             worst = np.inf  # the worst clearance of the plans against the true positions
+            radii = np.array([m.radius_m for m in sc.moving])
             for k, d in enumerate(log.decisions):
                 if d.planned_poses is not None:
                     p = np.asarray(d.planned_poses)[:, None, :2]
-                    gaps = np.hypot(*(truth[k + 1:k + H + 1] - p).transpose(2, 0, 1))
-                    gaps -= sc.robot.radius_m + np.array([m.radius_m for m in sc.moving])
+                    gaps = np.hypot(*(truth[k + 1:k + H + 1] - p).transpose(2, 0, 1)) - (sc.robot.radius_m + radii)
                     worst = min(worst, float(gaps.min()))
-            print(f"slots {slots:2d}  episode {i:4d}: {log.outcome:12s} smallest clearance "
-                  f"{log.min_clearance_m:6.3f} m, worst planned clearance against the truth {worst:6.3f} m")
+            outcomes.setdefault(slots, []).append(log.outcome)
+            print(f"slots {slots or 'shipped'}  episode {i:4d}: {log.outcome:12s} smallest clearance "
+                  f"{log.min_clearance_m:6.3f} m, worst planned clearance against the truth {worst:6.3f} m", flush=True)
+    for slots, got in outcomes.items():
+        print(f"slots {slots or 'shipped'}, forecast {args.forecast}: " + ", ".join(
+            f"{got.count(o)} {o}" for o in ("reached_goal", "collided", "timed_out")) + f" of {len(got)}")
     return 0
 
 

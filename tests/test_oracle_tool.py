@@ -64,8 +64,13 @@ def test_walkers_among_walls_that_enter_and_leave_are_the_simulator_s_too(suite,
     seen = np.array(log.obstacle_xy, dtype=float)[:, :len(sc.moving)]
     gone = ~np.isfinite(seen)
     assert gone.any() == enters_and_leaves and np.isfinite(truth).all()
-    np.testing.assert_array_equal(truth[:len(seen)][gone], oracle.GONE_M)
     np.testing.assert_array_equal(truth[:len(seen)][~gone], seen[~gone])
+    for j in range(truth.shape[1]):  # held where it enters and where it leaves
+        here = np.flatnonzero(~gone[:, j, 0])
+        np.testing.assert_array_equal(truth[:here[0], j], np.broadcast_to(seen[here[0], j], (here[0], 2)))
+        if here[-1] + 1 < len(seen):  # it left within the episode
+            after = truth[here[-1] + 1:, j]
+            np.testing.assert_array_equal(after, np.broadcast_to(seen[here[-1], j], after.shape))
 
 
 class _Forecasts:

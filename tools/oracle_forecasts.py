@@ -14,10 +14,12 @@ the scene (its walls' slots, its crowd NLP). If it still collides, a better fore
 walkers would not have saved it.
 
 ``--forecast truth`` (the default): the true positions at steps 1..H, with a standard
-deviation of ``--std``. ``--forecast present``: only the present known exactly: the true
+deviation of ``--std`` (``--std filter``: with the filter's own covariances, so that only the
+means are told; a small fixed deviation also lets the planner pass closer). ``--forecast present``: only the present known exactly: the true
 position now, carried on straight at the true velocity of the last sample interval, with the
 filter's own covariances (what a perfect sensor and a constant-velocity model would give; the
-robot's sensor has 0.02 m of noise). A walker that has left the scene is forecast far away.
+robot's sensor has 0.02 m of noise). A walker about to leave the scene is forecast standing
+where it leaves (:func:`true_positions`).
 
 ``--slots``: plan with one NLP of that many mover slots instead of the shipped ones (a comma
 list runs each). Prints per slot count and episode the outcome, the smallest clearance, and
@@ -46,12 +48,16 @@ from scenarios.movers import MoverWorld  # noqa: E402
 from scenarios.simulator import simulate  # noqa: E402
 
 GONE_M = 1e4
-"""Where a walker that is not in the scene is put (far from everything)."""
+"""Where a walker that is never in the scene is put (far from everything)."""
 
 
 def true_positions(scenario, sample_time_s: float, extra_steps: int) -> np.ndarray:
     """The movers' positions at every sample, shape (samples, movers, 2), as the simulator
-    moves them (walkers blind to the robot only); a mover not in the scene at :data:`GONE_M`."""
+    moves them (walkers blind to the robot only). Where a walker is not in the scene (a track
+    not yet begun or already ended) it is held where it enters or where it leaves: a forecast
+    does not know that someone is about to vanish (carried off to far away, the planner was
+    told that a walker beside it would go, and drove into it the sample before it did); one
+    never in the scene is at :data:`GONE_M`."""
     if any(getattr(m, "sees_robot", False) for m in scenario.moving):
         raise SystemExit("the walkers see the robot: their futures depend on it, no oracle")
     world = MoverWorld(scenario.moving, scenario.static, scenario.robot.radius_m, scenario.walls)
@@ -61,17 +67,27 @@ def true_positions(scenario, sample_time_s: float, extra_steps: int) -> np.ndarr
         world.advance(k * sample_time_s, lambda t: (1e6, 1e6, 0.0, 0.0))  # a robot nobody sees
         out.append(world.positions(k * sample_time_s))
     out = np.array(out, dtype=float)
-    return np.where(np.isfinite(out), out, GONE_M)
+    for j in range(out.shape[1]):
+        here = np.flatnonzero(np.isfinite(out[:, j]).all(axis=1))
+        if not len(here):
+            out[:, j] = GONE_M
+            continue
+        out[:here[0], j] = out[here[0], j]  # before it enters: where it enters
+        for a, b in zip(here[:-1], here[1:]):  # a gap (none in the suites): where it left
+            out[a + 1:b, j] = out[a, j]
+        out[here[-1] + 1:, j] = out[here[-1], j]  # after it leaves: where it left
+    return out
 
 
 class OracleGPC(GPCController):
     """The GPC whose forecasts are the movers' true positions (``truth``, per sample)."""
 
-    def use_truth(self, truth: np.ndarray, radii, std_m: float, present_only: bool = False) -> None:
+    def use_truth(self, truth: np.ndarray, radii, std_m: float | None, present_only: bool = False) -> None:
         """``present_only``: the true position now carried on at the last interval's true
-        velocity, with the filter's covariances (the module's ``--forecast present``)."""
+        velocity, with the filter's covariances (the module's ``--forecast present``);
+        ``std_m`` None: the true future with the filter's covariances too."""
         self.truth, self.radii, self.present_only = truth, list(radii), present_only
-        self.cov = np.tile(np.eye(2) * std_m ** 2, (self.config.horizon, 1, 1))
+        self.cov = None if std_m is None else np.tile(np.eye(2) * std_m ** 2, (self.config.horizon, 1, 1))
 
     def estimate(self, obs):
         own = super().estimate(obs)  # the filters run as usual (their counters, the covariances)
@@ -83,7 +99,8 @@ class OracleGPC(GPCController):
                                                                             - self.truth[max(k - 1, 0), f.obstacle_id]),
                                      np.asarray(f.covs_m2)) for f in own]
         return [ObstacleForecast(f.obstacle_id, self.radii[f.obstacle_id],
-                                 self.truth[k + 1:k + H + 1, f.obstacle_id].copy(), self.cov.copy()) for f in own]
+                                 self.truth[k + 1:k + H + 1, f.obstacle_id].copy(),
+                                 np.asarray(f.covs_m2) if self.cov is None else self.cov.copy()) for f in own]
 
 
 def main(argv=None) -> int:
@@ -94,7 +111,8 @@ def main(argv=None) -> int:
     ap.add_argument("--behaviour", default="orca")
     ap.add_argument("--episodes", default="109", help="comma-separated episode indices (from 0), or a range A-B")
     ap.add_argument("--slots", default="", help="comma-separated max_moving values (default: as shipped)")
-    ap.add_argument("--std", type=float, default=0.05, help="the true future's standard deviation, m")
+    ap.add_argument("--std", default="0.05",
+                    help="the true future's standard deviation, m, or 'filter': the filter's own covariances")
     ap.add_argument("--forecast", choices=("truth", "present"), default="truth")
     args = ap.parse_args(argv)
     if "-" in args.episodes:
@@ -113,12 +131,14 @@ def main(argv=None) -> int:
             T, H = cfg.sample_time_s, cfg.horizon
             truth = true_positions(sc, T, H)
             gpc = OracleGPC(cfg, sc.robot)
-            gpc.use_truth(truth, [m.radius_m for m in sc.moving], args.std, args.forecast == "present")
+            gpc.use_truth(truth, [m.radius_m for m in sc.moving], None if args.std == "filter" else float(args.std),
+                          args.forecast == "present")
             log = simulate(sc, Shield(gpc, sc.robot, check_settings("gpc", gpc, cfg, "on"), planner_config=cfg),
                            "gpc-oracle")
             recorded = np.array(log.obstacle_xy, dtype=float)[:, :len(sc.moving)]
-            recorded = np.where(np.isfinite(recorded), recorded, GONE_M)
-            assert np.array_equal(truth[:len(recorded)], recorded), "the oracle's positions are not the simulator's"
+            there = np.isfinite(recorded)
+            assert np.array_equal(truth[:len(recorded)][there], recorded[there]), \
+                "the oracle's positions are not the simulator's"
             worst = np.inf  # the worst clearance of the plans against the true positions
             radii = np.array([m.radius_m for m in sc.moving])
             for k, d in enumerate(log.decisions):

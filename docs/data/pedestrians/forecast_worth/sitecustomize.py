@@ -96,3 +96,21 @@ if os.environ.get("GPCNAV_EXP_ORCA"):
         return out
 
     G.GPCController.estimate = estimate2
+
+if os.environ.get("GPCNAV_EXP_EKFX"):
+    # Experiment (not shipped): the planner's obstacle filter with its speed and heading
+    # process noises multiplied by GPCNAV_EXP_EKFX (a filter that follows a walker's change
+    # sooner, and says it is less sure).
+    import dataclasses
+    from casadi_gpc.estimation.ekf import EKFSettings
+    from casadi_gpc.planner import gpc as G
+    _k = float(os.environ["GPCNAV_EXP_EKFX"])
+    _S0 = EKFSettings()
+    _S = dataclasses.replace(_S0, speed_noise_mps2=_S0.speed_noise_mps2 * _k, heading_noise_rad=_S0.heading_noise_rad * _k)
+    _init = G.GPCController.__post_init__
+
+    def __post_init__(self):
+        self.ekf_settings = _S
+        _init(self)
+
+    G.GPCController.__post_init__ = __post_init__

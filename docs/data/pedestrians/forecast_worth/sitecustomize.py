@@ -114,3 +114,35 @@ if os.environ.get("GPCNAV_EXP_EKFX"):
         _init(self)
 
     G.GPCController.__post_init__ = __post_init__
+
+if os.environ.get("GPCNAV_EXP_EKFMEAN"):
+    # Experiment (not shipped): the forecasts' means from a second filter per track whose speed
+    # and heading process noises are GPCNAV_EXP_EKFMEAN times the shipped (it follows a change
+    # sooner), their covariances from the shipped filter (as sure as the planner is today).
+    import dataclasses
+    import numpy as np
+    from casadi_gpc.estimation.ekf import EKFSettings
+    from casadi_gpc.estimation.tracking import TrackBank
+    from casadi_gpc.planner import gpc as G
+    from casadi_gpc.types import ObstacleForecast
+    _km = float(os.environ["GPCNAV_EXP_EKFMEAN"])
+    _S0m = EKFSettings()
+    _Sm = dataclasses.replace(_S0m, speed_noise_mps2=_S0m.speed_noise_mps2 * _km,
+                              heading_noise_rad=_S0m.heading_noise_rad * _km)
+    _orig3 = G.GPCController.estimate
+
+    def estimate3(self, obs):
+        own = _orig3(self, obs)
+        if int(round(obs.t_s / self.config.sample_time_s)) == 0 or "_mean_bank" not in self.__dict__:
+            self._mean_bank = TrackBank(self.config.sample_time_s, _Sm, {}, straight=self.config.forecast == "straight")
+        bank = self._mean_bank
+        fast = {f.obstacle_id: f for f in bank.forecasts(bank.step(obs.moving), self.config.horizon,
+                                                         self._forecast_function)}
+        out = []
+        for f in own:
+            g = fast.get(f.obstacle_id)
+            out.append(f if g is None else ObstacleForecast(f.obstacle_id, f.radius_m, np.asarray(g.means_m),
+                                                            np.asarray(f.covs_m2)))
+        return out
+
+    G.GPCController.estimate = estimate3

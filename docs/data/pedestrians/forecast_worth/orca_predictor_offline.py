@@ -1,5 +1,8 @@
+"""Offline: an ORCA forecast of the walkers among themselves, from the filter's estimates and
+from the true state, against the filter's straight one (square-crossing, 30 walkers, seed 3,
+the first 3 episodes; docs/pedestrians.md, "Among 30 walkers")."""
 import sys, numpy as np, types
-sys.path.insert(0,'/work/main')
+sys.path.insert(0, str(__import__('pathlib').Path(__file__).resolve().parents[4]))  # the repository
 from scenarios import Suite
 from scenarios.movers import MoverWorld
 from casadi_gpc.estimation.ekf import ObstacleEKF, EKFSettings

@@ -1,6 +1,9 @@
+"""Offline: how far simple predictors of the walkers are off, at 0.5 to 6 s (docs/pedestrians.md,
+"Among 30 walkers"). Usage: python predictors_offline.py SUITE SEED MOVERS EPISODES
+(e.g. square-crossing 3 30 10; corridor 3 5 40). The walkers must not see the robot."""
 import sys, numpy as np
 from dataclasses import replace
-sys.path.insert(0,'/work/main')
+sys.path.insert(0, str(__import__('pathlib').Path(__file__).resolve().parents[4]))  # the repository
 from scenarios import Suite
 from scenarios.movers import MoverWorld
 from casadi_gpc.estimation.ekf import ObstacleEKF, EKFSettings

@@ -111,3 +111,12 @@ def test_the_oracle_s_forecasts_are_the_truth_or_the_present_carried_on(present,
         else:
             np.testing.assert_array_equal(f.means_m, truth[8:20, j])
             np.testing.assert_allclose(f.covs_m2, np.tile(np.eye(2) * 0.05 ** 2, (12, 1, 1)))
+
+
+@pytest.mark.parametrize("argv", [["--std", "abc"], ["--std", "0"], ["--episodes", "3-1"], ["--episodes", "x"],
+                                  ["--slots", "0"], ["--forecast", "future"]])
+def test_bad_arguments_are_refused_in_one_line(argv, capsys):
+    with pytest.raises(SystemExit) as e:
+        oracle.main(argv)
+    assert e.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("oracle_forecasts.py: error:")

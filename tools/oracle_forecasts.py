@@ -1,6 +1,6 @@
 """Is it the forecast or the planner? The GPC with the walkers' true futures as its forecasts
-(docs/crowds.md, "The cost of a slot"; docs/pedestrians.md, "What a better forecast of the
-walkers would buy").
+(docs/crowds.md, "The cost of a slot"; docs/pedestrians.md, "Among 30 walkers: what a better
+forecast would buy"; docs/buildings.md, "Told the walkers' future").
 
     python tools/oracle_forecasts.py --seed 1 --episodes 109,173 [--slots 6,10] [--std 0.05]
         [--suite circle-crossing] [--movers 10] [--behaviour orca] [--forecast truth|present]
@@ -15,10 +15,11 @@ walkers would not have saved it.
 
 ``--forecast truth`` (the default): the true positions at steps 1..H, with a standard
 deviation of ``--std`` (``--std filter``: with the filter's own covariances, so that only the
-means are told; a small fixed deviation also lets the planner pass closer). ``--forecast present``: only the present known exactly: the true
-position now, carried on straight at the true velocity of the last sample interval, with the
-filter's own covariances (what a perfect sensor and a constant-velocity model would give; the
-robot's sensor has 0.02 m of noise). A walker about to leave the scene is forecast standing
+means are told; a small fixed deviation also lets the planner pass closer).
+``--forecast present``: only the present known exactly: the true position now, carried on
+straight at the true velocity of the last sample interval, with the filter's own covariances
+(what a perfect sensor and a constant-velocity model would give; the robot's sensor has
+0.02 m of noise). A walker about to leave the scene is forecast standing
 where it leaves (:func:`true_positions`).
 
 ``--slots``: plan with one NLP of that many mover slots instead of the shipped ones (a comma
@@ -115,14 +116,21 @@ def main(argv=None) -> int:
                     help="the true future's standard deviation, m, or 'filter': the filter's own covariances")
     ap.add_argument("--forecast", choices=("truth", "present"), default="truth")
     args = ap.parse_args(argv)
-    if "-" in args.episodes:
-        a, b = (int(v) for v in args.episodes.split("-"))
-        episodes = list(range(a, b + 1))
-    else:
-        episodes = [int(e) for e in args.episodes.split(",")]
+    try:
+        if "-" in args.episodes:
+            a, b = (int(v) for v in args.episodes.split("-"))
+            episodes = list(range(a, b + 1))
+        else:
+            episodes = [int(e) for e in args.episodes.split(",")]
+        std = None if args.std == "filter" else float(args.std)
+        slot_counts = [int(s) for s in args.slots.split(",") if s]
+    except ValueError as exc:
+        ap.error(f"--episodes, --std or --slots: {exc}")
+    if not episodes or min(episodes) < 0 or (std is not None and not std > 0) or any(n < 1 for n in slot_counts):
+        ap.error("--episodes must name episodes from 0, --std be positive or 'filter', --slots at least 1")
     suite = Suite(args.suite, max(episodes) + 1, args.seed, args.movers, args.behaviour)
     outcomes = {}
-    for slots in [int(s) for s in args.slots.split(",") if s] or [None]:
+    for slots in slot_counts or [None]:
         for i in episodes:
             sc = suite.scenario(i)
             cfg = for_run(preset("improved"), [sc])  # as the command line plans this scene
@@ -131,8 +139,7 @@ def main(argv=None) -> int:
             T, H = cfg.sample_time_s, cfg.horizon
             truth = true_positions(sc, T, H)
             gpc = OracleGPC(cfg, sc.robot)
-            gpc.use_truth(truth, [m.radius_m for m in sc.moving], None if args.std == "filter" else float(args.std),
-                          args.forecast == "present")
+            gpc.use_truth(truth, [m.radius_m for m in sc.moving], std, args.forecast == "present")
             log = simulate(sc, Shield(gpc, sc.robot, check_settings("gpc", gpc, cfg, "on"), planner_config=cfg),
                            "gpc-oracle")
             recorded = np.array(log.obstacle_xy, dtype=float)[:, :len(sc.moving)]

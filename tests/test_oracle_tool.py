@@ -119,4 +119,4 @@ def test_bad_arguments_are_refused_in_one_line(argv, capsys):
     with pytest.raises(SystemExit) as e:
         oracle.main(argv)
     assert e.value.code == 2
-    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("oracle_forecasts.py: error:")
+    assert ": error: " in capsys.readouterr().err.strip().splitlines()[-1]

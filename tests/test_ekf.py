@@ -355,3 +355,26 @@ def test_the_planner_forecasts_as_its_preset_says():
         np.testing.assert_allclose(forecasts[0].means_m, straight if name == "improved" else turning, atol=1e-9)
     with pytest.raises(ValueError, match="cold_starts"):
         PlannerConfig(name="x", sample_time_s=0.5, cold_starts=0)
+
+
+@pytest.mark.parametrize("horizon, T", [(1, 0.5), (12, 0.5), (18, 0.4), (60, 0.1)])
+def test_a_track_seen_once_is_forecast_standing_with_a_growing_uncertainty_as_written_step_by_step(horizon, T):
+    """The forecast of a track seen once (speed unknown): standing where it was seen, the
+    covariance at step j the position's plus I (initial speed std x T)^2 j^2. The shipped form
+    makes all steps at once; here the step-by-step form it replaced, to the bit."""
+    rng = np.random.default_rng(horizon)
+    settings = EKFSettings(measurement_std_m=float(rng.uniform(0.005, 0.1)),
+                           initial_speed_std_mps=float(rng.uniform(0.3, 2.0)))
+    ekf = ObstacleEKF(T, settings)
+    ekf.step((float(rng.normal(0, 5)), float(rng.normal(0, 5))))
+    snap = ekf.snapshot()
+    assert snap.measurements_seen == 1
+    means, covs = snap.predict(horizon)
+    s, P = np.array(snap.state), snap.cov_array()
+    grow = (settings.initial_speed_std_mps * T) ** 2
+    want_m, want_c = np.empty((horizon, 2)), np.empty((horizon, 2, 2))
+    for j in range(horizon):
+        want_m[j] = s[:2]
+        want_c[j] = P[:2, :2] + np.eye(2) * grow * (j + 1) ** 2
+    np.testing.assert_array_equal(means, want_m)
+    np.testing.assert_array_equal(covs, want_c)

@@ -150,9 +150,6 @@ def straightened(state: tuple, cov_upper: tuple, q: tuple) -> tuple[tuple, tuple
     return (x, y, v, th, 0.0), tuple(u), (*q[:4], 0.0)
 
 
-_EYE2 = np.eye(2)
-_EYE2.flags.writeable = False
-
 _TURN_ENTRIES = (4, 8, 11, 13, 14)
 """The entries of the covariance's upper triangle (:data:`casadi_gpc.estimation.ekf_floats.upper`)
 in the turn increment's row and column."""
@@ -198,17 +195,13 @@ class FilterState(NamedTuple):
         heading (:func:`straightened`) instead of turning on by the turn increment."""
         T = self.sample_time_s
         if self.measurements_seen == 1:
-            # standing where it was seen, the uncertainty growing with the unknown speed: at
-            # step j, P[:2, :2] + I grow j^2, in that order (a step at a time, this loop's
-            # np.eye was most of the time of a decision whose crowd had just come into view)
-            x, y = self.state[:2]
-            P = self.cov_array()
+            # standing where it was seen, the uncertainty growing with the unknown speed: at step
+            # j, P[:2, :2] + I grow j^2, all steps at once (a step at a time it was most of a
+            # decision whose crowd had just come into view)
             grow = (self.settings.initial_speed_std_mps * T) ** 2
-            means = np.empty((horizon, 2))
-            means[:, 0], means[:, 1] = x, y
             steps2 = np.arange(1, horizon + 1, dtype=float) ** 2
-            covs = P[:2, :2] + (_EYE2 * grow) * steps2[:, None, None]
-            return means, covs
+            covs = self.cov_array()[:2, :2] + (np.eye(2) * grow) * steps2[:, None, None]
+            return np.tile(np.array(self.state[:2], dtype=float), (horizon, 1)), covs
         q = q or _q_diagonal(self.settings, T)
         if straight:
             state, cov_upper, q = straightened(self.state, self.cov_upper, q)

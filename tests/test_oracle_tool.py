@@ -67,6 +67,8 @@ def test_walkers_among_walls_that_enter_and_leave_are_the_simulator_s_too(suite,
     gone = ~np.isfinite(seen)
     assert gone.any() == enters_and_leaves and np.isfinite(truth).all()
     np.testing.assert_array_equal(truth[:len(seen)][~gone], seen[~gone])
+    raw = oracle.true_positions(sc, T, 12, hold_absent=False)  # NaN where absent, as the simulator
+    np.testing.assert_array_equal(raw[:len(seen)], seen)
     for j in range(truth.shape[1]):  # held where it enters and where it leaves
         here = np.flatnonzero(~gone[:, j, 0])
         np.testing.assert_array_equal(truth[:here[0], j], np.broadcast_to(seen[here[0], j], (here[0], 2)))

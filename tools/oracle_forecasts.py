@@ -52,13 +52,14 @@ GONE_M = 1e4
 """Where a walker that is never in the scene is put (far from everything)."""
 
 
-def true_positions(scenario, sample_time_s: float, extra_steps: int) -> np.ndarray:
+def true_positions(scenario, sample_time_s: float, extra_steps: int, hold_absent: bool = True) -> np.ndarray:
     """The movers' positions at every sample, shape (samples, movers, 2), as the simulator
     moves them (walkers blind to the robot only). Where a walker is not in the scene (a track
     not yet begun or already ended) it is held where it enters or where it leaves: a forecast
     does not know that someone is about to vanish (carried off to far away, the planner was
     told that a walker beside it would go, and drove into it the sample before it did); one
-    never in the scene is at :data:`GONE_M`."""
+    never in the scene is at :data:`GONE_M`. ``hold_absent`` False: NaN there, as the
+    simulator gives it (what an offline study of forecasts wants)."""
     if any(getattr(m, "sees_robot", False) for m in scenario.moving):
         raise SystemExit("the walkers see the robot: their futures depend on it, no oracle")
     world = MoverWorld(scenario.moving, scenario.static, scenario.robot.radius_m, scenario.walls)
@@ -68,6 +69,8 @@ def true_positions(scenario, sample_time_s: float, extra_steps: int) -> np.ndarr
         world.advance(k * sample_time_s, lambda t: (1e6, 1e6, 0.0, 0.0))  # a robot nobody sees
         out.append(world.positions(k * sample_time_s))
     out = np.array(out, dtype=float)
+    if not hold_absent:
+        return out
     for j in range(out.shape[1]):
         here = np.flatnonzero(np.isfinite(out[:, j]).all(axis=1))
         if not len(here):

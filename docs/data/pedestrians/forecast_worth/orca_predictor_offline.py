@@ -3,17 +3,14 @@ from the true state, against the filter's straight one (square-crossing, 30 walk
 the first 3 episodes; docs/pedestrians.md, "Among 30 walkers")."""
 import sys, numpy as np, types
 sys.path.insert(0, str(__import__('pathlib').Path(__file__).resolve().parents[4]))  # the repository
+sys.path.insert(0, str(__import__('pathlib').Path(__file__).resolve().parents[4] / 'tools'))
+from oracle_forecasts import true_positions  # noqa: E402
 from scenarios import Suite
 from scenarios.movers import MoverWorld
 from casadi_gpc.estimation.ekf import ObstacleEKF, EKFSettings
 T, H = 0.5, 12
-def truth_of(sc):
-    world = MoverWorld(sc.moving, sc.static, sc.robot.radius_m, sc.walls)
-    n = int(sc.duration_s / T) + 1
-    out = [world.positions(0.0)]
-    for k in range(1, n):
-        world.advance(k * T, lambda t: (1e6, 1e6, 0.0, 0.0)); out.append(world.positions(k * T))
-    return np.array(out, dtype=float)
+def truth_of(sc):  # the walkers' true positions at every sample of the episode, NaN where absent
+    return true_positions(sc, T, 0, hold_absent=False)[:int(sc.duration_s / T) + 1]
 rng = np.random.default_rng(5)
 E = {'straight': [], 'orca': [], 'orca_truestate': []}
 for idx in range(3):

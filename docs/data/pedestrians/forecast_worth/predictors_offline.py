@@ -4,18 +4,14 @@
 import sys, numpy as np
 from dataclasses import replace
 sys.path.insert(0, str(__import__('pathlib').Path(__file__).resolve().parents[4]))  # the repository
+sys.path.insert(0, str(__import__('pathlib').Path(__file__).resolve().parents[4] / 'tools'))
+from oracle_forecasts import true_positions  # noqa: E402
 from scenarios import Suite
-from scenarios.movers import MoverWorld
 from casadi_gpc.estimation.ekf import ObstacleEKF, EKFSettings
 T, H = 0.5, 12
 suite, seed, movers, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
-def truth_of(sc):
-    world = MoverWorld(sc.moving, sc.static, sc.robot.radius_m, sc.walls)
-    n = int(sc.duration_s / T) + 1
-    out = [world.positions(0.0)]
-    for k in range(1, n):
-        world.advance(k * T, lambda t: (1e6, 1e6, 0.0, 0.0)); out.append(world.positions(k * T))
-    return np.array(out, dtype=float)
+def truth_of(sc):  # the walkers' true positions at every sample of the episode, NaN where absent
+    return true_positions(sc, T, 0, hold_absent=False)[:int(sc.duration_s / T) + 1]
 S0 = EKFSettings()
 ests = {'ekf': S0}
 for k in (2, 4, 8):

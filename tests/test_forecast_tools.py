@@ -108,3 +108,33 @@ def test_the_constant_velocity_row_repeats_the_last_measured_displacement():
                 assert not np.allclose(f.means_m, g.means_m)
         np.testing.assert_allclose(f.covs_m2, g.covs_m2)
         episode.step(decision)
+
+
+def test_the_bound_runs_on_scenario_files_and_refuses_what_is_not_replayed_people(tmp_path, capsys):
+    """``tools/forecast_bound.py FILE ...``: another recording's cases (``gpcnav
+    import-tracks``) in place of the ``ucy`` suite, with the record of each case as the suite
+    path gives it; a file without replayed people, or that does not load, is refused in one
+    line (exit 2)."""
+    import pytest
+
+    fb = _tool("forecast_bound")
+    rows = [[0.0, 6.0, 0.0], [6.0, 0.0, 0.0]]  # a person walking at the robot down its reference
+    text = straight_line_toml("walker", 10.0, 2.0) + f"[[moving_obstacles]]\nradius_m = 0.25\ntrack = {rows}\n"
+    path = tmp_path / "walker.toml"
+    path.write_text(text)
+    sc = scenario_from_dict(tomllib.loads(text), str(path))
+    doc = fb.run(1, 1, "improved", ("stand", "own"), scenarios=[sc], files=[str(path)])
+    assert doc["files"] == [str(path)] and doc["count"] == 1 and doc["seed"] is None
+    stand, own = doc["forecasts"]["stand"], doc["forecasts"]["own"]
+    assert stand["collided"] == 1 and stand["episodes"][0]["outcome"] == "collided"  # walked into where it stands
+    assert own["collided"] + own["reached"] + own["timed_out"] == 1
+    assert fb.main([str(path), "--rows", "stand"]) == 0
+    assert "| stands still | 0 | 1 |" in capsys.readouterr().out
+    static = tmp_path / "static.toml"
+    static.write_text(straight_line_toml("static", 4.0, 2.0))
+    for bad, said in ((static, "not a case of people replayed open loop"), (tmp_path / "none.toml", "none.toml")):
+        with pytest.raises(SystemExit) as exc:
+            fb.main([str(bad)])
+        assert exc.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()[-1]
+        assert said in err

@@ -23,9 +23,10 @@ per decision (the check reads the planner's forecasts):
   future: a person's next step, no more);
 - ``stand``: the robot that stands still (the baseline every table on recorded people has).
 
-Usage: ``python tools/forecast_bound.py [--count 40] [--seed 1] [--out BOUND.json]
+Usage: ``python tools/forecast_bound.py [FILE ...] [--count 40] [--seed 1] [--out BOUND.json]
 [--rows stand,own,...] [--younger-than S]`` (the ``ucy`` suite, people replayed open loop;
-``--younger-than``: the recording told only of people in the scene for less than S
+``FILE``: scenario files of replayed people instead, e.g. ``gpcnav import-tracks``' cases of
+another recording; ``--younger-than``: the recording told only of people in the scene for less than S
 seconds). Prints a Markdown table.
 """
 from __future__ import annotations
@@ -41,6 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from casadi_gpc.config import preset  # noqa: E402
 from casadi_gpc.io import write_json  # noqa: E402
 from gpcnav.controllers import make_controller  # noqa: E402
+from scenarios import load_scenario  # noqa: E402
 from scenarios.simulator import simulate  # noqa: E402
 from scenarios.suites import Suite  # noqa: E402
 
@@ -103,14 +105,17 @@ def constant_velocity(planner) -> None:
 
 
 def run(count: int, seed: int, preset_name: str, rows_wanted=("stand",) + FORECASTS,
-        younger_than_s: float | None = None) -> dict:
-    suite = Suite("ucy", count=count, seed=seed, behaviour="replay")
+        younger_than_s: float | None = None, scenarios=None, files=None) -> dict:
+    """``scenarios``: the scenarios of scenario files (people replayed open loop; ``files``
+    their paths, for the record) instead of the ``ucy`` suite's ``count`` cases of ``seed``."""
+    if scenarios is None:
+        suite = Suite("ucy", count=count, seed=seed, behaviour="replay")
+        scenarios = [suite.scenario(i) for i in range(count)]
     config = preset(preset_name)
     rows = {}
     for name in rows_wanted:
         episodes = []
-        for i in range(count):
-            sc = suite.scenario(i)
+        for sc in scenarios:
             ctl = make_controller("stand" if name == "stand" else "gpc", config, sc.robot)
             if name in ("recording", "next-sample"):
                 told_the_recording(ctl.policy, sc, name, younger_than_s)
@@ -129,12 +134,15 @@ def run(count: int, seed: int, preset_name: str, rows_wanted=("stand",) + FORECA
                       "appeared": sum(e["appeared"] for e in episodes),
                       "approaching": sum(e["approaching"] for e in episodes),
                       "timed_out": sum(e["outcome"] == "timed_out" for e in episodes), "episodes": episodes}
-    return {"suite": "ucy", "behaviour": "replay", "count": count, "seed": seed, "preset": preset_name,
+    return {"suite": "ucy" if files is None else "files", "behaviour": "replay", "count": len(scenarios),
+            "seed": seed if files is None else None, "files": files, "preset": preset_name,
             "told_only_people_in_view_less_than_s": younger_than_s, "forecasts": rows}
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scenarios", nargs="*", type=Path,
+                    help="scenario files of replayed people (e.g. gpcnav import-tracks' cases) instead of the ucy suite")
     ap.add_argument("--count", type=int, default=40)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--preset", default="improved")
@@ -150,8 +158,21 @@ def main(argv=None) -> int:
         ap.error(f"--rows: unknown {', '.join(unknown) or '(none given)'} (choose from stand, {', '.join(FORECASTS)})")
     if args.younger_than is not None and not args.younger_than > 0:
         ap.error(f"--younger-than must be positive, got {args.younger_than}")
-    doc = run(args.count, args.seed, args.preset, wanted, args.younger_than)
-    print(f"ucy, replayed, {args.count} cases, seed {args.seed}, {args.preset}\n")
+    scenarios = None
+    if args.scenarios:
+        scenarios = []
+        for path in args.scenarios:
+            try:
+                sc = load_scenario(path)
+            except ValueError as exc:  # scenarios.ScenarioError: one line naming the file
+                ap.error(str(exc))
+            if not sc.moving or not all(getattr(m, "behaviour", None) == "replay" for m in sc.moving):
+                ap.error(f"{path}: not a case of people replayed open loop (every mover a track with behaviour = \"replay\")")
+            scenarios.append(sc)
+    doc = run(args.count, args.seed, args.preset, wanted, args.younger_than, scenarios,
+              [str(p) for p in args.scenarios] or None)
+    what = f"{len(scenarios)} scenario files" if scenarios else f"ucy, {args.count} cases, seed {args.seed}"
+    print(f"{what}, replayed, {args.preset}\n")
     print("| robot | reached | collided | of which appeared on it (< 1 s) | of which robot approaching | timed out |")
     print("|---|---|---|---|---|---|")
     for name, r in doc["forecasts"].items():

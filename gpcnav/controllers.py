@@ -79,7 +79,9 @@ def _nn_check(controller, config, mode: str):
     passes when it keeps the margin for :data:`casadi_gpc.safety.ROLLOUT_TRUST_S`; the check's
     own way out is searched (:meth:`casadi_gpc.safety.search.WayOutSearch.search`: a grid of held
     wheel-speed targets beside the fixed manoeuvres, the safe one nearest the network's
-    command), and a command passes when one of those keeps the margin after it
+    command; where none is safe, the best of them continued with a second target:
+    ``search_two_phase``, docs/nn-deploy.md, "A way out in two phases"), and a command passes
+    when one of those keeps the margin after it
     (docs/nn-deploy.md: one collision in the 800 episodes of the crowd suites on seed 1, 6 in
     1 000 crossings among 10 walkers on seeds 1-5, more than the GPC among walls; fewer
     interventions than with the GPC on standby).
@@ -92,7 +94,8 @@ def _nn_check(controller, config, mode: str):
         return CheckSettings(trust_plans=plans, previous_plan=plans, rollouts=rollouts,
                              trust_rollout_s=ROLLOUT_TRUST_S if rollouts else None, fallback="planner")
     return CheckSettings(trust_plans=plans, previous_plan=plans, rollouts=rollouts,
-                         trust_rollout_s=ROLLOUT_TRUST_S if rollouts else None, search=True, fallback="manoeuvres")
+                         trust_rollout_s=ROLLOUT_TRUST_S if rollouts else None, search=True, search_two_phase=True,
+                         fallback="manoeuvres")
 
 
 def _reactive_check(controller, config, mode: str):

@@ -92,7 +92,8 @@ class SafetyFilter(WayOutSearch, QuickScreen):
     """
     def __init__(self, robot: RobotParams, sample_time_s: float, horizon: int, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, fallback=None, trust_planner_s: float | None = None,
-                 trust_rollout_s: float | None = None, safer_alternatives: bool = False, search: bool = False):
+                 trust_rollout_s: float | None = None, safer_alternatives: bool = False, search: bool = False,
+                 search_two_phase: bool = False):
         super().__init__(robot, sample_time_s, horizon, margin_m, sigmas, substeps)
         if fallback is not None and not callable(getattr(fallback, "decide", None)):
             raise TypeError("fallback must have a decide(observation) method")
@@ -106,6 +107,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         self.trust_rollout_s = None if trust_rollout_s is None else float(trust_rollout_s)
         self.safer_alternatives = bool(safer_alternatives)
         self.search_way_out = bool(search)  # TrajectoryCheck's: the searched way out, and the escapes
+        self.search_two_phase = bool(search_two_phase)  # WayOutSearch's: a second target where none is safe
         self.reset()
 
     def reset(self) -> None:
@@ -113,7 +115,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
                          "fallback_overruled": 0, "rollouts": 0, "rollout_passed": 0, "rollout_trusted": 0,
                          "alternative_used": 0, "alternative_safer": 0, "manoeuvres": 0, "no_safer_option": 0,
                          "candidate_limited": 0, "non_finite_candidate": 0, "unestimated_tracks": 0,
-                         "searched": 0}
+                         "searched": 0, "two_phase_searched": 0, "two_phase_taken": 0, "two_phase_safe": 0}
         if self.fallback is not None and hasattr(self.fallback, "reset"):
             self.fallback.reset()
     # --- the filter ----------------------------------------------------------------------

@@ -63,6 +63,12 @@ class CheckSettings:
         a grid of held wheel-speed targets beside the fixed manoeuvres, the safe one nearest
         the controller's command) instead of the best fixed manoeuvre (counted
         ``shield_searched``).
+    search_two_phase : bool
+        With :attr:`search`, when no searched sequence keeps the margin over the horizon: the
+        best few of them are tried again with a second target after 1 s (back off, then go
+        round; brake, then turn: :mod:`casadi_gpc.safety.search`), and one of those is taken when it keeps the
+        margin, or when it is better by the check's order (counted ``shield_two_phase_searched``,
+        ``shield_two_phase_taken``, and ``shield_two_phase_safe`` where it keeps the margin).
     fallback : str
         One of :data:`FALLBACKS`.
     margin_m : float
@@ -83,6 +89,7 @@ class CheckSettings:
     rollouts: bool = False
     trust_rollout_s: float | None = None
     search: bool = False
+    search_two_phase: bool = False
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
     sigmas: float = 2.0
@@ -96,6 +103,8 @@ class CheckSettings:
             value = getattr(self, name)
             if value is not None and not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be finite and not negative, got {value}")
+        if self.search_two_phase and not self.search:
+            raise ValueError("search_two_phase needs search (it extends the searched way out)")
         if not (math.isfinite(self.margin_m) and self.margin_m >= 0):
             raise ValueError(f"margin_m must be finite and not negative, got {self.margin_m}")
         if not (math.isfinite(self.sigmas) and self.sigmas >= 0):

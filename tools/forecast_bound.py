@@ -142,7 +142,8 @@ def run(count: int, seed: int, preset_name: str, rows_wanted=("stand",) + FORECA
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scenarios", nargs="*", type=Path,
-                    help="scenario files of replayed people (e.g. gpcnav import-tracks' cases) instead of the ucy suite")
+                    help="scenario files of replayed people (e.g. gpcnav import-tracks' cases) "
+                         "instead of the ucy suite")
     ap.add_argument("--count", type=int, default=40)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--preset", default="improved")
@@ -167,7 +168,8 @@ def main(argv=None) -> int:
             except ValueError as exc:  # scenarios.ScenarioError: one line naming the file
                 ap.error(str(exc))
             if not sc.moving or not all(getattr(m, "behaviour", None) == "replay" for m in sc.moving):
-                ap.error(f"{path}: not a case of people replayed open loop (every mover a track with behaviour = \"replay\")")
+                ap.error(f"{path}: not a case of people replayed open loop "
+                         f"(every mover a track with behaviour = \"replay\")")
             scenarios.append(sc)
     doc = run(args.count, args.seed, args.preset, wanted, args.younger_than, scenarios,
               [str(p) for p in args.scenarios] or None)

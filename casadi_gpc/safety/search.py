@@ -63,7 +63,7 @@ class WayOutSearch:
         cost = (((W - w) ** 2).sum(axis=2) * self._search_weights).sum(axis=1)
         return int(np.argmin(np.where(safe, cost, np.inf)))
 
-    def _two_phase(self, state, obstacles, W: np.ndarray, found: tuple, wish):
+    def _two_phase(self, state, obstacles, W: np.ndarray, found: tuple, wish, names=None):
         """Where no searched sequence keeps the margin: the best :data:`TWO_PHASE_BASES` of them
         (the check's order), each followed for each of :data:`TWO_PHASE_SWITCH_S` and then by
         every target of the grid, approached at the acceleration limit from the wheel speeds
@@ -71,8 +71,10 @@ class WayOutSearch:
         first of these batches with a sequence that keeps the margin gives the one of them
         nearest ``wish``; when none has, the best continuation of all, if it is better than the
         best single sequence by the check's order; else None (the single sequence stands).
-        Counted ``two_phase_searched``, ``two_phase_taken`` and ``two_phase_safe``."""
+        ``names``: the sequences of ``W`` by name (default: the searched set's, as :meth:`search`
+        builds ``W``). Counted ``two_phase_searched``, ``two_phase_taken`` and ``two_phase_safe``."""
         self.counters["two_phase_searched"] += 1
+        names = self._search_names if names is None else names
         H, N = self.horizon, self.horizon * self.substeps
         cmin, kept, contact, fixed, drives = (np.array(found[k]) for k in (0, 4, 5, 6, 7))
         bases = []
@@ -88,19 +90,19 @@ class WayOutSearch:
                 block = np.empty((len(then), H, 2))
                 block[:, :s] = W[b, :s]
                 block[:, s:] = then
-                names = [f"{self._search_names[b]} then {n} at +{s * self.sample_time_s:g} s"
-                         for n in self._search_names[:len(then)]]
+                labels = [f"{names[b]} then {n} at +{s * self.sample_time_s:g} s"
+                          for n in self._search_names[:len(then)]]
                 got = self.clearances(state, block, obstacles)
                 safe = got[4] == N
                 if safe.any():
                     j = self._nearest(block, safe, wish)
                     self.counters["two_phase_taken"] += 1
                     self.counters["two_phase_safe"] += 1
-                    return names[j], block[j], self._verdict(got, j, obstacles, names[j])
+                    return labels[j], block[j], self._verdict(got, j, obstacles, labels[j])
                 j = self._best_unsafe(got)
-                chk = self._verdict(got, j, obstacles, names[j])
+                chk = self._verdict(got, j, obstacles, labels[j])
                 if best is None or self._better(chk, best[0]):
-                    best = (chk, names[j], block[j])
+                    best = (chk, labels[j], block[j])
         if best is None or not self._better(best[0], self._verdict(found, self._best_unsafe(found), obstacles, "")):
             return None
         self.counters["two_phase_taken"] += 1

@@ -40,52 +40,21 @@ if os.environ.get("GPCNAV_EXP_GPC_TWO_PHASE"):
 if os.environ.get("GPCNAV_EXP_GPC_MANOEUVRE_TWO_PHASE"):
     # the GPC's check as shipped (no search; commands judged with the manoeuvres), but where no
     # manoeuvre keeps the margin its way out is the best manoeuvres continued with a second
-    # target (the grid's) after 1 s, as the network's search does with its held targets
+    # target (the grid's) after 1 s: the network's second phase (WayOutSearch._two_phase) on
+    # the manoeuvres instead of the searched set
     import numpy as np
     from casadi_gpc.safety import filter as F
-    from casadi_gpc.safety import search as S
-    from casadi_gpc.safety.ranking import best_unsafe_index
     _orig_way = F.SafetyFilter._way_out
 
     def _way_out(self, state, obstacles, cmd):
         name, mw, mc = _orig_way(self, state, obstacles, cmd)
         if self.search_way_out or mc.safe:
             return name, mw, mc
-        self.counters["two_phase_searched"] += 1
         state = np.asarray(state, float)
         names, W = self.manoeuvres(state[3:5])
-        found = self.clearances(state, W, obstacles)
-        H, N = self.horizon, self.horizon * self.substeps
-        cmin, kept, contact, fixed, drives = (np.array(found[k]) for k in (0, 4, 5, 6, 7))
-        bases = []
-        for _ in range(min(S.TWO_PHASE_BASES, len(cmin))):
-            b = int(best_unsafe_index(cmin, kept, contact, fixed, drives, self._commit_chords))
-            bases.append(b)
-            cmin[b], kept[b], contact[b], fixed[b], drives[b] = -np.inf, -1, -1, -1, -1
-        wish = (0.0, 0.0) if cmd is None else cmd
-        best = None
-        for b in bases:
-            for s in [int(round(t / self.sample_time_s)) for t in S.TWO_PHASE_SWITCH_S]:
-                then = self._searched(W[b, s - 1], H - s)
-                block = np.empty((len(then), H, 2))
-                block[:, :s] = W[b, :s]
-                block[:, s:] = then
-                bn = [f"{names[b]} then {n} at +{s * self.sample_time_s:g} s" for n in self._search_names[:len(then)]]
-                got = self.clearances(state, block, obstacles)
-                safe = got[4] == N
-                if safe.any():
-                    j = self._nearest(block, safe, wish)
-                    self.counters["two_phase_taken"] += 1
-                    self.counters["two_phase_safe"] += 1
-                    return bn[j], block[j], self._verdict(got, j, obstacles, bn[j])
-                j = self._best_unsafe(got)
-                chk = self._verdict(got, j, obstacles, bn[j])
-                if best is None or self._better(chk, best[0]):
-                    best = (chk, bn[j], block[j])
-        if best is None or not self._better(best[0], mc):
-            return name, mw, mc
-        self.counters["two_phase_taken"] += 1
-        return best[1], best[2], best[0]
+        got = self._two_phase(state, obstacles, W, self.clearances(state, W, obstacles),
+                              (0.0, 0.0) if cmd is None else cmd, names)
+        return (name, mw, mc) if got is None else got
 
     F.SafetyFilter._way_out = _way_out
     print("GPCNAV_EXP_GPC_MANOEUVRE_TWO_PHASE: the GPC's way out continues its manoeuvres in two phases",

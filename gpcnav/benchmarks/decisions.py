@@ -23,7 +23,6 @@ from casadi_gpc.config import PlannerConfig
 from casadi_gpc.planner.gpc import GPCController, Tick
 from scenarios.metrics import time_stats
 from casadi_gpc.robot import RobotParams
-from casadi_gpc.safety import CheckSettings, Shield, safer_alternatives_for
 from scenarios.simulator import simulate
 
 __all__ = ["SAME_COST_RELATIVE", "decision_time_stats", "deployed_against_gpc", "RecordedTick", "record_ticks", "compare_candidates", "decision_run"]
@@ -132,9 +131,10 @@ def decision_run(scenario, config: PlannerConfig) -> dict:
     gpc`` runs it): the decision's time (median, p95, max), solves per decision, the share of
     decisions that solved the fixed guesses, interventions, the outcome. Each decision is
     timed as the simulator times it (estimation, parameters, solves, the check)."""
-    gpc = GPCController(config, scenario.robot)
-    log = simulate(scenario, Shield(gpc, scenario.robot, CheckSettings(
-        trust_plans=True, safer_alternatives=safer_alternatives_for(config))), "gpc")
+    from ..controllers import ControllerSpec, make  # the check settings ``--controller gpc`` runs with
+    shielded = make(ControllerSpec("gpc"), config, scenario.robot)
+    gpc = shielded.policy
+    log = simulate(scenario, shielded, "gpc")
     n = max(len(log.decisions), 1)
     return {"scenario": scenario.name, "preset": config.name, "outcome": log.outcome, "decisions": len(log.decisions),
             "movers": len(scenario.moving), "time_s": decision_time_stats(log.compute_time_s),

@@ -253,3 +253,32 @@ def test_a_network_decisions_parts_are_disjoint_stretches_of_its_time():
     assert decision_parts(log.decisions[:3], log.compute_time_s[:3]) is not None
     gpc = simulate(sc, make(ControllerSpec("gpc"), cfg, sc.robot), "gpc")
     assert decision_parts(gpc.decisions, gpc.compute_time_s) is None
+
+
+def test_the_gpc_decision_rows_run_the_check_that_controller_gpc_runs(monkeypatch):
+    """The bench times the GPC behind the check layer as ``--controller gpc`` runs it: the
+    settings are the controller registry's (one definition), so a change there is a change
+    of what the bench measures. A registry whose GPC check differs (here: the searched way
+    out) is what the bench's run is built with."""
+    from casadi_gpc.config import preset
+    from casadi_gpc.safety import CheckSettings, Shield
+    from gpcnav import controllers as C
+    from gpcnav.benchmarks.decisions import decision_run
+    from scenarios import load_scenario, PAPER_DIR
+    seen = []
+    init = Shield.__init__
+
+    def spy(self, policy, robot, settings=None, *a, **kw):
+        seen.append(settings)
+        init(self, policy, robot, settings, *a, **kw)
+
+    monkeypatch.setattr(Shield, "__init__", spy)
+    sc = load_scenario(PAPER_DIR / "fig7_1_head_on.toml")
+    cfg = preset("improved")
+    row = decision_run(sc, cfg)
+    assert row["outcome"] == "reached_goal" and row["decisions"] > 0
+    assert seen[-1] == C.check_settings("gpc", None, cfg, "on")
+    searched = CheckSettings(trust_plans=True, search=True)
+    monkeypatch.setitem(C.REGISTRY, "gpc", C.Kind(C.REGISTRY["gpc"].default_shield, lambda *a: searched))
+    decision_run(sc, cfg)
+    assert seen[-1] == searched

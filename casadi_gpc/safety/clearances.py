@@ -21,6 +21,12 @@ class Clearances:
     :class:`~casadi_gpc.safety.check.TrajectoryCheck` (its horizon, sub-steps, robot,
     sub-sample times and commitment time)."""
 
+    robust_drive_in = False
+    """Whether moving towards a person inside their disc inflated by the forecast's
+    uncertainty counts as driving into them too, not only inside their expected disc
+    (:func:`~casadi_gpc.safety.distances.chord_clearances`' ``robust_drives``; set by
+    :class:`~casadi_gpc.safety.filter.SafetyFilter`)."""
+
     def rollout(self, state, wheels: np.ndarray) -> np.ndarray:
         """Robot positions at the sub-sample instants as complex numbers x + iy,
         ``(M, H * substeps + 1)``, the first column now. ``state`` = (x, y, heading, ...),
@@ -51,7 +57,8 @@ class Clearances:
         q, touch = obstacles.sub_samples()
         cmin, now, chord, which, kept, contact, fixed, drives = chord_clearances(
             self.rollout(state, wheels), q, touch, obstacles.radii, walls, self.robot.radius_m, self.margin_m,
-            NOT_WORSE_M, len(obstacles.moving), DRIVEN_MPS * self.sample_time_s / self.substeps, self._commit_chords)
+            NOT_WORSE_M, len(obstacles.moving), DRIVEN_MPS * self.sample_time_s / self.substeps, self._commit_chords,
+            self.robust_drive_in)
         return cmin, np.full(M, now), chord, which, kept, contact, fixed, drives
 
     def wall_bounds(self, p0: complex, walls: np.ndarray, reach) -> np.ndarray:

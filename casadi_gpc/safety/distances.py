@@ -103,10 +103,10 @@ def closest_on_segment(p, a, b):  # pragma: no cover (compiled)
 
 
 @njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1]))(complex128[:, ::1], "
-      "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64, float64, int64)",
-      cache=True)
+      "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64, float64, int64, "
+      "boolean)", cache=True)
 def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse, n_moving, drive_step,
-                     commit):  # pragma: no cover (compiled)
+                     commit, robust_drives=False):  # pragma: no cover (compiled)
     """For the roll-outs ``p`` (``(M, N + 1)`` complex, the first column now), the discs at
     ``q`` (``(n, N + 1)`` complex) touched at ``touch`` (``(n, N)``, inflated) and ``radii``
     (``(n,)``, not inflated), and the wall segments ``walls`` (``(nw, 2)`` complex ends,
@@ -124,7 +124,10 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     touches a disc not inflated, or a wall, as above, and moves towards it by more than
     ``drive_step`` (its displacement on that chord along the direction from the chord's end
     to the disc's centre there, or to the wall's nearest point); N when it does not within
-    them."""
+    them. With ``robust_drives`` a mover's inflated disc counts for that last count as well
+    (``touch``, with the threshold of the inflated clearance now, as the expected disc's is of
+    the expected clearance now): moving towards a person inside the disc the margin is kept
+    from drives into them; walls and static discs keep the test above."""
     M, N = p.shape[0], p.shape[1] - 1
     n, nw = q.shape[0], walls.shape[0]
     cmin = np.empty(M)
@@ -151,11 +154,13 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     # the thresholds: inside the margin (or a disc) now, not to close in further. A mover's
     # are the least over all obstacles (as near one as the robot is now to the nearest); a
     # fixed obstacle's, its own: being pressed by people does not license the robot into a wall
-    thr, thr0 = np.empty(n + nw), np.empty(n + nw)
+    thr, thr0, thr1 = np.empty(n + nw), np.empty(n + nw), np.empty(n + nw)
     for j in range(n + nw):
         fixed_j = j >= n_moving
         thr[j] = min(margin, (now_j[j] if fixed_j else now) - not_worse)
         thr0[j] = min(0.0, (now0_j[j] if fixed_j else now0) - not_worse)
+        # robust_drives: a mover's inflated disc, entered (or, inside it now, closed in on)
+        thr1[j] = min(0.0, now - not_worse) if robust_drives and not fixed_j else thr0[j]
     highest = thr.max() if n + nw else margin  # a gap at or above it loses the margin nowhere
     dist = np.empty((n + nw, N))
     # a lower bound of each obstacle's distance to any path that stays within D of now: its
@@ -230,18 +235,21 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
                 r0 = radii[j] if j < n else robot_radius
                 if k_kept == N and dist[j, c] - t < thr[j]:
                     k_kept = c
-                if dist[j, c] - r0 < thr0[j]:
+                inside = dist[j, c] - r0 < thr0[j]
+                if inside:
                     if k_contact == N:
                         k_contact = c
                     if k_fixed == N and j >= n_moving:
                         k_fixed = c
-                    if k_drives == N and c < commit:
-                        end = p[m, c + 1]
-                        u = (q[j, c + 1] if j < n else closest_on_segment(end, walls[j - n, 0], walls[j - n, 1])) - end
-                        du = math.hypot(u.real, u.imag)
-                        v = end - p[m, c]
-                        if du > 0.0 and (v.real * u.real + v.imag * u.imag) > drive_step * du:
-                            k_drives = c
+                if robust_drives and j < n_moving:
+                    inside = inside or dist[j, c] - t < thr1[j]
+                if inside and k_drives == N and c < commit:
+                    end = p[m, c + 1]
+                    u = (q[j, c + 1] if j < n else closest_on_segment(end, walls[j - n, 0], walls[j - n, 1])) - end
+                    du = math.hypot(u.real, u.imag)
+                    v = end - p[m, c]
+                    if du > 0.0 and (v.real * u.real + v.imag * u.imag) > drive_step * du:
+                        k_drives = c
             if k_kept < N and k_contact < N and (k_fixed < N or not any_fixed) and (k_drives < N or c + 1 >= commit):
                 break
         kept[m], contact[m], fixed[m], drives[m] = k_kept, k_contact, k_fixed, k_drives

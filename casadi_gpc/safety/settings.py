@@ -69,6 +69,12 @@ class CheckSettings:
         round; brake, then turn: :mod:`casadi_gpc.safety.search`), and one of those is taken when it keeps the
         margin, or when it is better by the check's order (counted ``shield_two_phase_searched``,
         ``shield_two_phase_taken``, and ``shield_two_phase_safe`` where it keeps the margin).
+    robust_drive_in : bool
+        Where every option loses the margin and the check ranks them by how late each drives
+        into what it touches: moving towards a person inside their disc inflated by the
+        forecast's uncertainty counts as driving into them, as inside their expected disc does
+        (walls and static obstacles, known exactly, as before). Off by default
+        (docs/data/deploy/robust_drive_in/).
     fallback : str
         One of :data:`FALLBACKS`.
     margin_m : float
@@ -90,6 +96,7 @@ class CheckSettings:
     trust_rollout_s: float | None = None
     search: bool = False
     search_two_phase: bool = False
+    robust_drive_in: bool = False
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
     sigmas: float = 2.0

@@ -99,7 +99,8 @@ class Shield:
                                    settings.substeps, fallback=fallback, trust_planner_s=settings.trust_planner_s,
                                    trust_rollout_s=settings.trust_rollout_s,
                                    safer_alternatives=settings.safer_alternatives, search=settings.search,
-                                   search_two_phase=settings.search_two_phase)
+                                   search_two_phase=settings.search_two_phase,
+                                   robust_drive_in=settings.robust_drive_in)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = settings.trust_plans
         self.previous_plan = settings.previous_plan

@@ -1,0 +1,19 @@
+"""Experiment switches (use with PYTHONPATH=<this folder>): GPCNAV_EXP_ROBUST=R gives the GPC's
+check robust_drive_in; GPCNAV_EXP_ROBUST=RT gives it robust_drive_in with the searched way out
+in two phases (rule.md)."""
+import os
+import sys
+
+form = os.environ.get("GPCNAV_EXP_ROBUST")
+if form in ("R", "RT"):
+    from dataclasses import replace
+    from gpcnav import controllers as C
+    _orig_gpc = C._gpc_check
+
+    def _gpc_check(*a, **kw):
+        s = replace(_orig_gpc(*a, **kw), robust_drive_in=True)
+        return replace(s, search=True, search_two_phase=True) if form == "RT" else s
+
+    C.REGISTRY["gpc"] = C.Kind(C.REGISTRY["gpc"].default_shield, _gpc_check)
+    print(f"GPCNAV_EXP_ROBUST={form}: the GPC's check judges drive-ins against the uncertain discs"
+          + (", and searches its way out in two phases" if form == "RT" else ""), file=sys.stderr)

@@ -106,7 +106,7 @@ def closest_on_segment(p, a, b):  # pragma: no cover (compiled)
       "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64, float64, int64, "
       "boolean)", cache=True)
 def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse, n_moving, drive_step,
-                     commit, robust_drives=False):  # pragma: no cover (compiled)
+                     commit, robust_drives):  # pragma: no cover (compiled)
     """For the roll-outs ``p`` (``(M, N + 1)`` complex, the first column now), the discs at
     ``q`` (``(n, N + 1)`` complex) touched at ``touch`` (``(n, N)``, inflated) and ``radii``
     (``(n,)``, not inflated), and the wall segments ``walls`` (``(nw, 2)`` complex ends,

@@ -65,9 +65,17 @@ def _gpc_check(controller, config, mode: str):
     filter's trust time, and under the presets where it was measured better a plan passing on
     that trust alone gives way to an alternative of its own that keeps the margin all along
     (:data:`casadi_gpc.safety.SAFER_ALTERNATIVES`). Its own alternatives come before any
-    fallback, so it never has the planner on standby behind it."""
+    fallback, so it never has the planner on standby behind it. Its way out is searched, in
+    two phases where no held target keeps the margin (as the deployed network's), and where
+    every option loses the margin a move towards a person inside their uncertain disc counts
+    as driving into them (``robust_drive_in``): adopted together by a rule fixed before the
+    runs, development seeds 4 and 5, seven suites: with the robot approaching 7 -> 3
+    collisions, in all 135 -> 135, goals 2 020 -> 2 021; the search alone drove into people
+    more, the robust drive-in alone was hit more among 30 walkers
+    (docs/data/deploy/robust_drive_in/)."""
     from casadi_gpc.safety import CheckSettings, safer_alternatives_for
-    return CheckSettings(trust_plans=True, safer_alternatives=safer_alternatives_for(config))
+    return CheckSettings(trust_plans=True, safer_alternatives=safer_alternatives_for(config), search=True,
+                         search_two_phase=True, robust_drive_in=True)
 
 
 def _nn_check(controller, config, mode: str):

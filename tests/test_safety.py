@@ -946,6 +946,18 @@ def test_being_inside_a_persons_disc_does_not_license_the_robot_into_a_wall():
     assert best.continuation == "along it"
 
 
+def _random_crowd(rng, f, n_statics: int):
+    """A random state, 10 movers within 6 m and up to ``n_statics`` static discs not on the
+    robot, as ``f``'s obstacles, and the searched grid and the manoeuvres from the state."""
+    T, H = f.sample_time_s, f.horizon
+    state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), *rng.uniform(-0.2, 0.8, 2)])
+    fc = _movers(rng, T, H, 10, 6.0, 0.5)
+    statics = tuple(StaticObstacle(tuple(rng.uniform(-2.5, 2.5, 2)), rng.uniform(0.1, 0.5)) for _ in range(n_statics))
+    statics = tuple(s for s in statics if np.hypot(*s.position_m) > s.radius_m + ROBOT.radius_m)
+    W = np.concatenate([f._searched(state[3:], H), f.manoeuvres(state[3:])[1]])
+    return state, f.obstacle_tracks(fc, statics), W
+
+
 def _numpy_clearances(f, state, W, obs, robust: bool = False):
     """The check's clearances in whole-array numpy (the form the compiled one replaced), as an
     independent implementation: discs only (moving, then static). ``robust``: a mover's
@@ -995,12 +1007,7 @@ def test_a_drive_in_judged_against_the_uncertain_discs_is_the_whole_array_one():
                                                                         robust_drive_in=True)
     sooner = 0
     for i in range(60):
-        state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), *rng.uniform(-0.2, 0.8, 2)])
-        fc = _movers(rng, T, H, 10, 6.0, 0.5)
-        statics = tuple(StaticObstacle(tuple(rng.uniform(-2.5, 2.5, 2)), rng.uniform(0.1, 0.5)) for _ in range(i % 3))
-        statics = tuple(s for s in statics if np.hypot(*s.position_m) > s.radius_m + ROBOT.radius_m)
-        obs = robust.obstacle_tracks(fc, statics)
-        W = np.concatenate([robust._searched(state[3:], H), robust.manoeuvres(state[3:])[1]])
+        state, obs, W = _random_crowd(rng, robust, i % 3)
         got, ref, base = robust.clearances(state, W, obs), _numpy_clearances(robust, state, W, obs, True), \
             plain.clearances(state, W, obs)
         assert np.array_equal(got[7], ref[7])
@@ -1044,12 +1051,7 @@ def test_the_compiled_clearances_are_the_whole_array_ones():
     f = SafetyFilter(ROBOT, T, H, search=True)
     lost = fixed_touched = driven = run_into = 0
     for i in range(60):
-        state = np.array([0.0, 0.0, rng.uniform(-np.pi, np.pi), *rng.uniform(-0.2, 0.8, 2)])
-        fc = _movers(rng, T, H, 10, 6.0, 0.5)
-        statics = tuple(StaticObstacle(tuple(rng.uniform(-2.5, 2.5, 2)), rng.uniform(0.1, 0.5)) for _ in range(i % 4))
-        statics = tuple(s for s in statics if np.hypot(*s.position_m) > s.radius_m + ROBOT.radius_m)
-        obs = f.obstacle_tracks(fc, statics)
-        W = np.concatenate([f._searched(state[3:], H), f.manoeuvres(state[3:])[1]])
+        state, obs, W = _random_crowd(rng, f, i % 4)
         got, ref = f.clearances(state, W, obs), _numpy_clearances(f, state, W, obs)
         np.testing.assert_allclose(got[0], ref[0], rtol=0, atol=1e-12)
         np.testing.assert_allclose(got[1], ref[1], rtol=0, atol=1e-12)

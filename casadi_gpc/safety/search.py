@@ -47,10 +47,13 @@ class WayOutSearch:
             i = self._nearest(W, safe, wish)
         else:  # the check's own order
             i = self._best_unsafe(found)
-            if getattr(self, "search_two_phase", False):
-                two = self._two_phase(state, obstacles, W, found, wish)
+            name = self._search_names[i]
+            single = self._verdict(found, i, obstacles, name)
+            if self.search_two_phase:
+                two = self._two_phase(state, obstacles, W, found, wish, single=single)
                 if two is not None:
                     return two
+            return name, W[i], single
         name = self._search_names[i]
         return name, W[i], self._verdict(found, i, obstacles, name)
 
@@ -63,7 +66,7 @@ class WayOutSearch:
         cost = (((W - w) ** 2).sum(axis=2) * self._search_weights).sum(axis=1)
         return int(np.argmin(np.where(safe, cost, np.inf)))
 
-    def _two_phase(self, state, obstacles, W: np.ndarray, found: tuple, wish, names=None):
+    def _two_phase(self, state, obstacles, W: np.ndarray, found: tuple, wish, names=None, single=None):
         """Where no searched sequence keeps the margin: the best :data:`TWO_PHASE_BASES` of them
         (the check's order), each followed for each of :data:`TWO_PHASE_SWITCH_S` and then by
         every target of the grid, approached at the acceleration limit from the wheel speeds
@@ -72,7 +75,8 @@ class WayOutSearch:
         nearest ``wish``; when none has, the best continuation of all, if it is better than the
         best single sequence by the check's order; else None (the single sequence stands).
         ``names``: the sequences of ``W`` by name (default: the searched set's, as :meth:`search`
-        builds ``W``). Counted ``two_phase_searched``, ``two_phase_taken`` and ``two_phase_safe``."""
+        builds ``W``); ``single``: the best single sequence's check, when the caller has it.
+        Counted ``two_phase_searched``, ``two_phase_taken`` and ``two_phase_safe``."""
         self.counters["two_phase_searched"] += 1
         names = self._search_names if names is None else names
         H, N = self.horizon, self.horizon * self.substeps
@@ -103,7 +107,9 @@ class WayOutSearch:
                 chk = self._verdict(got, j, obstacles, labels[j])
                 if best is None or self._better(chk, best[0]):
                     best = (chk, labels[j], block[j])
-        if best is None or not self._better(best[0], self._verdict(found, self._best_unsafe(found), obstacles, "")):
+        if single is None:
+            single = self._verdict(found, self._best_unsafe(found), obstacles, "")
+        if best is None or not self._better(best[0], single):
             return None
         self.counters["two_phase_taken"] += 1
         return best[1], best[2], best[0]

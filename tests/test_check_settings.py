@@ -47,9 +47,8 @@ def test_the_registry_declares_what_each_controller_is_trusted_with(name):
     gpc = check_settings("gpc", object(), cfg, "on")
     assert gpc.trust_plans and gpc.fallback == "manoeuvres" and not gpc.rollouts
     assert gpc.safer_alternatives is SAFER_ALTERNATIVES[name]
-    # its way out searched, in two phases, drive-ins judged against the uncertain discs
-    # (docs/data/deploy/robust_drive_in/rule.md)
-    assert gpc.search and gpc.search_two_phase and gpc.robust_drive_in
+    # the searched way out and robust drive-ins were taken back (docs/data/deploy/robust_drive_in/rule.md)
+    assert not gpc.search and not gpc.search_two_phase and not gpc.robust_drive_in
     assert check_settings("gpc", object(), cfg, "gpc") == gpc        # its own alternatives come first
     nn = check_settings("nn", _Net(), cfg, "gpc")
     assert nn.rollouts and nn.trust_rollout_s == ROLLOUT_TRUST_S and nn.fallback == "planner"

@@ -19,6 +19,7 @@ from gpcnav.controllers import DEFAULT_SHIELD, REGISTRY, check_settings
     (dict(horizon=0), "horizon"),
     (dict(safer_alternatives=True), "set trust_plans too"),
     (dict(trust_rollout_s=3.0), "set rollouts too"),
+    (dict(search_near_walls=True), "search_near_walls needs search"),
 ])
 def test_bad_settings_are_refused(bad, words):
     with pytest.raises(ValueError, match=words):

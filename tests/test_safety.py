@@ -1018,6 +1018,44 @@ def test_a_drive_in_judged_against_the_uncertain_discs_is_the_whole_array_one():
     assert sooner > 20
 
 
+def test_a_search_near_walls_is_the_plain_check_in_the_open_and_the_search_by_a_wall():
+    """``search_near_walls``: where the check is handed no wall it decides as the check without
+    the search, and where it is handed one as the check with the search in two phases, verdict
+    for verdict, counters too, over random crowds and commands, the same filter going from one
+    to the other and back. Both cases must occur, and the search must change some verdicts by
+    the walls, or nothing is compared."""
+    from casadi_gpc.safety.walls import wall_segments_within
+    T, H = 0.5, 12
+    rng = np.random.default_rng(31)
+    plain, searching = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, search=True, search_two_phase=True)
+    gated = SafetyFilter(ROBOT, T, H, search=True, search_two_phase=True, search_near_walls=True)
+    corridor = ((( -20.0, -1.1), (20.0, -1.1)), ((-20.0, 1.3), (20.0, 1.3)))
+    counted = ("interventions", "manoeuvres", "searched", "two_phase_searched", "two_phase_taken")
+    by_wall = open_ = differ = 0
+    for i in range(90):
+        near = i % 2 == 1
+        walls = wall_segments_within(corridor, (0.0, 0.0), 6.0) if near else None
+        state = np.array([0.0, 0.0, rng.uniform(-0.3, 0.3), *rng.uniform(0.0, 0.8, 2)])
+        fcs = _movers(rng, T, H, int(rng.integers(3, 9)), 3.0, 0.6)
+        plan = np.broadcast_to(rng.uniform(-0.2, 0.8, 2), (H, 2)).copy()
+        ref = searching if near else plain
+        before = {k: (ref.counters[k], gated.counters[k]) for k in counted}
+        got, want = gated.filter(observation(state), plan, fcs, (), walls=walls), \
+            ref.filter(observation(state), plan, fcs, (), walls=walls)
+        assert (got.v_right_mps, got.v_left_mps, got.intervened, got.source, got.reason) == \
+            (want.v_right_mps, want.v_left_mps, want.intervened, want.source, want.reason)
+        for k in counted:
+            assert gated.counters[k] - before[k][1] == ref.counters[k] - before[k][0], k
+        if near:
+            by_wall += 1
+            other = plain.filter(observation(state), plan, fcs, (), walls=walls)
+            differ += (other.v_right_mps, other.v_left_mps) != (got.v_right_mps, got.v_left_mps)
+        else:
+            open_ += 1
+    assert by_wall == open_ == 45
+    assert gated.counters["searched"] > 5 and differ > 3  # 16 and 12
+
+
 @pytest.mark.benchmark
 def test_the_compiled_clearances_cost_a_third_of_the_whole_array_ones_or_less():
     """Same run, interleaved: the compiled clearances (the searched grid and the manoeuvres, 50

@@ -93,7 +93,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
     def __init__(self, robot: RobotParams, sample_time_s: float, horizon: int, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, fallback=None, trust_planner_s: float | None = None,
                  trust_rollout_s: float | None = None, safer_alternatives: bool = False, search: bool = False,
-                 search_two_phase: bool = False, robust_drive_in: bool = False):
+                 search_two_phase: bool = False, robust_drive_in: bool = False, search_near_walls: bool = False):
         super().__init__(robot, sample_time_s, horizon, margin_m, sigmas, substeps)
         if fallback is not None and not callable(getattr(fallback, "decide", None)):
             raise TypeError("fallback must have a decide(observation) method")
@@ -108,6 +108,10 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         self.safer_alternatives = bool(safer_alternatives)
         self.search_way_out = bool(search)  # TrajectoryCheck's: the searched way out, and the escapes
         self.search_two_phase = bool(search_two_phase)  # WayOutSearch's: a second target where none is safe
+        # with search_near_walls the two above are set at each check from these: on only where
+        # the check is handed a wall (CheckSettings.search_near_walls)
+        self.search_near_walls = bool(search_near_walls)
+        self._search_setting = (self.search_way_out, self.search_two_phase)
         self.robust_drive_in = bool(robust_drive_in)  # Clearances': a drive-in judged against the uncertain discs too
         self.reset()
 
@@ -169,6 +173,9 @@ class SafetyFilter(WayOutSearch, QuickScreen):
     def _filter(self, observation, wheels, forecasts, statics, poses, alternatives, trust_s, previous,
                 plan_on_demand, walls) -> SafetyVerdict:
         """:meth:`filter`'s body."""
+        if self.search_near_walls:
+            near = walls is not None and len(walls) > 0
+            self.search_way_out, self.search_two_phase = (near and v for v in self._search_setting)
         statics = observation.static if statics is None else statics
         r = observation.robot
         self.counters["checks"] += 1

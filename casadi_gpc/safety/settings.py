@@ -69,6 +69,13 @@ class CheckSettings:
         round; brake, then turn: :mod:`casadi_gpc.safety.search`), and one of those is taken when it keeps the
         margin, or when it is better by the check's order (counted ``shield_two_phase_searched``,
         ``shield_two_phase_taken``, and ``shield_two_phase_safe`` where it keeps the margin).
+    search_near_walls : bool
+        With :attr:`search`: the search (and :attr:`search_two_phase`) applies only at the
+        decisions where a wall is within the check's reach (the segments the shield hands the
+        check: the robot's top speed over the horizon, its radius and a metre beyond);
+        elsewhere the way out is the best fixed manoeuvre and a command's escapes are the
+        manoeuvres alone, as without :attr:`search`. Scenes without walls are unchanged
+        decision for decision (docs/data/buildings/walls_search/).
     robust_drive_in : bool
         Where every option loses the margin and the check ranks them by how late each drives
         into what it touches: moving towards a person inside their disc inflated by the
@@ -96,6 +103,7 @@ class CheckSettings:
     trust_rollout_s: float | None = None
     search: bool = False
     search_two_phase: bool = False
+    search_near_walls: bool = False
     robust_drive_in: bool = False
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
@@ -112,6 +120,8 @@ class CheckSettings:
                 raise ValueError(f"{name} must be finite and not negative, got {value}")
         if self.search_two_phase and not self.search:
             raise ValueError("search_two_phase needs search (it extends the searched way out)")
+        if self.search_near_walls and not self.search:
+            raise ValueError("search_near_walls needs search (it says where the search applies)")
         if not (math.isfinite(self.margin_m) and self.margin_m >= 0):
             raise ValueError(f"margin_m must be finite and not negative, got {self.margin_m}")
         if not (math.isfinite(self.sigmas) and self.sigmas >= 0):

@@ -100,6 +100,7 @@ class Shield:
                                    trust_rollout_s=settings.trust_rollout_s,
                                    safer_alternatives=settings.safer_alternatives, search=settings.search,
                                    search_two_phase=settings.search_two_phase,
+                                   search_near_walls=settings.search_near_walls,
                                    robust_drive_in=settings.robust_drive_in)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = settings.trust_plans

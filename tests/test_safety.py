@@ -1029,11 +1029,11 @@ def test_a_search_near_walls_is_the_plain_check_in_the_open_and_the_search_by_a_
     rng = np.random.default_rng(31)
     plain, searching = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, search=True, search_two_phase=True)
     gated = SafetyFilter(ROBOT, T, H, search=True, search_two_phase=True, search_near_walls=True)
-    corridor = ((( -20.0, -1.1), (20.0, -1.1)), ((-20.0, 1.3), (20.0, 1.3)))
+    corridor = (((-20.0, -1.1), (20.0, -1.1)), ((-20.0, 1.3), (20.0, 1.3)))
     counted = ("interventions", "manoeuvres", "searched", "two_phase_searched", "two_phase_taken")
-    by_wall = open_ = differ = 0
+    differ = 0
     for i in range(90):
-        near = i % 2 == 1
+        near = i % 2 == 1  # alternately handed the walls and not: the same filter both ways
         walls = wall_segments_within(corridor, (0.0, 0.0), 6.0) if near else None
         state = np.array([0.0, 0.0, rng.uniform(-0.3, 0.3), *rng.uniform(0.0, 0.8, 2)])
         fcs = _movers(rng, T, H, int(rng.integers(3, 9)), 3.0, 0.6)
@@ -1047,12 +1047,8 @@ def test_a_search_near_walls_is_the_plain_check_in_the_open_and_the_search_by_a_
         for k in counted:
             assert gated.counters[k] - before[k][1] == ref.counters[k] - before[k][0], k
         if near:
-            by_wall += 1
             other = plain.filter(observation(state), plan, fcs, (), walls=walls)
             differ += (other.v_right_mps, other.v_left_mps) != (got.v_right_mps, got.v_left_mps)
-        else:
-            open_ += 1
-    assert by_wall == open_ == 45
     assert gated.counters["searched"] > 5 and differ > 3  # 16 and 12
 
 

@@ -1,10 +1,12 @@
 """Experiment switch (use with PYTHONPATH=<this folder>): GPCNAV_EXP_WALLS_SEARCH=1 gives the
 GPC's check (--controller gpc) the searched way out in two phases at the decisions where a
-wall is within the check's reach, and the shipped check elsewhere (rule.md)."""
+wall is within the check's reach, and the shipped check elsewhere (rule.md);
+GPCNAV_EXP_WALLS_SEARCH=1S the same search in one phase (rule2.md)."""
 import os
 import sys
 
-if os.environ.get("GPCNAV_EXP_WALLS_SEARCH") == "1":
+_FORM = os.environ.get("GPCNAV_EXP_WALLS_SEARCH")
+if _FORM == "1":
     from dataclasses import replace
 
     from casadi_gpc.safety.filter import SafetyFilter
@@ -38,4 +40,18 @@ if os.environ.get("GPCNAV_EXP_WALLS_SEARCH") == "1":
 
     S.Shield.__init__ = _init
     print("GPCNAV_EXP_WALLS_SEARCH=1: the GPC's check searches its way out in two phases where a wall is "
+          "within reach", file=sys.stderr)
+
+if _FORM == "1S":  # through the option itself (CheckSettings.search_near_walls, tested against the above)
+    from dataclasses import replace
+
+    from gpcnav import controllers as C
+
+    _orig_gpc1 = C._gpc_check
+
+    def _gpc_check1(*a, **kw):
+        return replace(_orig_gpc1(*a, **kw), search=True, search_near_walls=True)
+
+    C.REGISTRY["gpc"] = C.Kind(C.REGISTRY["gpc"].default_shield, _gpc_check1)
+    print("GPCNAV_EXP_WALLS_SEARCH=1S: the GPC's check searches its way out in one phase where a wall is "
           "within reach", file=sys.stderr)

@@ -72,8 +72,11 @@ def test_compare_writes_one_eval_per_controller_on_the_same_episodes(compared):
     # the table beside the JSON (and on stdout), a row per controller, and the figure
     table = (d / "out" / "C.md").read_text()
     assert table.strip() == stdout.strip()
+    table, paired = table.split("\n\nEpisode by episode against orca")
     rows = [line for line in table.splitlines() if line.startswith("| ") and "controller" not in line]
     assert [r.split("|")[1].strip() for r in rows] == ["orca", "straight:Straight", "hrvo"]
+    # under it, each against the first: straight lost the crossing orca reached, by a collision
+    assert "| straight:Straight | 0 / 1 (1) | 1 / 0 (1) |" in paired and "| hrvo | 0 / 0 (1) | 0 / 0 (1) |" in paired
     assert "| 50.0 (>= " in rows[1]
     assert (d / "out" / "C.png").stat().st_size > 10_000
 
@@ -110,3 +113,24 @@ def test_the_figure_has_a_row_per_controller_on_each_panel():
     assert [t.get_text() for t in fig.axes[0].get_yticklabels()] == ["a", "b"]
     assert fig.axes[3].get_xscale() == "log"
     assert compare_table(doc).count("\n| ") == 3  # header and two rows
+
+
+def test_the_paired_table_counts_each_controller_against_the_first():
+    """Under COMPARE.md's table: per controller after the first, the episodes it reached (or
+    collided in) and the first did not, and the other way round, with the exact sign test."""
+    from gpcnav.commands.compare_report import paired_table
+    from scenarios.paired import sign_test
+
+    def ev(name, outcomes):
+        return {"controller": name, "episodes_detail": [{"scenario": f"s{i}", "outcome": o}
+                                                         for i, o in enumerate(outcomes)]}
+    first = ev("gpc", ["reached_goal", "reached_goal", "collided", "timed_out", "reached_goal"])
+    second = ev("orca", ["reached_goal", "timed_out", "reached_goal", "reached_goal", "collided"])
+    third = ev("stand", ["collided"] * 5)
+    table = paired_table({"controllers": [first, second, third]}).splitlines()
+    assert table[0].startswith("Episode by episode against gpc")
+    assert table[-2] == f"| orca | 2 / 2 ({sign_test(2, 2):.2g}) | 1 / 1 ({sign_test(1, 1):.2g}) |"
+    assert table[-1] == f"| stand | 0 / 3 ({sign_test(0, 3):.2g}) | 4 / 0 ({sign_test(4, 0):.2g}) |"
+    assert sign_test(4, 0) == 0.125
+    assert paired_table({"controllers": [first]}) == ""  # nothing to pair
+    assert paired_table({"controllers": [first, {"controller": "x", "episodes_detail": [{}] * 5}]}) == ""

@@ -1,4 +1,5 @@
-"""tools/paired.py: the episodes that changed outcome between two runs, and the exact sign test."""
+"""scenarios.paired and tools/paired.py: the episodes that changed outcome between two runs of
+the same episodes, and the exact sign test of the split."""
 from __future__ import annotations
 
 import json
@@ -8,45 +9,56 @@ from pathlib import Path
 
 import pytest
 
+from scenarios.paired import outcome_changes, sign_test
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tools"))
-import paired  # noqa: E402
+TOOL = str(ROOT / "tools" / "paired.py")
+
+
+def _rows(outcomes: list[str], names=None) -> list[dict]:
+    return [{"scenario": f"s{i}" if names is None else names[i], "outcome": o} for i, o in enumerate(outcomes)]
 
 
 def _eval(path: Path, outcomes: list[str]) -> Path:
-    path.write_text(json.dumps({"episodes_detail": [{"scenario": f"s{i}", "outcome": o}
-                                                    for i, o in enumerate(outcomes)]}))
+    path.write_text(json.dumps({"episodes_detail": _rows(outcomes)}))
     return path
 
 
-def test_changes_are_counted_both_ways():
-    base = {"a": "reached_goal", "b": "timed_out", "c": "collided", "d": "reached_goal"}
-    new = {"a": "timed_out", "b": "reached_goal", "c": "reached_goal", "d": "reached_goal"}
-    assert paired.changes(base, new) == {"reached_goal": (2, 1), "collided": (0, 1)}
+def test_changes_are_counted_both_ways_episode_by_episode():
+    base = _rows(["reached_goal", "timed_out", "collided", "reached_goal"])
+    new = _rows(["timed_out", "reached_goal", "reached_goal", "reached_goal"])
+    assert outcome_changes(base, new) == {"reached_goal": (2, 1), "collided": (0, 1)}
+    # a suite may name a scenario twice: rows pair by place, not by name
+    twice = ["a", "a"]
+    assert outcome_changes(_rows(["collided", "reached_goal"], twice),
+                           _rows(["reached_goal", "reached_goal"], twice)) == {"reached_goal": (1, 0),
+                                                                                "collided": (0, 1)}
 
 
 def test_the_sign_test_is_the_exact_binomial():
-    # 5 changes all one way: twice 0.5^5; 3 against 1: twice P(X <= 1) of Binomial(4, 0.5) = 2 * 5 / 16
-    assert paired.sign_test(5, 0) == pytest.approx(2 * 0.5 ** 5)
-    assert paired.sign_test(1, 3) == pytest.approx(2 * 5 / 16)
-    assert paired.sign_test(4, 4) == pytest.approx(1.0)
-    assert paired.sign_test(0, 0) == 1.0
+    # 5 changes all one way: twice 0.5^5; 1 against 3: twice P(X <= 1) of Binomial(4, 0.5) = 2 * 5 / 16
+    assert sign_test(5, 0) == pytest.approx(2 * 0.5 ** 5)
+    assert sign_test(1, 3) == pytest.approx(2 * 5 / 16)
+    assert sign_test(4, 4) == pytest.approx(1.0)
+    assert sign_test(0, 0) == 1.0
 
 
-def test_other_episodes_are_refused():
-    with pytest.raises(ValueError, match="not the same episodes"):
-        paired.changes({"a": "collided"}, {"b": "collided"})
+@pytest.mark.parametrize("other, words", [(_rows(["collided"] * 3), "2 against 3"),
+                                           (_rows(["collided"] * 2, ["s0", "x"]), "episode 1 is 's1'")])
+def test_other_episodes_are_refused(other, words):
+    with pytest.raises(ValueError, match=words):
+        outcome_changes(_rows(["collided"] * 2), other)
 
 
 def test_the_command_line(tmp_path):
     a = _eval(tmp_path / "a.json", ["reached_goal"] * 6 + ["collided"] * 4)
     b = _eval(tmp_path / "b.json", ["reached_goal"] * 10)
-    out = subprocess.run([sys.executable, str(ROOT / "tools" / "paired.py"), str(a), str(b), str(a), str(b)],
+    out = subprocess.run([sys.executable, TOOL, str(a), str(b), str(a), str(b)],
                          capture_output=True, text=True, check=True).stdout.splitlines()
     assert out[0] == "a.json -> b.json (10 episodes): reached_goal: +4 -0 (p = 0.125); collided: +0 -4 (p = 0.125)"
     assert out[-1].startswith("all pairs (20 episodes): reached_goal: +8 -0 (p = 0.00781)")
-    bad = subprocess.run([sys.executable, str(ROOT / "tools" / "paired.py"), str(a)], capture_output=True, text=True)
+    bad = subprocess.run([sys.executable, TOOL, str(a)], capture_output=True, text=True)
     assert bad.returncode == 2 and "usage" in bad.stderr
-    missing = subprocess.run([sys.executable, str(ROOT / "tools" / "paired.py"), str(a), str(tmp_path / "no.json")],
-                             capture_output=True, text=True)
-    assert missing.returncode == 2 and len(missing.stderr.strip().splitlines()) == 1
+    for other in (tmp_path / "no.json", _eval(tmp_path / "c.json", ["collided"] * 3)):
+        r = subprocess.run([sys.executable, TOOL, str(a), str(other)], capture_output=True, text=True)
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1

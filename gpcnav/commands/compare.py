@@ -49,7 +49,7 @@ def check_compare_outputs(out) -> None:
 def run(args) -> int:
     from casadi_gpc.io import save_figure, write_json, write_text
 
-    from .compare_report import compare_figure, compare_table
+    from .compare_report import compare_figure, compare_table, paired_table
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
     config = for_run(planner_config(args), scenarios)
@@ -65,6 +65,9 @@ def run(args) -> int:
                                keys=keys, log=log_to_stderr("compare"))
     doc = compare_document(specs, results, config, suite, args.seed, scenarios, extras, args.backend)
     table = compare_table(doc)
+    paired = paired_table(doc)
+    if paired:
+        table += "\n\n" + paired
     if args.out:
         write_json(args.out, doc)
         write_text(args.out.with_suffix(".md"), table + "\n")

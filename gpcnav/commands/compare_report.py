@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["compare_table", "compare_figure", "episodes_caption"]
+from scenarios.paired import PAIRED_OUTCOMES, outcome_changes, sign_test
+
+__all__ = ["compare_table", "paired_table", "compare_figure", "episodes_caption"]
 
 
 def _pct(v) -> str:
@@ -47,6 +49,26 @@ def compare_table(doc: dict) -> str:
             f"| {_pct(e['danger_rate'])} | {_num(e['path_length_m']['median'], '.1f')} "
             f"| {ct['median'] * 1e3:.3g} / {ct['p95'] * 1e3:.3g} | {e['fallbacks']} | {e.get('interventions', 0)} |")
     return "\n".join(rows)
+
+
+def paired_table(doc: dict) -> str:
+    """Each controller after the first against the first, episode by episode
+    (:mod:`scenarios.paired`): the episodes that gained and lost reaching the goal and
+    colliding, with the exact sign test of each split; empty when the document's episodes
+    carry no outcomes or there is one controller."""
+    evals = doc["controllers"]
+    rows = [e["episodes_detail"] for e in evals]
+    if len(evals) < 2 or not all(all("scenario" in d and "outcome" in d for d in r) for r in rows):
+        return ""
+    first = evals[0]["controller"]
+    head = "| controller | reached the goal: gained / lost (p) | collided: gained / lost (p) |"
+    out = [f"Episode by episode against {first}: the episodes each controller reached (or collided in) and "
+           f"{first} did not, and the other way round; p, the exact two-sided sign test of that split.", "",
+           head, "|---|---|---|"]
+    for e, r in zip(evals[1:], rows[1:]):
+        (rg, rl), (cg, cl) = (outcome_changes(rows[0], r)[o] for o in PAIRED_OUTCOMES)
+        out.append(f"| {e['controller']} | {rg} / {rl} ({sign_test(rg, rl):.2g}) | {cg} / {cl} ({sign_test(cg, cl):.2g}) |")
+    return "\n".join(out)
 
 
 def compare_figure(doc: dict):

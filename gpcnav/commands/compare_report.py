@@ -66,7 +66,8 @@ def paired_table(doc: dict) -> str:
            f"{first} did not, and the other way round; p, the exact two-sided sign test of that split.", "",
            head, "|---|---|---|"]
     for e, r in zip(evals[1:], rows[1:]):
-        (rg, rl), (cg, cl) = (outcome_changes(rows[0], r)[o] for o in PAIRED_OUTCOMES)
+        changes = outcome_changes(rows[0], r)
+        (rg, rl), (cg, cl) = (changes[o] for o in PAIRED_OUTCOMES)
         out.append(f"| {e['controller']} | {rg} / {rl} ({sign_test(rg, rl):.2g}) | {cg} / {cl} ({sign_test(cg, cl):.2g}) |")
     return "\n".join(out)
 

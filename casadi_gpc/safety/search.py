@@ -43,19 +43,15 @@ class WayOutSearch:
         order = self._set_order
         found = tuple(a[order] for a in self.clearances(state, W[self._set_rows], obstacles))
         safe = found[4] == self.horizon * self.substeps
-        if safe.any():
-            i = self._nearest(W, safe, wish)
-        else:  # the check's own order
-            i = self._best_unsafe(found)
-            name = self._search_names[i]
-            single = self._verdict(found, i, obstacles, name)
-            if self.search_two_phase:
-                two = self._two_phase(state, obstacles, W, found, wish, single=single)
-                if two is not None:
-                    return two
-            return name, W[i], single
+        any_safe = bool(safe.any())
+        i = self._nearest(W, safe, wish) if any_safe else self._best_unsafe(found)  # else the check's own order
         name = self._search_names[i]
-        return name, W[i], self._verdict(found, i, obstacles, name)
+        check = self._verdict(found, i, obstacles, name)
+        if not any_safe and self.search_two_phase:
+            two = self._two_phase(state, obstacles, W, found, wish, single=check)
+            if two is not None:
+                return two
+        return name, W[i], check
 
     def _nearest(self, W: np.ndarray, safe: np.ndarray, wish) -> int:
         """The index of the safe sequence of ``W`` nearest the controller's ``wish`` (:meth:`search`)."""

@@ -2,7 +2,10 @@
 of the predicted miss distance (the straight path's closest approach to the robot's
 position now) from one sample to the next, for people heading at the robot."""
 import sys, json, math
+from pathlib import Path
 import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from analyse import tracks_of  # noqa: E402
 
 T = 0.5
 
@@ -12,12 +15,7 @@ def miss(rel, v, horizon_s=4.0):
     return np.hypot(*(rel + tc * v))
 
 def evidence(ep, until_s=1e9, dist_max=3.0, miss_max=1.0, lag=2):
-    rows = [r for r in ep["rows"] if r[0] <= until_s]
-    tracks = {}
-    for k, (t, x, y, th, ms) in enumerate(rows):
-        for i, mx, my in ms:
-            if mx is not None:
-                tracks.setdefault(i, {})[k] = np.array([mx, my])
+    rows, tracks = tracks_of(ep, until_s)
     s = []
     for i, pos in tracks.items():
         for k in pos:

@@ -1,3 +1,7 @@
+"""Experiment switches for the deployed network (use with PYTHONPATH=<this folder>):
+GPCNAV_EXP_NN_NOSEARCH=1, its check without the searched way out (the runs of
+../navground-corridor/nn_parts/); GPCNAV_EXP_NN_NOWALLNET=1, no walls network, the crowd
+network answering near walls too (rule.md)."""
 import os, sys
 if os.environ.get("GPCNAV_EXP_NN_NOSEARCH") == "1":
     from dataclasses import replace

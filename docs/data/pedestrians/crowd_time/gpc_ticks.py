@@ -1,8 +1,16 @@
-"""Per tick: the jobs solved, warm or cold, each job's solver time, the tick's wall time."""
-import sys, time, glob, collections, numpy as np
-sys.argv += [] 
-exec(open(__file__.replace("gpc_ticks.py", "gpc_parts.py")).read().split("if sys.argv[1].startswith")[0])
-import casadi_gpc.planner.gpc as G
+"""Per tick: the jobs solved, warm or cold, each job's solver time, the tick's wall time.
+The same arguments as gpc_parts.py."""
+import sys, time, collections
+from pathlib import Path
+import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from gpc_parts import scenarios  # noqa: E402
+from casadi_gpc.config import preset  # noqa: E402
+from casadi_gpc.planner.gpc import GPCController  # noqa: E402
+from gpcnav.commands.common import for_run  # noqa: E402
+from gpcnav.controllers import ControllerSpec, make  # noqa: E402
+from scenarios.simulator import simulate  # noqa: E402
+
 ticks = []
 orig_sm = GPCController.solve_many
 def solve_many(self, p, starts):
@@ -12,12 +20,7 @@ def solve_many(self, p, starts):
     ticks.append((wall, [(s[0], s[2] is not None) for s in starts], [(o.guess, o.solve_time_s, o.iterations, o.success) for o in out]))
     return out
 GPCController.solve_many = solve_many
-if sys.argv[1].startswith("suite:"):
-    _, name, seed, movers, n = sys.argv[1].split(":")
-    scs = [Suite(name, int(n), int(seed), int(movers), "orca").scenario(i) for i in range(int(n))]
-else:
-    scs = [load_scenario(f) for f in sorted(glob.glob(sys.argv[1]))[:int(sys.argv[2])]]
-for sc in scs:
+for sc in scenarios(sys.argv):
     cfg = for_run(preset("improved"), [sc])
     pol = make(ControllerSpec("gpc"), cfg, sc.robot)
     simulate(sc, pol, "gpc")

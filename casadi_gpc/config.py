@@ -55,6 +55,18 @@ class PlannerConfig:
     outside it: the robot keeps a few cm more."""
     uncertainty_sigmas: float = 2.0
     """k: how many predicted position standard deviations inflate the margin."""
+    walls_margin_m: float | None = None
+    """Near walls, the clearance margin in place of :attr:`clearance_margin_m` (for every
+    obstacle, walls included), with :attr:`walls_sigmas` in place of
+    :attr:`uncertainty_sigmas`, at the ticks where a wall segment is within the robot's reach
+    (:func:`casadi_gpc.safety.walls.walls_reach_m`, the check's own rule; counted
+    ``walls_margin_ticks``). Where walls bound the room, a person walking down the middle of
+    a 2.5 m corridor leaves no place beside them that keeps the open-space margin, and the
+    planner backed away before people for metres (docs/buildings.md). The NLP of a map with
+    walls then takes the margin and its sigmas as parameters (the same numbers elsewhere).
+    None: one margin everywhere."""
+    walls_sigmas: float | None = None
+    """With :attr:`walls_margin_m`: the standard deviations that inflate the margin near walls."""
     beyond_horizon_s: tuple[float, ...] = ()
     """Instants after the horizon's end (s) at which the robot, standing where the plan leaves
     it, must still keep the clearance margin from each mover carried on straight at the
@@ -162,6 +174,15 @@ class PlannerConfig:
             raise ValueError(f"crowd_moving must be a whole number of at least 1 (or None), got {self.crowd_moving!r}")
         if any(not (math.isfinite(t) and t > 0) for t in self.beyond_horizon_s):
             raise ValueError(f"beyond_horizon_s must hold times above 0 s, got {self.beyond_horizon_s!r}")
+        if (self.walls_margin_m is None) != (self.walls_sigmas is None):
+            raise ValueError("walls_margin_m and walls_sigmas go together (both set, or neither)")
+        if self.walls_margin_m is not None:
+            if self.clearance_margin_m is None:
+                raise ValueError("walls_margin_m replaces clearance_margin_m near walls: set that too")
+            for name in ("walls_margin_m", "walls_sigmas"):
+                v = getattr(self, name)
+                if not (math.isfinite(v) and v >= 0):
+                    raise ValueError(f"{name} must be finite and not negative, got {v}")
         if not (isinstance(self.cold_start_gap, int) and self.cold_start_gap >= 0):
             raise ValueError(f"cold_start_gap must be a whole number, not negative, got {self.cold_start_gap!r}")
 

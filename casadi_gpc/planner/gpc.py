@@ -415,8 +415,11 @@ class GPCController:
         if crowd:
             self.counters["crowd_ticks"] = self.counters.get("crowd_ticks", 0) + 1
         self._use(self._tiers[int(crowd)])
+        near_walls = self._near_walls(obs)
+        if near_walls:
+            self.counters["walls_margin_ticks"] = self.counters.get("walls_margin_ticks", 0) + 1
         p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.problem.config,
-                                    path, obs.walls)
+                                    path, obs.walls, near_walls)
         self.counters["left_out"] += sel.left_out
         self._walls_in_slots = sel.walls
         if sel.walls_left_out:
@@ -426,6 +429,16 @@ class GPCController:
             self.counters["multistart"] += 1
         relevant = sel.relevant | {k for k in near_ids if k[0] == "static"}
         return Tick(p, x0, float(obs.reference.speed_mps), bool(near_ids), relevant), sel
+
+    def _near_walls(self, obs: Observation) -> bool:
+        """Whether this tick plans with the margin near walls: the settings have one
+        (:attr:`~casadi_gpc.config.PlannerConfig.walls_margin_m`) and a wall segment is
+        within the robot's reach (the check's rule, :func:`casadi_gpc.safety.walls.walls_reach_m`)."""
+        if self.config.walls_margin_m is None or not obs.walls:
+            return False
+        from ..safety.walls import wall_segments_within, walls_reach_m
+        reach = walls_reach_m(self.robot, self.config.horizon * self.config.sample_time_s)
+        return len(wall_segments_within(obs.walls, (obs.robot.x_m, obs.robot.y_m), reach)) > 0
 
     def solve_tick(self, tick: Tick) -> tuple[Plan | None, list[Plan]]:
         """The best plan of one step and every solve it took (persistent candidates, or the

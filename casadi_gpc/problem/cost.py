@@ -33,7 +33,7 @@ from ..robot import RobotParams, robot_step
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["ParameterLayout", "GPCProblem", "build_problem", "parameter_blocks", "effort_cost", "state_cost", "rollout_states",
-           "FAR_AWAY_M", "beyond_horizon_cost"]
+           "FAR_AWAY_M", "beyond_horizon_cost", "margin_terms", "layout_of"]
 
 FAR_AWAY_M = 1.0e4  # where unused obstacle slots are parked
 
@@ -46,11 +46,17 @@ class ParameterLayout:
     max_moving: int
     max_static: int
     max_walls: int = 0
+    margin: tuple[float, float] | None = None
+    """The clearance margin and its sigmas when the NLP takes them as parameters (block
+    ``margin``, last: :attr:`casadi_gpc.config.PlannerConfig.walls_margin_m`), the values an
+    unset :meth:`pack` writes; None: constants of the cost."""
 
     @property
     def blocks(self) -> dict[str, tuple[int, ...]]:
         H, M, S, W = self.horizon, self.max_moving, self.max_static, self.max_walls
         walls = {"wall_ab": (W, 4), "wall_on": (W,)} if W else {}  # segment ends (ax, ay, bx, by)
+        if self.margin is not None:
+            walls["margin"] = (2,)  # the clearance margin (m) and the sigmas that inflate it
         return {
             "x0": (5,),                  # x, y, heading, v_right, v_left
             "ref": (H, 3),               # desired x, y, heading at steps 1..H
@@ -93,10 +99,13 @@ class ParameterLayout:
         uncertainty_scale_m: float = 0.5,
         ref_weights: np.ndarray | None = None,
         walls=(),
+        margin: tuple[float, float] | None = None,
     ) -> np.ndarray:
         """Parameter vector for one tick, the obstacles in the order given
         (:mod:`casadi_gpc.problem.selection` chooses them). ``ref_weights``: the tracking weight
-        factor of each desired pose (:func:`casadi_gpc.problem.selection.goal_weights`; None: 1)."""
+        factor of each desired pose (:func:`casadi_gpc.problem.selection.goal_weights`; None: 1).
+        ``margin``: the clearance margin and its sigmas for this tick, for a layout that takes
+        them (None: the layout's own, :attr:`margin`)."""
         H, M, S = self.horizon, self.max_moving, self.max_static
         if len(forecasts) > M or len(statics) > S:
             raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")
@@ -124,6 +133,10 @@ class ParameterLayout:
                 raise ValueError(f"at most {self.max_walls} wall segments fit this NLP")
             p[sl["wall_ab"]][:4 * len(walls)] = np.asarray(walls, dtype=float).reshape(-1)
             p[sl["wall_on"]][:len(walls)] = 1.0
+        if margin is not None:
+            if self.margin is None:
+                raise ValueError("this NLP takes no margin parameters")
+            p[sl["margin"]] = margin
         return p
 
     @cached_property
@@ -137,6 +150,8 @@ class ParameterLayout:
         p[sl["mov_p"]] = 1.0
         if self.max_walls:  # a segment of 1 m, far away
             p[sl["wall_ab"]] = np.tile([FAR_AWAY_M, FAR_AWAY_M, FAR_AWAY_M + 1.0, FAR_AWAY_M], self.max_walls)
+        if self.margin is not None:
+            p[sl["margin"]] = self.margin
         return p
 
     def unpack(self, p: np.ndarray) -> dict[str, np.ndarray]:
@@ -211,6 +226,7 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
         obstacles.append((ax + t * dx, ay + t * dy, 0.0, P["wall_on"][j], 1.0, 0.0, config.xi_static))
     if i == H - 1:
         margin_pen += beyond_horizon_cost(config, robot, P, x, y)
+    margin_m, sigmas = margin_terms(config, P)
     for ox, oy, r_o, on, p_unc, sigma, xi in obstacles:
         centre = ca.sqrt((x - ox) ** 2 + (y - oy) ** 2 + 1e-12)
         d = centre - robot.radius_m - r_o
@@ -220,11 +236,29 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
         else:
             obst += on * xi / p_unc * ca.fmax(1.0 / d_eff - 1.0 / config.influence_m, 0.0) ** 2
         if config.clearance_margin_m is not None:
-            m = config.clearance_margin_m + config.uncertainty_sigmas * sigma
+            m = margin_m + sigmas * sigma
             e = config.margin_smoothing_m
             violation = ca.fmax(m - d, 0.0) if e is None else _smooth_positive(m - d, e)
             margin_pen += on * config.clearance_penalty * violation ** 2
     return tracking, turning, obst, margin_pen
+
+
+def margin_terms(config: PlannerConfig, P: dict) -> tuple:
+    """The clearance margin and the sigmas that inflate it: the NLP's parameters where its
+    layout takes them (block ``margin``), else the settings' constants."""
+    if "margin" in P:
+        return P["margin"][0], P["margin"][1]
+    return config.clearance_margin_m, config.uncertainty_sigmas
+
+
+def layout_of(config: PlannerConfig, max_moving: int | None = None, max_static: int | None = None
+              ) -> ParameterLayout:
+    """The parameter layout of ``config``'s NLP (``max_moving``, ``max_static``: other slot
+    counts): the margin as parameters where the NLP has wall slots and a margin near walls."""
+    margin = ((config.clearance_margin_m, config.uncertainty_sigmas)
+              if config.max_walls and config.walls_margin_m is not None else None)
+    return ParameterLayout(config.horizon, config.max_moving if max_moving is None else max_moving,
+                           config.max_static if max_static is None else max_static, config.max_walls, margin)
 
 
 def beyond_horizon_cost(config: PlannerConfig, robot: RobotParams, P: dict, x, y):
@@ -237,11 +271,12 @@ def beyond_horizon_cost(config: PlannerConfig, robot: RobotParams, P: dict, x, y
         return 0
     pen = 0
     e = config.margin_smoothing_m
+    margin_m, sigmas = margin_terms(config, P)
     for j in range(M):
         k, k0 = (j * H + H - 1) * 2, (j * H + H - 2) * 2
         px, py = P["mov_xy"][k], P["mov_xy"][k + 1]
         vx, vy = (px - P["mov_xy"][k0]) / T, (py - P["mov_xy"][k0 + 1]) / T
-        m = config.clearance_margin_m + config.uncertainty_sigmas * P["mov_sigma"][j * H + H - 1]
+        m = margin_m + sigmas * P["mov_sigma"][j * H + H - 1]
         for s in config.beyond_horizon_s:
             d = ca.sqrt((x - px - vx * s) ** 2 + (y - py - vy * s) ** 2 + 1e-12) - robot.radius_m - P["mov_r"][j]
             violation = ca.fmax(m - d, 0.0) if e is None else _smooth_positive(m - d, e)
@@ -267,7 +302,7 @@ def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GP
     """Build the NLP of ``config`` for ``robot`` (CasADi SX, single shooting)."""
     robot = robot or RobotParams()
     H, T = config.horizon, config.sample_time_s
-    layout = ParameterLayout(H, config.max_moving, config.max_static, config.max_walls)
+    layout = layout_of(config)
     u = ca.SX.sym("u", 2 * H)
     p = ca.SX.sym("p", layout.size)
     P = parameter_blocks(layout, p)

@@ -127,27 +127,33 @@ def goal_weights(ref_poses: np.ndarray, config: PlannerConfig) -> np.ndarray | N
 
 
 def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts, statics, config: PlannerConfig,
-                       path_xy: np.ndarray | None = None, walls=()) -> tuple[np.ndarray, Selection]:
+                       path_xy: np.ndarray | None = None, walls=(), near_walls: bool = False
+                       ) -> tuple[np.ndarray, Selection]:
     """The NLP parameter vector of one tick and the obstacles in it: :func:`select_obstacles`,
     packed by the problem's parameter ``layout`` (:meth:`casadi_gpc.problem.cost.ParameterLayout.pack`).
 
     ``ref_poses``: the desired poses ``[x_m, y_m, heading_rad]`` at steps 0..H, shape
     (H + 1, 3) (step 0: where the reference point is now). ``walls``: the map's polylines
-    (:attr:`casadi_gpc.types.Observation.walls`), for an NLP with wall slots. Returns the
-    parameters and the selection.
+    (:attr:`casadi_gpc.types.Observation.walls`), for an NLP with wall slots. ``near_walls``:
+    a wall is within the robot's reach, so the margin near walls applies
+    (:attr:`~casadi_gpc.config.PlannerConfig.walls_margin_m`, where the layout takes it).
+    Returns the parameters and the selection.
     """
     sel = select_obstacles(x0, forecasts, statics, config, path_xy)
     if walls and config.max_walls:
         sel.walls, sel.walls_left_out = select_walls(x0, walls, config, path_xy)
-    return pack_selection(layout, x0, ref_poses, sel, config), sel
+    return pack_selection(layout, x0, ref_poses, sel, config, near_walls), sel
 
 
-def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Selection, config: PlannerConfig
-                   ) -> np.ndarray:
+def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Selection, config: PlannerConfig,
+                   near_walls: bool = False) -> np.ndarray:
     """The NLP parameter vector of a :class:`Selection` made already, packed by ``layout``
     (the part of :func:`planner_parameters` after the choice). ``layout`` may have fewer
     slots than ``config`` where the selection fits in them (the labeller solves on such an
     NLP: an empty slot's terms are exact zeros, so the answer is the same)."""
     ref = np.asarray(ref_poses, dtype=float)
+    margin = ((config.walls_margin_m, config.walls_sigmas)
+              if near_walls and config.walls_margin_m is not None and getattr(layout, "margin", None) is not None
+              else None)
     return layout.pack(x0, ref[1:], selection.forecasts, selection.statics, config.uncertainty_scale_m,
-                       goal_weights(ref, config), getattr(selection, "walls", ()))
+                       goal_weights(ref, config), getattr(selection, "walls", ()), margin)

@@ -93,7 +93,8 @@ class SafetyFilter(WayOutSearch, QuickScreen):
     def __init__(self, robot: RobotParams, sample_time_s: float, horizon: int, margin_m: float = 0.05,
                  sigmas: float = 2.0, substeps: int = 4, fallback=None, trust_planner_s: float | None = None,
                  trust_rollout_s: float | None = None, safer_alternatives: bool = False, search: bool = False,
-                 search_two_phase: bool = False, robust_drive_in: bool = False, search_near_walls: bool = False):
+                 search_two_phase: bool = False, robust_drive_in: bool = False, search_near_walls: bool = False,
+                 walls_margins: tuple[float, float] | None = None):
         super().__init__(robot, sample_time_s, horizon, margin_m, sigmas, substeps)
         if fallback is not None and not callable(getattr(fallback, "decide", None)):
             raise TypeError("fallback must have a decide(observation) method")
@@ -113,6 +114,12 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         self.search_near_walls = bool(search_near_walls)
         self._search_setting = (self.search_way_out, self.search_two_phase)
         self.robust_drive_in = bool(robust_drive_in)  # Clearances': a drive-in judged against the uncertain discs too
+        # with walls_margins the margin and sigmas are set at each check: these where the check is
+        # handed a wall, the open ones elsewhere (CheckSettings.walls_margin_m)
+        if walls_margins is not None and not all(math.isfinite(v) and v >= 0 for v in walls_margins):
+            raise ValueError(f"walls_margins must be finite and not negative, got {walls_margins}")
+        self._margins = (self.margin_m, self.sigmas)
+        self._walls_margins = None if walls_margins is None else tuple(float(v) for v in walls_margins)
         self.reset()
 
     def reset(self) -> None:
@@ -176,6 +183,11 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         if self.search_near_walls:
             near = walls is not None and len(walls) > 0
             self.search_way_out, self.search_two_phase = (near and v for v in self._search_setting)
+        if self._walls_margins is not None:
+            near = walls is not None and len(walls) > 0
+            self.margin_m, self.sigmas = self._walls_margins if near else self._margins
+            if near:
+                self.counters["walls_margin_checks"] = self.counters.get("walls_margin_checks", 0) + 1
         statics = observation.static if statics is None else statics
         r = observation.robot
         self.counters["checks"] += 1

@@ -76,6 +76,12 @@ class CheckSettings:
         elsewhere the way out is the best fixed manoeuvre and a command's escapes are the
         manoeuvres alone, as without :attr:`search`. Scenes without walls are unchanged
         decision for decision (docs/data/buildings/walls_search/).
+    walls_margin_m, walls_sigmas : float or None
+        Near walls (at the decisions where the shield hands the check a wall segment within
+        its reach), the margin and the sigmas in place of :attr:`margin_m` and
+        :attr:`sigmas` (counted ``shield_walls_margin_checks``); both or neither. The planner's
+        own near-walls margin is :attr:`casadi_gpc.config.PlannerConfig.walls_margin_m`.
+        None (the default): one margin everywhere.
     robust_drive_in : bool
         Where every option loses the margin and the check ranks them by how late each drives
         into what it touches: moving towards a person inside their disc inflated by the
@@ -104,6 +110,8 @@ class CheckSettings:
     search: bool = False
     search_two_phase: bool = False
     search_near_walls: bool = False
+    walls_margin_m: float | None = None
+    walls_sigmas: float | None = None
     robust_drive_in: bool = False
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
@@ -122,6 +130,12 @@ class CheckSettings:
             raise ValueError("search_two_phase needs search (it extends the searched way out)")
         if self.search_near_walls and not self.search:
             raise ValueError("search_near_walls needs search (it says where the search applies)")
+        if (self.walls_margin_m is None) != (self.walls_sigmas is None):
+            raise ValueError("walls_margin_m and walls_sigmas go together (both set, or neither)")
+        for name in ("walls_margin_m", "walls_sigmas"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and not negative, got {value}")
         if not (math.isfinite(self.margin_m) and self.margin_m >= 0):
             raise ValueError(f"margin_m must be finite and not negative, got {self.margin_m}")
         if not (math.isfinite(self.sigmas) and self.sigmas >= 0):

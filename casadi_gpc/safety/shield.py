@@ -35,7 +35,7 @@ from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
 from .standby import StandbyPlanner
-from .walls import wall_segments_within
+from .walls import wall_segments_within, walls_reach_m
 
 __all__ = ["Shield", "DEFAULT_HORIZON_S"]
 
@@ -101,6 +101,8 @@ class Shield:
                                    safer_alternatives=settings.safer_alternatives, search=settings.search,
                                    search_two_phase=settings.search_two_phase,
                                    search_near_walls=settings.search_near_walls,
+                                   walls_margins=None if settings.walls_margin_m is None else
+                                   (settings.walls_margin_m, settings.walls_sigmas),
                                    robust_drive_in=settings.robust_drive_in)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = settings.trust_plans
@@ -131,8 +133,7 @@ class Shield:
         for the whole horizon, its radius, and a margin of a metre beyond), or None."""
         if not obs.walls:
             return None
-        r = self.robot
-        reach = r.max_wheel_speed_mps * self.horizon * self.sample_time_s + r.radius_m + 1.0
+        reach = walls_reach_m(self.robot, self.horizon * self.sample_time_s)
         return wall_segments_within(obs.walls, (obs.robot.x_m, obs.robot.y_m), reach)
 
     @property

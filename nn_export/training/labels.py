@@ -38,7 +38,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig
-from casadi_gpc.problem.cost import ParameterLayout
+from casadi_gpc.problem.cost import layout_of
 from casadi_gpc.robot import RobotParams
 from casadi_gpc.problem.selection import pack_selection, select_obstacles, select_walls
 
@@ -246,7 +246,7 @@ class Labeller:
         self.robot = robot or RobotParams()
         self.fit_slots = bool(fit_slots)
         self.full_slots = (config.max_moving, config.max_static)
-        self.layout = ParameterLayout(config.horizon, *self.full_slots, config.max_walls)
+        self.layout = layout_of(config)
         self._walls: list = []
         """The wall segments in the slots of the situation being labelled."""
         """The full NLP's parameter layout (:meth:`parameters`)."""

@@ -2,6 +2,8 @@
 that declares it per controller (gpcnav.controllers.REGISTRY)."""
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from casadi_gpc.config import preset
@@ -20,6 +22,10 @@ from gpcnav.controllers import DEFAULT_SHIELD, REGISTRY, check_settings
     (dict(safer_alternatives=True), "set trust_plans too"),
     (dict(trust_rollout_s=3.0), "set rollouts too"),
     (dict(search_near_walls=True), "search_near_walls needs search"),
+    (dict(walls_margin_m=0.02), "go together"),
+    (dict(walls_sigmas=1.0), "go together"),
+    (dict(walls_margin_m=-0.01, walls_sigmas=1.0), "walls_margin_m must be finite"),
+    (dict(walls_margin_m=0.02, walls_sigmas=math.inf), "walls_sigmas must be finite"),
 ])
 def test_bad_settings_are_refused(bad, words):
     with pytest.raises(ValueError, match=words):

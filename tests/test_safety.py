@@ -1052,6 +1052,45 @@ def test_a_search_near_walls_is_the_plain_check_in_the_open_and_the_search_by_a_
     assert gated.counters["searched"] > 5 and differ > 3  # 16 and 12
 
 
+def test_the_margin_near_walls_is_the_open_check_elsewhere_and_the_near_one_by_a_wall():
+    """``walls_margins``: where the check is handed no wall it decides as the check with the
+    open margin (0.05 m + 2 sigma), and where it is handed one as a check built with the near
+    margin (0.02 m + 1 sigma), verdict for verdict and counter for counter, the same filter
+    going from one to the other and back. The margins must change some verdicts by the walls,
+    or nothing is compared; and a filter's margins are refused when not finite."""
+    from casadi_gpc.safety.walls import wall_segments_within
+    T, H = 0.5, 12
+    rng = np.random.default_rng(37)
+    open_, near_ = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, margin_m=0.02, sigmas=1.0)
+    gated = SafetyFilter(ROBOT, T, H, walls_margins=(0.02, 1.0))
+    corridor = (((-20.0, -1.1), (20.0, -1.1)), ((-20.0, 1.3), (20.0, 1.3)))
+    counted = ("interventions", "manoeuvres")
+    differ = 0
+    for i in range(90):
+        near = i % 2 == 1
+        walls = wall_segments_within(corridor, (0.0, 0.0), 6.0) if near else None
+        state = np.array([0.0, 0.0, rng.uniform(-0.3, 0.3), *rng.uniform(0.0, 0.8, 2)])
+        fcs = _movers(rng, T, H, int(rng.integers(3, 9)), 3.0, 0.6)
+        plan = np.broadcast_to(rng.uniform(-0.2, 0.8, 2), (H, 2)).copy()
+        ref = near_ if near else open_
+        before = {k: (ref.counters[k], gated.counters[k]) for k in counted}
+        got, want = gated.filter(observation(state), plan, fcs, (), walls=walls), \
+            ref.filter(observation(state), plan, fcs, (), walls=walls)
+        assert (got.v_right_mps, got.v_left_mps, got.intervened, got.source, got.reason) == \
+            (want.v_right_mps, want.v_left_mps, want.intervened, want.source, want.reason)
+        assert got.check == want.check
+        for k in counted:
+            assert gated.counters[k] - before[k][1] == ref.counters[k] - before[k][0], k
+        if near:
+            other = open_.filter(observation(state), plan, fcs, (), walls=walls)
+            differ += (other.intervened, other.v_right_mps, other.v_left_mps) != \
+                (got.intervened, got.v_right_mps, got.v_left_mps)
+    assert gated.counters["walls_margin_checks"] == 45
+    assert differ > 3, differ
+    with pytest.raises(ValueError, match="walls_margins"):
+        SafetyFilter(ROBOT, T, H, walls_margins=(0.02, math.nan))
+
+
 @pytest.mark.benchmark
 def test_the_compiled_clearances_cost_a_third_of_the_whole_array_ones_or_less():
     """Same run, interleaved: the compiled clearances (the searched grid and the manoeuvres, 50

@@ -1,0 +1,118 @@
+"""The margin near walls (PlannerConfig.walls_margin_m, walls_sigmas): settings refused in
+one line when wrong; the NLP of a map with walls takes the margin and its sigmas as
+parameters only when the settings have one (every other NLP is the one it was); at the
+open margin's values it prices every plan exactly as the NLP with the margin as constants,
+and at the near ones as the NLP built with those constants; a tick is near walls when a
+segment is within the check's reach."""
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+casadi = pytest.importorskip("casadi")
+
+from casadi_gpc.config import WALL_SLOTS, preset  # noqa: E402
+from casadi_gpc.planner.gpc import GPCController  # noqa: E402
+from casadi_gpc.problem.cost import build_problem, layout_of  # noqa: E402
+from casadi_gpc.problem.selection import planner_parameters  # noqa: E402
+from casadi_gpc.reference import ReferencePath, Segment  # noqa: E402
+from casadi_gpc.robot import RobotParams, RobotState  # noqa: E402
+from casadi_gpc.safety.walls import walls_reach_m  # noqa: E402
+from casadi_gpc.types import Observation, ObstacleForecast, StaticObstacle  # noqa: E402
+
+CFG = preset("improved")
+NEAR = dict(walls_margin_m=0.05, walls_sigmas=1.0)
+
+
+@pytest.mark.parametrize("bad,words", [
+    (dict(walls_margin_m=0.05), "go together"),
+    (dict(walls_sigmas=1.0), "go together"),
+    (dict(walls_margin_m=-0.05, walls_sigmas=1.0), "walls_margin_m must be finite"),
+    (dict(walls_margin_m=0.05, walls_sigmas=math.nan), "walls_sigmas must be finite"),
+])
+def test_bad_margins_near_walls_are_refused(bad, words):
+    with pytest.raises(ValueError, match=words):
+        CFG.with_overrides(**bad)
+    with pytest.raises(ValueError, match="set that too"):
+        preset("paper").with_overrides(**NEAR)  # the paper's preset has no margin to replace
+
+
+def test_only_an_nlp_with_walls_and_a_near_margin_takes_the_margin_as_parameters():
+    plain, walled = layout_of(CFG), layout_of(CFG.for_walls(True))
+    assert "margin" not in plain.blocks and "margin" not in walled.blocks
+    assert layout_of(CFG.with_overrides(**NEAR)).blocks == plain.blocks  # no walls: the same NLP
+    near = layout_of(CFG.with_overrides(**NEAR).for_walls(True))
+    assert list(near.blocks)[-1] == "margin" and near.size == walled.size + 2
+    assert near.margin == (CFG.clearance_margin_m, CFG.uncertainty_sigmas)
+    assert all(near.slices()[k] == walled.slices()[k] for k in walled.blocks)  # the rest where it was
+    np.testing.assert_array_equal(near.unpack(near.pack(np.zeros(5), np.zeros((CFG.horizon, 3))))["margin"],
+                                  [0.15, 2.0])
+    with pytest.raises(ValueError, match="no margin parameters"):
+        walled.pack(np.zeros(5), np.zeros((CFG.horizon, 3)), margin=(0.05, 1.0))
+
+
+def _situation(rng, H, M, S, W):
+    x0 = np.array([0.0, 0.0, 0.1, 0.3, 0.35])
+    ref = np.column_stack([0.2 * np.arange(1, H + 1), np.zeros(H), np.zeros(H)])
+    fcs = [ObstacleForecast(j, 0.3, rng.uniform(-1.5, 1.5, 2) + np.outer(np.arange(1, H + 1), rng.uniform(-0.3, 0.3, 2)),
+                            np.tile(np.diag(rng.uniform(0.002, 0.05, 2)), (H, 1, 1))) for j in range(M)]
+    statics = [StaticObstacle(tuple(rng.uniform(-1.5, 1.5, 2)), 0.2) for _ in range(S)]
+    walls = [(-5.0, 0.9, 5.0, 0.9), (-5.0, -0.8, 5.0, -0.8)][:W]
+    return x0, ref, fcs, statics, walls
+
+
+def test_the_parameters_price_plans_as_the_constants_do():
+    """Random plans near movers, a static obstacle and two walls (the beyond-horizon term on):
+    the NLP with the margin as parameters, at the open values, gives every cost term bit for
+    bit as the NLP with the constants; at the near values, as the NLP built with those as its
+    constants (to rounding). The margin term must differ between the two, or nothing is
+    compared."""
+    H, M, S, W = 4, 3, 1, 2
+    base = CFG.with_overrides(horizon=H, max_moving=M, max_static=S, max_walls=W, crowd_moving=None,
+                              beyond_horizon_s=(1.0, 2.0))
+    const = build_problem(base, RobotParams())
+    param = build_problem(base.with_overrides(**NEAR), RobotParams())
+    near_const = build_problem(base.with_overrides(clearance_margin_m=0.05, uncertainty_sigmas=1.0), RobotParams())
+    rng = np.random.default_rng(5)
+    differ = 0
+    for _ in range(20):
+        x0, ref, fcs, statics, walls = _situation(rng, H, M, S, W)
+        u = rng.uniform(-0.2, 0.2, 2 * H)
+        pc = const.layout.pack(x0, ref, fcs, statics, 0.5, None, walls)
+        pp = param.layout.pack(x0, ref, fcs, statics, 0.5, None, walls)
+        pn = param.layout.pack(x0, ref, fcs, statics, 0.5, None, walls, margin=(0.05, 1.0))
+        open_terms = [float(t) for t in param.terms_fn(u, pp)]
+        assert open_terms == [float(t) for t in const.terms_fn(u, pc)]
+        near_terms = [float(t) for t in param.terms_fn(u, pn)]
+        np.testing.assert_allclose(near_terms, [float(t) for t in near_const.terms_fn(u, pc)], rtol=1e-12, atol=1e-12)
+        differ += near_terms[4] != open_terms[4]
+    assert differ >= 10, differ
+
+
+def _observation(walls):
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
+    return Observation(0.0, RobotState(0.0, 0.0, 0.0, 0.0, 0.0), ref, (), (), walls)
+
+
+def test_a_tick_is_near_walls_within_the_check_s_reach_and_packs_the_near_margin():
+    robot = RobotParams()
+    cfg = CFG.with_overrides(**NEAR).for_walls(True)
+    reach = walls_reach_m(robot, cfg.horizon * cfg.sample_time_s)
+    assert reach == pytest.approx(0.8 * 6.0 + 0.35 + 1.0)
+    fake = SimpleNamespace(config=cfg, robot=robot)
+    inside = (((-3.0, reach - 0.01), (3.0, reach - 0.01)),)
+    outside = (((-3.0, reach + 0.01), (3.0, reach + 0.01)),)
+    assert GPCController._near_walls(fake, _observation(inside))
+    assert not GPCController._near_walls(fake, _observation(outside))
+    assert not GPCController._near_walls(fake, _observation(()))
+    assert not GPCController._near_walls(SimpleNamespace(config=CFG.for_walls(True), robot=robot),
+                                         _observation(inside))  # no near margin set
+    layout = layout_of(cfg)
+    ref = np.zeros((cfg.horizon + 1, 3))
+    for near, want in ((True, [0.05, 1.0]), (False, [0.15, 2.0])):
+        p, _ = planner_parameters(layout, np.zeros(5), ref, [], [], cfg, None, inside, near)
+        np.testing.assert_array_equal(layout.unpack(p)["margin"], want)
+    assert cfg.max_walls == WALL_SLOTS

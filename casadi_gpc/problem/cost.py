@@ -54,9 +54,9 @@ class ParameterLayout:
     @property
     def blocks(self) -> dict[str, tuple[int, ...]]:
         H, M, S, W = self.horizon, self.max_moving, self.max_static, self.max_walls
-        walls = {"wall_ab": (W, 4), "wall_on": (W,)} if W else {}  # segment ends (ax, ay, bx, by)
+        extra = {"wall_ab": (W, 4), "wall_on": (W,)} if W else {}  # segment ends (ax, ay, bx, by)
         if self.margin is not None:
-            walls["margin"] = (2,)  # the clearance margin (m) and the sigmas that inflate it
+            extra["margin"] = (2,)  # the clearance margin (m) and the sigmas that inflate it
         return {
             "x0": (5,),                  # x, y, heading, v_right, v_left
             "ref": (H, 3),               # desired x, y, heading at steps 1..H
@@ -69,7 +69,7 @@ class ParameterLayout:
             "sta_xy": (S, 2),
             "sta_r": (S,),
             "sta_on": (S,),
-            **walls,
+            **extra,
         }
 
     @cached_property
@@ -251,14 +251,12 @@ def margin_terms(config: PlannerConfig, P: dict) -> tuple:
     return config.clearance_margin_m, config.uncertainty_sigmas
 
 
-def layout_of(config: PlannerConfig, max_moving: int | None = None, max_static: int | None = None
-              ) -> ParameterLayout:
-    """The parameter layout of ``config``'s NLP (``max_moving``, ``max_static``: other slot
-    counts): the margin as parameters where the NLP has wall slots and a margin near walls."""
+def layout_of(config: PlannerConfig) -> ParameterLayout:
+    """The parameter layout of ``config``'s NLP: the margin as parameters where the NLP has
+    wall slots and a margin near walls."""
     margin = ((config.clearance_margin_m, config.uncertainty_sigmas)
               if config.max_walls and config.walls_margin_m is not None else None)
-    return ParameterLayout(config.horizon, config.max_moving if max_moving is None else max_moving,
-                           config.max_static if max_static is None else max_static, config.max_walls, margin)
+    return ParameterLayout(config.horizon, config.max_moving, config.max_static, config.max_walls, margin)
 
 
 def beyond_horizon_cost(config: PlannerConfig, robot: RobotParams, P: dict, x, y):

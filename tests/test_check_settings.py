@@ -9,7 +9,7 @@ import pytest
 from casadi_gpc.config import preset
 from casadi_gpc.robot import RobotParams
 from casadi_gpc.safety import ROLLOUT_TRUST_S, SAFER_ALTERNATIVES, CheckSettings, Shield
-from gpcnav.controllers import DEFAULT_SHIELD, REGISTRY, check_settings
+from gpcnav.controllers import DEFAULT_SHIELD, REGISTRY, WALLS_CHECK_MARGIN_M, check_settings
 
 
 @pytest.mark.parametrize("bad, words", [
@@ -54,8 +54,16 @@ def test_the_registry_declares_what_each_controller_is_trusted_with(name):
     gpc = check_settings("gpc", object(), cfg, "on")
     assert gpc.trust_plans and gpc.fallback == "manoeuvres" and not gpc.rollouts
     assert gpc.safer_alternatives is SAFER_ALTERNATIVES[name]
-    # the searched way out and robust drive-ins were taken back (docs/data/deploy/robust_drive_in/rule.md)
-    assert not gpc.search and not gpc.search_two_phase and not gpc.robust_drive_in
+    # robust drive-ins were taken back (docs/data/deploy/robust_drive_in/rule.md); the searched way
+    # out and the near-walls margin apply only near walls, where the preset has a margin there
+    # (docs/data/buildings/walls_margin/rule3.md)
+    assert not gpc.robust_drive_in
+    if cfg.walls_margin_m is None:
+        assert not gpc.search and not gpc.search_two_phase and gpc.walls_margin_m is None
+    else:
+        assert gpc.search and gpc.search_two_phase and gpc.search_near_walls
+        assert (gpc.walls_margin_m, gpc.walls_sigmas) == (WALLS_CHECK_MARGIN_M, cfg.walls_sigmas)
+    assert (name == "improved") == (cfg.walls_margin_m is not None)
     assert check_settings("gpc", object(), cfg, "gpc") == gpc        # its own alternatives come first
     nn = check_settings("nn", _Net(), cfg, "gpc")
     assert nn.rollouts and nn.trust_rollout_s == ROLLOUT_TRUST_S and nn.fallback == "planner"

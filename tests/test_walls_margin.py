@@ -7,6 +7,7 @@ segment is within the check's reach."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -23,8 +24,16 @@ from casadi_gpc.robot import RobotParams, RobotState  # noqa: E402
 from casadi_gpc.safety.walls import walls_reach_m  # noqa: E402
 from casadi_gpc.types import Observation, ObstacleForecast, StaticObstacle  # noqa: E402
 
-CFG = preset("improved")
+SHIPPED = preset("improved")
+CFG = replace(SHIPPED, walls_margin_m=None, walls_sigmas=None)  # one margin everywhere
 NEAR = dict(walls_margin_m=0.05, walls_sigmas=1.0)
+
+
+def test_improved_plans_with_the_margin_near_walls_the_rule_adopted():
+    """docs/data/buildings/walls_margin/rule3.md; the paper's preset has no margin at all."""
+    assert (SHIPPED.walls_margin_m, SHIPPED.walls_sigmas) == (0.05, 1.0)
+    assert (SHIPPED.clearance_margin_m, SHIPPED.uncertainty_sigmas) == (0.15, 2.0)
+    assert preset("paper").walls_margin_m is None
 
 
 @pytest.mark.parametrize("bad,words", [
@@ -44,6 +53,7 @@ def test_only_an_nlp_with_walls_and_a_near_margin_takes_the_margin_as_parameters
     plain, walled = layout_of(CFG), layout_of(CFG.for_walls(True))
     assert "margin" not in plain.blocks and "margin" not in walled.blocks
     assert layout_of(CFG.with_overrides(**NEAR)).blocks == plain.blocks  # no walls: the same NLP
+    assert layout_of(SHIPPED).blocks == plain.blocks
     near = layout_of(CFG.with_overrides(**NEAR).for_walls(True))
     assert list(near.blocks)[-1] == "margin" and near.size == walled.size + 2
     assert near.margin == (CFG.clearance_margin_m, CFG.uncertainty_sigmas)

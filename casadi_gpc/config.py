@@ -59,7 +59,7 @@ class PlannerConfig:
     """Near walls, the clearance margin in place of :attr:`clearance_margin_m` (for every
     obstacle, walls included), with :attr:`walls_sigmas` in place of
     :attr:`uncertainty_sigmas`, at the ticks where a wall segment is within the robot's reach
-    (:func:`casadi_gpc.safety.walls.walls_reach_m`, the check's own rule; counted
+    (:func:`casadi_gpc.geometry.walls_reach_m`, the check's own rule; counted
     ``walls_margin_ticks``). Where walls bound the room, a person walking down the middle of
     a 2.5 m corridor leaves no place beside them that keeps the open-space margin, and the
     planner backed away before people for metres (docs/buildings.md). The NLP of a map with

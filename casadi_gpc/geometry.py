@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross"]
+__all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "walls_reach_m", "a_wall_within"]
 
 
 def nearest_on_segments(points, a, b) -> np.ndarray:
@@ -36,3 +36,22 @@ def segments_cross(p, q, a, b) -> np.ndarray:
         return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
     with np.errstate(invalid="ignore"):
         return (turn(a, b, p) * turn(a, b, q) <= 0) & (turn(p, q, a) * turn(p, q, b) <= 0)
+
+
+def walls_reach_m(robot, horizon_s: float) -> float:
+    """How far from the robot's centre a wall can matter within ``horizon_s``: its top speed
+    for the whole horizon, its radius, and a metre beyond. The segments the check is handed
+    (:meth:`casadi_gpc.safety.Shield.decide`) and the planner's margin near walls
+    (:attr:`casadi_gpc.config.PlannerConfig.walls_margin_m`) both use it."""
+    return robot.max_wheel_speed_mps * horizon_s + robot.radius_m + 1.0
+
+
+def a_wall_within(walls, xy, reach_m: float) -> bool:
+    """Whether a segment of ``walls`` (polylines of ``(x, y)`` points) comes within ``reach_m``
+    of the point ``xy`` (the planner's test of :func:`walls_reach_m`; the check takes the
+    segments themselves, :func:`casadi_gpc.safety.walls.wall_segments_within`)."""
+    segs = [(*a, *b) for pts in walls for a, b in zip(pts[:-1], pts[1:])]
+    if not segs:
+        return False
+    s = np.asarray(segs, dtype=float)
+    return bool((distance_to_segments_m(np.asarray(xy, dtype=float), s[:, :2], s[:, 2:]) <= reach_m).any())

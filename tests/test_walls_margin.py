@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -16,13 +15,12 @@ import pytest
 casadi = pytest.importorskip("casadi")
 
 from casadi_gpc.config import WALL_SLOTS, preset  # noqa: E402
-from casadi_gpc.planner.gpc import GPCController  # noqa: E402
 from casadi_gpc.problem.cost import build_problem, layout_of  # noqa: E402
 from casadi_gpc.problem.selection import planner_parameters  # noqa: E402
-from casadi_gpc.reference import ReferencePath, Segment  # noqa: E402
-from casadi_gpc.robot import RobotParams, RobotState  # noqa: E402
-from casadi_gpc.safety.walls import walls_reach_m  # noqa: E402
-from casadi_gpc.types import Observation, ObstacleForecast, StaticObstacle  # noqa: E402
+from casadi_gpc.robot import RobotParams  # noqa: E402
+from casadi_gpc.geometry import walls_reach_m  # noqa: E402
+from casadi_gpc.safety.walls import wall_segments_within  # noqa: E402
+from casadi_gpc.types import ObstacleForecast, StaticObstacle  # noqa: E402
 
 SHIPPED = preset("improved")
 CFG = replace(SHIPPED, walls_margin_m=None, walls_sigmas=None)  # one margin everywhere
@@ -102,27 +100,24 @@ def test_the_parameters_price_plans_as_the_constants_do():
     assert differ >= 10, differ
 
 
-def _observation(walls):
-    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
-    return Observation(0.0, RobotState(0.0, 0.0, 0.0, 0.0, 0.0), ref, (), (), walls)
-
-
 def test_a_tick_is_near_walls_within_the_check_s_reach_and_packs_the_near_margin():
+    """The planner's test (:func:`planner_parameters` with the robot's reach) and the check's
+    segments (:func:`wall_segments_within`) agree on either side of the reach, and the near
+    margin is packed only where a wall is within it and the settings have one."""
     robot = RobotParams()
     cfg = CFG.with_overrides(**NEAR).for_walls(True)
     reach = walls_reach_m(robot, cfg.horizon * cfg.sample_time_s)
     assert reach == pytest.approx(0.8 * 6.0 + 0.35 + 1.0)
-    fake = SimpleNamespace(config=cfg, robot=robot)
     inside = (((-3.0, reach - 0.01), (3.0, reach - 0.01)),)
     outside = (((-3.0, reach + 0.01), (3.0, reach + 0.01)),)
-    assert GPCController._near_walls(fake, _observation(inside))
-    assert not GPCController._near_walls(fake, _observation(outside))
-    assert not GPCController._near_walls(fake, _observation(()))
-    assert not GPCController._near_walls(SimpleNamespace(config=CFG.for_walls(True), robot=robot),
-                                         _observation(inside))  # no near margin set
-    layout = layout_of(cfg)
     ref = np.zeros((cfg.horizon + 1, 3))
-    for near, want in ((True, [0.05, 1.0]), (False, [0.15, 2.0])):
-        p, _ = planner_parameters(layout, np.zeros(5), ref, [], [], cfg, None, inside, near)
-        np.testing.assert_array_equal(layout.unpack(p)["margin"], want)
+    for config, walls, near in ((cfg, inside, True), (cfg, outside, False), (cfg, (), False),
+                                (CFG.for_walls(True), inside, False)):  # no near margin set
+        layout = layout_of(config)
+        p, sel = planner_parameters(layout, np.zeros(5), ref, [], [], config, None, walls, reach)
+        assert sel.near_walls is near
+        if walls:
+            assert (len(wall_segments_within(walls, (0.0, 0.0), reach)) > 0) is (walls is inside)
+        if layout.margin is not None:
+            np.testing.assert_array_equal(layout.unpack(p)["margin"], [0.05, 1.0] if near else [0.15, 2.0])
     assert cfg.max_walls == WALL_SLOTS

@@ -10,6 +10,7 @@ import numpy as np
 
 from .candidates import CandidateSet, fell_off_a_ridge, shift
 from ..config import PlannerConfig, preset
+from ..geometry import walls_reach_m
 from ..problem.cost import GPCProblem
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
@@ -412,33 +413,19 @@ class GPCController:
         x0 = obs.robot.as_array()
         path = self._predicted_path(ref)
         crowd = len(self._tiers) > 1 and crowded(self.config, forecasts)
-        if crowd:
-            self.counters["crowd_ticks"] = self.counters.get("crowd_ticks", 0) + 1
         self._use(self._tiers[int(crowd)])
-        near_walls = self._near_walls(obs)
-        if near_walls:
-            self.counters["walls_margin_ticks"] = self.counters.get("walls_margin_ticks", 0) + 1
         p, sel = planner_parameters(self.problem.layout, x0, ref, forecasts, obs.static, self.problem.config,
-                                    path, obs.walls, near_walls)
-        self.counters["left_out"] += sel.left_out
+                                    path, obs.walls, walls_reach_m(self.robot, self.config.horizon * self.sample_time_s))
         self._walls_in_slots = sel.walls
-        if sel.walls_left_out:
-            self.counters["walls_left_out"] = self.counters.get("walls_left_out", 0) + sel.walls_left_out
+        for key, n in (("left_out", sel.left_out), ("crowd_ticks", crowd), ("walls_left_out", sel.walls_left_out),
+                       ("walls_margin_ticks", sel.near_walls)):  # the margin near walls where it applied
+            if n:
+                self.counters[key] = self.counters.get(key, 0) + n
         near_ids = self.near_obstacles(x0, sel.forecasts, sel.statics)
         if near_ids:
             self.counters["multistart"] += 1
         relevant = sel.relevant | {k for k in near_ids if k[0] == "static"}
         return Tick(p, x0, float(obs.reference.speed_mps), bool(near_ids), relevant), sel
-
-    def _near_walls(self, obs: Observation) -> bool:
-        """Whether this tick plans with the margin near walls: the settings have one
-        (:attr:`~casadi_gpc.config.PlannerConfig.walls_margin_m`) and a wall segment is
-        within the robot's reach (the check's rule, :func:`casadi_gpc.safety.walls.walls_reach_m`)."""
-        if self.config.walls_margin_m is None or not obs.walls:
-            return False
-        from ..safety.walls import wall_segments_within, walls_reach_m
-        reach = walls_reach_m(self.robot, self.config.horizon * self.config.sample_time_s)
-        return len(wall_segments_within(obs.walls, (obs.robot.x_m, obs.robot.y_m), reach)) > 0
 
     def solve_tick(self, tick: Tick) -> tuple[Plan | None, list[Plan]]:
         """The best plan of one step and every solve it took (persistent candidates, or the

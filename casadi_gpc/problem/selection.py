@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from ..config import PlannerConfig
-from ..geometry import distance_to_segments_m
+from ..geometry import a_wall_within, distance_to_segments_m
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["Selection", "select_obstacles", "select_walls", "planner_parameters", "pack_selection", "goal_weights",
@@ -49,15 +49,16 @@ class Selection:
     """What :func:`select_obstacles` chose: the forecasts and static obstacles in the slots,
     how many relevant movers did not fit (``left_out``), the ids of every mover within
     ``relevance_range_m`` of the predicted path (``relevant``), the wall segments in the
-    slots (``walls``: ``(ax, ay, bx, by)`` each) and how many segments within the relevance
-    range did not fit (``walls_left_out``)."""
+    slots (``walls``: ``(ax, ay, bx, by)`` each), how many segments within the relevance
+    range did not fit (``walls_left_out``), and whether the margin near walls applies
+    (``near_walls``, :func:`planner_parameters`)."""
 
-    __slots__ = ("forecasts", "statics", "left_out", "relevant", "walls", "walls_left_out")
+    __slots__ = ("forecasts", "statics", "left_out", "relevant", "walls", "walls_left_out", "near_walls")
 
     def __init__(self, forecasts, statics, left_out: int, relevant: frozenset = frozenset(), walls=(),
-                 walls_left_out: int = 0):
+                 walls_left_out: int = 0, near_walls: bool = False):
         self.forecasts, self.statics, self.left_out, self.relevant = forecasts, statics, left_out, relevant
-        self.walls, self.walls_left_out = walls, walls_left_out
+        self.walls, self.walls_left_out, self.near_walls = walls, walls_left_out, near_walls
 
 
 def select_walls(x0: np.ndarray, walls, config: PlannerConfig, path_xy: np.ndarray | None = None
@@ -127,22 +128,25 @@ def goal_weights(ref_poses: np.ndarray, config: PlannerConfig) -> np.ndarray | N
 
 
 def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts, statics, config: PlannerConfig,
-                       path_xy: np.ndarray | None = None, walls=(), near_walls: bool = False
+                       path_xy: np.ndarray | None = None, walls=(), walls_reach_m: float | None = None
                        ) -> tuple[np.ndarray, Selection]:
     """The NLP parameter vector of one tick and the obstacles in it: :func:`select_obstacles`,
     packed by the problem's parameter ``layout`` (:meth:`casadi_gpc.problem.cost.ParameterLayout.pack`).
 
     ``ref_poses``: the desired poses ``[x_m, y_m, heading_rad]`` at steps 0..H, shape
     (H + 1, 3) (step 0: where the reference point is now). ``walls``: the map's polylines
-    (:attr:`casadi_gpc.types.Observation.walls`), for an NLP with wall slots. ``near_walls``:
-    a wall is within the robot's reach, so the margin near walls applies
-    (:attr:`~casadi_gpc.config.PlannerConfig.walls_margin_m`, where the layout takes it).
-    Returns the parameters and the selection.
+    (:attr:`casadi_gpc.types.Observation.walls`), for an NLP with wall slots.
+    ``walls_reach_m``: the robot's reach (:func:`casadi_gpc.geometry.walls_reach_m`); where a
+    wall segment is within it of the robot, the margin near walls applies
+    (:attr:`~casadi_gpc.config.PlannerConfig.walls_margin_m`, where the layout takes it;
+    ``Selection.near_walls``). Returns the parameters and the selection.
     """
     sel = select_obstacles(x0, forecasts, statics, config, path_xy)
     if walls and config.max_walls:
         sel.walls, sel.walls_left_out = select_walls(x0, walls, config, path_xy)
-    return pack_selection(layout, x0, ref_poses, sel, config, near_walls), sel
+    sel.near_walls = bool(walls) and config.walls_margin_m is not None and walls_reach_m is not None and \
+        getattr(layout, "margin", None) is not None and a_wall_within(walls, x0[:2], walls_reach_m)
+    return pack_selection(layout, x0, ref_poses, sel, config, sel.near_walls), sel
 
 
 def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Selection, config: PlannerConfig,

@@ -19,6 +19,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..geometry import walls_reach_m
 from .distances import path_segment_distances, point_segment_distance
 
 __all__ = ["wall_segments", "wall_segments_within", "walls_reach_m", "point_segment_distance", "path_segment_distances",
@@ -34,14 +35,6 @@ def wall_segments(walls: tuple) -> np.ndarray:
     out = np.array(rows, dtype=complex).reshape(-1, 2)
     out.flags.writeable = False  # shared: the rows a check is given are a copy (wall_segments_within)
     return out
-
-
-def walls_reach_m(robot, horizon_s: float) -> float:
-    """How far from the robot's centre a wall can matter within ``horizon_s``: its top speed
-    for the whole horizon, its radius, and a metre beyond. The segments the check is handed
-    (:meth:`casadi_gpc.safety.Shield.decide`) and the planner's near-walls margin
-    (:attr:`casadi_gpc.config.PlannerConfig.walls_margin_m`) both use it."""
-    return robot.max_wheel_speed_mps * horizon_s + robot.radius_m + 1.0
 
 
 def wall_segments_within(walls: tuple, xy, reach_m: float) -> np.ndarray:

@@ -20,3 +20,12 @@ if mode in ("B", "BW", "BW5"):
         return replace(_orig(*a, **kw), walls_margin_m=check_margin, walls_sigmas=1.0, **extra)
     C.REGISTRY["gpc"] = C.Kind(C.REGISTRY["gpc"].default_shield, _gpc_check)
     print(f"GPCNAV_EXP_WALLS_MARGIN={mode}", file=sys.stderr)
+if os.environ.get("GPCNAV_EXP_NN_WALLS_MARGIN") == "1":
+    # the deployed network's check with the GPC's check margin near walls (0.05 m + 1 sigma)
+    from dataclasses import replace
+    from gpcnav import controllers as C
+    _orig_nn = C._nn_check
+    def _nn_check(*a, **kw):
+        return replace(_orig_nn(*a, **kw), walls_margin_m=0.05, walls_sigmas=1.0)
+    C.REGISTRY["nn"] = C.Kind(C.REGISTRY["nn"].default_shield, _nn_check)
+    print("GPCNAV_EXP_NN_WALLS_MARGIN=1", file=sys.stderr)

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "walls_reach_m", "a_wall_within"]
+__all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "segment_rows", "walls_reach_m",
+           "a_wall_within"]
 
 
 def nearest_on_segments(points, a, b) -> np.ndarray:
@@ -38,6 +39,12 @@ def segments_cross(p, q, a, b) -> np.ndarray:
         return (turn(a, b, p) * turn(a, b, q) <= 0) & (turn(p, q, a) * turn(p, q, b) <= 0)
 
 
+def segment_rows(walls) -> np.ndarray:
+    """The segments of ``walls`` (polylines of ``(x, y)`` points) as rows ``(ax, ay, bx, by)``,
+    shape ``(n, 4)``."""
+    return np.array([(*a, *b) for pts in walls for a, b in zip(pts[:-1], pts[1:])], dtype=float).reshape(-1, 4)
+
+
 def walls_reach_m(robot, horizon_s: float) -> float:
     """How far from the robot's centre a wall can matter within ``horizon_s``: its top speed
     for the whole horizon, its radius, and a metre beyond. The segments the check is handed
@@ -50,8 +57,6 @@ def a_wall_within(walls, xy, reach_m: float) -> bool:
     """Whether a segment of ``walls`` (polylines of ``(x, y)`` points) comes within ``reach_m``
     of the point ``xy`` (the planner's test of :func:`walls_reach_m`; the check takes the
     segments themselves, :func:`casadi_gpc.safety.walls.wall_segments_within`)."""
-    segs = [(*a, *b) for pts in walls for a, b in zip(pts[:-1], pts[1:])]
-    if not segs:
-        return False
-    s = np.asarray(segs, dtype=float)
-    return bool((distance_to_segments_m(np.asarray(xy, dtype=float), s[:, :2], s[:, 2:]) <= reach_m).any())
+    s = segment_rows(walls)
+    return bool(len(s)) and bool((distance_to_segments_m(np.asarray(xy, dtype=float), s[:, :2], s[:, 2:])
+                                  <= reach_m).any())

@@ -1018,61 +1018,23 @@ def test_a_drive_in_judged_against_the_uncertain_discs_is_the_whole_array_one():
     assert sooner > 20
 
 
-def test_a_search_near_walls_is_the_plain_check_in_the_open_and_the_search_by_a_wall():
-    """``search_near_walls``: where the check is handed no wall it decides as the check without
-    the search, and where it is handed one as the check with the search in two phases, verdict
-    for verdict, counters too, over random crowds and commands, the same filter going from one
-    to the other and back. Both cases must occur, and the search must change some verdicts by
-    the walls, or nothing is compared."""
+def _gated_by_walls(gated, open_, near_ref, seed: int, counted: tuple) -> list:
+    """``gated`` (a filter whose settings switch by walls) against ``open_`` where it is handed
+    no wall and ``near_ref`` where it is handed a corridor's, alternately, over random crowds and
+    commands: the same verdicts (and checks) and the same counter increments, asserted. Returns,
+    for the decisions by the walls, ``(open_'s verdict there, gated's)``."""
     from casadi_gpc.safety.walls import wall_segments_within
     T, H = 0.5, 12
-    rng = np.random.default_rng(31)
-    plain, searching = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, search=True, search_two_phase=True)
-    gated = SafetyFilter(ROBOT, T, H, search=True, search_two_phase=True, search_near_walls=True)
+    rng = np.random.default_rng(seed)
     corridor = (((-20.0, -1.1), (20.0, -1.1)), ((-20.0, 1.3), (20.0, 1.3)))
-    counted = ("interventions", "manoeuvres", "searched", "two_phase_searched", "two_phase_taken")
-    differ = 0
+    pairs = []
     for i in range(90):
         near = i % 2 == 1  # alternately handed the walls and not: the same filter both ways
         walls = wall_segments_within(corridor, (0.0, 0.0), 6.0) if near else None
         state = np.array([0.0, 0.0, rng.uniform(-0.3, 0.3), *rng.uniform(0.0, 0.8, 2)])
         fcs = _movers(rng, T, H, int(rng.integers(3, 9)), 3.0, 0.6)
         plan = np.broadcast_to(rng.uniform(-0.2, 0.8, 2), (H, 2)).copy()
-        ref = searching if near else plain
-        before = {k: (ref.counters[k], gated.counters[k]) for k in counted}
-        got, want = gated.filter(observation(state), plan, fcs, (), walls=walls), \
-            ref.filter(observation(state), plan, fcs, (), walls=walls)
-        assert (got.v_right_mps, got.v_left_mps, got.intervened, got.source, got.reason) == \
-            (want.v_right_mps, want.v_left_mps, want.intervened, want.source, want.reason)
-        for k in counted:
-            assert gated.counters[k] - before[k][1] == ref.counters[k] - before[k][0], k
-        if near:
-            other = plain.filter(observation(state), plan, fcs, (), walls=walls)
-            differ += (other.v_right_mps, other.v_left_mps) != (got.v_right_mps, got.v_left_mps)
-    assert gated.counters["searched"] > 5 and differ > 3  # 16 and 12
-
-
-def test_the_margin_near_walls_is_the_open_check_elsewhere_and_the_near_one_by_a_wall():
-    """``walls_margins``: where the check is handed no wall it decides as the check with the
-    open margin (0.05 m + 2 sigma), and where it is handed one as a check built with the near
-    margin (0.02 m + 1 sigma), verdict for verdict and counter for counter, the same filter
-    going from one to the other and back. The margins must change some verdicts by the walls,
-    or nothing is compared; and a filter's margins are refused when not finite."""
-    from casadi_gpc.safety.walls import wall_segments_within
-    T, H = 0.5, 12
-    rng = np.random.default_rng(37)
-    open_, near_ = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, margin_m=0.02, sigmas=1.0)
-    gated = SafetyFilter(ROBOT, T, H, walls_margins=(0.02, 1.0))
-    corridor = (((-20.0, -1.1), (20.0, -1.1)), ((-20.0, 1.3), (20.0, 1.3)))
-    counted = ("interventions", "manoeuvres")
-    differ = 0
-    for i in range(90):
-        near = i % 2 == 1
-        walls = wall_segments_within(corridor, (0.0, 0.0), 6.0) if near else None
-        state = np.array([0.0, 0.0, rng.uniform(-0.3, 0.3), *rng.uniform(0.0, 0.8, 2)])
-        fcs = _movers(rng, T, H, int(rng.integers(3, 9)), 3.0, 0.6)
-        plan = np.broadcast_to(rng.uniform(-0.2, 0.8, 2), (H, 2)).copy()
-        ref = near_ if near else open_
+        ref = near_ref if near else open_
         before = {k: (ref.counters[k], gated.counters[k]) for k in counted}
         got, want = gated.filter(observation(state), plan, fcs, (), walls=walls), \
             ref.filter(observation(state), plan, fcs, (), walls=walls)
@@ -1082,9 +1044,37 @@ def test_the_margin_near_walls_is_the_open_check_elsewhere_and_the_near_one_by_a
         for k in counted:
             assert gated.counters[k] - before[k][1] == ref.counters[k] - before[k][0], k
         if near:
-            other = open_.filter(observation(state), plan, fcs, (), walls=walls)
-            differ += (other.intervened, other.v_right_mps, other.v_left_mps) != \
-                (got.intervened, got.v_right_mps, got.v_left_mps)
+            pairs.append((open_.filter(observation(state), plan, fcs, (), walls=walls), got))
+    return pairs
+
+
+def test_a_search_near_walls_is_the_plain_check_in_the_open_and_the_search_by_a_wall():
+    """``search_near_walls``: where the check is handed no wall it decides as the check without
+    the search, and where it is handed one as the check with the search in two phases, verdict
+    for verdict, counters too, over random crowds and commands, the same filter going from one
+    to the other and back. Both cases must occur, and the search must change some verdicts by
+    the walls, or nothing is compared."""
+    T, H = 0.5, 12
+    plain, searching = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, search=True, search_two_phase=True)
+    gated = SafetyFilter(ROBOT, T, H, search=True, search_two_phase=True, search_near_walls=True)
+    pairs = _gated_by_walls(gated, plain, searching, 31,
+                            ("interventions", "manoeuvres", "searched", "two_phase_searched", "two_phase_taken"))
+    differ = sum((o.v_right_mps, o.v_left_mps) != (g.v_right_mps, g.v_left_mps) for o, g in pairs)
+    assert gated.counters["searched"] > 5 and differ > 3  # 16 and 12
+
+
+def test_the_margin_near_walls_is_the_open_check_elsewhere_and_the_near_one_by_a_wall():
+    """``walls_margins``: where the check is handed no wall it decides as the check with the
+    open margin (0.05 m + 2 sigma), and where it is handed one as a check built with the near
+    margin (0.02 m + 1 sigma), verdict for verdict and counter for counter, the same filter
+    going from one to the other and back. The margins must change some verdicts by the walls,
+    or nothing is compared; and a filter's margins are refused when not finite."""
+    T, H = 0.5, 12
+    open_, near_ = SafetyFilter(ROBOT, T, H), SafetyFilter(ROBOT, T, H, margin_m=0.02, sigmas=1.0)
+    gated = SafetyFilter(ROBOT, T, H, walls_margins=(0.02, 1.0))
+    pairs = _gated_by_walls(gated, open_, near_, 37, ("interventions", "manoeuvres"))
+    differ = sum((o.intervened, o.v_right_mps, o.v_left_mps) != (g.intervened, g.v_right_mps, g.v_left_mps)
+                 for o, g in pairs)
     assert gated.counters["walls_margin_checks"] == 45
     assert differ > 3, differ
     with pytest.raises(ValueError, match="walls_margins"):

@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from ..config import PlannerConfig
-from ..geometry import a_wall_within, distance_to_segments_m
+from ..geometry import a_wall_within, distance_to_segments_m, segment_rows
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["Selection", "select_obstacles", "select_walls", "planner_parameters", "pack_selection", "goal_weights",
@@ -67,7 +67,7 @@ def select_walls(x0: np.ndarray, walls, config: PlannerConfig, path_xy: np.ndarr
     polylines ``walls`` (``(x, y)`` points each), the nearest to the robot's predicted path
     (and to the robot now) first; and how many within ``relevance_range_m`` of it did not
     fit (counted: they are still in the check layer)."""
-    segs = np.array([(*a, *b) for pts in walls for a, b in zip(pts[:-1], pts[1:])], dtype=float).reshape(-1, 4)
+    segs = segment_rows(walls)
     if not len(segs) or config.max_walls == 0:
         return [], 0
     pts = np.asarray(x0[:2], dtype=float)[None] if path_xy is None else np.vstack([x0[:2], np.asarray(path_xy)[:, :2]])
@@ -152,12 +152,11 @@ def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts,
 def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Selection, config: PlannerConfig,
                    near_walls: bool = False) -> np.ndarray:
     """The NLP parameter vector of a :class:`Selection` made already, packed by ``layout``
-    (the part of :func:`planner_parameters` after the choice). ``layout`` may have fewer
+    (the part of :func:`planner_parameters` after the choice; ``near_walls``: with the margin
+    near walls, as :attr:`Selection.near_walls` says it applies). ``layout`` may have fewer
     slots than ``config`` where the selection fits in them (the labeller solves on such an
     NLP: an empty slot's terms are exact zeros, so the answer is the same)."""
     ref = np.asarray(ref_poses, dtype=float)
-    margin = ((config.walls_margin_m, config.walls_sigmas)
-              if near_walls and config.walls_margin_m is not None and getattr(layout, "margin", None) is not None
-              else None)
+    margin = (config.walls_margin_m, config.walls_sigmas) if near_walls else None
     return layout.pack(x0, ref[1:], selection.forecasts, selection.statics, config.uncertainty_scale_m,
                        goal_weights(ref, config), getattr(selection, "walls", ()), margin)

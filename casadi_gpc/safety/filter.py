@@ -180,11 +180,10 @@ class SafetyFilter(WayOutSearch, QuickScreen):
     def _filter(self, observation, wheels, forecasts, statics, poses, alternatives, trust_s, previous,
                 plan_on_demand, walls) -> SafetyVerdict:
         """:meth:`filter`'s body."""
+        near = walls is not None and len(walls) > 0  # the settings that switch by walls
         if self.search_near_walls:
-            near = walls is not None and len(walls) > 0
             self.search_way_out, self.search_two_phase = (near and v for v in self._search_setting)
         if self._walls_margins is not None:
-            near = walls is not None and len(walls) > 0
             self.margin_m, self.sigmas = self._walls_margins if near else self._margins
             if near:
                 self.counters["walls_margin_checks"] = self.counters.get("walls_margin_checks", 0) + 1

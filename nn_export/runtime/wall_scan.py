@@ -26,6 +26,8 @@ import math
 
 import numpy as np
 
+from casadi_gpc.geometry import segment_rows as wall_segment_rows  # the walls' segments as (ax, ay, bx, by) rows
+
 __all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "wall_segment_rows", "segments_near", "wall_scan", "sector_mirror"]
 
 WALL_SECTORS = 24
@@ -35,14 +37,6 @@ WALL_SCAN_RANGE_M = 4.0
 planner's obstacle terms reach 1.5 m from the robot's disc, its path 4.8 m in a horizon at top
 speed; within 4 m the network sees every wall the planner's plan could meet in the next
 seconds)."""
-
-
-def wall_segment_rows(walls) -> np.ndarray:
-    """The segments of ``walls`` (polylines of ``(x, y)`` points, as
-    :attr:`casadi_gpc.types.Observation.walls` holds them) as rows ``(ax, ay, bx, by)``,
-    shape ``(m, 4)``."""
-    rows = [(*a, *b) for pts in walls for a, b in zip(pts[:-1], pts[1:])]
-    return np.array(rows, dtype=float).reshape(-1, 4)
 
 
 def segments_near(rows: np.ndarray, x: float, y: float, reach_m: float) -> np.ndarray:

@@ -121,3 +121,70 @@ def test_a_tick_is_near_walls_within_the_check_s_reach_and_packs_the_near_margin
         if layout.margin is not None:
             np.testing.assert_array_equal(layout.unpack(p)["margin"], [0.05, 1.0] if near else [0.15, 2.0])
     assert cfg.max_walls == WALL_SLOTS
+
+
+@pytest.mark.parametrize("bad,words", [
+    (dict(walls_sigma_cap_m=0.1), "set walls_margin_m too"),
+    (dict(walls_sigma_cap_m=-0.1, **NEAR), "walls_sigma_cap_m must be finite"),
+    (dict(walls_sigma_cap_m=math.inf, **NEAR), "walls_sigma_cap_m must be finite"),
+])
+def test_bad_sigma_caps_near_walls_are_refused(bad, words):
+    with pytest.raises(ValueError, match=words):
+        CFG.with_overrides(**bad)
+
+
+def _growing(rng, H, j):
+    """A forecast whose deviation grows from a few cm to about half a metre over the horizon,
+    its covariance not isotropic."""
+    a = rng.uniform(0.5, 1.5)
+    covs = np.array([np.diag([(0.04 * k) ** 2 * a, (0.04 * k) ** 2 / a]) + 1e-4 * k * np.array([[0, 1], [1, 0]])
+                     for k in range(1, H + 1)])
+    return ObstacleForecast(j, 0.3, np.array([0.6, 0.8]) + np.outer(np.arange(1, H + 1), rng.uniform(-0.2, 0.2, 2)), covs)
+
+
+def test_the_sigma_cap_near_walls_caps_the_margin_s_deviation_and_nothing_else():
+    """Near a wall, with ``walls_sigma_cap_m``: the movers' deviations packed for the margin
+    are min(worst deviation, cap), the worst deviation computed here from the covariances'
+    eigenvalues; the margin term of every plan is the one of the same NLP handed covariances
+    whose worst deviation is the capped one (isotropic where capped), and every other term
+    is unchanged. Away from walls, or without the cap, the forecast's own deviations."""
+    H, M, W = 12, 3, 2
+    robot = RobotParams()
+    cfg = CFG.with_overrides(horizon=H, max_moving=M, max_walls=W, crowd_moving=None, **NEAR)
+    capped = cfg.with_overrides(walls_sigma_cap_m=0.1)
+    problem = build_problem(cfg, robot)
+    layout = problem.layout
+    reach = walls_reach_m(robot, H * cfg.sample_time_s)
+    rng = np.random.default_rng(3)
+    x0 = np.array([0.0, 0.0, 0.1, 0.3, 0.35])
+    ref = np.column_stack([0.2 * np.arange(H + 1), np.zeros(H + 1), np.zeros(H + 1)])
+    near_walls = (((-5.0, 0.9), (5.0, 0.9)), ((-5.0, -0.8), (5.0, -0.8)))
+    far_walls = (((-5.0, reach + 1.0), (5.0, reach + 1.0)),)
+    fcs = [_growing(rng, H, j) for j in range(M)]
+    worst = np.sqrt(np.array([[np.linalg.eigvalsh(c).max() for c in f.covs_m2] for f in fcs]))
+    assert (worst > 0.1).any() and (worst < 0.1).any()  # some steps capped, some not
+    sig = lambda p: layout.unpack(p)["mov_sigma"].reshape(M, H)  # noqa: E731
+    p_cap, sel = planner_parameters(layout, x0, ref, fcs, [], capped, None, near_walls, reach)
+    assert sel.near_walls
+    np.testing.assert_allclose(sig(p_cap), np.minimum(worst, 0.1), rtol=1e-12, atol=1e-15)
+    p_open, _ = planner_parameters(layout, x0, ref, fcs, [], cfg, None, near_walls, reach)
+    np.testing.assert_allclose(sig(p_open), worst, rtol=1e-12, atol=1e-15)
+    p_far, sel_far = planner_parameters(layout_of(capped.with_overrides(max_walls=W)), x0, ref, fcs, [], capped, None,
+                                        far_walls, reach)
+    assert not sel_far.near_walls
+    np.testing.assert_allclose(sig(p_far), worst, rtol=1e-12, atol=1e-15)
+    # the margin term as if the forecasts were that sure of themselves; the rest unchanged
+    sure = [ObstacleForecast(f.obstacle_id, f.radius_m, f.means_m,
+                             np.array([c if w <= 0.1 else 0.01 * np.eye(2) for c, w in zip(f.covs_m2, ws)]))
+            for f, ws in zip(fcs, worst)]
+    p_sure, _ = planner_parameters(layout, x0, ref, sure, [], cfg, None, near_walls, reach)
+    differ = 0
+    for _ in range(20):
+        u = rng.uniform(-0.2, 0.2, 2 * H)
+        t_cap = [float(t) for t in problem.terms_fn(u, p_cap)]
+        t_open = [float(t) for t in problem.terms_fn(u, p_open)]
+        t_sure = [float(t) for t in problem.terms_fn(u, p_sure)]
+        assert t_cap[4] == pytest.approx(t_sure[4], rel=1e-12, abs=1e-12)
+        assert t_cap[:4] == t_open[:4] and t_cap[5:] == t_open[5:]
+        differ += t_cap[4] != t_open[4]
+    assert differ >= 10, differ

@@ -100,12 +100,14 @@ class ParameterLayout:
         ref_weights: np.ndarray | None = None,
         walls=(),
         margin: tuple[float, float] | None = None,
+        sigma_cap_m: float | None = None,
     ) -> np.ndarray:
         """Parameter vector for one tick, the obstacles in the order given
         (:mod:`casadi_gpc.problem.selection` chooses them). ``ref_weights``: the tracking weight
         factor of each desired pose (:func:`casadi_gpc.problem.selection.goal_weights`; None: 1).
         ``margin``: the clearance margin and its sigmas for this tick, for a layout that takes
-        them (None: the layout's own, :attr:`margin`)."""
+        them (None: the layout's own, :attr:`margin`). ``sigma_cap_m``: the movers' standard
+        deviations that inflate the margin taken at most this (None: their own)."""
         H, M, S = self.horizon, self.max_moving, self.max_static
         if len(forecasts) > M or len(statics) > S:
             raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")
@@ -119,7 +121,8 @@ class ParameterLayout:
             covs = np.array([f.covs_m2 for f in forecasts], dtype=float)      # (n, H, 2, 2)
             p[sl["mov_xy"]].reshape(M, H, 2)[:n] = [f.means_m for f in forecasts]
             p[sl["mov_p"]].reshape(M, H)[:n] = 1.0 + (covs[..., 0, 0] + covs[..., 1, 1]) / uncertainty_scale_m ** 2
-            p[sl["mov_sigma"]].reshape(M, H)[:n] = worst_std_m(covs)
+            sigma = worst_std_m(covs)
+            p[sl["mov_sigma"]].reshape(M, H)[:n] = sigma if sigma_cap_m is None else np.minimum(sigma, sigma_cap_m)
             p[sl["mov_r"]][:n] = [f.radius_m for f in forecasts]
             p[sl["mov_on"]][:n] = 1.0
         if statics:

@@ -155,8 +155,11 @@ def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Sel
     (the part of :func:`planner_parameters` after the choice; ``near_walls``: with the margin
     near walls, as :attr:`Selection.near_walls` says it applies). ``layout`` may have fewer
     slots than ``config`` where the selection fits in them (the labeller solves on such an
-    NLP: an empty slot's terms are exact zeros, so the answer is the same)."""
+    NLP: an empty slot's terms are exact zeros, so the answer is the same). Near walls the
+    movers' deviations in the margin are capped by
+    :attr:`~casadi_gpc.config.PlannerConfig.walls_sigma_cap_m` where it is set."""
     ref = np.asarray(ref_poses, dtype=float)
     margin = (config.walls_margin_m, config.walls_sigmas) if near_walls else None
+    cap = config.walls_sigma_cap_m if near_walls else None
     return layout.pack(x0, ref[1:], selection.forecasts, selection.statics, config.uncertainty_scale_m,
-                       goal_weights(ref, config), getattr(selection, "walls", ()), margin)
+                       goal_weights(ref, config), getattr(selection, "walls", ()), margin, cap)

@@ -188,3 +188,64 @@ def test_the_sigma_cap_near_walls_caps_the_margin_s_deviation_and_nothing_else()
         assert t_cap[:4] == t_open[:4] and t_cap[5:] == t_open[5:]
         differ += t_cap[4] != t_open[4]
     assert differ >= 10, differ
+
+
+def test_the_directional_deviation_is_refused_without_a_margin_near_walls():
+    with pytest.raises(ValueError, match="set walls_margin_m too"):
+        CFG.with_overrides(walls_directional_sigma=True)
+
+
+def test_the_directional_deviation_prices_the_margin_along_the_line_to_the_robot():
+    """With ``walls_directional_sigma``: the NLP of a map with walls takes the forecasts'
+    covariances and a switch; switched off (a tick away from walls) it prices every plan bit
+    for bit as the NLP without the option; switched on (near walls: ``planner_parameters``
+    sets it), its margin term is the one computed here in numpy from the roll-out's positions,
+    each mover's margin inflated by sqrt(u' C u) along the line u from it to the robot; and
+    that is never more than with the worst deviation, and less in most plans."""
+    H, M, W = 12, 3, 2
+    robot = RobotParams()
+    base = CFG.with_overrides(horizon=H, max_moving=M, max_walls=W, crowd_moving=None, **NEAR)
+    cfg = base.with_overrides(walls_directional_sigma=True)
+    plain, directional = build_problem(base, robot), build_problem(cfg, robot)
+    assert "dir" not in plain.layout.blocks and directional.layout.blocks["mov_cov"] == (M, H, 3)
+    assert "dir" not in layout_of(CFG.with_overrides(walls_directional_sigma=True, **NEAR)).blocks  # no walls
+    reach = walls_reach_m(robot, H * cfg.sample_time_s)
+    near_walls = (((-5.0, 0.9), (5.0, 0.9)), ((-5.0, -0.8), (5.0, -0.8)))
+    far_walls = (((-5.0, reach + 1.0), (5.0, reach + 1.0)),)
+    rng = np.random.default_rng(11)
+    x0 = np.array([0.0, 0.0, 0.1, 0.3, 0.35])
+    ref = np.column_stack([0.2 * np.arange(H + 1), np.zeros(H + 1), np.zeros(H + 1)])
+    e, pen = cfg.margin_smoothing_m, cfg.clearance_penalty
+    smaller = 0
+    for _ in range(12):
+        fcs = [_growing(rng, H, j) for j in range(M)]
+        u = rng.uniform(-0.2, 0.2, 2 * H)
+        # away from walls: the switch off, every term as the NLP without the option
+        p_off, sel = planner_parameters(directional.layout, x0, ref, fcs, [], cfg, None, far_walls, reach)
+        p_plain, _ = planner_parameters(plain.layout, x0, ref, fcs, [], base, None, far_walls, reach)
+        assert not sel.near_walls and directional.layout.unpack(p_off)["dir"][0] == 0.0
+        assert [float(t) for t in directional.terms_fn(u, p_off)] == [float(t) for t in plain.terms_fn(u, p_plain)]
+        # near walls: the switch on
+        p_on, sel = planner_parameters(directional.layout, x0, ref, fcs, [], cfg, None, near_walls, reach)
+        p_worst, _ = planner_parameters(plain.layout, x0, ref, fcs, [], base, None, near_walls, reach)
+        assert sel.near_walls and directional.layout.unpack(p_on)["dir"][0] == 1.0
+        t_on = [float(t) for t in directional.terms_fn(u, p_on)]
+        t_worst = [float(t) for t in plain.terms_fn(u, p_worst)]
+        assert t_on[:4] == t_worst[:4]
+        xy = np.asarray(plain.rollout_fn(u, p_worst)[0])[:, :2]  # the robot after steps 1..H
+        expected = 0.0
+        for f in fcs:
+            for i in range(H):
+                r = xy[i] - f.means_m[i]
+                dist = np.hypot(*r)
+                d = dist - robot.radius_m - f.radius_m
+                along = np.sqrt(r @ f.covs_m2[i] @ r / dist ** 2)
+                worst = np.sqrt(np.linalg.eigvalsh(f.covs_m2[i]).max())
+                for sigma, sign in ((along, 1.0), (worst, -1.0)):
+                    x = 0.05 + 1.0 * sigma - d
+                    expected += sign * pen * (0.5 * (x + np.sqrt(x * x + e * e))) ** 2
+        # the walls' margin terms are the same in both: the difference is the movers' alone
+        assert t_on[4] - t_worst[4] == pytest.approx(expected, rel=1e-7, abs=1e-9)
+        assert t_on[4] <= t_worst[4] + 1e-12
+        smaller += t_on[4] < t_worst[4] - 1e-9
+    assert smaller >= 6, smaller

@@ -48,8 +48,13 @@ class ParameterLayout:
     max_walls: int = 0
     margin: tuple[float, float] | None = None
     """The clearance margin and its sigmas when the NLP takes them as parameters (block
-    ``margin``, last: :attr:`casadi_gpc.config.PlannerConfig.walls_margin_m`), the values an
+    ``margin``: :attr:`casadi_gpc.config.PlannerConfig.walls_margin_m`), the values an
     unset :meth:`pack` writes; None: constants of the cost."""
+    directional: bool = False
+    """Whether the NLP can inflate its margin by each mover's deviation along the line from
+    it to the robot (blocks ``mov_cov``, the forecasts' covariances, and ``dir``, 1 at the
+    ticks that do, 0 where the worst deviation ``mov_sigma`` is used:
+    :attr:`casadi_gpc.config.PlannerConfig.walls_directional_sigma`)."""
 
     @property
     def blocks(self) -> dict[str, tuple[int, ...]]:
@@ -57,6 +62,9 @@ class ParameterLayout:
         extra = {"wall_ab": (W, 4), "wall_on": (W,)} if W else {}  # segment ends (ax, ay, bx, by)
         if self.margin is not None:
             extra["margin"] = (2,)  # the clearance margin (m) and the sigmas that inflate it
+        if self.directional:
+            extra["mov_cov"] = (M, H, 3)  # the forecasts' covariances: xx, xy, yy (m^2)
+            extra["dir"] = (1,)  # 1: the margin's deviation along the line to the robot; 0: the worst
         return {
             "x0": (5,),                  # x, y, heading, v_right, v_left
             "ref": (H, 3),               # desired x, y, heading at steps 1..H
@@ -101,13 +109,16 @@ class ParameterLayout:
         walls=(),
         margin: tuple[float, float] | None = None,
         sigma_cap_m: float | None = None,
+        directional: bool = False,
     ) -> np.ndarray:
         """Parameter vector for one tick, the obstacles in the order given
         (:mod:`casadi_gpc.problem.selection` chooses them). ``ref_weights``: the tracking weight
         factor of each desired pose (:func:`casadi_gpc.problem.selection.goal_weights`; None: 1).
         ``margin``: the clearance margin and its sigmas for this tick, for a layout that takes
         them (None: the layout's own, :attr:`margin`). ``sigma_cap_m``: the movers' standard
-        deviations that inflate the margin taken at most this (None: their own)."""
+        deviations that inflate the margin taken at most this (None: their own).
+        ``directional``: this tick's margin takes each mover's deviation along the line from it
+        to the robot (a layout with :attr:`directional`; else its worst, ``mov_sigma``)."""
         H, M, S = self.horizon, self.max_moving, self.max_static
         if len(forecasts) > M or len(statics) > S:
             raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")
@@ -125,6 +136,12 @@ class ParameterLayout:
             p[sl["mov_sigma"]].reshape(M, H)[:n] = sigma if sigma_cap_m is None else np.minimum(sigma, sigma_cap_m)
             p[sl["mov_r"]][:n] = [f.radius_m for f in forecasts]
             p[sl["mov_on"]][:n] = 1.0
+            if directional:
+                p[sl["mov_cov"]].reshape(M, H, 3)[:n] = np.stack([covs[..., 0, 0], covs[..., 0, 1], covs[..., 1, 1]], -1)
+        if directional:
+            if not self.directional:
+                raise ValueError("this NLP takes no directional deviations")
+            p[sl["dir"]] = 1.0
         if statics:
             sta_xy, sta_r, sta_on = p[sl["sta_xy"]], p[sl["sta_r"]], p[sl["sta_on"]]
             for j, st in enumerate(statics):
@@ -218,7 +235,8 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
     for j in range(M):
         k = (j * H + i) * 2
         obstacles.append((P["mov_xy"][k], P["mov_xy"][k + 1], P["mov_r"][j], P["mov_on"][j],
-                          P["mov_p"][j * H + i], P["mov_sigma"][j * H + i], config.xi_moving))
+                          P["mov_p"][j * H + i], _mover_sigma(P, j, H, i, x, y, P["mov_xy"][k], P["mov_xy"][k + 1]),
+                          config.xi_moving))
     for j in range(S):
         obstacles.append((P["sta_xy"][2 * j], P["sta_xy"][2 * j + 1], P["sta_r"][j], P["sta_on"][j],
                           1.0, 0.0, config.xi_static))
@@ -246,6 +264,22 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
     return tracking, turning, obst, margin_pen
 
 
+def _mover_sigma(P: dict, j: int, H: int, i: int, x, y, ox, oy):
+    """The deviation that inflates the margin from mover ``j`` at step ``i``: its forecast's
+    worst (``mov_sigma``), or, at the ticks whose ``dir`` is 1, its deviation along the line
+    from it to the robot at ``(x, y)``, sqrt(u' C u) with u that line's direction: a person's
+    forecast is far surer across their way than along it (its speed less known than its
+    heading), and a robot beside them needs only the room across."""
+    worst = P["mov_sigma"][j * H + i]
+    if "dir" not in P:
+        return worst
+    c = 3 * (j * H + i)
+    sxx, sxy, syy = P["mov_cov"][c], P["mov_cov"][c + 1], P["mov_cov"][c + 2]
+    dx, dy = x - ox, y - oy
+    along = ca.sqrt((dx * dx * sxx + 2 * dx * dy * sxy + dy * dy * syy) / (dx * dx + dy * dy + 1e-12) + 1e-12)
+    return ca.if_else(P["dir"][0] > 0.5, along, worst)
+
+
 def margin_terms(config: PlannerConfig, P: dict) -> tuple:
     """The clearance margin and the sigmas that inflate it: the NLP's parameters where its
     layout takes them (block ``margin``), else the settings' constants."""
@@ -259,7 +293,8 @@ def layout_of(config: PlannerConfig) -> ParameterLayout:
     wall slots and a margin near walls."""
     margin = ((config.clearance_margin_m, config.uncertainty_sigmas)
               if config.max_walls and config.walls_margin_m is not None else None)
-    return ParameterLayout(config.horizon, config.max_moving, config.max_static, config.max_walls, margin)
+    return ParameterLayout(config.horizon, config.max_moving, config.max_static, config.max_walls, margin,
+                           margin is not None and config.walls_directional_sigma)
 
 
 def beyond_horizon_cost(config: PlannerConfig, robot: RobotParams, P: dict, x, y):

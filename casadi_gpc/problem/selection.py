@@ -157,9 +157,11 @@ def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Sel
     slots than ``config`` where the selection fits in them (the labeller solves on such an
     NLP: an empty slot's terms are exact zeros, so the answer is the same). Near walls the
     movers' deviations in the margin are capped by
-    :attr:`~casadi_gpc.config.PlannerConfig.walls_sigma_cap_m` where it is set."""
+    :attr:`~casadi_gpc.config.PlannerConfig.walls_sigma_cap_m` where it is set, and taken along
+    the line to the robot with :attr:`~casadi_gpc.config.PlannerConfig.walls_directional_sigma`."""
     ref = np.asarray(ref_poses, dtype=float)
     margin = (config.walls_margin_m, config.walls_sigmas) if near_walls else None
     cap = config.walls_sigma_cap_m if near_walls else None
+    directional = near_walls and config.walls_directional_sigma and getattr(layout, "directional", False)
     return layout.pack(x0, ref[1:], selection.forecasts, selection.statics, config.uncertainty_scale_m,
-                       goal_weights(ref, config), getattr(selection, "walls", ()), margin, cap)
+                       goal_weights(ref, config), getattr(selection, "walls", ()), margin, cap, directional)

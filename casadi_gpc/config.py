@@ -204,6 +204,9 @@ class PlannerConfig:
                     raise ValueError(f"{name} must be finite and not negative, got {v}")
         if self.walls_directional_sigma and self.walls_margin_m is None:
             raise ValueError("walls_directional_sigma applies where the margin near walls does: set walls_margin_m too")
+        if self.walls_directional_sigma and self.walls_sigma_cap_m is not None:
+            raise ValueError("walls_directional_sigma and walls_sigma_cap_m are two ways to shrink the same deviation: "
+                             "set one")
         if self.walls_sigma_cap_m is not None:
             if self.walls_margin_m is None:
                 raise ValueError("walls_sigma_cap_m applies where the margin near walls does: set walls_margin_m too")

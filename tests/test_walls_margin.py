@@ -190,9 +190,11 @@ def test_the_sigma_cap_near_walls_caps_the_margin_s_deviation_and_nothing_else()
     assert differ >= 10, differ
 
 
-def test_the_directional_deviation_is_refused_without_a_margin_near_walls():
+def test_the_directional_deviation_is_refused_without_a_margin_near_walls_or_with_a_cap():
     with pytest.raises(ValueError, match="set walls_margin_m too"):
         CFG.with_overrides(walls_directional_sigma=True)
+    with pytest.raises(ValueError, match="set one"):
+        CFG.with_overrides(walls_directional_sigma=True, walls_sigma_cap_m=0.1, **NEAR)
 
 
 def test_the_directional_deviation_prices_the_margin_along_the_line_to_the_robot():

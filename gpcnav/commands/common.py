@@ -35,6 +35,10 @@ def add_preset_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"override the preset's sample time, s (at least {MIN_SAMPLE_TIME_S}; default: the preset's)")
     p.add_argument("--horizon", type=int, default=None, metavar="H",
                    help=f"override the preset's horizon (1 to {MAX_HORIZON}; default: the preset's)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="planner_set",
+                   help="override one of the planner's settings (casadi_gpc.config.PlannerConfig), e.g. "
+                        "--set walls_directional_sigma=true, --set clearance_margin_m=0.2, --set beyond_horizon_s=1,2; "
+                        "repeatable; the documents record what was changed (planner_changes)")
 
 
 def with_wall_slots(config, scenarios):
@@ -72,7 +76,79 @@ def planner_config(args):
             solver = canonical_name(solver)
         except ValueError as exc:
             raise UsageError(f"--solver: {exc}") from None
-    return cfg.with_overrides(sample_time_s=args.sample_time, horizon=args.horizon, solver=solver)
+    cfg = cfg.with_overrides(sample_time_s=args.sample_time, horizon=args.horizon, solver=solver)
+    return with_settings(cfg, getattr(args, "planner_set", None) or [])
+
+
+RUN_ADAPTED = ("max_walls", "crowd_moving")
+"""Settings a run adapts to its scenarios (:func:`for_run`): not the user's changes."""
+
+
+def _setting_value(name: str, text: str, annotation: str):
+    """``text`` as a value of the setting ``name`` whose annotation is ``annotation``: true /
+    false, none, a number, comma-separated numbers for a tuple, else the text; a value of
+    another type than the setting's is a one-line error."""
+    low = text.strip().lower()
+    if low in ("true", "false"):
+        value = low == "true"
+    elif low == "none":
+        value = None
+    elif "tuple" in annotation:
+        try:
+            value = tuple(float(v) for v in text.split(",") if v.strip()) if text.strip() else ()
+        except ValueError:
+            raise UsageError(f"--set {name}: expected comma-separated numbers, got {text!r}") from None
+    else:
+        try:
+            value = int(text) if "int" in annotation and text.strip().lstrip("+-").isdigit() else float(text)
+        except ValueError:
+            value = text.strip()
+    kind = ("None" if value is None else "bool" if isinstance(value, bool) else "tuple" if isinstance(value, tuple)
+            else "int" if isinstance(value, int) else "float" if isinstance(value, float) else "str")
+    allowed = {"None": "None" in annotation, "bool": "bool" in annotation, "tuple": "tuple" in annotation,
+               "int": "int" in annotation or "float" in annotation, "float": "float" in annotation,
+               "str": "str" in annotation}
+    if not allowed[kind]:
+        raise UsageError(f"--set {name}: expected {annotation}, got {text!r}")
+    if kind == "int" and "int" not in annotation:
+        value = float(value)
+    if kind == "float" and not math.isfinite(value):
+        raise UsageError(f"--set {name}: must be finite, got {text!r}")
+    return value
+
+
+def with_settings(config, items):
+    """``config`` with each ``NAME=VALUE`` of ``items`` (``--set``) applied; an unknown name,
+    a value of the wrong type or one the settings refuse is a one-line error."""
+    from dataclasses import fields, replace
+    known = {f.name: str(f.type) for f in fields(config) if f.name != "name"}
+    changes = {}
+    for item in items:
+        name, eq, text = item.partition("=")
+        name = name.strip()
+        if not eq or not name:
+            raise UsageError(f"--set takes NAME=VALUE, got {item!r}")
+        if name not in known:
+            raise UsageError(f"--set {name}: not a planner setting (casadi_gpc.config.PlannerConfig)")
+        if name in RUN_ADAPTED:
+            raise UsageError(f"--set {name}: adapted to each run's scenarios (the wall slots, the crowd NLP), not set here")
+        changes[name] = _setting_value(name, text, known[name])
+    if not changes:
+        return config
+    try:
+        return replace(config, **changes)
+    except (ValueError, TypeError) as exc:
+        raise UsageError(f"--set: {exc}") from None
+
+
+def planner_changes(config) -> dict:
+    """The settings of ``config`` that differ from its preset's, less those a run adapts
+    (:data:`RUN_ADAPTED`): what the documents record as ``planner_changes``."""
+    base = PRESETS.get(config.name)
+    if base is None:
+        return {}
+    now, was = config.to_dict(), base.to_dict()
+    return {k: v for k, v in now.items() if k not in RUN_ADAPTED and v != was.get(k)}
 
 
 def add_suite_arguments(p: argparse.ArgumentParser) -> None:

@@ -225,8 +225,15 @@ def eval_doc(spec: ControllerSpec, result, config, suite, seed, extra: dict | No
     return eval_document(spec.label, metrics, times, {
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": suite.name if suite else None,
         "seed": seed if suite else None, **({"suite_spec": suite.describe()} if suite else {}),
-        "events": events, **(extra or {}),
+        "events": events, **_changes(config), **(extra or {}),
     })
+
+
+def _changes(config) -> dict:
+    """``{"planner_changes": ...}`` where the run changed the preset's settings, else nothing."""
+    from .common import planner_changes
+    changes = planner_changes(config)
+    return {"planner_changes": changes} if changes else {}
 
 
 def run(args) -> int:

@@ -1,0 +1,76 @@
+"""``--set NAME=VALUE``: any planner setting from the command line, checked before any work
+(an unknown name, a value of another type, one the settings refuse: one line, exit 2), and
+recorded in the documents (``planner_changes``) so a result says what it was run with."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from casadi_gpc.config import preset
+from conftest import PAPER_DIR
+from gpcnav.commands.common import for_run, planner_changes, with_settings
+from gpcnav.errors import UsageError
+
+IMPROVED = preset("improved")
+
+
+def test_values_are_read_as_the_setting_s_type():
+    cfg = with_settings(IMPROVED, ["clearance_margin_m=0.2", "cold_starts=2", "walls_directional_sigma=true",
+                                   "beyond_horizon_s=1,2.5", "walls_sigma_cap_m=none", "forecast=turn",
+                                   "influence_m=2"])
+    assert cfg.clearance_margin_m == 0.2 and cfg.cold_starts == 2 and cfg.walls_directional_sigma is True
+    assert cfg.beyond_horizon_s == (1.0, 2.5) and cfg.walls_sigma_cap_m is None and cfg.forecast == "turn"
+    assert cfg.influence_m == 2.0 and isinstance(cfg.influence_m, float)
+    assert with_settings(IMPROVED, []) is IMPROVED
+    assert planner_changes(cfg) == {"clearance_margin_m": 0.2, "cold_starts": 2, "walls_directional_sigma": True,
+                                    "beyond_horizon_s": (1.0, 2.5), "forecast": "turn", "influence_m": 2.0}
+
+
+@pytest.mark.parametrize("item, words", [
+    ("nonsense=1", "not a planner setting"),
+    ("name=other", "not a planner setting"),
+    ("horizon=abc", "expected int"),
+    ("walls_directional_sigma=1.5", "expected bool"),
+    ("clearance_margin_m=nan", "must be finite"),
+    ("beyond_horizon_s=1,x", "comma-separated numbers"),
+    ("forecast=zigzag", "forecast must be one of"),
+    ("walls_sigma_cap_m=-1", "walls_sigma_cap_m must be finite"),
+    ("max_walls=3", "adapted to each run"),
+    ("cold_starts", "NAME=VALUE"),
+])
+def test_bad_settings_are_refused_in_one_line(item, words):
+    with pytest.raises(UsageError, match=words):
+        with_settings(IMPROVED, [item])
+
+
+def test_what_a_run_adapts_is_not_a_change():
+    """The wall slots and the crowd NLP that a run sets for its scenarios are not recorded as
+    changes; an overridden sample time is."""
+    class Walls:
+        walls = ((0.0, 0.0), (1.0, 0.0))
+        moving = ()
+    assert planner_changes(for_run(IMPROVED, [Walls()])) == {}
+    assert planner_changes(IMPROVED.with_overrides(sample_time_s=0.25)) == {"sample_time_s": 0.25}
+
+
+def _gpcnav(*argv):
+    return subprocess.run([sys.executable, "-m", "gpcnav", *map(str, argv)], capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_the_command_line_sets_records_and_refuses(tmp_path):
+    scenario = PAPER_DIR / "fig7_2_crossing.toml"
+    proc = _gpcnav("simulate", scenario, "--controller", "gpc", "--set", "horizon=abc")
+    assert proc.returncode == 2 and proc.stderr.strip() == "gpcnav simulate: error: --set horizon: expected int, got 'abc'"
+    runs = {}
+    for label, extra in (("plain", []), ("wide", ["--set", "uncertainty_scale_m=0.1"])):
+        out = tmp_path / f"{label}.json"
+        proc = _gpcnav("simulate", scenario, "--controller", "gpc", "--out", out, *extra)
+        assert proc.returncode == 0, proc.stderr
+        runs[label] = json.loads(out.read_text())
+    assert "planner_changes" not in runs["plain"]
+    assert runs["wide"]["planner_changes"] == {"uncertainty_scale_m": 0.1}
+    assert runs["wide"]["trajectory"]["y"] != runs["plain"]["trajectory"]["y"]  # the setting reached the planner

@@ -11,7 +11,7 @@ import pytest
 
 from casadi_gpc.config import preset
 from conftest import PAPER_DIR
-from gpcnav.commands.common import for_run, planner_changes, with_settings
+from gpcnav.commands.common import config_differences, for_run, planner_changes, with_settings
 from gpcnav.errors import UsageError
 
 IMPROVED = preset("improved")
@@ -74,3 +74,14 @@ def test_the_command_line_sets_records_and_refuses(tmp_path):
     assert "planner_changes" not in runs["plain"]
     assert runs["wide"]["planner_changes"] == {"uncertainty_scale_m": 0.1}
     assert runs["wide"]["trajectory"]["y"] != runs["plain"]["trajectory"]["y"]  # the setting reached the planner
+
+
+def test_settings_recorded_before_they_existed_are_taken_at_their_default():
+    """A dataset's manifest written before a setting existed still matches the settings of
+    today's preset (``gpcnav train``, a DAgger round), and a real change still shows."""
+    now = IMPROVED.to_dict()
+    old = {k: v for k, v in now.items() if k not in ("walls_directional_sigma", "walls_sigma_cap_m")}
+    assert config_differences(old, now) == []
+    assert config_differences(old, {**now, "walls_directional_sigma": True}) == ["walls_directional_sigma"]
+    assert config_differences(now, {**now, "solver": "ipopt", "time_budget_s": 1.0}) == []  # how, not which NLP
+    assert config_differences(now, {**now, "beyond_horizon_s": [1.0]}) == ["beyond_horizon_s"]

@@ -396,6 +396,12 @@ def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
     assert gpc_part["samples"] > 0 and gpc_part["info"]["safety_filter"] is None
     assert man2["samples"] == man["samples"] + gpc_part["samples"]
     assert gpc_part["info"]["suite_seed"] != part["info"]["suite_seed"]
+    # a round labelled with other planner settings is refused before any work (one line, exit 2)
+    proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--dagger", "gpc",
+                           "--episodes", "1", "--round", "2", "--preset", "paper", "--set", "tracking_weight=2"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "tracking_weight differ" in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and read_manifest(out) == man2
 
 
 def test_train_on_some_parts_only(reference_dataset, tmp_path):

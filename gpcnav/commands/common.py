@@ -141,6 +141,23 @@ def with_settings(config, items):
         raise UsageError(f"--set: {exc}") from None
 
 
+NOT_THE_PROBLEM = {"solver", "time_budget_s"}  # how the NLP is solved, not which NLP it is
+
+
+def config_differences(a: dict, b: dict) -> list[str]:
+    """The planner settings that define the GPC problem and differ between two recorded
+    configurations (``PlannerConfig.to_dict``), compared as JSON holds them (a tuple read back
+    is a list). A setting one side lacks, recorded before it existed, is taken at its
+    default, which is what that code did."""
+    import json
+    from dataclasses import MISSING, fields
+
+    from casadi_gpc.config import PlannerConfig
+    defaults = {f.name: f.default for f in fields(PlannerConfig) if f.default is not MISSING}
+    a, b = (json.loads(json.dumps({**defaults, **d}, default=str)) for d in (a, b))
+    return sorted(k for k in set(a) | set(b) if k not in NOT_THE_PROBLEM and a.get(k) != b.get(k))
+
+
 def planner_changes(config) -> dict:
     """The settings of ``config`` that differ from its preset's, less those a run adapts
     (:data:`RUN_ADAPTED`): what the documents record as ``planner_changes``."""

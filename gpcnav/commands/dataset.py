@@ -16,7 +16,7 @@ from pathlib import Path
 from scenarios import CROWD_BEHAVIOURS, CROWD_SUITES, SUITES
 
 from ..errors import UsageError
-from .common import add_preset_arguments, check_seed, connected, planner_config, progress
+from .common import add_preset_arguments, check_seed, config_differences, connected, planner_config, progress
 
 MAX_SAMPLES = 100_000_000
 """The most samples one ``--samples`` asks for: labelling runs at 100-1000 samples/s on a
@@ -207,6 +207,10 @@ def _dagger(args) -> int:
     layout = layout_from_dict(man["feature_layout"])
     # a layout that reads walls is labelled (and its GPC rounds driven) by the planner with wall slots
     config = config.for_walls(bool(layout.wall_sectors))
+    differ = config_differences(man.get("planner_config") or {}, config.to_dict())
+    if differ:
+        raise UsageError(f"{args.out} was labelled with other planner settings ({', '.join(differ)} differ): "
+                         f"a round appended must be labelled as the rest")
     robot = RobotParams()
     factory = _driver(args, config, robot, by_gpc)
     solver = args.solver or label_solver(config)

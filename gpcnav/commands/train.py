@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_preset_arguments, check_seed, planner_config, progress
+from .common import add_preset_arguments, check_seed, config_differences, planner_config, progress
 
 
 def add_arguments(p):
@@ -52,17 +52,6 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=0, help="seeds the split, the initial weights and the batch order")
     add_preset_arguments(p)
 
-
-_NOT_THE_PROBLEM = {"solver", "time_budget_s"}  # how the NLP is solved, not which NLP it is
-
-
-def _config_differences(a: dict, b: dict) -> list[str]:
-    """Fields that define the GPC problem and differ (a field one side lacks counts only
-    when the other side sets it, so a config field added later with default None is fine).
-    Compared as JSON holds them (a tuple read back is a list)."""
-    import json
-    a, b = (json.loads(json.dumps(d, default=str)) for d in (a, b))
-    return sorted(k for k in set(a) | set(b) if k not in _NOT_THE_PROBLEM and a.get(k) != b.get(k))
 
 
 def _label_names(names, steps: int, target: str):
@@ -124,7 +113,7 @@ def run(args) -> int:
         man = s.manifest
         if man.get("preset") != cfg.name:
             raise UsageError(f"{d}: dataset labelled under preset {man.get('preset')!r}, not --preset {cfg.name}")
-        differ = _config_differences(man.get("planner_config") or {}, cfg.to_dict())
+        differ = config_differences(man.get("planner_config") or {}, cfg.to_dict())
         if differ:
             raise UsageError(f"{d}: dataset labelled with another planner configuration than preset {cfg.name!r} "
                              f"({', '.join(differ)} differ)")

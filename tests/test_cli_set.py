@@ -20,13 +20,14 @@ IMPROVED = preset("improved")
 def test_values_are_read_as_the_setting_s_type():
     cfg = with_settings(IMPROVED, ["clearance_margin_m=0.2", "cold_starts=2", "walls_directional_sigma=true",
                                    "beyond_horizon_s=1,2.5", "walls_sigma_cap_m=none", "forecast=turn",
-                                   "influence_m=2"])
+                                   "influence_m=2", "guesses=brake, straight"])
     assert cfg.clearance_margin_m == 0.2 and cfg.cold_starts == 2 and cfg.walls_directional_sigma is True
     assert cfg.beyond_horizon_s == (1.0, 2.5) and cfg.walls_sigma_cap_m is None and cfg.forecast == "turn"
-    assert cfg.influence_m == 2.0 and isinstance(cfg.influence_m, float)
+    assert cfg.influence_m == 2.0 and isinstance(cfg.influence_m, float) and cfg.guesses == ("brake", "straight")
     assert with_settings(IMPROVED, []) is IMPROVED
     assert planner_changes(cfg) == {"clearance_margin_m": 0.2, "cold_starts": 2, "walls_directional_sigma": True,
-                                    "beyond_horizon_s": (1.0, 2.5), "forecast": "turn", "influence_m": 2.0}
+                                    "beyond_horizon_s": (1.0, 2.5), "forecast": "turn", "influence_m": 2.0,
+                                    "guesses": ("brake", "straight")}
 
 
 @pytest.mark.parametrize("item, words", [

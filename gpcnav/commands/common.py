@@ -87,12 +87,15 @@ RUN_ADAPTED = ("max_walls", "crowd_moving")
 def _setting_value(name: str, text: str, annotation: str):
     """``text`` as a value of the setting ``name`` whose annotation is ``annotation``: true /
     false, none, a number, comma-separated numbers for a tuple, else the text; a value of
-    another type than the setting's is a one-line error."""
+    another type than the setting's is a one-line error (a tuple of words: comma-separated
+    words)."""
     low = text.strip().lower()
     if low in ("true", "false"):
         value = low == "true"
     elif low == "none":
         value = None
+    elif "tuple[str" in annotation:
+        value = tuple(v.strip() for v in text.split(",") if v.strip())
     elif "tuple" in annotation:
         try:
             value = tuple(float(v) for v in text.split(",") if v.strip()) if text.strip() else ()

@@ -29,8 +29,9 @@ def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=Non
     from .common import planner_changes
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
              "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode}  # docs/faults.md
-    if planner_changes(config):
-        extra["planner_changes"] = planner_changes(config)
+    changes = planner_changes(config)
+    if changes:
+        extra["planner_changes"] = changes
     inner = getattr(controller, "policy", controller)  # the controller behind a Shield
     model_info = getattr(inner, "model_info", None)
     if model_info:

@@ -132,6 +132,28 @@ def test_the_labeller_plans_with_the_walls_and_is_mirror_equivariant():
     assert lab.mirror_check(sit, with_walls) < 1e-6
 
 
+def test_the_labeller_packs_the_planner_s_margin_near_walls():
+    """A situation in a corridor: the labeller's parameters are the planner's
+    (:func:`planner_parameters` with the robot's reach, the desired poses as its predicted
+    path), the margin near walls in them; far from any wall, the open margin."""
+    from casadi_gpc.geometry import walls_reach_m
+    from casadi_gpc.problem.selection import planner_parameters
+    from nn_export.training.labels import Labeller
+    cfg = CFG.for_walls(True)
+    lab = Labeller(cfg, fit_slots=False)
+    reach = walls_reach_m(lab.robot, cfg.horizon * cfg.sample_time_s)
+    far = tuple(tuple((x, y + 12.0) for x, y in w) for w in CORRIDOR)  # the same corridor, out of reach
+    for walls, margin in ((CORRIDOR, [cfg.walls_margin_m, cfg.walls_sigmas]),
+                          (far, [cfg.clearance_margin_m, cfg.uncertainty_sigmas])):
+        sit = _situation(walls=walls, y=0.6)
+        p = lab.parameters(sit)
+        planner, sel = planner_parameters(lab.layout, sit.robot.as_array(), sit.ref_poses, sit.forecasts(),
+                                          sit.statics, cfg, None, walls, reach)
+        np.testing.assert_array_equal(p, planner)
+        np.testing.assert_array_equal(lab.layout.unpack(p)["margin"], margin)
+        assert sel.near_walls is (walls is CORRIDOR)
+
+
 def test_the_policy_hands_decisions_to_the_walls_network_exactly_near_walls(tmp_path):
     from casadi_gpc.types import Observation, ObstacleMeasurement
     from nn_export import OnnxPolicy

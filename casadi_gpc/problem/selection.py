@@ -30,7 +30,7 @@ from ..geometry import a_wall_within, distance_to_segments_m, segment_rows
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["Selection", "select_obstacles", "select_walls", "planner_parameters", "pack_selection", "goal_weights",
-           "relevance_m"]
+           "relevance_m", "near_walls"]
 
 
 def relevance_m(forecasts, x0: np.ndarray, path_xy: np.ndarray | None) -> np.ndarray:
@@ -144,9 +144,18 @@ def planner_parameters(layout, x0: np.ndarray, ref_poses: np.ndarray, forecasts,
     sel = select_obstacles(x0, forecasts, statics, config, path_xy)
     if walls and config.max_walls:
         sel.walls, sel.walls_left_out = select_walls(x0, walls, config, path_xy)
-    sel.near_walls = bool(walls) and config.walls_margin_m is not None and walls_reach_m is not None and \
-        getattr(layout, "margin", None) is not None and a_wall_within(walls, x0[:2], walls_reach_m)
+    sel.near_walls = near_walls(layout, config, walls, x0, walls_reach_m)
     return pack_selection(layout, x0, ref_poses, sel, config, sel.near_walls), sel
+
+
+def near_walls(layout, config: PlannerConfig, walls, x0: np.ndarray, reach_m: float | None) -> bool:
+    """Whether the margin near walls applies at this tick: the settings have one
+    (:attr:`~casadi_gpc.config.PlannerConfig.walls_margin_m`), the NLP's ``layout`` takes it,
+    and a segment of ``walls`` comes within the robot's reach ``reach_m``
+    (:func:`casadi_gpc.geometry.walls_reach_m`) of where it is, ``x0``. The planner's
+    (:func:`planner_parameters`) and the labeller's one rule."""
+    return bool(walls) and config.walls_margin_m is not None and reach_m is not None and \
+        getattr(layout, "margin", None) is not None and a_wall_within(walls, x0[:2], reach_m)
 
 
 def pack_selection(layout, x0: np.ndarray, ref_poses: np.ndarray, selection: Selection, config: PlannerConfig,

@@ -35,7 +35,8 @@ from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
 from .standby import StandbyPlanner
-from .walls import wall_segments_within, walls_reach_m
+from ..geometry import walls_reach_m
+from .walls import wall_segments_within
 
 __all__ = ["Shield", "DEFAULT_HORIZON_S"]
 

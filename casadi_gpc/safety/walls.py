@@ -19,10 +19,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..geometry import walls_reach_m
 from .distances import path_segment_distances, point_segment_distance
 
-__all__ = ["wall_segments", "wall_segments_within", "walls_reach_m", "point_segment_distance", "path_segment_distances",
+__all__ = ["wall_segments", "wall_segments_within", "point_segment_distance", "path_segment_distances",
            "wall_label"]
 
 

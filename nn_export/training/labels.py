@@ -40,7 +40,8 @@ import numpy as np
 from casadi_gpc.config import PlannerConfig
 from casadi_gpc.problem.cost import layout_of
 from casadi_gpc.robot import RobotParams
-from casadi_gpc.problem.selection import pack_selection, select_obstacles, select_walls
+from casadi_gpc.geometry import walls_reach_m
+from casadi_gpc.problem.selection import near_walls, pack_selection, select_obstacles, select_walls
 
 from ..runtime.features import compute_features, mirror_features
 from ..runtime.layouts import FeatureLayout
@@ -303,18 +304,23 @@ class Labeller:
         if situation.horizon != cfg.horizon:
             raise ValueError(f"situation horizon {situation.horizon} != planner horizon {cfg.horizon}")
         x0 = situation.robot.as_array()
-        return pack_selection(self.layout, x0, situation.ref_poses, self._select(situation), cfg)
+        sel = self._select(situation)
+        return pack_selection(self.layout, x0, situation.ref_poses, sel, cfg, sel.near_walls)
 
     def _select(self, situation: Situation):
-        """The planner's choice of obstacles (with the full config's slots), and of the wall
-        segments where its NLP has wall slots."""
+        """The planner's choice of obstacles (with the full config's slots), of the wall
+        segments where its NLP has wall slots, and whether the margin near walls applies (the
+        planner's rule, :func:`casadi_gpc.problem.selection.near_walls`)."""
+        cfg = self.config
         x0 = situation.robot.as_array()
-        sel = select_obstacles(x0, situation.forecasts(), situation.statics, self.config)
+        sel = select_obstacles(x0, situation.forecasts(), situation.statics, cfg)
         if situation.walls:
-            if not self.config.max_walls:
+            if not cfg.max_walls:
                 raise ValueError("a situation with walls needs a planner with wall slots "
                                  "(PlannerConfig.for_walls(True))")
-            sel.walls, sel.walls_left_out = select_walls(x0, situation.walls, self.config)
+            sel.walls, sel.walls_left_out = select_walls(x0, situation.walls, cfg)
+        sel.near_walls = near_walls(self.layout, cfg, situation.walls, x0,
+                                    walls_reach_m(self.robot, cfg.horizon * cfg.sample_time_s))
         return sel
 
     def _parameters(self, situation: Situation):
@@ -323,7 +329,7 @@ class Labeller:
         sel = self._select(situation)
         slots = self.slots_for(len(sel.forecasts), len(sel.statics))
         layout = self.layout if slots == self.full_slots else self._controller(self.solver, slots).problem.layout
-        p = pack_selection(layout, situation.robot.as_array(), situation.ref_poses, sel, self.config)
+        p = pack_selection(layout, situation.robot.as_array(), situation.ref_poses, sel, self.config, sel.near_walls)
         self._walls = getattr(sel, "walls", ())
         return slots, p, sel.forecasts, sel.statics
 

@@ -14,7 +14,8 @@ Three kinds of movers (the scenario format's ``behaviour``):
   A walker with a recorded track has no fixed goal: at every grid instant it heads for where
   its recording will be :data:`TRACK_LOOKAHEAD_S` later, at the speed that gets it there
   (at most :data:`TRACK_SPEED_FACTOR` times the track's fastest recorded speed), and leaves
-  the scene at its last row's time.
+  the scene at its last row's time. It enters where its recording starts, except that one
+  who sees the robot never enters on it (:data:`ENTRY_CLEARANCE_M`, counted).
 
 A mover with a track exists only from its first row's time to its last: outside that window
 :meth:`MoverWorld.positions` gives NaN for it (nothing measures it, nothing collides with
@@ -37,7 +38,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["CROWD_TIME_STEP_S", "GOAL_TOLERANCE_M", "MOVER_SAFETY_MARGIN_M", "BEHAVIOURS", "MoverWorld"]
+__all__ = ["CROWD_TIME_STEP_S", "ENTRY_CLEARANCE_M", "GOAL_TOLERANCE_M", "MOVER_SAFETY_MARGIN_M", "BEHAVIOURS", "MoverWorld"]
 
 CROWD_TIME_STEP_S = 0.1
 """Grid of the walkers' decisions (navground's usual control period)."""
@@ -54,6 +55,12 @@ recordings)."""
 TRACK_SPEED_FACTOR = 1.5
 """A walker that follows a track may walk this much faster than its fastest recorded speed to
 catch up with its recording after giving way."""
+ENTRY_CLEARANCE_M = 0.1
+"""A walker who sees the robot enters the scene at least this far from the robot's disc: a
+person who gives way to a robot does not step into it, where a recording, blind to the robot,
+may start someone on the spot it stands on (``students003`` starts people in the middle of
+its scene). 0.1 m: more than the robot covers in one grid step at its top speed (0.08 m), so
+the walker's own avoidance has a step to act. A replayed track is never moved."""
 BEHAVIOURS = {"orca": "ORCA", "social_force": "SocialForce"}
 """Scenario ``behaviour`` names of the walkers and navground's behaviour types."""
 
@@ -92,7 +99,7 @@ class MoverWorld:
         self._statics = tuple(statics)
         self.steps = 0
         """Grid steps the walkers have taken."""
-        self.counters = {"walker_steps": 0, "arrived": 0}
+        self.counters = {"walker_steps": 0, "arrived": 0, "entered_beside_robot": 0}
         if self._walkers:
             from navground import core
             self._behaviours = [_make_behaviour(self.movers[j]) for j in self._walkers]
@@ -108,7 +115,9 @@ class MoverWorld:
             self._grid = [start]                       # walker positions at grid instants 0, 1, ...
             self._vel = np.zeros_like(start)            # velocity over the current grid step
             self._arrived = np.zeros(len(self._walkers), dtype=bool)
-            self._entered = np.zeros(len(self._walkers), dtype=bool)  # track walkers placed on their recording
+            # track walkers placed on their recording (those there from t = 0 at their first row)
+            self._entered = np.array([not hasattr(self.movers[j], "track") or self.movers[j].start_s <= 1e-9
+                                      for j in self._walkers], dtype=bool)
 
     @property
     def has_walkers(self) -> bool:
@@ -182,16 +191,47 @@ class MoverWorld:
         while self.advanced_to_s < t_end_s - 1e-9:
             self._step(robot)
 
+    def _enter(self, row: np.ndarray, before: np.ndarray, t_s: float, robot: RobotMotion | None) -> None:
+        """Place the track walkers whose first row falls in the grid step ending at ``t_s`` in
+        the walkers' ``row`` of that instant (and in the row ``before`` it, in which they are
+        not yet in the scene, so that between the two they are where they entered)."""
+        robot_xy = None
+        for i, j in enumerate(self._walkers):
+            m = self.movers[j]
+            if self._entered[i] or m.start_s > t_s + 1e-9:
+                continue
+            p = m.recorded_at(t_s)     # where its recording is
+            if m.sees_robot:
+                if robot_xy is None:
+                    if robot is None:
+                        raise ValueError("a walker that sees the robot needs the robot's motion")
+                    robot_xy = np.array(robot(t_s)[:2], dtype=float)
+                p = self._beside_robot(m, p, robot_xy)
+            row[i] = before[i] = p
+            self._entered[i] = True
+
+    def _beside_robot(self, mover, entry: np.ndarray, robot_xy: np.ndarray) -> np.ndarray:
+        """Where a walker who sees the robot enters: where its recording is, or, when that is
+        within :data:`ENTRY_CLEARANCE_M` of the robot's disc, that far from it on the line from
+        the robot's centre through the recorded point (from the side it walks in from when the
+        point is the robot's centre). Counted: ``entered_beside_robot``."""
+        reach = self._robot_radius + float(mover.radius_m) + ENTRY_CLEARANCE_M
+        away = entry - robot_xy
+        d = math.hypot(*away)
+        if d >= reach:
+            return entry
+        if d < 1e-9:
+            v = mover.recorded_velocity_at(mover.start_s)
+            away = -v if math.hypot(*v) > 1e-9 else np.array((1.0, 0.0))
+            d = math.hypot(*away)
+        self.counters["entered_beside_robot"] += 1
+        return robot_xy + away * (reach / d)
+
     def _step(self, robot: RobotMotion | None) -> None:
         from navground import core
         k = len(self._grid) - 1
         t = k * CROWD_TIME_STEP_S
         now = self._grid[-1]
-        for i, j in enumerate(self._walkers):
-            m = self.movers[j]
-            if not self._entered[i] and hasattr(m, "track") and m.exists_at(t):
-                now[i] = m.recorded_at(t)  # enters the scene where its recording is
-                self._entered[i] = True
         pos_all = self.positions(t)
         vel_all = self.velocities(t) if k > 0 else np.zeros((self.n, 2))
         if k == 0:
@@ -254,7 +294,9 @@ class MoverWorld:
                 v = to_goal / CROWD_TIME_STEP_S
             vel[i] = v
         self._vel = vel
-        self._grid.append(now + vel * CROWD_TIME_STEP_S)
+        following = now + vel * CROWD_TIME_STEP_S
+        self._enter(following, now, t + CROWD_TIME_STEP_S, robot)
+        self._grid.append(following)
         self.steps += 1
         self.counters["walker_steps"] += len(self._walkers) - len(standing)
 

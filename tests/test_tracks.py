@@ -238,3 +238,35 @@ def test_forecast_accuracy_is_exact_on_a_straight_walk_and_the_straight_forecast
     wiggle = Recording("wiggle", 0.04, (np.c_[t, xy],))
     turning, straightened = fa.errors(wiggle, fa.predict_ekf)[0], fa.errors(wiggle, fa.predict_ekf_straight)[0]
     assert straightened < turning
+
+
+def test_a_walker_who_sees_the_robot_never_enters_on_it_and_the_move_is_counted():
+    """A recording may start someone on the robot's spot; a walker who gives way to the robot
+    enters beside it instead (counted), a blind walker and a replayed track where recorded."""
+    from scenarios.movers import ENTRY_CLEARANCE_M
+    on_robot = "track = [[1.0, 0.2, 0.1], [6.0, 3.0, 2.0]]\n"     # appears at t = 1 s, inside the robot's disc
+    sees = _scenario(f'[[moving_obstacles]]\nradius_m = 0.25\nbehaviour = "orca"\nsees_robot = true\n{on_robot}')
+    log = simulate(sees, _Still())
+    assert log.outcome != "collided" and log.min_clearance_m > 0.0
+    assert log.events["movers.entered_beside_robot"] == 1
+    ep = Episode(sees, 0.5)
+    ep.world.advance(1.0, lambda t: (0.0, 0.0, 0.0, 0.0))
+    entry = ep.world.positions(1.0)[0]
+    robot_r = sees.robot.radius_m
+    # on the line from the robot's centre through the recorded point, the clearance away
+    assert np.hypot(*entry) == pytest.approx(robot_r + 0.25 + ENTRY_CLEARANCE_M)
+    assert entry[1] / entry[0] == pytest.approx(0.1 / 0.2)
+    assert np.isnan(ep.world.positions(0.95)[0]).all()          # not in the scene before its first row
+    blind = _scenario(f'[[moving_obstacles]]\nradius_m = 0.25\nbehaviour = "orca"\n{on_robot}')
+    blind_log = simulate(blind, _Still())
+    assert blind_log.outcome == "collided" and "movers.entered_beside_robot" not in blind_log.events
+    assert blind_log.collision["obstacle_age_s"] == pytest.approx(0.0, abs=1e-9)
+    replay = _scenario(f"[[moving_obstacles]]\nradius_m = 0.25\n{on_robot}")
+    assert simulate(replay, _Still()).outcome == "collided"
+    # one that starts clear of the robot enters where its recording is, uncounted
+    clear = _scenario('[[moving_obstacles]]\nradius_m = 0.25\nbehaviour = "orca"\nsees_robot = true\n'
+                      'track = [[1.0, 3.0, 2.0], [6.0, 6.0, 2.0]]\n')
+    ep = Episode(clear, 0.5)
+    ep.world.advance(1.0, lambda t: (0.0, 0.0, 0.0, 0.0))
+    assert ep.world.positions(1.0)[0] == pytest.approx([3.0, 2.0])
+    assert ep.world.counters["entered_beside_robot"] == 0

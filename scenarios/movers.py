@@ -211,8 +211,8 @@ class MoverWorld:
             self._entered[i] = True
 
     def _beside_robot(self, mover, entry: np.ndarray, robot_xy: np.ndarray) -> np.ndarray:
-        """Where a walker who sees the robot enters: where its recording is, or, when that is
-        within :data:`ENTRY_CLEARANCE_M` of the robot's disc, that far from it on the line from
+        """Where a walker who sees the robot enters after t = 0: where its recording is, or,
+        when that is within :data:`ENTRY_CLEARANCE_M` of the robot's disc, that far from it on the line from
         the robot's centre through the recorded point (from the side it walks in from when the
         point is the robot's centre). Counted: ``entered_beside_robot``."""
         reach = self._robot_radius + float(mover.radius_m) + ENTRY_CLEARANCE_M

@@ -182,11 +182,6 @@ class PlannerConfig:
     while a cycle runs (a cycle falling due, or a surprise, solves its guess at once). 0:
     every tick. Among 30 walkers a cycle runs at nearly every tick, and its cold start is the
     decision's median (docs/pedestrians.md)."""
-    passing_samples: int | None = None
-    """People who aim to pass the robot (:mod:`casadi_gpc.estimation.passing`): after this
-    many samples in a row of a person's forecast closing on the robot yet passing outside
-    contact by less than 0.5 m, their forecast stops growing uncertain over the horizon.
-    None: off (both presets)."""
     time_budget_s: float | None = None
     """Wall time one control step may spend solving; an answer later than this is not used
     and the step falls back (counted). None: the sample time."""
@@ -194,10 +189,6 @@ class PlannerConfig:
     def __post_init__(self):
         if self.forecast not in FORECASTS:
             raise ValueError(f"forecast must be one of {', '.join(FORECASTS)}, got {self.forecast!r}")
-        if self.passing_samples is not None and not (isinstance(self.passing_samples, int)
-                                                     and self.passing_samples >= 1):
-            raise ValueError(f"passing_samples must be a whole number of at least 1 (or None), "
-                             f"got {self.passing_samples!r}")
         if self.cold_starts is not None and self.cold_starts < 1:
             raise ValueError(f"cold_starts must be at least 1 (or None), got {self.cold_starts}")
         if self.crowd_moving is not None and not (isinstance(self.crowd_moving, int) and self.crowd_moving >= 1):

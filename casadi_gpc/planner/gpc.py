@@ -20,7 +20,6 @@ from ..progress import ReferenceClock
 from ..robot import RobotParams, brake_wheels
 from ..problem.selection import planner_parameters
 from ..solvers import Backend, SolveResult
-from ..estimation.passing import PassingEvidence
 from ..estimation.tracking import TrackBank
 from .tiers import BACKUP_SHARE, SolveTier, build_tier, crowd_config, crowded
 from ..types import ControlDecision, Observation, ObstacleForecast
@@ -138,9 +137,6 @@ class GPCController:
         # the obstacle filters count their events (missed, outliers, unestimated) here too
         self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings, self.counters,
                               straight=self.config.forecast == "straight")
-        n = self.config.passing_samples
-        self._passing = None if n is None else PassingEvidence(n, self.robot.radius_m, self.config.sample_time_s,
-                                                               self.counters)
 
     @property
     def tracks(self) -> dict[int, ObstacleEKF]:
@@ -150,8 +146,7 @@ class GPCController:
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
         """Fuse this sample's measurements and predict every track over the horizon."""
-        forecasts = self.bank.forecasts(self.bank.step(obs.moving), self.config.horizon, self._forecast_function)
-        return forecasts if self._passing is None else self._passing.apply(obs.robot, forecasts)
+        return self.bank.forecasts(self.bank.step(obs.moving), self.config.horizon, self._forecast_function)
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
         """Advance the reference clock; the desired poses at steps 0..H, shape (H + 1, 3)

@@ -270,3 +270,14 @@ def test_a_walker_who_sees_the_robot_never_enters_on_it_and_the_move_is_counted(
     ep.world.advance(1.0, lambda t: (0.0, 0.0, 0.0, 0.0))
     assert ep.world.positions(1.0)[0] == pytest.approx([3.0, 2.0])
     assert ep.world.counters["entered_beside_robot"] == 0
+
+
+def test_a_walker_whose_recording_starts_on_the_robots_centre_enters_on_the_side_it_comes_from():
+    from scenarios.movers import ENTRY_CLEARANCE_M
+    # first row exactly on the robot's centre at t = 1 s, walking +y: it enters below the robot
+    sc = _scenario('[[moving_obstacles]]\nradius_m = 0.25\nbehaviour = "orca"\nsees_robot = true\n'
+                   'track = [[1.0, 0.0, 0.0], [3.0, 0.0, 2.0]]\n')
+    ep = Episode(sc, 0.5)
+    ep.world.advance(1.0, lambda t: (0.0, 0.0, 0.0, 0.0))
+    assert ep.world.positions(1.0)[0] == pytest.approx([0.0, -(sc.robot.radius_m + 0.25 + ENTRY_CLEARANCE_M)])
+    assert ep.world.counters["entered_beside_robot"] == 1

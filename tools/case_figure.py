@@ -2,7 +2,7 @@
 draws it (scenarios.plots.plot_run), so a reader sees where the planners differ.
 
 Usage: ``python tools/case_figure.py SCENARIO.toml --controllers gpc,nn,mppi --out FIG.png``, or
-``--suite corridor --index 0 [--seed 1] [--movers 5]`` for a suite's scenario instead of a file
+``--suite corridor --index 0 [--seed 1] [--movers 5] [--behaviour orca]`` for a suite's scenario instead of a file
 (the controllers as the registry names them, each as ``gpcnav simulate`` makes it).
 ``--window X0 X1 Y0 Y1`` (m) shows only that part of the plane (a scene whose walkers head for
 goals far away, as navground's unwrapped corridor, is otherwise drawn at their scale).
@@ -31,6 +31,7 @@ def main(argv=None) -> int:
     ap.add_argument("--index", type=int, default=0)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--movers", type=int, default=5)
+    ap.add_argument("--behaviour", default=None, help="the suite's movers (as evaluate's --behaviour)")
     ap.add_argument("--controllers", default="gpc,nn,mppi")
     ap.add_argument("--preset", default="improved")
     ap.add_argument("--out", type=Path, required=True)
@@ -41,7 +42,7 @@ def main(argv=None) -> int:
         ap.error("--window X0 X1 Y0 Y1 needs X0 < X1 and Y0 < Y1")
     if args.suite:
         from scenarios import Suite
-        sc = Suite(args.suite, args.index + 1, args.seed, args.movers).scenario(args.index)
+        sc = Suite(args.suite, args.index + 1, args.seed, args.movers, args.behaviour).scenario(args.index)
     else:
         sc = load_scenario(args.scenario)
     names = args.controllers.split(",")

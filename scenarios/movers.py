@@ -38,7 +38,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["CROWD_TIME_STEP_S", "ENTRY_CLEARANCE_M", "GOAL_TOLERANCE_M", "MOVER_SAFETY_MARGIN_M", "BEHAVIOURS", "MoverWorld"]
+__all__ = ["CROWD_TIME_STEP_S", "ENTRY_CLEARANCE_M", "GOAL_TOLERANCE_M", "MOVER_SAFETY_MARGIN_M", "BEHAVIOURS",
+           "MoverWorld"]
 
 CROWD_TIME_STEP_S = 0.1
 """Grid of the walkers' decisions (navground's usual control period)."""

@@ -171,6 +171,13 @@ def planner_changes(config) -> dict:
     return {k: v for k, v in now.items() if k not in RUN_ADAPTED and v != was.get(k)}
 
 
+def recorded_changes(config) -> dict:
+    """``{"planner_changes": ...}`` for a document where the run changed the preset's
+    settings (:func:`planner_changes`), else nothing."""
+    changes = planner_changes(config)
+    return {"planner_changes": changes} if changes else {}
+
+
 def add_suite_arguments(p: argparse.ArgumentParser) -> None:
     """``--suite NAME --count N --seed S --movers N --behaviour B`` (scenarios.suites)."""
     from scenarios.suites import SUITE_BEHAVIOURS, SUITES

@@ -13,7 +13,7 @@ from pathlib import Path
 from ..controllers import ControllerSpec, check, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
-                     connected, planner_config, progress, suite_from_args,
+                     connected, planner_config, progress, recorded_changes, suite_from_args,
                      for_run)
 
 _WORKER = {}
@@ -225,15 +225,8 @@ def eval_doc(spec: ControllerSpec, result, config, suite, seed, extra: dict | No
     return eval_document(spec.label, metrics, times, {
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": suite.name if suite else None,
         "seed": seed if suite else None, **({"suite_spec": suite.describe()} if suite else {}),
-        "events": events, **_changes(config), **(extra or {}),
+        "events": events, **recorded_changes(config), **(extra or {}),
     })
-
-
-def _changes(config) -> dict:
-    """``{"planner_changes": ...}`` where the run changed the preset's settings, else nothing."""
-    from .common import planner_changes
-    changes = planner_changes(config)
-    return {"planner_changes": changes} if changes else {}
 
 
 def run(args) -> int:

@@ -26,12 +26,10 @@ def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=Non
         spec = ControllerSpec(spec, model, shield, passes)
     controller = make(spec, config, scenario.robot)
     log = simulate(scenario, controller, spec.label)
-    from .common import planner_changes
+    from .common import recorded_changes
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
-             "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode}  # docs/faults.md
-    changes = planner_changes(config)
-    if changes:
-        extra["planner_changes"] = changes
+             "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode,  # docs/faults.md
+             **recorded_changes(config)}
     inner = getattr(controller, "policy", controller)  # the controller behind a Shield
     model_info = getattr(inner, "model_info", None)
     if model_info:

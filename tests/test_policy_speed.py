@@ -347,19 +347,27 @@ def test_decision_costs_a_bounded_number_of_bare_network_calls(two_pass, at_most
     with np.load(_path("paper_crossing")) as f:
         obs = observations_from(dict(f))
     pol = OnnxPolicy(preset="paper", two_pass=two_pass)
-    t_decide, t_bare = [], []
+    ratios, t_decide, t_bare = [], [], []
     for _ in range(15):
         pol.reset()
+        decide, bare = [], []
         for o in obs:
             t0 = time.perf_counter()
             pol.decide(o)
-            t_decide.append(time.perf_counter() - t0)
+            decide.append(time.perf_counter() - t0)
             for _ in range(2):
                 t0 = time.perf_counter()
                 pol._run()
-                t_bare.append(time.perf_counter() - t0)
-    ratio = float(np.median(t_decide) / np.median(t_bare))
-    assert ratio <= at_most, f"decision {np.median(t_decide) * 1e6:.0f} us = {ratio:.1f} bare calls"
+                bare.append(time.perf_counter() - t0)
+        # each replay's own ratio, then their median: a burst of load on the shared machine
+        # lands in a few replays (whose ratios it moves), not in the pooled medians of all
+        # (one pooled ratio read 29.1 under a concurrent test suite, about 20 alone)
+        ratios.append(float(np.median(decide) / np.median(bare)))
+        t_decide += decide
+        t_bare += bare
+    ratio = float(np.median(ratios))
+    assert ratio <= at_most, (f"decision {np.median(t_decide) * 1e6:.0f} us = {ratio:.1f} bare calls "
+                              f"(replays: {min(ratios):.1f} to {max(ratios):.1f})")
 
 
 if __name__ == "__main__":

@@ -202,8 +202,10 @@ def test_every_setting_that_decides_an_episode_is_in_its_key(tmp_path):
     ]
     keys = {episode_key(run, s) for s in scenario_changes}
     assert key not in keys and len(keys) == len(scenario_changes)
-    # what does not decide an episode: where the file was, its description
+    # what does not decide an episode: where the file was, its description; the solve lanes
+    # (fitted to the workers: the same answers, tests/test_lanes.py), as the worker count is not
     assert episode_key(run, replace(sc, source="/elsewhere.toml", description="words")) == key
+    assert run_key(spec, cfg.with_overrides(solve_lanes=1), {}) == run
     model = tmp_path / "m.onnx"
     model.write_bytes(b"one")
     runs = {run_key(ControllerSpec("gpc", shield="off"), cfg, {}), run_key(ControllerSpec("orca"), cfg, {}),

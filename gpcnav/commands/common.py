@@ -82,6 +82,33 @@ def planner_config(args):
 
 RUN_ADAPTED = ("max_walls", "crowd_moving")
 """Settings a run adapts to its scenarios (:func:`for_run`): not the user's changes."""
+SPEED_ONLY = ("solve_lanes",)
+"""Settings that change how fast the planner answers, never what it answers (the solve
+lanes: :mod:`casadi_gpc.planner.lanes`): a document records them on their own
+(``solve_lanes``), not among ``planner_changes``."""
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system says it, as a
+    container's limits do; else every core)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def for_pool(config, pool):
+    """``config`` with its solve lanes (``PlannerConfig.solve_lanes``, two threads a tick in
+    ``improved``) fitted to the worker pool that runs it: a local worker process gets the
+    cores the workers leave it, ``usable_cores() // workers`` (at least one), a Ray task the
+    one CPU it holds; the preset's (or ``--set``'s) lanes are the most it gets. Two workers
+    with two lanes each on a 2-core machine put four busy threads on two cores, and a
+    decision's second lane waits for one: with one lane a worker the decision median was 1 to
+    12 % lower in six of seven alternated pairs (level in one), the outcomes the same episode
+    for episode (docs/pedestrians.md, "Solve lanes fitted to the workers")."""
+    per = 1 if pool.backend == "ray" else max(1, usable_cores() // max(1, pool.workers))
+    lanes = max(1, min(config.solve_lanes, per))
+    return config if lanes == config.solve_lanes else config.with_overrides(solve_lanes=lanes)
 
 
 def _setting_value(name: str, text: str, annotation: str):
@@ -163,12 +190,13 @@ def config_differences(a: dict, b: dict) -> list[str]:
 
 def planner_changes(config) -> dict:
     """The settings of ``config`` that differ from its preset's, less those a run adapts
-    (:data:`RUN_ADAPTED`): what the documents record as ``planner_changes``."""
+    (:data:`RUN_ADAPTED`) and those that change only the planner's speed
+    (:data:`SPEED_ONLY`): what the documents record as ``planner_changes``."""
     base = PRESETS.get(config.name)
     if base is None:
         return {}
     now, was = config.to_dict(), base.to_dict()
-    return {k: v for k, v in now.items() if k not in RUN_ADAPTED and v != was.get(k)}
+    return {k: v for k, v in now.items() if k not in RUN_ADAPTED + SPEED_ONLY and v != was.get(k)}
 
 
 def recorded_changes(config) -> dict:

@@ -13,7 +13,7 @@ from pathlib import Path
 from ..controllers import check, parse_controller_list, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, connected, planner_config,
-                     for_run)
+                     for_pool, for_run)
 from .evaluate import (add_pool_arguments, add_resume_arguments, close_store, controller_extra, eval_doc, log_to_stderr,
                        open_store, pool_from_args, run_episodes, scenarios_from_args)
 
@@ -28,9 +28,10 @@ def add_arguments(p):
     add_resume_arguments(p)
 
 
-def compare_document(specs, results, config, suite, seed, scenarios, extras, backend) -> dict:
-    """``{"controllers": [EVAL, ...]}`` and what the episodes were."""
-    docs = [eval_doc(spec, result, config, suite, seed, {**extra, "backend": backend})
+def compare_document(specs, results, config, suite, seed, scenarios, extras, backend, workers: int) -> dict:
+    """``{"controllers": [EVAL, ...]}`` and what the episodes were (``backend`` and ``workers``:
+    the pool's, recorded in each EVAL)."""
+    docs = [eval_doc(spec, result, config, suite, seed, {**extra, "backend": backend, "workers": workers})
             for spec, result, extra in zip(specs, results, extras)]
     return {"controllers": docs, "scenarios": [s.name for s in scenarios], "preset": config.name,
             "suite_spec": suite.describe() if suite else None}
@@ -52,7 +53,7 @@ def run(args) -> int:
     from .compare_report import compare_figure, compare_table, paired_table
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
-    config = for_run(planner_config(args), scenarios)
+    config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
     check_compare_outputs(args.out)
     specs = [spec_from_args(args, name) for name in parse_controller_list(args.controllers)]
     robot = scenarios[0].robot
@@ -63,7 +64,7 @@ def run(args) -> int:
         store, keys = open_store(args, specs, config, extras, scenarios)
         results = run_episodes(scenarios, specs, config, pool, desc=f"{len(specs)} controllers", store=store,
                                keys=keys, log=log_to_stderr("compare"))
-    doc = compare_document(specs, results, config, suite, args.seed, scenarios, extras, args.backend)
+    doc = compare_document(specs, results, config, suite, args.seed, scenarios, extras, args.backend, pool.workers)
     table = compare_table(doc)
     paired = paired_table(doc)
     if paired:

@@ -138,10 +138,14 @@ def _user_module_digest(name: str) -> str | None:
 def run_key(spec, config, extra: dict) -> str:
     """The part of every episode's key that one controller's run shares: the controller
     (``spec``: a :class:`gpcnav.controllers.ControllerSpec`; ``extra``: what the document
-    records of how it was made), the planner configuration and the code."""
+    records of how it was made), the planner configuration and the code. The settings that
+    change only the planner's speed (:data:`~gpcnav.commands.common.SPEED_ONLY`: the solve
+    lanes, fitted to the workers) are left out, as the worker count is."""
+    from .common import SPEED_ONLY
     model = spec.model
     return _digest({
-        "format": STORE_FORMAT, "code": code_stamp(), "config": config.to_dict(),
+        "format": STORE_FORMAT, "code": code_stamp(),
+        "config": {k: v for k, v in config.to_dict().items() if k not in SPEED_ONLY},
         "controller": {"name": spec.name, "mode": spec.mode, "passes": spec.passes, "label": spec.label,
                        "model": _file_digest(Path(model)) if model is not None and Path(model).is_file() else model,
                        "user_module": _user_module_digest(spec.name) if spec.is_user_class else None},

@@ -14,7 +14,7 @@ from ..controllers import ControllerSpec, check, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
                      connected, planner_config, progress, recorded_changes, suite_from_args,
-                     for_run)
+                     for_pool, for_run)
 
 _WORKER = {}
 
@@ -159,7 +159,8 @@ def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", sh
     (metrics, all compute times, summed events)."""
     from casadi_gpc.pool import WorkerPool
     spec = kind if isinstance(kind, ControllerSpec) else ControllerSpec(kind, model, shield, passes)
-    return run_episodes(scenarios, [spec], config, WorkerPool(workers, backend, address), desc)[0]
+    pool = WorkerPool(workers, backend, address)
+    return run_episodes(scenarios, [spec], for_pool(config, pool), pool, desc)[0]
 
 
 def parse_faults(spec: str | None):
@@ -225,7 +226,7 @@ def eval_doc(spec: ControllerSpec, result, config, suite, seed, extra: dict | No
     return eval_document(spec.label, metrics, times, {
         "preset": config.name, "sample_time_s": config.sample_time_s, "suite": suite.name if suite else None,
         "seed": seed if suite else None, **({"suite_spec": suite.describe()} if suite else {}),
-        "events": events, **recorded_changes(config), **(extra or {}),
+        "events": events, **recorded_changes(config), "solve_lanes": config.solve_lanes, **(extra or {}),
     })
 
 
@@ -233,7 +234,7 @@ def run(args) -> int:
     from casadi_gpc.io import write_json
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
-    config = for_run(planner_config(args), scenarios)
+    config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
     spec = spec_from_args(args)
     check(spec, config, scenarios[0].robot)
     check_output_files(out=args.out)
@@ -243,7 +244,8 @@ def run(args) -> int:
         faults = scenarios[0].faults if args.faults else None
         result = run_episodes(scenarios, [spec], config, pool, store=store, keys=keys, log=log_to_stderr("evaluate"))[0]
     doc = eval_doc(spec, result, config, suite, args.seed, {
-        **extra, "faults": None if faults is None else faults.__dict__, "backend": args.backend})
+        **extra, "faults": None if faults is None else faults.__dict__, "backend": args.backend,
+        "workers": pool.workers})
     if args.out:
         write_json(args.out, doc)
     close_store(args, store, keys)

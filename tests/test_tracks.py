@@ -152,6 +152,12 @@ def test_frame_time_follows_the_recording():
     assert seconds_per_frame("biwi_eth.txt") == pytest.approx(1 / 15)
     assert seconds_per_frame("crowds_zara01.txt") == pytest.approx(1 / 25)
     assert seconds_per_frame("biwi_hotel.txt") == pytest.approx(1 / 25)
+    # the parts of the recordings as Trajectron++'s and Social-GAN's folders split them
+    for part in ("biwi_eth_train.txt", "biwi_eth_val.txt", "BIWI_ETH_test.txt", "/data/eth/biwi_eth.txt.gz"):
+        assert seconds_per_frame(part) == pytest.approx(1 / 15), part
+    for part in ("biwi_hotel_train.txt", "crowds_zara03_val.txt", "students001_train.txt", "uni_examples.txt",
+                 "biwi_ethics.txt"):
+        assert seconds_per_frame(part) == pytest.approx(1 / 25), part
 
 
 def _excerpt(tmp_path, seconds: float = 60.0):

@@ -15,8 +15,8 @@ def add_arguments(p):
     p.add_argument("recording", type=Path, help="the recording: rows 'frame id x y' (plain text or gzip)")
     p.add_argument("--out", type=Path, required=True, help="folder for the scenario files (made if missing)")
     p.add_argument("--seconds-per-frame", type=float, default=None, metavar="S",
-                   help="what one frame id lasts (default: 1/15 s for biwi_eth, a 15 fps video; 1/25 s "
-                        "for the others: the UCY files, biwi_hotel)")
+                   help="what one frame id lasts (default: 1/15 s for biwi_eth and its parts, biwi_eth_train "
+                        "and so on: a 15 fps video; 1/25 s for the others: the UCY files, biwi_hotel)")
     p.add_argument("--behaviour", choices=("replay", "orca", "social_force"), default="replay",
                    help="the people: replayed open loop (default), or walkers that follow their recording "
                         "and give way to the robot (orca, social_force)")

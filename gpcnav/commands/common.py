@@ -103,8 +103,8 @@ def for_pool(config, pool):
     cores the workers leave it, ``usable_cores() // workers`` (at least one), a Ray task the
     one CPU it holds; the preset's (or ``--set``'s) lanes are the most it gets. Two workers
     with two lanes each on a 2-core machine put four busy threads on two cores, and a
-    decision's second lane waits for one: with one lane a worker the decision median was 1 to
-    12 % lower in six of seven alternated pairs (level in one), the outcomes the same episode
+    decision's second lane waits for one: with one lane a worker the decision median was up to
+    12 % lower in six of eight alternated pairs (level in two), the outcomes the same episode
     for episode (docs/pedestrians.md, "Solve lanes fitted to the workers")."""
     per = 1 if pool.backend == "ray" else max(1, usable_cores() // max(1, pool.workers))
     lanes = max(1, min(config.solve_lanes, per))

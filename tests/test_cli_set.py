@@ -85,4 +85,5 @@ def test_settings_recorded_before_they_existed_are_taken_at_their_default():
     assert config_differences(old, now) == []
     assert config_differences(old, {**now, "walls_directional_sigma": True}) == ["walls_directional_sigma"]
     assert config_differences(now, {**now, "solver": "ipopt", "time_budget_s": 1.0}) == []  # how, not which NLP
+    assert config_differences(now, {**now, "solve_lanes": 1}) == []  # how fast, not which NLP
     assert config_differences(now, {**now, "beyond_horizon_s": [1.0]}) == ["beyond_horizon_s"]

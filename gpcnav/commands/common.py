@@ -171,7 +171,7 @@ def with_settings(config, items):
         raise UsageError(f"--set: {exc}") from None
 
 
-NOT_THE_PROBLEM = {"solver", "time_budget_s"}  # how the NLP is solved, not which NLP it is
+NOT_THE_PROBLEM = {"solver", "time_budget_s", *SPEED_ONLY}  # how the NLP is solved, not which NLP it is
 
 
 def config_differences(a: dict, b: dict) -> list[str]:

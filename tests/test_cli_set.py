@@ -74,6 +74,9 @@ def test_the_command_line_sets_records_and_refuses(tmp_path):
         runs[label] = json.loads(out.read_text())
     assert "planner_changes" not in runs["plain"]
     assert runs["wide"]["planner_changes"] == {"uncertainty_scale_m": 0.1}
+    from gpcnav.commands.common import usable_cores
+    lanes = min(2, usable_cores())  # one process: the preset's two, or the cores there are
+    assert runs["plain"]["solve_lanes"] == runs["wide"]["solve_lanes"] == lanes
     assert runs["wide"]["trajectory"]["y"] != runs["plain"]["trajectory"]["y"]  # the setting reached the planner
 
 

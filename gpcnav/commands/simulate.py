@@ -5,7 +5,7 @@ import sys
 from pathlib import Path
 
 from ..controllers import ControllerSpec, check, describe, make, spec_from_args
-from .common import add_controller_arguments, check_output_files, check_seed, planner_config, for_run
+from .common import add_controller_arguments, check_output_files, check_seed, planner_config, for_pool, for_run
 
 
 def add_arguments(p):
@@ -29,7 +29,7 @@ def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=Non
     from .common import recorded_changes
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
              "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode,  # docs/faults.md
-             **recorded_changes(config)}
+             **recorded_changes(config), "solve_lanes": config.solve_lanes}
     inner = getattr(controller, "policy", controller)  # the controller behind a Shield
     model_info = getattr(inner, "model_info", None)
     if model_info:
@@ -50,7 +50,8 @@ def run(args) -> int:
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
-    config = for_run(planner_config(args), [scenario])
+    from casadi_gpc.pool import WorkerPool
+    config = for_pool(for_run(planner_config(args), [scenario]), WorkerPool(1))  # one process: lanes up to the cores
     spec = spec_from_args(args)
     check(spec, config, scenario.robot)
     doc = run_one(scenario, spec, config)

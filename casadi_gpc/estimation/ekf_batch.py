@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ekf import FilterState, _q_diagonal
+from .ekf import FilterState, _q_diagonal, straightened_rows
 from .ekf_floats import forecast_rows, worst_std_rows
 
 __all__ = ["forecast_many", "ForecastBatch", "MANY_TRACKS"]
@@ -44,13 +44,14 @@ class ForecastBatch:
     estimates themselves, or from a bank that holds them as rows (:meth:`of_rows`)."""
 
     __slots__ = ("_snapshots", "horizon", "_seen", "_rows", "_made", "_time_settings", "_arrays", "_planning",
-                 "_worst")
+                 "_worst", "straight")
 
     def __init__(self, snapshots, horizon: int):
         self._snapshots, self.horizon = tuple(snapshots), int(horizon)
         self._seen = [s.measurements_seen for s in self._snapshots]
         self._rows = self._made = self._time_settings = None
         self._arrays = self._planning = self._worst = None
+        self.straight = False
 
     @classmethod
     def of_rows(cls, rows: np.ndarray, seen: list, sample_time_s: float, settings, horizon: int,
@@ -66,6 +67,25 @@ class ForecastBatch:
         b._snapshots, b.horizon, b._seen, b._rows, b._made = None, int(horizon), seen, rows, forecasts
         b._time_settings = (sample_time_s, settings)
         b._arrays = b._planning = b._worst = None
+        b.straight = False
+        return b
+
+    def straightened(self) -> "ForecastBatch":
+        """The batch of the same estimates forecast straight on at their estimated speed and
+        heading (:func:`~casadi_gpc.estimation.ekf.straightened` of each; the ``improved``
+        planner's model), made when first read: :meth:`FilterState.predict
+        <casadi_gpc.estimation.ekf.FilterState.predict>`'s ``straight=True`` numbers up to rounding."""
+        if self._rows is not None:
+            rows, (T, settings) = self._rows, self._time_settings
+        else:
+            s0 = self._snapshots[0]
+            T, settings = s0.sample_time_s, s0.settings
+            if any((s.settings is not settings and s.settings != settings) or s.sample_time_s != T
+                   for s in self._snapshots):
+                raise ValueError("a straightened batch needs one filter's noise and sample time")
+            rows = np.array([(*s.state, *s.cov_upper) for s in self._snapshots], dtype=float).reshape(-1, 20)
+        b = ForecastBatch.of_rows(straightened_rows(rows), list(self._seen), T, settings, self.horizon)
+        b.straight = True
         return b
 
     @property
@@ -105,7 +125,10 @@ class ForecastBatch:
                 if made is not None:
                     means, covs, worst = made
                 else:
-                    means, covs = forecast_rows(rows[:, :5], rows[:, 5:20], float(T), np.array(_q_diagonal(st, T)), H)
+                    q = _q_diagonal(st, T)
+                    if self.straight:  # the turn increment neither held nor wandering (ekf.straightened)
+                        q = (*q[:4], 0.0)
+                    means, covs = forecast_rows(rows[:, :5], rows[:, 5:20], float(T), np.array(q), H)
                 own = False
                 for i, seen in enumerate(self._seen):
                     if seen < 2:

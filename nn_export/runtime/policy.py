@@ -48,7 +48,7 @@ from .features import RolloutFeatures, feature_values, feature_values_from
 from .model_file import INPUT_NAME, OUTPUT_NAME, POLICY_FORMAT, _bind, _load_session, _validate, read_model_metadata
 from .rollout import roll_out
 from .set_slots import CrowdSlots
-from .situation import Situation, reference_rows
+from .situation import Situation, reference_rows, straight_estimates
 from .side_networks import CrowdNetwork, WallsNetwork
 from .tracker import SituationTracker
 from .wall_scan import wall_segment_rows
@@ -158,19 +158,31 @@ class OnnxPolicy:
         (:func:`shipped_walls_model_path`) when ``model`` is the shipped one and reads no
         walls; None: never. Its decisions are counted (``walls_network``). A map without
         walls never hands a decision to it.
+    check_forecast : ``"turn"``, ``"straight"`` or None
+        The forecast of the tracks that each decision hands over (``forecasts``) for a check
+        layer to judge it against: the filter's turning model, or straight on at the estimated
+        speed and heading. None (default): the preset's planner's (``PlannerConfig.forecast``:
+        straight in ``improved``, turning in ``paper``), so that the network's check judges as
+        the GPC's does. The network's own features always read the turning forecast it was
+        trained with. (The turning forecast's deviation at 6 s is metres for a walker seen a
+        second or two; behind it the planner-free check stepped in at most decisions among
+        real people: docs/nn-deploy.md, "The check judges on the planner's forecast".)
 
     This is the bare network: deployed, it runs behind the safety check layer,
     ``casadi_gpc.safety.Shield(OnnxPolicy())`` (numpy and numba), which checks every
-    command against the same forecasts (each decision hands over its track estimates,
-    ``provides_forecasts``) and hands over to a fallback planner or a manoeuvre when it fails.
+    command against the policy's own filters' estimates (each decision hands them over,
+    forecast as ``check_forecast`` says: ``provides_forecasts``) and hands over to a fallback
+    planner or a manoeuvre when it fails.
     """
 
     provides_forecasts = True
-    """Each decision carries the track estimates it was made with (``forecasts``)."""
+    """Each decision carries the track estimates it was made with (``forecasts``), forecast
+    for the check as :attr:`check_forecast` says."""
 
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
                  two_pass: bool | None = None, safety_distance_m: float | None = None,
-                 ekf_settings: EKFSettings | None = None, crowd_model=SHIPPED, walls_model=SHIPPED):
+                 ekf_settings: EKFSettings | None = None, crowd_model=SHIPPED, walls_model=SHIPPED,
+                 check_forecast: str | None = None):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
@@ -196,6 +208,10 @@ class OnnxPolicy:
         # two passes need the desired poses at steps 0..2H-1 (the window of roll-out step j is j..j+H)
         self.tracker = SituationTracker(self.config, ekf_settings,
                                         reference_steps=2 * self.horizon - 1 if self.two_pass else None)
+        self.check_forecast = self.config.forecast if check_forecast is None else str(check_forecast)
+        if self.check_forecast not in ("turn", "straight"):
+            raise ValueError(f"check_forecast must be 'turn' or 'straight', got {check_forecast!r}")
+        self._straight_check = self.check_forecast == "straight"
         self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path,
                                                                         2 * self.steps)
         self._x1, self._y1 = self._x[0], self._y[0]  # views of the bound rows
@@ -231,6 +247,7 @@ class OnnxPolicy:
         """Whether a decision may carry the network's own plan (check it as a plan, keep the
         shifted previous one: ``casadi_gpc.safety.CheckSettings(previous_plan=True)``)."""
         self.model_info["output"] = "plan" if self.steps > 1 else "command"
+        self.model_info["check_forecast"] = self.check_forecast
         self.load_time_s = time.perf_counter() - t0
         self.reset()
 
@@ -346,6 +363,9 @@ class OnnxPolicy:
         clock = time.perf_counter
         t0 = clock()
         tracks, ref_rows = self.tracker.track(obs)
+        # what the decision hands a check layer: the tracks, forecast as the preset's planner
+        # forecasts them (made when the check first reads them)
+        handed = straight_estimates(tracks) if self._straight_check else tracks
         counters = self._counters
         counters["decisions"] += 1
         self._last = None  # what rollout() needs, for a one-command decision
@@ -364,25 +384,25 @@ class OnnxPolicy:
             values = feature_values_from(net.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
                                          counters["feature_report"], rows)
             if net.steps > 1:
-                dec = _plan_decision(net.plan(values), f"one pass: {net.role} network plan", tracks)
+                dec = _plan_decision(net.plan(values), f"one pass: {net.role} network plan", handed)
             else:
                 vr, vl = net.answer(values)
                 self._last = (net.layout, net.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, rows)
-                dec = (self._walls_decision if net is walls else self._crowd_decision)(vr, vl, tracks)
+                dec = (self._walls_decision if net is walls else self._crowd_decision)(vr, vl, handed)
         elif not self.two_pass:
             t1 = clock()
             own_rows = wall_rows if self.layout.wall_sectors else None
             values = feature_values_from(self.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
                                          counters["feature_report"], own_rows)
             if self.steps > 1:
-                dec = _plan_decision(self._net_plan(values), "one pass: plan", tracks)
+                dec = _plan_decision(self._net_plan(values), "one pass: plan", handed)
             else:
                 vr, vl = self._net_values(values)
                 self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m, own_rows)
-                dec = self._one_pass_decision(vr, vl, tracks)
+                dec = self._one_pass_decision(vr, vl, handed)
         else:
             t1 = clock()
-            dec = self._two_passes(obs, tracks, ref_rows)
+            dec = self._two_passes(obs, tracks, ref_rows, handed)
         info = dec.info
         info["estimation_time_s"], info["network_time_s"] = t1 - t0, clock() - t1
         return dec
@@ -412,9 +432,9 @@ class OnnxPolicy:
             self._wall_key, self._wall_rows = walls, wall_segment_rows(walls)
         return self._wall_rows
 
-    def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list) -> ControlDecision:
+    def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list, handed: tuple) -> ControlDecision:
         """The paper's scheme (module docstring), from the sample's track estimates and the
-        desired poses at steps 0..2H-1."""
+        desired poses at steps 0..2H-1 (``handed``: the estimates the decision hands a check)."""
         H, r = self.horizon, obs.robot
         pose_list, wheel_list = self._free_path(r, ref_rows)
         statics = obs.static
@@ -422,11 +442,11 @@ class OnnxPolicy:
         poses, wheels = np.array(pose_list).reshape(H, 3), np.array(wheel_list).reshape(H, 2)
         if clearance >= self.safety_distance_m:
             return ControlDecision(wheel_list[0], wheel_list[1], False, "pass 1: path clear",
-                                   wheels, poses, info={"predicted_clearance_m": clearance}, forecasts=tracks)
+                                   wheels, poses, info={"predicted_clearance_m": clearance}, forecasts=handed)
         self._counters["second_pass"] += 1
         # the features of the situation with the predicted poses as its reference, from its pieces
         desired = [(r.x_m, r.y_m, r.heading_rad), *zip(pose_list[0::3], pose_list[1::3], pose_list[2::3])]
         vr, vl = self._net_values(feature_values_from(self.layout, r, desired, self.sample_time_s, tracks, statics,
                                                       self._counters["feature_report"]))
         return ControlDecision(vr, vl, False, "pass 2: avoiding", wheels, poses,
-                               info={"predicted_clearance_m": clearance}, forecasts=tracks)
+                               info={"predicted_clearance_m": clearance}, forecasts=handed)

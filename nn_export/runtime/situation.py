@@ -27,7 +27,7 @@ from casadi_gpc.robot import RobotState
 from casadi_gpc.types import ObstacleForecast, StaticObstacle
 
 __all__ = ["TrackEstimate", "Situation", "reference_poses", "reference_rows", "track_estimate", "track_estimates",
-           "row_track_estimates"]
+           "row_track_estimates", "straight_estimates"]
 
 
 @dataclass(frozen=True)
@@ -242,6 +242,49 @@ def row_track_estimates(seen, sample_time_s: float, settings, horizon: int) -> t
         d["obstacle_id"], d["radius_m"], d["initialised"] = int(m.obstacle_id), float(m.radius_m), c >= 2
         d["state_values"], d["_horizon"], d["batch_"], d["batch_index_"] = s, int(horizon), batch, i
         out.append(t)
+    return tuple(out)
+
+
+class _StraightTrack(_FilterTrack):
+    """A :class:`_FilterTrack` whose forecast goes straight on at the estimated speed and
+    heading (:meth:`FilterState.predict <casadi_gpc.estimation.ekf.FilterState.predict>` with
+    ``straight=True``), not turning on by the estimated turn increment."""
+
+    def _forecast(self) -> None:
+        d = self.__dict__
+        batch = d.get("batch_")
+        if batch is None:
+            means, covs = self._filter.predict(self._horizon, straight=True)
+        else:  # the straightened batch's rows (ForecastBatch.straightened)
+            means, covs = batch.arrays
+            i = d["batch_index_"]
+            means, covs = means[i], covs[i]
+        d.update(means_m=means, covs_m2=covs)
+
+
+def straight_estimates(tracks: tuple) -> tuple[TrackEstimate, ...]:
+    """The same track estimates (:func:`row_track_estimates`, :func:`track_estimates`) with
+    their forecasts straight on at the estimated speed and heading, as the ``improved`` GPC
+    forecasts (:func:`casadi_gpc.estimation.ekf.straightened`): what the deployed policy hands
+    its check layer, where the network's features read the turning forecast it was trained
+    with. A crowd's, made together when first read (one straightened
+    :class:`~casadi_gpc.estimation.ekf_batch.ForecastBatch`, so that a check takes the arrays
+    whole)."""
+    if not tracks:
+        return tracks
+    batch = getattr(tracks[0], "batch_", None)
+    straight = batch.straightened() if batch is not None and all(t.batch_ is batch for t in tracks) else None
+    out = []
+    for t in tracks:
+        s = _new(_StraightTrack)
+        d, src = s.__dict__, t.__dict__
+        d["obstacle_id"], d["radius_m"], d["initialised"] = t.obstacle_id, t.radius_m, t.initialised
+        d["state_values"], d["_horizon"] = t.state_values, src["_horizon"]
+        if straight is not None:
+            d["batch_"], d["batch_index_"] = straight, src["batch_index_"]
+        else:
+            d["_filter"], d["batch_"], d["batch_index_"] = t._filter, None, 0
+        out.append(s)
     return tuple(out)
 
 

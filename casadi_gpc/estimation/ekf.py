@@ -155,16 +155,6 @@ _TURN_ENTRIES = (4, 8, 11, 13, 14)
 in the turn increment's row and column."""
 
 
-def straightened_rows(rows: np.ndarray) -> np.ndarray:
-    """:func:`straightened` of each row ``(x, y, V, theta, dtheta, 15 covariance entries)`` of
-    ``rows`` (``(N, 20)``, a bank's rows), as a new array (the process noise's turn entry is
-    the caller's to zero)."""
-    out = np.array(rows, dtype=float, copy=True)
-    out[:, 4] = 0.0
-    out[:, [5 + i for i in _TURN_ENTRIES]] = 0.0
-    return out
-
-
 def _readonly(values, shape: tuple) -> np.ndarray:
     a = np.array(values).reshape(shape)
     a.flags.writeable = False

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ekf import FilterState, _q_diagonal, straightened_rows
+from .ekf import _TURN_ENTRIES, FilterState, _q_diagonal
 from .ekf_floats import forecast_rows, worst_std_rows
 
 __all__ = ["forecast_many", "ForecastBatch", "MANY_TRACKS"]
@@ -33,6 +33,16 @@ def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) 
         flat += (*st, *u)
     rows = np.array(flat, dtype=float).reshape(-1, 20)
     return forecast_rows(rows[:, :5], rows[:, 5:], float(sample_time_s), np.array(q, dtype=float), int(horizon))
+
+
+def straightened_rows(rows: np.ndarray) -> np.ndarray:
+    """:func:`~casadi_gpc.estimation.ekf.straightened` of each row ``(x, y, V, theta, dtheta,
+    15 covariance entries)`` of ``rows`` (``(N, 20)``, a bank's rows), as a new array (the
+    process noise's turn entry is the caller's to zero)."""
+    out = np.array(rows, dtype=float, copy=True)
+    out[:, 4] = 0.0
+    out[:, [5 + i for i in _TURN_ENTRIES]] = 0.0
+    return out
 
 
 class ForecastBatch:

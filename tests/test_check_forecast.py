@@ -107,6 +107,8 @@ def test_the_policy_hands_the_presets_forecast_and_decides_as_before():
     for obs in seen:
         a, b = straight_policy.decide(obs), turning_policy.decide(obs)
         assert (a.v_right_mps, a.v_left_mps) == (b.v_right_mps, b.v_left_mps)
+        ra, rb = straight_policy.rollout(), turning_policy.rollout()  # the network's own plan: the same
+        assert (ra is None) == (rb is None) and (ra is None or all(np.array_equal(x, y) for x, y in zip(ra, rb)))
         assert [f.obstacle_id for f in a.forecasts] == [f.obstacle_id for f in b.forecasts]
         for fa, fb in zip(a.forecasts, b.forecasts):
             snap = fb._filter  # the turning estimate's filter state: its straight forecast is what a got

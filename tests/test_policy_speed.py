@@ -130,7 +130,9 @@ def replay(preset_name: str, observations, two_pass: bool, safety: bool, model=N
     """Every decision of a fresh policy on ``observations`` (open loop), as arrays: the main
     network alone (the crowd network's hand-over is tests/test_set_network.py's); ``model``:
     the file (default the one shipped for the preset)."""
-    net = OnnxPolicy(model, preset=preset_name, two_pass=two_pass, crowd_model=None)
+    # the check judged on the turning forecast when these decisions were recorded (the
+    # straight one the improved check reads since is tests/test_check_forecast.py's)
+    net = OnnxPolicy(model, preset=preset_name, two_pass=two_pass, crowd_model=None, check_forecast="turn")
     pol = Shield(net) if safety else net  # the check layer, manoeuvres only (no planner on standby)
     H = net.horizon
     n = len(observations)

@@ -46,7 +46,10 @@ def test_the_roll_out_is_the_network_on_the_predicted_situations():
     walker where its forecast puts it, heading turned j times), built as a Situation and
     computed by compute_features, then held to the wheel limits."""
     sc = _crowd_scene()
-    pol = OnnxPolicy(preset="improved", robot=sc.robot)
+    # the decision then hands over the very estimates the roll-out reads (the turning forecast);
+    # what it hands a check by default, and that the roll-out does not depend on it, is
+    # tests/test_check_forecast.py's
+    pol = OnnxPolicy(preset="improved", robot=sc.robot, check_forecast="turn")
     rec = _Recording(pol)
     simulate(sc, rec, "nn")
     obs, dec = rec.seen[12]

@@ -66,3 +66,16 @@ def test_the_documents_say_the_workers_and_lanes(tmp_path):
     assert doc["workers"] == 2
     assert doc["solve_lanes"] == max(1, min(IMPROVED.solve_lanes, cores // 2))
     assert "planner_changes" not in doc
+
+
+def test_the_worker_count_defaults_to_the_cores_the_lanes_are_counted_from():
+    """One count of the cores: ``--workers`` defaults to the cores the lanes are fitted to
+    (CPU affinity, as a container's limits say), so the default run's lanes are one a worker."""
+    import argparse
+
+    from gpcnav.commands import dataset, evaluate, reproduce
+    for add in (evaluate.add_pool_arguments, dataset.add_arguments, reproduce.add_arguments):
+        p = argparse.ArgumentParser()
+        add(p)
+        assert p.get_default("workers") == common.usable_cores(), add
+    assert for_pool(IMPROVED, WorkerPool(common.usable_cores())).solve_lanes == 1

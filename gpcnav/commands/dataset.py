@@ -16,7 +16,8 @@ from pathlib import Path
 from scenarios import CROWD_BEHAVIOURS, CROWD_SUITES, SUITES
 
 from ..errors import UsageError
-from .common import add_preset_arguments, check_seed, config_differences, connected, planner_config, progress
+from .common import (add_preset_arguments, check_seed, config_differences, connected, planner_config, progress,
+                     usable_cores)
 
 MAX_SAMPLES = 100_000_000
 """The most samples one ``--samples`` asks for: labelling runs at 100-1000 samples/s on a
@@ -28,7 +29,7 @@ def add_arguments(p):
     p.add_argument("--out", type=Path, required=True, help="dataset directory (created, or resumed)")
     p.add_argument("--samples", type=int, default=None,
                    help="labelled samples wanted, mirror samples included (required unless --dagger)")
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
+    p.add_argument("--workers", type=int, default=usable_cores(), help="worker processes (default: one a core)")
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local worker processes (default) or a Ray cluster")
     p.add_argument("--address", default=None,

@@ -6,7 +6,6 @@ the same command run again after an interruption, kill -9 included, reuses them 
 only the rest; the document is the one an uninterrupted run writes (docs/evaluation.md)."""
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 
@@ -14,7 +13,7 @@ from ..controllers import ControllerSpec, check, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
                      connected, planner_config, progress, recorded_changes, suite_from_args,
-                     for_pool, for_run)
+                     for_pool, for_run, usable_cores)
 
 _WORKER = {}
 
@@ -40,8 +39,9 @@ def add_resume_arguments(p) -> None:
 
 def add_pool_arguments(p) -> None:
     """``--workers``, ``--backend local|ray`` and ``--address``."""
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
-                   help="worker processes, or the CPUs of a Ray instance started here (default: all cores)")
+    p.add_argument("--workers", type=int, default=usable_cores(),
+                   help="worker processes, or the CPUs of a Ray instance started here (default: one a core this "
+                        "process may use)")
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local worker processes (default) or Ray (pip install 'gpcnav[distributed]')")
     p.add_argument("--address", default=None,

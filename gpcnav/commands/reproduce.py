@@ -24,7 +24,7 @@ from pathlib import Path
 from casadi_gpc.io import write_json
 
 from ..errors import UsageError
-from .common import check_seed, make_output_folder
+from .common import check_seed, make_output_folder, usable_cores
 from .reproduce_report import write_report
 
 
@@ -71,7 +71,7 @@ def add_arguments(p):
     p.add_argument("--quick", action="store_true",
                    help="a smaller dataset and suite, the paper preset only (< 3 min on 2 cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of the dataset, the training and the suite")
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="worker processes (default: all cores)")
+    p.add_argument("--workers", type=int, default=usable_cores(), help="worker processes (default: one a core)")
 
 
 def _cli(argv: list[str]) -> None:

@@ -175,11 +175,14 @@ class _FilterTrack(TrackEstimate):
     def cov(self) -> np.ndarray:
         return self._filter.cov_array()
 
+    _straight = False
+    """Whether the forecast goes straight on (:class:`_StraightTrack`) rather than turning."""
+
     def _forecast(self) -> None:
         d = self.__dict__
         batch = d.get("batch_")
         if batch is None:
-            means, covs = self._filter.predict(self._horizon)
+            means, covs = self._filter.predict(self._horizon, straight=self._straight)
         else:  # made with the other tracks of its sample (casadi_gpc.estimation.ekf_batch), rows of theirs
             means, covs = batch.arrays
             i = d["batch_index_"]
@@ -248,18 +251,10 @@ def row_track_estimates(seen, sample_time_s: float, settings, horizon: int) -> t
 class _StraightTrack(_FilterTrack):
     """A :class:`_FilterTrack` whose forecast goes straight on at the estimated speed and
     heading (:meth:`FilterState.predict <casadi_gpc.estimation.ekf.FilterState.predict>` with
-    ``straight=True``), not turning on by the estimated turn increment."""
+    ``straight=True``; in a batch, a straightened one's rows: ``ForecastBatch.straightened``),
+    not turning on by the estimated turn increment."""
 
-    def _forecast(self) -> None:
-        d = self.__dict__
-        batch = d.get("batch_")
-        if batch is None:
-            means, covs = self._filter.predict(self._horizon, straight=True)
-        else:  # the straightened batch's rows (ForecastBatch.straightened)
-            means, covs = batch.arrays
-            i = d["batch_index_"]
-            means, covs = means[i], covs[i]
-        d.update(means_m=means, covs_m2=covs)
+    _straight = True
 
 
 def straight_estimates(tracks: tuple) -> tuple[TrackEstimate, ...]:

@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .ekf_floats import (correct as _correct, cov_array as _cov_array, forecast as _forecast, full as _full,
-                         propagate as _propagate, update_rows as _update_rows,
+                         propagate as _propagate, straight_noise, update_rows as _update_rows,
                          upper as _upper)
 
 __all__ = ["EKFSettings", "ObstacleEKF", "FilterState", "obstacle_model_step", "planning_covariances", "worst_std_m",
@@ -147,7 +147,7 @@ def straightened(state: tuple, cov_upper: tuple, q: tuple) -> tuple[tuple, tuple
     u = list(cov_upper)
     for i in _TURN_ENTRIES:
         u[i] = 0.0
-    return (x, y, v, th, 0.0), tuple(u), (*q[:4], 0.0)
+    return (x, y, v, th, 0.0), tuple(u), straight_noise(q)
 
 
 _TURN_ENTRIES = (4, 8, 11, 13, 14)

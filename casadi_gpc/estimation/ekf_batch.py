@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .ekf import _TURN_ENTRIES, FilterState, _q_diagonal
-from .ekf_floats import forecast_rows, worst_std_rows
+from .ekf_floats import forecast_rows, straight_noise, worst_std_rows
 
 __all__ = ["forecast_many", "ForecastBatch", "MANY_TRACKS"]
 
@@ -38,7 +38,7 @@ def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) 
 def straightened_rows(rows: np.ndarray) -> np.ndarray:
     """:func:`~casadi_gpc.estimation.ekf.straightened` of each row ``(x, y, V, theta, dtheta,
     15 covariance entries)`` of ``rows`` (``(N, 20)``, a bank's rows), as a new array (the
-    process noise's turn entry is the caller's to zero)."""
+    process noise's turn entry is the caller's to zero: :func:`~casadi_gpc.estimation.ekf_floats.straight_noise`)."""
     out = np.array(rows, dtype=float, copy=True)
     out[:, 4] = 0.0
     out[:, [5 + i for i in _TURN_ENTRIES]] = 0.0
@@ -137,7 +137,7 @@ class ForecastBatch:
                 else:
                     q = _q_diagonal(st, T)
                     if self.straight:  # the turn increment neither held nor wandering (ekf.straightened)
-                        q = (*q[:4], 0.0)
+                        q = straight_noise(q)
                     means, covs = forecast_rows(rows[:, :5], rows[:, 5:20], float(T), np.array(q), H)
                 own = False
                 for i, seen in enumerate(self._seen):

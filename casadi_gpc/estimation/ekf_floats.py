@@ -15,9 +15,17 @@ from numba import njit
 from numba.extending import register_jitable
 
 __all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "correct", "update_rows", "step_rows",
-           "frame_rows", "step_frame_rows", "worst_std_rows", "upper", "full", "cov_array"]
+           "frame_rows", "step_frame_rows", "worst_std_rows", "upper", "full", "cov_array", "straight_noise"]
 
 _PI, _TWO_PI = math.pi, 2 * math.pi
+
+
+
+def straight_noise(q: tuple) -> tuple:
+    """The process noise's diagonal ``q`` (x, y, speed, heading, turn increment) of a straight
+    forecast (:func:`casadi_gpc.estimation.ekf.straightened`): the turn increment's entry
+    zeroed, so that it neither is held nor wanders; the others kept."""
+    return (*q[:4], 0.0)
 
 
 def cov_step(a: float, b: float, e: float, g: float, U: tuple, q: tuple) -> tuple:

@@ -51,7 +51,7 @@ from .set_slots import CrowdSlots
 from .situation import Situation, reference_rows, straight_estimates
 from .side_networks import CrowdNetwork, WallsNetwork
 from .tracker import SituationTracker
-from .wall_scan import wall_segment_rows
+from .wall_scan import static_wall_rows, wall_segment_rows
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "shipped_walls_model_path",
            "SHIPPED",
@@ -182,7 +182,7 @@ class OnnxPolicy:
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
                  two_pass: bool | None = None, safety_distance_m: float | None = None,
                  ekf_settings: EKFSettings | None = None, crowd_model=SHIPPED, walls_model=SHIPPED,
-                 check_forecast: str | None = None):
+                 check_forecast: str | None = None, statics_as_walls: bool = False):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
@@ -240,6 +240,8 @@ class OnnxPolicy:
         self._walls = None if walls_model is None else WallsNetwork(Path(walls_model), self.config.name, self.robot,
                                                                       self.layout)
         self._walls_decision = _decision_maker("one pass: walls network")
+        self.statics_as_walls = bool(statics_as_walls)
+        self._static_key, self._static_rows = None, None  # the static discs as wall pieces, made once per set
         if self._walls is not None:
             self.model_info["walls_model"] = self._walls.info
         self._wall_key, self._wall_rows = None, None  # the map's walls as segment rows, made once per map
@@ -374,20 +376,23 @@ class OnnxPolicy:
         x, y = obs.robot.x_m, obs.robot.y_m
         side = (walls, wall_rows) if walls is not None and wall_rows is not None and walls.near(x, y, wall_rows) else \
             (crowd, None) if crowd is not None and crowd.needed(x, y, tracks, obs.static) else None
+        statics = obs.static
         if side is not None:  # the walls network near a wall, else the crowd network where the main one cannot hold it
             net, rows = side
+            if net is walls and statics and self.statics_as_walls:  # the discs in its scan, as a range sensor sees them
+                rows, statics = np.concatenate((rows, self._disc_rows(statics))), ()
             batch = getattr(tracks[0], "batch_", None) if tracks else None
             if batch is not None:
                 batch.arrays  # the forecasts made together, as the features and a check read them
             t1 = clock()
             counters[net.role + "_network"] += 1
-            values = feature_values_from(net.layout, obs.robot, ref_rows, self.sample_time_s, tracks, obs.static,
+            values = feature_values_from(net.layout, obs.robot, ref_rows, self.sample_time_s, tracks, statics,
                                          counters["feature_report"], rows)
             if net.steps > 1:
                 dec = _plan_decision(net.plan(values), f"one pass: {net.role} network plan", handed)
             else:
                 vr, vl = net.answer(values)
-                self._last = (net.layout, net.answer, obs, tracks, vr, vl, self.tracker.clock.s_m, rows)
+                self._last = (net.layout, net.answer, obs, tracks, statics, vr, vl, self.tracker.clock.s_m, rows)
                 dec = (self._walls_decision if net is walls else self._crowd_decision)(vr, vl, handed)
         elif not self.two_pass:
             t1 = clock()
@@ -398,7 +403,8 @@ class OnnxPolicy:
                 dec = _plan_decision(self._net_plan(values), "one pass: plan", handed)
             else:
                 vr, vl = self._net_values(values)
-                self._last = (self.layout, self._net_answer, obs, tracks, vr, vl, self.tracker.clock.s_m, own_rows)
+                self._last = (self.layout, self._net_answer, obs, tracks, obs.static, vr, vl, self.tracker.clock.s_m,
+                              own_rows)
                 dec = self._one_pass_decision(vr, vl, handed)
         else:
             t1 = clock()
@@ -416,14 +422,21 @@ class OnnxPolicy:
         last = self._last
         if last is None:
             return None
-        layout, answer, obs, tracks, vr, vl, s_m, wall_rows = last
+        layout, answer, obs, tracks, statics, vr, vl, s_m, wall_rows = last
         rows = reference_rows(obs.reference, s_m, self.sample_time_s, 2 * self.horizon - 1)
         # a crowd's features at each step from the compiled slots, where they answer (the same
         # values; not a layout that reads walls; the decision's own features stay in plain floats:
         # one call, where making the arrays costs more)
-        slots = CrowdSlots.make(layout, tracks, obs.static) if wall_rows is None else None
-        return roll_out(layout, answer, obs.robot, (vr, vl), tracks, obs.static, rows, self.sample_time_s, self.robot,
+        slots = CrowdSlots.make(layout, tracks, statics) if wall_rows is None else None
+        return roll_out(layout, answer, obs.robot, (vr, vl), tracks, statics, rows, self.sample_time_s, self.robot,
                         wall_rows, slots)
+
+    def _disc_rows(self, statics) -> np.ndarray:
+        """The static discs as wall segments (:func:`static_wall_rows`), made again only when
+        the set of discs changes."""
+        if statics is not self._static_key:
+            self._static_key, self._static_rows = statics, static_wall_rows(statics)
+        return self._static_rows
 
     def _map_rows(self, walls) -> np.ndarray:
         """The map's walls as segment rows (:func:`~nn_export.runtime.wall_scan.wall_segment_rows`),

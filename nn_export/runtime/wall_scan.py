@@ -28,7 +28,8 @@ import numpy as np
 
 from casadi_gpc.geometry import segment_rows as wall_segment_rows  # the walls' segments as (ax, ay, bx, by) rows
 
-__all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "wall_segment_rows", "segments_near", "wall_scan", "sector_mirror"]
+__all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "DISC_SIDES", "wall_segment_rows", "static_wall_rows", "segments_near",
+           "wall_scan", "sector_mirror"]
 
 WALL_SECTORS = 24
 """Sectors of the scan (15 degrees each: at 2 m a sector is 0.52 m wide, less than a door)."""
@@ -37,6 +38,25 @@ WALL_SCAN_RANGE_M = 4.0
 planner's obstacle terms reach 1.5 m from the robot's disc, its path 4.8 m in a horizon at top
 speed; within 4 m the network sees every wall the planner's plan could meet in the next
 seconds)."""
+
+
+DISC_SIDES = 8
+"""Sides of the polygon a static disc is drawn as in the scan (:func:`static_wall_rows`): its
+edges stay within 8 % of the radius outside the disc."""
+
+
+def static_wall_rows(statics, sides: int = DISC_SIDES) -> np.ndarray:
+    """Static discs (``position_m``, ``radius_m``) as wall segments ``(ax, ay, bx, by)``: each
+    the closed regular polygon of ``sides`` edges drawn round it (its edges touch the disc), so
+    that a scan sees a pillar as a range sensor would, nearest point within ``1 / cos(pi /
+    sides) - 1`` of the radius of the disc's own. ``(0, 4)`` for none."""
+    rows = []
+    half = math.pi / sides
+    for st in statics:
+        (cx, cy), r = st.position_m, float(st.radius_m) / math.cos(half)
+        pts = [(cx + r * math.cos(2 * half * k), cy + r * math.sin(2 * half * k)) for k in range(sides + 1)]
+        rows += [(*a, *b) for a, b in zip(pts[:-1], pts[1:])]
+    return np.array(rows, dtype=float).reshape(-1, 4)
 
 
 def segments_near(rows: np.ndarray, x: float, y: float, reach_m: float) -> np.ndarray:

@@ -187,3 +187,67 @@ def test_the_policy_hands_decisions_to_the_walls_network_exactly_near_walls(tmp_
     with pytest.raises(ValueError, match="read walls"):
         OnnxPolicy(main, preset="improved", walls_model=tracker_model(tmp_path / "set.onnx", "improved",
                                                                       layout_name="set", decision_passes="1"))
+
+
+def test_a_static_disc_as_wall_pieces_is_the_polygon_round_it():
+    """``static_wall_rows``: each disc a closed regular octagon whose every edge touches it, so
+    that a scan sees it no farther than the disc and no nearer than the octagon's corners
+    allow (radius / cos(pi / 8))."""
+    from casadi_gpc.geometry import distance_to_segments_m
+    from casadi_gpc.types import StaticObstacle
+    from nn_export.runtime.wall_scan import DISC_SIDES, static_wall_rows
+    rng = np.random.default_rng(8)
+    discs = tuple(StaticObstacle(tuple(rng.uniform(-3, 3, 2)), float(rng.uniform(0.1, 0.5))) for _ in range(5))
+    rows = static_wall_rows(discs)
+    assert rows.shape == (DISC_SIDES * len(discs), 4) and static_wall_rows(()).shape == (0, 4)
+    corner = 1.0 / math.cos(math.pi / DISC_SIDES)
+    for j, d in enumerate(discs):
+        own = rows[j * DISC_SIDES:(j + 1) * DISC_SIDES]
+        c = np.asarray(d.position_m)
+        assert np.allclose(own[1:, :2], own[:-1, 2:], atol=0) and np.allclose(own[0, :2], own[-1, 2:], atol=1e-12)
+        gaps = [distance_to_segments_m(c, r[None, :2], r[None, 2:])[0] for r in own]  # each edge touches the disc
+        assert np.allclose(gaps, d.radius_m, atol=1e-12)
+        for _ in range(10):  # seen from outside: between the disc's own distance and the corners'
+            p = c + rng.uniform(1.0, 3.0) * np.array([math.cos(a := rng.uniform(0, 2 * math.pi)), math.sin(a)])
+            near = min(wall_scan(own, *p, rng.uniform(-3, 3), range_m=10.0))
+            true = float(np.hypot(*(p - c)))
+            assert true - d.radius_m * corner - 1e-12 <= near <= true - d.radius_m + 1e-12
+
+
+def test_statics_as_walls_give_the_walls_network_the_octagons_and_nothing_else(tmp_path):
+    """``OnnxPolicy(statics_as_walls=True)``, the default: where the walls network answers, its decision is the
+    one it gives with each static disc's octagon among the walls and no static obstacle (and so
+    is its roll-out); where it does not (no wall in range), the decision is the option's off."""
+    from casadi_gpc.types import Observation, ObstacleMeasurement, StaticObstacle
+    from nn_export import OnnxPolicy
+    from nn_export.runtime.wall_scan import static_wall_rows
+    from synthetic_models import tracker_model
+    main = tracker_model(tmp_path / "main.onnx", "improved")
+    walls = tracker_model(tmp_path / "walls.onnx", "improved", layout_name="set-walls", decision_passes="1",
+                          extra_weights={"wall_0_m": (0.05, -0.05), "sta1_x_m": (0.2, 0.1)})
+    on = OnnxPolicy(main, preset="improved", walls_model=walls)  # the default
+    off = OnnxPolicy(main, preset="improved", walls_model=walls, statics_as_walls=False)
+    T = CFG.sample_time_s
+    path = ReferencePath((0.0, 0.0), 0.0, (Segment.line(30.0),), 0.4)
+    pillar = (StaticObstacle((3.0, 0.2), 0.3),)
+    octagon = [tuple(map(tuple, r.reshape(2, 2))) for r in static_wall_rows(pillar)]
+    differ = answered = 0
+    for k in range(12):
+        for wall in ((((-20.0, 1.0), (20.0, 1.0)),), (((-20.0, 9.0), (20.0, 9.0)),)):  # near, then out of range
+            mover = (ObstacleMeasurement(0, (8.0 - 0.3 * k, -0.4), 0.3),)
+            obs = Observation(k * T, RobotState(0.2 * k, 0.0, 0.0, 0.3, 0.3), path, mover, pillar, walls=wall)
+            seen = Observation(k * T, RobotState(0.2 * k, 0.0, 0.0, 0.3, 0.3), path, mover, (),
+                               walls=wall + tuple(octagon))
+            for p in (on, off):
+                p.reset()
+            d, o = on.decide(obs), off.decide(obs)
+            ref = OnnxPolicy(main, preset="improved", walls_model=walls, statics_as_walls=False)
+            r = ref.decide(seen)
+            near = wall[0][0][1] == 1.0
+            want = r if near else o
+            assert (d.v_right_mps, d.v_left_mps) == (want.v_right_mps, want.v_left_mps)
+            answered += d.reason == "one pass: walls network"
+            if near:
+                differ += (d.v_right_mps, d.v_left_mps) != (o.v_right_mps, o.v_left_mps)
+                np.testing.assert_array_equal(on.rollout()[0], ref.rollout()[0])
+    assert answered == 12 and differ >= 8  # near the wall only; the scan and the slots read differently (10)

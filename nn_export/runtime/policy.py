@@ -167,6 +167,14 @@ class OnnxPolicy:
         trained with. (The turning forecast's deviation at 6 s is metres for a walker seen a
         second or two; behind it the planner-free check stepped in at most decisions among
         real people: docs/nn-deploy.md, "The check judges on the planner's forecast".)
+    statics_as_walls : bool
+        Where the walls network answers, each static obstacle is drawn in its wall scan as the
+        octagon round it (:func:`~nn_export.runtime.wall_scan.static_wall_rows`) and left out
+        of its static slots, for its decision and its roll-out (default True). It was trained
+        on buildings without static obstacles; a pillar reaches it as a range sensor would see
+        it. Adopted by a rule on unseen cases (docs/buildings.md, "A pillar in a building":
+        with a pillar in the three wall suites, 90 / 8 / 82 -> 105 / 4 / 71 reached / collided
+        / timed out). A check layer judges against the discs themselves either way.
 
     This is the bare network: deployed, it runs behind the safety check layer,
     ``casadi_gpc.safety.Shield(OnnxPolicy())`` (numpy and numba), which checks every
@@ -182,7 +190,7 @@ class OnnxPolicy:
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
                  two_pass: bool | None = None, safety_distance_m: float | None = None,
                  ekf_settings: EKFSettings | None = None, crowd_model=SHIPPED, walls_model=SHIPPED,
-                 check_forecast: str | None = None, statics_as_walls: bool = False):
+                 check_forecast: str | None = None, statics_as_walls: bool = True):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)

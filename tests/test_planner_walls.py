@@ -157,3 +157,25 @@ def test_in_a_corridor_the_sideways_guesses_are_narrowed_to_fit_and_counted():
     got = ctl._queued_starts(tick.p, tick.x0, 0.4, batch, keep_one=False)
     assert [s[0] for s in got] == ["brake"] and batch == ["straight", "detour_right", "brake"]
     assert ctl._pending == ["swerve_left"]
+
+
+def test_a_robot_that_starts_against_a_wall_moves_off_at_once():
+    """The robot 0.03 m from a corridor's wall, facing it, no one else in the scene: the GPC
+    behind its check (as ``--controller gpc`` runs it) is moving by its second sample and
+    reaches its goal. Its first tick solves one fixed guess, which can converge through the
+    wall; a kept plan through a wall begins the other guesses (``multistart_through_a_wall``)
+    where, with no one near, the queue used to be dropped and the robot stood 10-15 s
+    (docs/buildings.md, "A robot that starts against a wall")."""
+    from gpcnav.controllers import ControllerSpec, make
+    from scenarios.simulator import simulate
+    walls = "[[walls]]\npoints = [[-3.0, 1.25], [12.0, 1.25]]\n[[walls]]\npoints = [[-3.0, -1.25], [12.0, -1.25]]\n"
+    doc = tomllib.loads(straight_line_toml("against", 40.0, 8.0, walls))
+    for heading in (90.0, 150.0):
+        doc["robot"] = {"position": [0.0, 1.25 - 0.35 - 0.03], "heading_deg": heading}
+        sc = scenario_from_dict(doc, "t")
+        cfg = for_run(CFG, [sc])
+        log = simulate(sc, make(ControllerSpec("gpc"), cfg, sc.robot), "gpc")
+        xy = np.asarray(log.states)[:, :2]
+        moved = next(k for k in range(1, len(xy)) if np.hypot(*(xy[k] - xy[0])) > 0.05)
+        assert log.outcome == "reached_goal" and moved <= 3, (heading, moved)
+        assert len(log.decisions) <= 48, (heading, len(log.decisions))  # stood for 10-15 s before: 51-63

@@ -14,7 +14,7 @@ from ..geometry import walls_reach_m
 from ..problem.cost import GPCProblem
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
-from .guesses import TIE_ORDER, fitted_guesses, initial_guesses, swerve_guesses
+from .guesses import TIE_ORDER, fitted_guesses, initial_guesses, plan_meets_walls, swerve_guesses
 from .lanes import SolveLanes
 from ..progress import ReferenceClock
 from ..robot import RobotParams, brake_wheels
@@ -297,17 +297,17 @@ class GPCController:
         it joins), and each tick solves the next ``cold_starts`` of the queue beside the warm
         starts of every kept candidate; the tick's guesses count as a multi-start for the
         candidates (a class that merges into a guess's optimum is not lost). The surprise
-        (a warm start dearer than expected) queues a cycle too. Counted: ``full_multistarts``
-        (cycles begun), ``queued_guesses`` (guesses solved at a later tick than the one the
-        cycle began at)."""
+        (a warm start dearer than expected) queues a cycle too, and so does a kept plan through a
+        wall (:func:`plan_meets_walls`: no minimum to keep). Counted: ``full_multistarts``
+        (cycles begun), ``queued_guesses`` (guesses solved at a later tick than it began at)."""
         cs, K = self.candidates, self.config.cold_starts
-        due = cs.full_multistart_due(near, relevant)
-        previous = cs.incumbent
-        if not near and cs.plans:
-            self._pending = []  # far from everything the kept plan is the one minimum
-        if due and not self._pending:
+        due, previous = cs.full_multistart_due(near, relevant), cs.incumbent
+        through = plan_meets_walls(self.problem.config, self.robot, x0, previous, self._walls_in_slots)
+        if not near and cs.plans and not through:
+            self._pending = []  # far from everything, its plan off the walls: the one minimum
+        if (due or through) and not self._pending:
             self._pending = self._cycle()
-            self._count_multistart(cs.reason)
+            self._count_multistart(cs.reason if due else "through_a_wall")
         batch = self._take_pending(K, began=due)
         starts = [(name, u0, lam_x, lam_g) for name, (u0, lam_x, lam_g) in cs.starts(near, False)]
         guesses = self._queued_starts(p, x0, ref_speed_mps, batch, keep_one=not starts)

@@ -17,7 +17,7 @@ from ..geometry import distance_to_segments_m, segments_cross
 from ..robot import robot_step_float
 
 __all__ = ["TIE_ORDER", "SIDEWAYS", "NARROWER", "wheels_to_increments", "swerve_guesses", "detour_guesses",
-           "brake_guess", "initial_guesses", "meets_walls", "fitted_guesses"]
+           "brake_guess", "initial_guesses", "meets_walls", "plan_meets_walls", "fitted_guesses"]
 
 TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake")
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
@@ -136,6 +136,19 @@ def meets_walls(config, robot, x0, u0, segments) -> bool:
         return True
     d = distance_to_segments_m(np.asarray(pts), a, b)          # (H + 1, m)
     return bool((d[1:] < np.minimum(robot.radius_m, d[0]) - 1e-9).any())
+
+
+def plan_meets_walls(config, robot, x0, plan, segments) -> bool:
+    """Whether a solved ``plan`` (the last tick's, its increments ``plan.u``), shifted by a
+    step and rolled out from the state ``x0``, meets the wall ``segments`` (:func:`meets_walls`);
+    False without a plan or a segment. A plan the solver took through a wall (started there,
+    it stays in the wall's penalty) is no minimum for the planner to keep: beside a wall, with
+    no one near, it used to be kept for 10 to 15 s (docs/buildings.md, "A robot that starts
+    against a wall")."""
+    if plan is None or not len(segments):
+        return False
+    u = np.concatenate([np.asarray(plan.u, dtype=float)[2:], np.zeros(2)])
+    return meets_walls(config, robot, x0, u, segments)
 
 
 def fitted_guesses(problem, x0, ref_speed_mps: float, ref_poses, guesses: dict, segments) -> tuple[dict, int]:

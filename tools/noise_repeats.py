@@ -28,6 +28,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from casadi_gpc.io import write_json  # noqa: E402  (atomic: never a half-written summary)
 from scenarios import load_scenario  # noqa: E402
 
 SEED_STEP = 1_000_003
@@ -120,7 +121,7 @@ def main(argv: list[str]) -> int:
     except (OSError, ValueError) as exc:
         print(f"noise_repeats: {exc}", file=sys.stderr)
         return 2
-    (a.out / "SUMMARY.json").write_text(json.dumps(s, indent=1))
+    write_json(a.out / "SUMMARY.json", s)
     for r, c in enumerate(s["runs"]):
         print(f"run {r}: {c['reached_goal']} reached / {c['collided']} collided / {c['timed_out']} timed out")
     print(f"{s['same_outcome_in_every_run']} of {s['episodes']} episodes had the same outcome in every run")

@@ -20,7 +20,6 @@ __all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "corr
 _PI, _TWO_PI = math.pi, 2 * math.pi
 
 
-
 def straight_noise(q: tuple) -> tuple:
     """The process noise's diagonal ``q`` (x, y, speed, heading, turn increment) of a straight
     forecast (:func:`casadi_gpc.estimation.ekf.straightened`): the turn increment's entry

@@ -208,6 +208,30 @@ def test_an_obstacle_that_stops_dead_is_a_ghost_then_a_manoeuvre():
     assert ekf.ghost() is None
 
 
+def test_a_person_who_sets_off_from_standing_is_a_manoeuvre_at_the_second_sample():
+    """A person standing for 10 s sets off at 0.8 m/s. Their first measurement walking is gated
+    (0.4 m from the prediction: a ghost there); the second, 0.4 m further on, agrees with the
+    first: a manoeuvre, the velocity estimated from the two, though it is 0.8 m from the
+    standing prediction (beyond 0.75 m). Before 2026-11-29 it was judged by that prediction, a
+    glitch with no ghost, and the person was forecast standing where they had been until the
+    third rejection restarted the track (a collision in ``corridor``, seed 1, episode 172)."""
+    T, speed = 0.5, 0.8
+    ekf = ObstacleEKF(T)
+    for _ in range(20):
+        ekf.step([9.0, -0.5])
+    first, second = (9.0 - speed * T, -0.5), (9.0 - 2 * speed * T, -0.5)
+    assert ekf.step(first) == "outlier"
+    np.testing.assert_allclose(ekf.ghost().state_[:2], first, atol=1e-15)
+    assert ekf.step(second) == "manoeuvre" and ekf.maneuvers_ == 1
+    means, _ = ekf.predict(2)
+    np.testing.assert_allclose(means, [(9.0 - 3 * speed * T, -0.5), (9.0 - 4 * speed * T, -0.5)], atol=1e-9)
+    # a lone glitch as far off is still no manoeuvre: the next measurement back in place is fused
+    ekf = ObstacleEKF(T)
+    for _ in range(20):
+        ekf.step([9.0, -0.5])
+    assert ekf.step(first) == "outlier" and ekf.step((9.0, -0.5)) == "update" and ekf.maneuvers_ == 0
+
+
 def test_controller_counts_missed_measurements_and_outliers():
     from casadi_gpc.planner.gpc import GPCController
     cfg = PRESETS["paper"]

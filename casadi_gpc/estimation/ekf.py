@@ -12,9 +12,9 @@ constant turn increment), with T the sample time::
 Measurements are positions with white noise. An innovation beyond the Mahalanobis gate is
 not fused. When it is within what the obstacle could have done in a sample
 (``EKFSettings.max_maneuver_mps``) and the next measurement is gated out too and agrees with
-it, the obstacle manoeuvred (a walker stopping dead at its goal): the velocity is estimated
-afresh from the two, counted; meanwhile :meth:`ObstacleEKF.ghost` stands at the pending
-measurement for planners to avoid too. A run of ``max_rejections`` rejections restarts the
+it (however far from the prediction), the obstacle manoeuvred (stopped dead, or set off): the
+velocity is estimated afresh from the two, counted; meanwhile :meth:`ObstacleEKF.ghost` stands
+at the pending measurement for planners to avoid too. A run of ``max_rejections`` rejections restarts the
 track at the last one. Numpy only (the deployed policy uses it).
 """
 from __future__ import annotations
@@ -423,13 +423,16 @@ class ObstacleEKF:
             T = self.sample_time_s
             i0, i1 = zx - x, zy - y
             z = np.array((zx, zy))
-            plausible = i0 * i0 + i1 * i1 <= (self.settings.max_maneuver_mps * T) ** 2
+            reach = self.settings.max_maneuver_mps * T
+            plausible = i0 * i0 + i1 * i1 <= reach * reach
             pending = self.pending_z_
-            if plausible and pending is not None and np.hypot(*(z - pending)) <= self.settings.max_maneuver_mps * T:
-                # Two plausible rejections in a row that agree with each other: a manoeuvre
-                # (a walker that stops dead at its goal, or turns). The constant-velocity model
-                # has no say in it: the velocity is estimated afresh from the two, as at a
-                # track's second sighting.
+            if pending is not None and np.hypot(*(z - pending)) <= reach:
+                # Two rejections in a row, the first plausible, the second agreeing with it: a
+                # manoeuvre (a walker that stops dead at its goal, turns, or sets off). The
+                # constant-velocity model has no say in it: the velocity is estimated afresh
+                # from the two. The second is judged by the first, not by the prediction: a
+                # person setting off at 0.7 m/s is 0.76 m from the stale one a second on, and
+                # was forecast standing where they had been until a restart (docs/model.md).
                 self.maneuvers_ += 1
                 self._last_z, self._steps_since_first = pending, 1
                 self._second(z)

@@ -14,8 +14,8 @@ not fused. When it is within what the obstacle could have done in a sample
 (``EKFSettings.max_maneuver_mps``) and the next measurement is gated out too and agrees with
 it (however far from the prediction), the obstacle manoeuvred (stopped dead, or set off): the
 velocity is estimated afresh from the two, counted; meanwhile :meth:`ObstacleEKF.ghost` stands
-at the pending measurement for planners to avoid too. A run of ``max_rejections`` rejections restarts the
-track at the last one. Numpy only (the deployed policy uses it).
+at the pending measurement for planners to avoid too. A run of ``max_rejections``
+rejections restarts the track at the last one. Numpy only (the deployed policy uses it).
 """
 from __future__ import annotations
 

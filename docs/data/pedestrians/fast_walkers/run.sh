@@ -18,9 +18,10 @@ pair() {  # pair NAME CONTROLLER ARGS...
   local name=$1 ctl=$2; shift 2
   side shipped-$ctl-$name $BASE $ctl "$@"; side change-$ctl-$name /work/main $ctl "$@"
 }
-files() {  # files KIND: set A's case files
+files() {  # files KIND: set A's case files (a reactive case's file name ends -orca.toml)
+  local sfx=; [ $1 = reactive ] && sfx=-orca
   ls $CASES/unseen-$1/biwi_eth-*.toml $CASES/unseen-$1/biwi_hotel-*.toml
-  sed "s|^|$CASES/unseen-$1/|" $HERE/students001-cases.txt
+  sed "s|^|$CASES/unseen-$1/|; s|\.toml\$|$sfx.toml|" $HERE/students001-cases.txt
 }
 pair held-replay gpc $(files replay)
 pair held-reactive gpc $(files reactive)

@@ -12,10 +12,10 @@ constant turn increment), with T the sample time::
 Measurements are positions with white noise. An innovation beyond the Mahalanobis gate is
 not fused. When it is within what the obstacle could have done in a sample
 (``EKFSettings.max_maneuver_mps``) and the next measurement is gated out too and agrees with
-it, standing or moved on at the track's speed (however far from the prediction), the obstacle
-manoeuvred (stopped, swerved, set off): the velocity is estimated afresh from the two,
-counted; meanwhile :meth:`ObstacleEKF.ghost` stands at the pending measurement for planners to
-avoid too. ``max_rejections`` rejections in a row restart the track. Numpy only.
+it (however far from the prediction), the obstacle manoeuvred (stopped dead, or set off): the
+velocity is estimated afresh from the two, counted; meanwhile :meth:`ObstacleEKF.ghost` stands
+at the pending measurement for planners to avoid too. A run of ``max_rejections``
+rejections restarts the track at the last one. Numpy only (the deployed policy uses it).
 """
 from __future__ import annotations
 
@@ -26,8 +26,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .ekf_floats import (correct as _correct, cov_array as _cov_array, forecast as _forecast, full as _full,
-                         from_segment as _from_segment, propagate as _propagate, straight_noise,
-                         update_rows as _update_rows, upper as _upper)
+                         propagate as _propagate, straight_noise, update_rows as _update_rows,
+                         upper as _upper)
 
 __all__ = ["EKFSettings", "ObstacleEKF", "FilterState", "obstacle_model_step", "planning_covariances", "worst_std_m",
            "GATE_CHI2_2DOF"]
@@ -409,8 +409,8 @@ class ObstacleEKF:
         c = self._consts
         if c[0] is not self.settings or c[1] != self.sample_time_s:
             c = self._constants()
-        x0, y0, v, th, dth = self._s
-        x, y, th, U = _propagate(x0, y0, v, th, dth, self._U, c[1], c[2], 1)
+        x, y, v, th, dth = self._s
+        x, y, th, U = _propagate(x, y, v, th, dth, self._U, c[1], c[2], 1)
         if z is None:
             self._set((x, y, v, th, dth), U)
             self.missed_ += 1
@@ -426,13 +426,13 @@ class ObstacleEKF:
             reach = self.settings.max_maneuver_mps * T
             plausible = i0 * i0 + i1 * i1 <= reach * reach
             pending = self.pending_z_
-            if pending is not None and _from_segment(zx, zy, *pending, x - x0, y - y0) <= reach:
+            if pending is not None and np.hypot(*(z - pending)) <= reach:
                 # Two rejections in a row, the first plausible, the second agreeing with it: a
-                # manoeuvre (a walker that stops dead, swerves, or sets off); the velocity is
-                # estimated afresh from the two. The second is judged by the first, moved on by
-                # none to all of the track's own step, not by the stale prediction (a person
-                # setting off at 0.7 m/s is 0.76 m from it a second on), nor by the first alone
-                # (a person walking at 1.9 m/s is 0.95 m on from it): docs/model.md.
+                # manoeuvre (a walker that stops dead at its goal, turns, or sets off). The
+                # constant-velocity model has no say in it: the velocity is estimated afresh
+                # from the two. The second is judged by the first, not by the prediction: a
+                # person setting off at 0.7 m/s is 0.76 m from the stale one a second on, and
+                # was forecast standing where they had been until a restart (docs/model.md).
                 self.maneuvers_ += 1
                 self._last_z, self._steps_since_first = pending, 1
                 self._second(z)

@@ -15,8 +15,7 @@ from numba import njit
 from numba.extending import register_jitable
 
 __all__ = ["cov_step", "propagate", "forecast_rows", "forecast", "joseph", "correct", "update_rows", "step_rows",
-           "frame_rows", "step_frame_rows", "worst_std_rows", "upper", "full", "cov_array", "straight_noise",
-           "from_segment"]
+           "frame_rows", "step_frame_rows", "worst_std_rows", "upper", "full", "cov_array", "straight_noise"]
 
 _PI, _TWO_PI = math.pi, 2 * math.pi
 
@@ -319,12 +318,3 @@ def step_frame_rows(bank, jobs, order, T, q, r, gate, steps):  # pragma: no cove
 def cov_array(U: tuple) -> np.ndarray:
     """The (5, 5) covariance array of an upper triangle."""
     return np.array(full(U)).reshape(5, 5)
-
-
-def from_segment(zx: float, zy: float, px: float, py: float, dx: float, dy: float) -> float:
-    """The distance of the point ``(zx, zy)`` from the segment from ``(px, py)`` to
-    ``(px + dx, py + dy)`` (a point where ``dx = dy = 0``)."""
-    ex, ey = zx - px, zy - py
-    d2 = dx * dx + dy * dy
-    u = min(1.0, max(0.0, (ex * dx + ey * dy) / d2)) if d2 > 0.0 else 0.0
-    return math.hypot(ex - u * dx, ey - u * dy)

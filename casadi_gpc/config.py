@@ -163,7 +163,7 @@ class PlannerConfig:
     forecast: str = "turn"
     """How the movers' filters forecast the horizon: ``turn``, the paper's model (the
     estimated turn increment kept); ``straight``, the same filter's estimate at constant
-    speed and heading (:func:`casadi_gpc.estimation.ekf.straightened`). Real people do not keep
+    speed and heading (:func:`casadi_gpc.estimation.obstacle_model.straightened`). Real people do not keep
     a turn: on the UCY recordings the straight forecast is 15-22 % closer (ADE), and behind
     the check the ``improved`` GPC was hit in fewer cases (docs/pedestrians.md, "The planner
     among real crowds"). The planner's only: the shipped networks keep the forecast they were

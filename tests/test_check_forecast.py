@@ -1,5 +1,5 @@
 """What the deployed policy hands its check layer: the tracks forecast as the preset's planner
-forecasts them (straight on in ``improved``: casadi_gpc.estimation.ekf.straightened), while the
+forecasts them (straight on in ``improved``: casadi_gpc.estimation.obstacle_model.straightened), while the
 network's own features keep the turning forecast it was trained with."""
 from __future__ import annotations
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from casadi_gpc.config import PRESETS
-from casadi_gpc.estimation.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step, planning_covariances
+from casadi_gpc.estimation.ekf import EKFSettings, ObstacleEKF
+from casadi_gpc.estimation.obstacle_model import _jacobian, obstacle_model_step, planning_covariances
 from casadi_gpc.robot import RobotState
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.types import ObstacleMeasurement, Observation
@@ -296,7 +297,7 @@ def test_closed_form_matches_the_matrix_form(T):
 
 
 def test_a_track_seen_once_is_planned_with_its_next_step_uncertainty():
-    from casadi_gpc.estimation.ekf import planning_covariances
+    from casadi_gpc.estimation.obstacle_model import planning_covariances
     ekf = ObstacleEKF(0.5)
     ekf.step(np.array([5.0, 1.0]))
     assert not ekf.initialised

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from casadi_gpc.estimation.ekf import EKFSettings, ObstacleEKF, _jacobian, obstacle_model_step
+from casadi_gpc.estimation.ekf import EKFSettings, ObstacleEKF
+from casadi_gpc.estimation.obstacle_model import _jacobian, obstacle_model_step
 from casadi_gpc.estimation.ekf_batch import MANY_TRACKS, ForecastBatch, forecast_many
 from casadi_gpc.estimation.ekf_floats import upper
 from casadi_gpc.safety.check import forecast_arrays, forecast_covariances, shared_batch
@@ -287,7 +288,7 @@ def test_the_compiled_worst_deviation_is_numpys_bit_for_bit():
     """ForecastBatch.worst_std_m (compiled, ekf_floats.worst_std_rows) against the numpy
     worst_std_m on random covariances, flat ones, degenerate and slightly indefinite ones: the
     same floats."""
-    from casadi_gpc.estimation.ekf import worst_std_m
+    from casadi_gpc.estimation.obstacle_model import worst_std_m
     from casadi_gpc.estimation.ekf_floats import worst_std_rows
     rng = np.random.default_rng(9)
     L = rng.normal(0, 0.4, (40, 12, 2, 2))

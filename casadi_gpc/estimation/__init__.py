@@ -7,7 +7,8 @@ those floats: the planner's side, the same numbers; imports CasADi, so not impor
 and ``tracking`` (the bank of filters, one per obstacle id, and the forecasts planners plan
 with). Everything imported here is numpy and numba only: the deployed policy uses it.
 """
-from .ekf import EKFSettings, ObstacleEKF, planning_covariances, worst_std_m
+from .ekf import ObstacleEKF
+from .obstacle_model import EKFSettings, planning_covariances, worst_std_m
 from .tracking import TrackBank
 
 __all__ = ["EKFSettings", "ObstacleEKF", "TrackBank", "planning_covariances", "worst_std_m"]

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .ekf import _TURN_ENTRIES, FilterState, _q_diagonal
+from .obstacle_model import _TURN_ENTRIES, FilterState, _q_diagonal
 from .ekf_floats import forecast_rows, straight_noise, worst_std_rows
 
 __all__ = ["forecast_many", "ForecastBatch", "MANY_TRACKS"]
@@ -36,7 +36,7 @@ def forecast_many(states, uppers, sample_time_s: float, q: tuple, horizon: int) 
 
 
 def straightened_rows(rows: np.ndarray) -> np.ndarray:
-    """:func:`~casadi_gpc.estimation.ekf.straightened` of each row ``(x, y, V, theta, dtheta,
+    """:func:`~casadi_gpc.estimation.obstacle_model.straightened` of each row ``(x, y, V, theta, dtheta,
     15 covariance entries)`` of ``rows`` (``(N, 20)``, a bank's rows), as a new array (the
     process noise's turn entry is the caller's to zero: :func:`~casadi_gpc.estimation.ekf_floats.straight_noise`)."""
     out = np.array(rows, dtype=float, copy=True)
@@ -47,9 +47,9 @@ def straightened_rows(rows: np.ndarray) -> np.ndarray:
 
 class ForecastBatch:
     """The H-step forecasts of several filters' frozen estimates
-    (:class:`~casadi_gpc.estimation.ekf.FilterState`, from one bank: same sample time and settings),
+    (:class:`~casadi_gpc.estimation.obstacle_model.FilterState`, from one bank: same sample time and settings),
     made together when first read: :meth:`FilterState.predict
-    <casadi_gpc.estimation.ekf.FilterState.predict>`'s numbers up to rounding, one row per estimate.
+    <casadi_gpc.estimation.obstacle_model.FilterState.predict>`'s numbers up to rounding, one row per estimate.
     Estimates seen once (standing, their own forecast) are made one by one. Made from the
     estimates themselves, or from a bank that holds them as rows (:meth:`of_rows`)."""
 
@@ -82,9 +82,9 @@ class ForecastBatch:
 
     def straightened(self) -> "ForecastBatch":
         """The batch of the same estimates forecast straight on at their estimated speed and
-        heading (:func:`~casadi_gpc.estimation.ekf.straightened` of each; the ``improved``
+        heading (:func:`~casadi_gpc.estimation.obstacle_model.straightened` of each; the ``improved``
         planner's model), made when first read: :meth:`FilterState.predict
-        <casadi_gpc.estimation.ekf.FilterState.predict>`'s ``straight=True`` numbers up to rounding."""
+        <casadi_gpc.estimation.obstacle_model.FilterState.predict>`'s ``straight=True`` numbers up to rounding."""
         if self._rows is not None:
             rows, (T, settings) = self._rows, self._time_settings
         else:

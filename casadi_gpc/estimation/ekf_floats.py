@@ -22,7 +22,7 @@ _PI, _TWO_PI = math.pi, 2 * math.pi
 
 def straight_noise(q: tuple) -> tuple:
     """The process noise's diagonal ``q`` (x, y, speed, heading, turn increment) of a straight
-    forecast (:func:`casadi_gpc.estimation.ekf.straightened`): the turn increment's entry
+    forecast (:func:`casadi_gpc.estimation.obstacle_model.straightened`): the turn increment's entry
     zeroed, so that it neither is held nor wanders; the others kept."""
     return (*q[:4], 0.0)
 

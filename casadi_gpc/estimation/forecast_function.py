@@ -39,7 +39,7 @@ def _traced(sample_time_s: float, horizon: int) -> ca.Function:
 
 class ForecastFunction:
     """``forecast(state, cov_upper, T, q, horizon) -> (means (H, 2), covs (H, 2, 2))``: what
-    :meth:`casadi_gpc.estimation.ekf.FilterState.predict` computes for a track seen twice or more, for
+    :meth:`casadi_gpc.estimation.obstacle_model.FilterState.predict` computes for a track seen twice or more, for
     one sample time and horizon (another sample time or horizon: the float form)."""
 
     def __init__(self, sample_time_s: float, horizon: int):

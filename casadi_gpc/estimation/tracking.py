@@ -14,7 +14,8 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
-from .ekf import EKFSettings, ObstacleEKF, planning_covariances, straightened
+from .ekf import ObstacleEKF
+from .obstacle_model import EKFSettings, planning_covariances, straightened
 from .ekf_batch import MANY_TRACKS, forecast_many
 from ..types import ObstacleForecast, ObstacleMeasurement
 
@@ -175,7 +176,7 @@ class TrackBank:
         """What a planner plans with: the filter's H-step prediction (straight when the bank
         says so), a track seen once kept at its next step's uncertainty
         (:func:`~casadi_gpc.estimation.ekf.planning_covariances`); ``function``: the
-        prediction's faster form (:meth:`~casadi_gpc.estimation.ekf.FilterState.predict`)."""
+        prediction's faster form (:meth:`~casadi_gpc.estimation.obstacle_model.FilterState.predict`)."""
         means, covs = ekf.predict(horizon, function, self.straight)
         return ObstacleForecast(measurement.obstacle_id, measurement.radius_m, means,
                                 planning_covariances(covs, ekf.initialised))

@@ -28,7 +28,7 @@ import casadi as ca
 import numpy as np
 
 from ..config import PlannerConfig
-from ..estimation.ekf import worst_std_m
+from ..estimation.obstacle_model import worst_std_m
 from ..robot import RobotParams, robot_step
 from ..types import ObstacleForecast, StaticObstacle
 

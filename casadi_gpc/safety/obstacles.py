@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..estimation.ekf import planning_covariances, worst_std_m
+from ..estimation.obstacle_model import planning_covariances, worst_std_m
 from .walls import wall_label
 
 __all__ = ["Obstacles", "forecast_covariances", "forecast_arrays", "shared_batch"]

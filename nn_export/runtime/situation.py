@@ -20,7 +20,8 @@ from functools import cached_property
 
 import numpy as np
 
-from casadi_gpc.estimation.ekf import FilterState, ObstacleEKF, planning_covariances
+from casadi_gpc.estimation.ekf import ObstacleEKF
+from casadi_gpc.estimation.obstacle_model import FilterState, planning_covariances
 from casadi_gpc.estimation.ekf_batch import MANY_TRACKS, ForecastBatch
 from casadi_gpc.reference import ReferencePath
 from casadi_gpc.robot import RobotState
@@ -156,7 +157,7 @@ def reference_poses(path: ReferencePath, s0_m: float, sample_time_s: float, hori
 
 class _FilterTrack(TrackEstimate):
     """A :class:`TrackEstimate` made from a filter's frozen estimate
-    (:class:`~casadi_gpc.estimation.ekf.FilterState`) whose arrays (state, covariance, H-step forecast)
+    (:class:`~casadi_gpc.estimation.obstacle_model.FilterState`) whose arrays (state, covariance, H-step forecast)
     are made when first read, with :meth:`ObstacleEKF.predict <casadi_gpc.estimation.ekf.ObstacleEKF.predict>`'s
     numbers. The deployed policy hands its track estimates over with every decision; the
     bare network reads only the state, a check layer behind it the forecast (made once)."""
@@ -250,7 +251,7 @@ def row_track_estimates(seen, sample_time_s: float, settings, horizon: int) -> t
 
 class _StraightTrack(_FilterTrack):
     """A :class:`_FilterTrack` whose forecast goes straight on at the estimated speed and
-    heading (:meth:`FilterState.predict <casadi_gpc.estimation.ekf.FilterState.predict>` with
+    heading (:meth:`FilterState.predict <casadi_gpc.estimation.obstacle_model.FilterState.predict>` with
     ``straight=True``; in a batch, a straightened one's rows: ``ForecastBatch.straightened``),
     not turning on by the estimated turn increment."""
 
@@ -260,7 +261,7 @@ class _StraightTrack(_FilterTrack):
 def straight_estimates(tracks: tuple) -> tuple[TrackEstimate, ...]:
     """The same track estimates (:func:`row_track_estimates`, :func:`track_estimates`) with
     their forecasts straight on at the estimated speed and heading, as the ``improved`` GPC
-    forecasts (:func:`casadi_gpc.estimation.ekf.straightened`): what the deployed policy hands
+    forecasts (:func:`casadi_gpc.estimation.obstacle_model.straightened`): what the deployed policy hands
     its check layer, where the network's features read the turning forecast it was trained
     with. A crowd's, made together when first read (one straightened
     :class:`~casadi_gpc.estimation.ekf_batch.ForecastBatch`, so that a check takes the arrays

@@ -199,7 +199,7 @@ def _merge_duplicates(best, candidates) -> np.ndarray:
     labels mirror-symmetric to ~1e-10 instead of ~1e-5. Different optima (a left and a
     right pass) are never averaged: those stay with the planner's tie-break.
     """
-    from casadi_gpc.planner.gpc import TIE_RELATIVE
+    from casadi_gpc.planner.multistart import TIE_RELATIVE
     u0 = np.asarray(best.u, dtype=float)
     same = [np.asarray(c.u, dtype=float) for c in candidates
             if c.success and abs(c.cost - best.cost) <= TIE_RELATIVE * abs(best.cost) + 1e-12

@@ -251,3 +251,44 @@ def test_statics_as_walls_give_the_walls_network_the_octagons_and_nothing_else(t
                 differ += (d.v_right_mps, d.v_left_mps) != (o.v_right_mps, o.v_left_mps)
                 np.testing.assert_array_equal(on.rollout()[0], ref.rollout()[0])
     assert answered == 12 and differ >= 8  # near the wall only; the scan and the slots read differently (10)
+
+
+def test_the_walls_network_answers_only_among_as_many_people_as_it_was_trained_among(tmp_path):
+    """Near a wall the walls network answers while at most 8 people (the most of its training
+    episodes) are within its 12 m; among more, the crowd network answers, as it does for the
+    same policy without a walls network, and the hand-over is counted."""
+    from types import SimpleNamespace
+
+    from casadi_gpc.types import Observation, ObstacleMeasurement
+    from nn_export import OnnxPolicy
+    from nn_export.runtime.side_networks import WALLS_NETWORK_PEOPLE
+    from synthetic_models import tracker_model
+    main = tracker_model(tmp_path / "main.onnx", "improved")
+    crowd = tracker_model(tmp_path / "crowd.onnx", "improved", layout_name="set", decision_passes="1",
+                          extra_weights={"mov1_x_m": (0.01, -0.01)})
+    walls = tracker_model(tmp_path / "walls.onnx", "improved", layout_name="set-walls", decision_passes="1",
+                          extra_weights={"wall_6_m": (0.05, -0.05)})
+    both = OnnxPolicy(main, preset="improved", crowd_model=crowd, walls_model=walls)
+    no_walls = OnnxPolicy(main, preset="improved", crowd_model=crowd, walls_model=None)
+    path = ReferencePath((0.0, 0.0), 0.0, (Segment.line(30.0),), 0.4)
+    wall = (((-20.0, 1.0), (20.0, 1.0)),)
+
+    def people(n_near, n_far=0):
+        near = [ObstacleMeasurement(i, (2.0 + 0.9 * i, -2.0), 0.3) for i in range(n_near)]
+        return tuple(near + [ObstacleMeasurement(100 + i, (-14.0 - i, -3.0), 0.3) for i in range(n_far)])
+
+    for n_near, n_far, walls_answer in ((WALLS_NETWORK_PEOPLE, 3, True), (WALLS_NETWORK_PEOPLE + 1, 0, False)):
+        both.reset()
+        no_walls.reset()
+        obs = Observation(0.0, RobotState(0.0, 0.0, 0.0, 0.3, 0.3), path, people(n_near, n_far), walls=wall)
+        d, ref = both.decide(obs), no_walls.decide(obs)
+        c = both.counters
+        assert (c["walls_network"], c["walls_network_passed_over"]) == ((1, 0) if walls_answer else (0, 1))
+        assert c["crowd_network"] == (0 if walls_answer else 1)
+        same = (d.v_right_mps, d.v_left_mps) == (ref.v_right_mps, ref.v_left_mps)
+        assert same != walls_answer  # the crowd network's answer exactly when the walls network passes
+    # a person and their ghost (the same obstacle id) count once
+    tracks = [SimpleNamespace(obstacle_id=i, state_values=(float(i), 0.0)) for i in range(WALLS_NETWORK_PEOPLE)]
+    ghost = SimpleNamespace(obstacle_id=0, state_values=(0.5, 0.0))
+    assert both._walls.holds(0.0, 0.0, tracks + [ghost])
+    assert not both._walls.holds(0.0, 0.0, tracks + [SimpleNamespace(obstacle_id=99, state_values=(1.0, 1.0))])

@@ -265,7 +265,7 @@ class OnnxPolicy:
     def reset(self) -> None:
         self.tracker.reset()
         self._counters = {"decisions": 0, "second_pass": 0, "crowd_network": 0, "walls_network": 0,
-                          "walls_network_passed_over": 0, "feature_report": {}}
+                          "feature_report": {}}
         self._last = None
 
     @property
@@ -382,11 +382,7 @@ class OnnxPolicy:
         crowd, walls = self._crowd, self._walls
         wall_rows = self._map_rows(obs.walls) if obs.walls else None
         x, y = obs.robot.x_m, obs.robot.y_m
-        near = walls is not None and wall_rows is not None and walls.near(x, y, wall_rows)
-        if near and not walls.holds(x, y, tracks):  # more people than it was trained among
-            near = False
-            counters["walls_network_passed_over"] += 1
-        side = (walls, wall_rows) if near else \
+        side = (walls, wall_rows) if walls is not None and wall_rows is not None and walls.near(x, y, wall_rows) else \
             (crowd, None) if crowd is not None and crowd.needed(x, y, tracks, obs.static) else None
         statics = obs.static
         if side is not None:  # the walls network near a wall, else the crowd network where the main one cannot hold it

@@ -17,7 +17,7 @@ from .layouts import FeatureLayout
 from .model_file import _bind, _load_session, _validate, read_model_metadata
 from .wall_scan import segments_near
 
-__all__ = ["CrowdNetwork", "WallsNetwork", "WALLS_NETWORK_PEOPLE"]
+__all__ = ["CrowdNetwork", "WallsNetwork"]
 
 
 class CrowdNetwork:
@@ -75,34 +75,12 @@ class CrowdNetwork:
         return self._y.reshape(self.steps, 2).astype(float)
 
 
-WALLS_NETWORK_PEOPLE = 8
-"""The most people the shipped walls network answers among: the most walkers of any of its
-training episodes (``tools/build_models.sh``: the building suites with 5 and 8; its sampled
-situations hold 0 to 3 movers). Among more, near a wall, the crowd network answers
-(docs/data/deploy/walls_crowd/)."""
-
-
 class WallsNetwork(CrowdNetwork):
     """A third network, of the ``set-walls`` layout, that answers wherever a wall is within its
-    scan's range of the robot (the other two read no walls) and at most ``max_people`` people
-    are within its layout's range (:meth:`holds`): the same checks at load, one pass, its own
-    buffers, the same tracker."""
+    scan's range of the robot (the other two read no walls): the same checks at load, one pass,
+    its own buffers, the same tracker."""
 
     role = "walls"
-    max_people = WALLS_NETWORK_PEOPLE
-
-    def holds(self, x: float, y: float, tracks) -> bool:
-        """Whether at most :attr:`max_people` people (a track and its ghost: one) are within the
-        layout's range of the robot at ``(x, y)``: the crowds it was trained among."""
-        if len(tracks) <= self.max_people:
-            return True
-        rng, hypot = self.layout.range_m, math.hypot
-        near = set()
-        for t in tracks:
-            sv = t.state_values
-            if hypot(sv[0] - x, sv[1] - y) <= rng:
-                near.add(t.obstacle_id)
-        return len(near) <= self.max_people
 
     def near(self, x: float, y: float, wall_rows: np.ndarray) -> bool:
         """Whether a wall segment is within the scan's range of the robot at ``(x, y)``."""

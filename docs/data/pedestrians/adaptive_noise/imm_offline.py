@@ -5,7 +5,8 @@ from dataclasses import replace
 from pathlib import Path; _r = Path(__file__).resolve().parents[4]; sys.path[:0] = [str(_r), str(_r / 'tools')]
 from oracle_forecasts import true_positions
 from scenarios import Suite
-from casadi_gpc.estimation.ekf import ObstacleEKF, EKFSettings, obstacle_model_step, _jacobian, _q_diagonal
+from casadi_gpc.estimation.ekf import ObstacleEKF, EKFSettings
+from casadi_gpc.estimation.obstacle_model import obstacle_model_step, _jacobian, _q_diagonal
 T, H = 0.5, 12
 suite, seed, movers, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
 S0 = EKFSettings()

@@ -175,7 +175,7 @@ class TrackBank:
                  function=None) -> ObstacleForecast:
         """What a planner plans with: the filter's H-step prediction (straight when the bank
         says so), a track seen once kept at its next step's uncertainty
-        (:func:`~casadi_gpc.estimation.ekf.planning_covariances`); ``function``: the
+        (:func:`~casadi_gpc.estimation.obstacle_model.planning_covariances`); ``function``: the
         prediction's faster form (:meth:`~casadi_gpc.estimation.obstacle_model.FilterState.predict`)."""
         means, covs = ekf.predict(horizon, function, self.straight)
         return ObstacleForecast(measurement.obstacle_id, measurement.radius_m, means,

@@ -6,8 +6,12 @@ episode by episode; the rule's three conditions.
 """
 import json
 import sys
-from math import comb
 from pathlib import Path
+
+from scipy.stats import binomtest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[4]))
+from scenarios.paired import outcome_changes  # noqa: E402
 
 d = Path(sys.argv[1])
 SETS = ["ng", "corridor", "doorway", "corner", "corridor-12", "doorway-12", "corner-12"]
@@ -27,16 +31,14 @@ for name in SETS:
         out = [x["outcome"] for x in e]
         cells.append(f"{out.count('reached_goal')} / {out.count('collided')} ({doc['collided_robot_approaching']}) / "
                      f"{out.count('timed_out')}")
-        eps[side] = {x["scenario"]: x["outcome"] for x in e}
+        eps[side] = e
         tot[side][0] += out.count("collided")
         tot[side][1] += doc["collided_robot_approaching"]
         if side == "change":
             over = str(doc["events"].get("walls_network_passed_over", 0))
     gl = ""
     if len(eps) == 2:
-        a, b = eps["shipped"], eps["change"]
-        g = sum(a[k] != "reached_goal" and b[k] == "reached_goal" for k in a)
-        l = sum(a[k] == "reached_goal" and b[k] != "reached_goal" for k in a)
+        g, l = outcome_changes(eps["shipped"], eps["change"])["reached_goal"]
         tot["gained"] += g
         tot["lost"] += l
         gl = f"+{g} / -{l}"
@@ -45,8 +47,7 @@ for name in SETS:
 
 def p_lost(g: int, l: int) -> float:
     """One-sided exact sign test: P(at least l of n = g + l changes are losses | fair coin)."""
-    n = g + l
-    return sum(comb(n, k) for k in range(l, n + 1)) / 2 ** n if n else 1.0
+    return float(binomtest(l, g + l, 0.5, alternative="greater").pvalue) if g + l else 1.0
 
 
 p = p_lost(tot["gained"], tot["lost"])

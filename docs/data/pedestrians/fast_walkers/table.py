@@ -6,8 +6,12 @@ the rule's five conditions.
 """
 import json
 import sys
-from math import comb
 from pathlib import Path
+
+from scipy.stats import binomtest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[4]))
+from scenarios.paired import outcome_changes  # noqa: E402
 
 d = Path(sys.argv[1])
 SETS = {"gpc": ["held-replay", "held-reactive", "ucy-replay", "ucy-orca", "corridor", "doorway", "corner"],
@@ -29,13 +33,11 @@ for c, sets in SETS.items():
             med = doc["compute_time_s"]["median"] * 1e3
             cells.append(f"{out.count('reached_goal')} / {out.count('collided')} ({doc['collided_robot_approaching']}) / "
                          f"{out.count('timed_out')}, {med:.2f} ms")
-            eps[side] = ({x["scenario"]: x["outcome"] for x in e}, med)
+            eps[side] = (e, med)
             tot[c][side][0] += out.count("collided")
             tot[c][side][1] += doc["collided_robot_approaching"]
         if len(eps) == 2:
-            a, b = eps["shipped"][0], eps["change"][0]
-            g = sum(a[k] != "reached_goal" and b[k] == "reached_goal" for k in a)
-            l = sum(a[k] == "reached_goal" and b[k] != "reached_goal" for k in a)
+            g, l = outcome_changes(eps["shipped"][0], eps["change"][0])["reached_goal"]
             tot[c]["gained"] += g
             tot[c]["lost"] += l
             tot[c]["slower"].append((name, eps["change"][1] / eps["shipped"][1]))
@@ -47,8 +49,7 @@ for c, sets in SETS.items():
 
 def p_lost(g: int, l: int) -> float:
     """One-sided exact sign test: P(at least l of n = g + l changes are losses | fair coin)."""
-    n = g + l
-    return sum(comb(n, k) for k in range(l, n + 1)) / 2 ** n if n else 1.0
+    return float(binomtest(l, g + l, 0.5, alternative="greater").pvalue) if g + l else 1.0
 
 
 G, N = tot["gpc"], tot["nn"]

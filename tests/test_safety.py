@@ -975,9 +975,8 @@ def _numpy_clearances(f, state, W, obs, robust: bool = False):
     nm = len(obs.moving)
     own = np.hypot(rel[..., 0].real, rel[..., 0].imag) - touch[:, 0]  # (M, n): each disc's now
     own0 = np.hypot(rel[..., 0].real, rel[..., 0].imag) - obs.radii
-    now, now0 = own.min(axis=1), own0.min(axis=1)
-    ref, ref0 = own.copy(), own0.copy()  # a mover's threshold from the least, a static's from its own
-    ref[:, :nm], ref0[:, :nm] = now[:, None], now0[:, None]
+    now = own.min(axis=1)
+    ref, ref0 = own, own0  # each obstacle's threshold from its own clearance now
     below = (gap < np.minimum(f.margin_m, ref - 1e-6)[..., None]).any(axis=1)
     touched = (dist - obs.radii[:, None]) < np.minimum(0.0, ref0 - 1e-6)[..., None]
     below0, fixed = touched.any(axis=1), touched[:, len(obs.moving):].any(axis=1)
@@ -987,8 +986,8 @@ def _numpy_clearances(f, state, W, obs, robust: bool = False):
     toward = ((p[:, None, 1:] - p[:, None, :-1]) * np.conj(q[None, :, 1:] - p[:, None, 1:])).real \
         / np.abs(q[None, :, 1:] - p[:, None, 1:]) / (f.sample_time_s / f.substeps)   # (M, n, N), m/s
     zone = touched.copy()
-    if robust:  # a mover's inflated disc, below the inflated clearance now (its least over the obstacles)
-        zone[:, :nm] |= gap[:, :nm] < np.minimum(0.0, now - 1e-6)[:, None, None]
+    if robust:  # a mover's inflated disc, below its own inflated clearance now
+        zone[:, :nm] |= gap[:, :nm] < np.minimum(0.0, own[:, :nm] - 1e-6)[..., None]
     driven = (zone & (toward > DRIVEN_MPS)).any(axis=1)[:, :f._commit_chords]
     return (flat[np.arange(M), k], now, k % N, k // N, np.where(below.any(axis=1), below.argmax(axis=1), N),
             np.where(below0.any(axis=1), below0.argmax(axis=1), N), np.where(fixed.any(axis=1), fixed.argmax(axis=1), N),
@@ -1162,3 +1161,26 @@ def test_the_compiled_manoeuvres_and_grid_are_the_numpy_expressions_bit_for_bit(
                 E = f._escapes(v0, searched)
                 want = numpy_searched(v0, H - 1) if searched else numpy_manoeuvres(v0, H - 1)
                 assert np.array_equal(E[:, 0], np.broadcast_to(v0, E[:, 0].shape)) and np.array_equal(E[:, 1:], want)
+
+
+def test_inside_one_person_s_margin_the_robot_is_not_licensed_towards_another():
+    """A track first seen beside the robot (its disc inflated by 2 x 0.5 m of uncertainty: the
+    robot is deep inside its margin) must not change when the margin to another person, ahead,
+    is lost: the robot driving on towards the second loses it at the same chord as with the
+    first person not there. With one threshold for every mover (the least clearance now, before
+    2026-11-29) the robot could close in on the second down to its depth inside the first's
+    margin: in the held-out `biwi_eth-across-back-012` the deployed network's command drove at
+    0.63 m/s into a person 0.02 m off its disc, judged safe over the whole horizon."""
+    T, H = 0.5, 12
+    f = SafetyFilter(ROBOT, T, H)
+    state = np.array([0.0, 0.0, 0.0, 0.5, 0.5])
+    W = np.full((1, H, 2), 0.5)  # on at 0.5 m/s, straight at the second person
+    ahead = ObstacleForecast(1, 0.25, np.tile([1.6, 0.0], (H, 1)), np.tile(np.eye(2) * 0.03 ** 2, (H, 1, 1)))
+    beside = ObstacleForecast(2, 0.25, np.tile([-0.2, 0.75], (H, 1)), np.tile(np.eye(2) * 0.5 ** 2, (H, 1, 1)))
+    alone = f.clearances(state, W, f.obstacle_tracks((ahead,), ()))
+    both = f.clearances(state, W, f.obstacle_tracks((ahead, beside), ()))
+    assert both[1][0] < -0.5  # deep inside the first person's inflated disc now
+    N = H * f.substeps
+    assert 0 < alone[4][0] < N  # the margin to the person ahead is lost within the horizon
+    assert both[4][0] == alone[4][0]
+    assert both[5][0] == alone[5][0] < N  # and the person ahead touched at the same chord

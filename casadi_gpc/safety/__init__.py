@@ -25,8 +25,9 @@ for the whole horizon (the network's pass-1 roll-out). It is **accepted** when i
 the smallest clearance over the horizon at or above ``margin_m``, or, failing that (or
 without a plan), when after one interval of the command at least one manoeuvre of the fixed
 set below still does: there is still a way out, checked against every obstacle over the
-whole horizon. When the robot is already inside the margin (an obstacle first seen close
-by), a sequence that makes the clearance no smaller than it is now also passes. Otherwise
+whole horizon. When the robot is already inside an obstacle's margin (one first seen close
+by), a sequence that makes the clearance to it no smaller than it is now also passes (to that
+obstacle: the others keep their own margins). Otherwise
 the filter **intervenes**, in this order:
 
 1. the fallback planner, if one was given (an object with ``decide(observation)``, usually

@@ -68,9 +68,8 @@ class SafetyCheck:
     own continuation, asked for when the command alone failed: ``SafetyFilter.filter``'s
     ``plan_on_demand``)."""
     kept_s: float = math.inf
-    """How long from now the clearance stays at or above the margin (or, inside the margin,
-    at or above the clearance now: the least of all for the movers, a wall's or static
-    obstacle's own for it); the horizon when it always does."""
+    """How long from now the clearance stays at or above the margin (or, inside an obstacle's
+    margin, at or above its own clearance now); the horizon when it always does."""
     exact: bool = True
     """False when a quick screen settled it: ``min_clearance_m`` is then a lower bound."""
     contact_s: float = math.inf

@@ -126,9 +126,10 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     the clearance first falls below ``min(margin, now - not_worse)`` (N when never), and how
     many before the discs not inflated, or a wall, are touched (inside one now, closed in on
     by more than ``not_worse``), and how many before a fixed obstacle is so touched. The fixed
-    obstacles are the walls and the discs after the first ``n_moving`` (the static ones); for
-    each of them ``now`` is its own clearance now, for a mover the least of all (so being
-    inside a person's margin does not license the robot into a wall). With one sequence that
+    obstacles are the walls and the discs after the first ``n_moving`` (the static ones).
+    Each obstacle's ``now`` is its own clearance now: being inside one person's margin (a track
+    first seen close by, its disc inflated by a large uncertainty) licenses the robot neither
+    into a wall nor towards another person (docs/nn-deploy.md). With one sequence that
     never falls below, all three are N. Last, per sequence, how many chords pass, among the
     first ``commit``, before the robot drives into what it touches: a chord on which it
     touches a disc not inflated, or a wall, as above, and moves towards it by more than
@@ -161,16 +162,15 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     now, now0 = math.inf, math.inf
     for j in range(n + nw):
         now, now0 = min(now, now_j[j]), min(now0, now0_j[j])
-    # the thresholds: inside the margin (or a disc) now, not to close in further. A mover's
-    # are the least over all obstacles (as near one as the robot is now to the nearest); a
-    # fixed obstacle's, its own: being pressed by people does not license the robot into a wall
+    # the thresholds: inside an obstacle's margin (or disc) now, not to close in on it further;
+    # each obstacle's from its own clearance now (being inside one person's margin licenses the
+    # robot neither into a wall nor towards anyone else)
     thr, thr0, thr1 = np.empty(n + nw), np.empty(n + nw), np.empty(n + nw)
     for j in range(n + nw):
-        fixed_j = j >= n_moving
-        thr[j] = min(margin, (now_j[j] if fixed_j else now) - not_worse)
-        thr0[j] = min(0.0, (now0_j[j] if fixed_j else now0) - not_worse)
+        thr[j] = min(margin, now_j[j] - not_worse)
+        thr0[j] = min(0.0, now0_j[j] - not_worse)
         # robust_drives: a mover's inflated disc, entered (or, inside it now, closed in on)
-        thr1[j] = min(0.0, now - not_worse) if robust_drives and not fixed_j else thr0[j]
+        thr1[j] = min(0.0, now_j[j] - not_worse) if robust_drives and j < n_moving else thr0[j]
     highest = thr.max() if n + nw else margin  # a gap at or above it loses the margin nowhere
     dist = np.empty((n + nw, N))
     # a lower bound of each obstacle's distance to any path that stays within D of now: its

@@ -149,8 +149,8 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     fixed = np.full(M, N, np.int64)
     drives = np.full(M, N, np.int64)
     p0 = p[0, 0]
-    # now: the inflated clearance and the distance to the expected discs and the walls, each
-    # obstacle's and the least of them
+    # now: each obstacle's inflated clearance and distance to its expected disc (or the wall),
+    # and the least inflated clearance (the clearance now this returns)
     now_j, now0_j = np.empty(n + nw), np.empty(n + nw)
     for j in range(n):
         r = p0 - q[j, 0]
@@ -159,9 +159,9 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     for w in range(nw):
         dw = segment_distance(p0, walls[w, 0], walls[w, 1]) - robot_radius
         now_j[n + w], now0_j[n + w] = dw, dw
-    now, now0 = math.inf, math.inf
+    now = math.inf
     for j in range(n + nw):
-        now, now0 = min(now, now_j[j]), min(now0, now0_j[j])
+        now = min(now, now_j[j])
     # the thresholds: inside an obstacle's margin (or disc) now, not to close in on it further;
     # each obstacle's from its own clearance now (being inside one person's margin licenses the
     # robot neither into a wall nor towards anyone else)

@@ -1,67 +1,24 @@
 """The rule's table (rule.md) from a run folder: per set and side reached / collided (robot
 approaching) / timed out and the decision median; goals gained and lost episode by episode;
-the rule's five conditions.
+the rule's five conditions (``tools/rule_table.py``).
 
     python table.py seed61 > table.md
 """
-import json
 import sys
-from math import comb
 from pathlib import Path
 
-d = Path(sys.argv[1])
-SETS = {"gpc": ["corridor", "doorway", "corner", "sq20", "cc10", "ucy-replay", "ucy-orca", "ng"],
-        "nn": ["corridor", "doorway", "corner", "cc10", "ucy-orca"]}
-print("| controller, set | shipped: reached / collided (approaching) / timed out, decision median | the change | goals gained / lost |")
-print("|---|---|---|---|")
-tot = {c: {"shipped": [0, 0], "change": [0, 0], "gained": 0, "lost": 0, "slower": []} for c in SETS}
-for c, sets in SETS.items():
-    for name in sets:
-        cells, eps = [], {}
-        for side in ("shipped", "change"):
-            f = d / f"{side}-{c}-{name}.json"
-            if not f.is_file():
-                cells.append("not run")
-                continue
-            doc = json.loads(f.read_text())
-            e = doc["episodes_detail"]
-            out = [x["outcome"] for x in e]
-            med = doc["compute_time_s"]["median"] * 1e3
-            cells.append(f"{out.count('reached_goal')} / {out.count('collided')} ({doc['collided_robot_approaching']}) / "
-                         f"{out.count('timed_out')}, {med:.2f} ms")
-            eps[side] = ({x["scenario"]: x["outcome"] for x in e}, med)
-            tot[c][side][0] += out.count("collided")
-            tot[c][side][1] += doc["collided_robot_approaching"]
-        if len(eps) == 2:
-            a, b = eps["shipped"][0], eps["change"][0]
-            g = sum(a[k] != "reached_goal" and b[k] == "reached_goal" for k in a)
-            l = sum(a[k] == "reached_goal" and b[k] != "reached_goal" for k in a)
-            tot[c]["gained"] += g
-            tot[c]["lost"] += l
-            tot[c]["slower"].append((name, eps["change"][1] / eps["shipped"][1]))
-            gl = f"+{g} / -{l}"
-        else:
-            gl = ""
-        print(f"| {c}, {name} | {cells[0]} | {cells[1]} | {gl} |")
+sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "tools"))
+from rule_table import compare, p_lost, verdict  # noqa: E402
 
-
-def p_lost(g: int, l: int) -> float:
-    """One-sided exact sign test: P(at least l of n = g + l changes are losses | fair coin)."""
-    n = g + l
-    return sum(comb(n, k) for k in range(l, n + 1)) / 2 ** n if n else 1.0
-
-
+tot = compare(Path(sys.argv[1]), {"gpc": ["corridor", "doorway", "corner", "sq20", "cc10", "ucy-replay", "ucy-orca", "ng"],
+                                  "nn": ["corridor", "doorway", "corner", "cc10", "ucy-orca"]})
 G, N = tot["gpc"], tot["nn"]
 p = p_lost(G["gained"], G["lost"])
 worst = max(G["slower"], key=lambda x: x[1]) if G["slower"] else ("", 1.0)
-conds = [
+verdict([
     (f"1. the GPC's collisions {G['shipped'][0]} -> {G['change'][0]}", G["change"][0] <= G["shipped"][0]),
     (f"2. with the robot approaching {G['shipped'][1]} -> {G['change'][1]}", G["change"][1] <= G["shipped"][1]),
     (f"3. goals +{G['gained']} / -{G['lost']}, one-sided sign test p = {p:.3f}", p >= 0.1),
     (f"4. the network's collisions {N['shipped'][0]} -> {N['change'][0]}", N["change"][0] <= N["shipped"][0]),
     (f"5. the GPC's slowest set against shipped: {worst[0]} x{worst[1]:.3f}", worst[1] <= 1.10),
-]
-print()
-for text, ok in conds:
-    print(f"- {text}: {'holds' if ok else 'FAILS'}")
-print(f"\n{'Adopted' if all(ok for _, ok in conds) else 'Rejected'} by the rule.")
+])

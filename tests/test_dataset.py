@@ -131,6 +131,8 @@ def test_other_arguments_are_refused(reference_dataset):
     (["--samples", "10", "--scheme", "two-pass", "--layout", "multi"], "--scheme"),
     (["--samples", "10", "--tie-margin", "1.5"], "--tie-margin"),
     (["--dagger", "gpc", "--scheme", "two-pass"], "--scheme"),
+    (["--samples", "10", "--dagger-files", "a.toml"], "--dagger-files"),
+    (["--dagger", "gpc", "--dagger-suite", "corridor", "--dagger-files", "a.toml"], "not both"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, argv, words):
     proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(tmp_path / "d"), *argv],
@@ -402,6 +404,35 @@ def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "tracking_weight differ" in proc.stderr, proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and read_manifest(out) == man2
+
+
+def test_dagger_round_on_scenario_files(reference_dataset, tmp_path):
+    """``--dagger-files``: the round's episodes are the files given, one each, in their order
+    (the part records their names); a file that is not a scenario is refused in one line,
+    exit 2, before any work."""
+    from casadi_gpc.robot import RobotParams
+    from gpcnav.controllers import make_controller
+    from scenarios import PAPER_DIR, load_scenario
+    from scenarios.simulator import simulate
+    src, _ = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    files = [PAPER_DIR / "fig7_1_head_on.toml", PAPER_DIR / "fig7_2_crossing.toml"]
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[robot]\nposition = [0, 0\n")
+    argv = [sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--dagger", "gpc", "--preset", "paper",
+            "--workers", "1", "--dagger-files"]
+    proc = subprocess.run([*argv, str(files[0]), str(bad)], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "bad.toml" in proc.stderr
+    assert read_manifest(out)["samples"] == 60
+    proc = subprocess.run([*argv, *map(str, files)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    part = read_manifest(out)["parts"]["gpc1"]
+    assert part["info"]["suite"] == "files" and part["episodes"] == 2
+    assert part["info"]["files"] == ["fig7_1_head_on", "fig7_2_crossing"]
+    shard = np.load(out / part["shards"][0], allow_pickle=True)
+    steps = [len(simulate(load_scenario(f), make_controller("gpc", PAPER, RobotParams()), "gpc").decisions)
+             for f in files]
+    assert part["samples"] == len(shard["labels"]) == 2 * sum(steps)  # each situation and its mirror image
 
 
 def test_train_on_some_parts_only(reference_dataset, tmp_path):

@@ -6,7 +6,9 @@ dataset: it runs the network MODEL on --episodes random episodes and labels ever
 it visits with the GPC (DAgger). By default the network drives bare (--dagger-safety off), so
 the states it fails in are the ones labelled; --dagger-safety gpc|brake runs it behind the
 safety filter instead. With --dagger gpc the GPC itself drives (part ``gpc<R>``): the states
-of the closed-loop distribution the network has to imitate, labelled the same way."""
+of the closed-loop distribution the network has to imitate, labelled the same way. With
+--dagger-files the episodes are scenario files of your own (navground's scenes exported by
+tools/export_navground_scenario.py, say) in place of a suite."""
 from __future__ import annotations
 
 import os
@@ -76,6 +78,9 @@ def add_arguments(p):
                    help="--dagger: the episodes' suite (default: random, or random-multi for the multi and set "
                         "layouts; encounters: the family of the paper's Fig. 7; the crowd suites take --movers "
                         "and --behaviour)")
+    p.add_argument("--dagger-files", type=Path, nargs="+", default=None, metavar="SCENARIO.toml",
+                   help="--dagger: drive these scenario files instead of a suite (one episode each; e.g. "
+                        "navground's scenes exported by tools/export_navground_scenario.py, or your own)")
     p.add_argument("--movers", type=int, default=5, help="--dagger on a crowd suite: walkers per scene (default 5)")
     p.add_argument("--behaviour", choices=CROWD_BEHAVIOURS, default="orca",
                    help="--dagger on a crowd suite: how the walkers move (default orca)")
@@ -107,9 +112,12 @@ def run(args) -> int:
         raise UsageError(f"--tie-margin must be in [0, 1), got {args.tie_margin}")
     if args.dagger is not None and args.scheme != "sampled":
         raise UsageError("--scheme applies to sampled situations, not to --dagger rounds")
-    if args.dagger is None and (args.dagger_noise or args.start_offset or args.dagger_suite or args.labels != "cold"):
-        raise UsageError("--dagger-noise, --dagger-suite, --start-offset and --labels apply to on-policy rounds: "
-                         "they need --dagger")
+    if args.dagger is None and (args.dagger_noise or args.start_offset or args.dagger_suite or args.dagger_files
+                                or args.labels != "cold"):
+        raise UsageError("--dagger-noise, --dagger-suite, --dagger-files, --start-offset and --labels apply to "
+                         "on-policy rounds: they need --dagger")
+    if args.dagger_files and args.dagger_suite:
+        raise UsageError("give --dagger-suite or --dagger-files, not both")
     if args.labels == "closed-loop" and args.tie_margin is not None:
         raise UsageError("--tie-margin applies to cold labels, not --labels closed-loop")
     if args.dagger is not None:
@@ -221,7 +229,12 @@ def _dagger(args) -> int:
     suite_seed = args.seed + 1000 * args.round + (500 if by_gpc else 0)
     if args.movers < 0:
         raise UsageError(f"--movers must not be negative, got {args.movers}")
-    scenarios = _dagger_scenarios(suite, args.episodes, suite_seed, args.start_offset, args.movers, args.behaviour)
+    if args.dagger_files:
+        scenarios = _dagger_files(args.dagger_files, suite_seed, args.start_offset)
+        suite, episodes = "files", len(scenarios)
+    else:
+        scenarios = _dagger_scenarios(suite, args.episodes, suite_seed, args.start_offset, args.movers, args.behaviour)
+        episodes = args.episodes
     options = OnPolicyOptions(config, layout, solver, robot,
                               mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
                               noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE,
@@ -231,7 +244,9 @@ def _dagger(args) -> int:
         arrays, stats = collect_on_policy_parallel(factory, scenarios, options, pool,
                                                    progress=lambda **kw: progress(desc=f"{part}", **kw))
     crowd = {"movers": args.movers, "behaviour": args.behaviour} if suite in CROWD_SUITES else {}
-    info = {"round": args.round, "model": str(args.dagger), "suite": suite, **crowd, "episodes": args.episodes,
+    if args.dagger_files:
+        crowd = {"files": [sc.name for sc in scenarios]}
+    info = {"round": args.round, "model": str(args.dagger), "suite": suite, **crowd, "episodes": episodes,
             "suite_seed": suite_seed, "solver": solver, "safety_filter": None if by_gpc else args.dagger_safety,
             "driving_noise_mps": args.dagger_noise, "start_offset_m": args.start_offset, "tie_margin": args.tie_margin,
             "labels": args.labels,
@@ -244,7 +259,7 @@ def _dagger(args) -> int:
     for e in stats["episodes"]:
         outcomes[e["outcome"]] = outcomes.get(e["outcome"], 0) + 1
     print(f"{args.out}: {part} added {len(arrays['labels'])} samples "
-          f"({stats['situations']} situations, {stats['not_converged']} not converged) from {args.episodes} "
+          f"({stats['situations']} situations, {stats['not_converged']} not converged) from {episodes} "
           f"episodes of {suite} ({', '.join(f'{k} {v}' for k, v in sorted(outcomes.items()))}); "
           f"dataset now {doc['samples']} samples")
     return 0
@@ -288,11 +303,23 @@ def _check_solver_for(config, layout, solver: str) -> None:
     _check_solver(DatasetSpec(1, config, layout, solver=solver))
 
 
+def _dagger_files(paths, suite_seed: int, start_offset_m: float) -> list:
+    """The round's episodes from scenario files (each read and checked before any work; a bad
+    one is a one-line error naming it), their starts moved as :func:`_dagger_scenarios` moves
+    a suite's."""
+    from scenarios import load_scenario
+    return _offset([load_scenario(p) for p in paths], suite_seed, start_offset_m)
+
+
 def _dagger_scenarios(suite: str, episodes: int, suite_seed: int, start_offset_m: float, movers: int = 5,
                       behaviour: str = "orca") -> list:
     """The round's episodes, their starts moved up to ``start_offset_m`` beside the path."""
     from scenarios import Suite
-    scenarios = Suite(suite, episodes, suite_seed, movers, behaviour).scenarios()
+    return _offset(Suite(suite, episodes, suite_seed, movers, behaviour).scenarios(), suite_seed, start_offset_m)
+
+
+def _offset(scenarios: list, suite_seed: int, start_offset_m: float) -> list:
+    """``scenarios`` with their robot's start moved up to ``start_offset_m`` beside the path."""
     if start_offset_m > 0:
         import numpy as np
 

@@ -1,0 +1,32 @@
+"""The confirmation table (rule4.md; rule2.md's cases) from its run folder: per set the shipped walls network and the
+candidate E, reached / collided (robot approaching) / timed out, goals gained and lost episode by
+episode, and the rule's three conditions over the 700 episodes (``tools/rule_table.py``).
+
+    python table2.py runs2 > table2.md
+"""
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "tools"))
+from rule_table import compare, verdict  # noqa: E402
+
+runs = Path(sys.argv[1])
+SETS = ["corridor-s28", "doorway-s28", "corner-s28", "ng6101"]
+tot = compare(runs, {"nn": SETS}, file=lambda side, c, name: f"{side}-{name}.json", median=False,
+              extra=("interventions an episode (E)",
+                     lambda doc: f"{doc['interventions'] / doc['episodes']:.1f}"))["nn"]
+
+
+def reached(side):
+    return sum(sum(e["outcome"] == "reached_goal" for e in json.loads((runs / f"{side}-{n}.json").read_text())
+                   ["episodes_detail"]) for n in SETS)
+
+
+goals = (reached("shipped"), reached("change"))
+verdict([
+    (f"1. collisions: {tot['shipped'][0]} -> {tot['change'][0]}", tot["change"][0] <= tot["shipped"][0]),
+    (f"2. with the robot approaching: {tot['shipped'][1]} -> {tot['change'][1]}", tot["change"][1] <= tot["shipped"][1]),
+    (f"3. goals reached: {goals[0]} -> {goals[1]} (+{tot['gained']} / -{tot['lost']} episode by episode)",
+     goals[1] > goals[0]),
+])

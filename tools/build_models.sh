@@ -2,7 +2,7 @@
 # Rebuild the shipped networks nn_export/models/{paper,improved,improved-crowd,improved-walls}.onnx from
 # scratch, and the multi-obstacle network for the random-multi suite (not shipped):
 #
-#   tools/build_models.sh [OUT_DIR]        (default out/nn; about 2 h on 2 cores)
+#   tools/build_models.sh [OUT_DIR]        (default out/nn; about 3 h on 2 cores)
 #
 # The recipe (docs/nn-recipe.md, "The shipped models"): GPC labels of 20000 sampled situations,
 # then on-policy rounds labelled by the GPC:
@@ -149,7 +149,7 @@ setnet improved-crowd-d22 --parts "$P34",dagger40,dagger41,dagger42,dagger43,dag
 # behind the planner-free check on seeds 2 and 3 (20 episodes a suite), then the five best on
 # seeds 4 and 5 (100 a suite), with the same data labelled closed-loop (--labels closed-loop:
 # worse, docs/buildings.md, "The network reads walls"); shipped: w1, trained after the first
-# DAgger round.
+# DAgger round (shipped until 2026-11-29; it drives the first rounds of the one shipped since, below).
 D="$OUT/data/improved-walls"
 wallnet() {  # wallnet NAME
   gpcnav train "$D" --out "$OUT/models/$1" --preset improved --architecture set --encoder-width 32 --hidden 64 \
@@ -182,4 +182,51 @@ for r in 0 1 2 3; do
   building "dagger$((10 * r + 14))" "$M" corridor 8 orca 40
 done
 wallnet improved-walls-w4
-cp "$OUT/models/improved-walls-w1.onnx" nn_export/models/improved-walls.onnx
+# the walls network with rounds of navground's Corridor (issue 29; docs/buildings.md, "A round of
+# navground's corridor in the walls network's data"; adopted by docs/data/buildings/walls_net_ng/rule4.md):
+# the recipe above regenerated in a dataset of its own, its DAgger round driven by w1, two rounds on
+# navground's Corridor (files exported from navground seeds of their own, gpcnav dataset --dagger-files:
+# the GPC with DART noise, then w1 bare), then two DAgger rounds, each driven by the network trained on
+# everything before it (ng-c, ng-d) on the three suites and navground's Corridor; shipped: ng-e.
+D="$OUT/data/improved-walls-ng"
+NG="$OUT/navground"
+for s in 20001 21001 22001 23001; do
+  [ -d "$NG/corridor-$s" ] || python tools/export_navground_scenario.py --scene corridor --out "$NG/corridor-$s" \
+    --count 100 --seed "$s"
+done
+gpcnav dataset --out "$D" --samples 4000 --preset improved --layout set-walls --seed 0 --workers "$WORKERS"
+building gpc1 gpc corridor 5 orca 150 --dagger-noise 0.05
+building gpc2 gpc doorway 5 orca 150 --dagger-noise 0.05
+building gpc3 gpc corner 5 orca 150 --dagger-noise 0.05
+building gpc4 gpc corridor 5 social_force 60 --dagger-noise 0.05
+building gpc5 gpc doorway 5 social_force 60 --dagger-noise 0.05
+building gpc6 gpc corner 5 social_force 60 --dagger-noise 0.05
+building gpc7 gpc corridor 8 orca 60 --dagger-noise 0.05
+building gpc8 gpc doorway 8 orca 60 --dagger-noise 0.05
+building gpc9 gpc corner 8 orca 60 --dagger-noise 0.05
+M="$OUT/models/improved-walls-w1.onnx"
+building dagger10 "$M" corridor 5 orca 100
+building dagger11 "$M" doorway 5 orca 100
+building dagger12 "$M" corner 5 orca 100
+building dagger13 "$M" corner 5 social_force 40
+building dagger14 "$M" corridor 8 orca 40
+files() {  # a round on navground's Corridor: files PART DRIVER SEED [ARGS...]
+  local part=$1 driver=$2 seed=$3
+  shift 3
+  round "$D" "$part" --dagger "$driver" --dagger-files "$NG/corridor-$seed"/*.toml --round "${part//[a-z]/}" \
+    --preset improved "$@"
+}
+files gpc60 gpc 20001 --dagger-noise 0.05
+files dagger61 "$M" 21001
+wallnet improved-walls-ng-c
+for step in "c 2 22001" "d 3 23001"; do
+  set -- $step
+  M="$OUT/models/improved-walls-ng-$1.onnx"
+  building "dagger${2}0" "$M" corner 5 orca 100
+  building "dagger${2}1" "$M" corner 5 social_force 40
+  building "dagger${2}2" "$M" corridor 5 orca 100
+  building "dagger${2}3" "$M" doorway 5 orca 100
+  files "dagger${2}4" "$M" "$3"
+  wallnet "improved-walls-ng-$([ "$1" = c ] && echo d || echo e)"
+done
+cp "$OUT/models/improved-walls-ng-e.onnx" nn_export/models/improved-walls.onnx

@@ -2,7 +2,7 @@
 cases (runs/), the fewest collisions then the most goals, and whether the chosen one meets
 rule.md's three conditions against the shipped network.
 
-    python select.py runs > select.md
+    python choose.py runs > choose.md
 """
 import json
 import sys

@@ -1,8 +1,9 @@
-"""The rule's table (rule.md) from its run folder: per set the shipped walls network and the
-candidate C, reached / collided (robot approaching) / timed out, goals gained and lost episode by
-episode, and the rule's three conditions over the 700 episodes (``tools/rule_table.py``).
+"""A rule's table from its run folder: per set the shipped walls network and the candidate,
+reached / collided (robot approaching) / timed out, goals gained and lost episode by episode, and
+the rule's three conditions over the 700 episodes (``tools/rule_table.py``).
 
-    python table.py runs > table.md
+    python table.py runs > table.md      (rule.md: C on seed 27 and navground 6001-6100)
+    python table.py runs2 > table2.md    (rule4.md: E on seed 28 and navground 6101-6200)
 """
 import json
 import sys
@@ -12,9 +13,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "tools"))
 from rule_table import compare, verdict  # noqa: E402
 
 runs = Path(sys.argv[1])
-SETS = ["corridor-s27", "doorway-s27", "corner-s27", "ng6001"]
+second = runs.name == "runs2"
+SETS = ["corridor-s28", "doorway-s28", "corner-s28", "ng6101"] if second else ["corridor-s27", "doorway-s27",
+                                                                              "corner-s27", "ng6001"]
 tot = compare(runs, {"nn": SETS}, file=lambda side, c, name: f"{side}-{name}.json", median=False,
-              extra=("interventions an episode (C)",
+              extra=(f"interventions an episode ({'E' if second else 'C'})",
                      lambda doc: f"{doc['interventions'] / doc['episodes']:.1f}"))["nn"]
 
 

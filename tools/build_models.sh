@@ -162,24 +162,29 @@ building() {  # one round on a building suite: building PART DRIVER SUITE MOVERS
   round "$D" "$part" --dagger "$driver" --dagger-suite "$suite" --movers "$movers" --behaviour "$behaviour" \
     --episodes "$episodes" --round "${part//[a-z]/}" --preset improved "$@"
 }
-gpcnav dataset --out "$D" --samples 4000 --preset improved --layout set-walls --seed 0 --workers "$WORKERS"
-building gpc1 gpc corridor 5 orca 150 --dagger-noise 0.05
-building gpc2 gpc doorway 5 orca 150 --dagger-noise 0.05
-building gpc3 gpc corner 5 orca 150 --dagger-noise 0.05
-building gpc4 gpc corridor 5 social_force 60 --dagger-noise 0.05
-building gpc5 gpc doorway 5 social_force 60 --dagger-noise 0.05
-building gpc6 gpc corner 5 social_force 60 --dagger-noise 0.05
-building gpc7 gpc corridor 8 orca 60 --dagger-noise 0.05
-building gpc8 gpc doorway 8 orca 60 --dagger-noise 0.05
-building gpc9 gpc corner 8 orca 60 --dagger-noise 0.05
+walls_start() {  # the sampled situations and the nine DART rounds where the GPC drives, into $D
+  gpcnav dataset --out "$D" --samples 4000 --preset improved --layout set-walls --seed 0 --workers "$WORKERS"
+  building gpc1 gpc corridor 5 orca 150 --dagger-noise 0.05
+  building gpc2 gpc doorway 5 orca 150 --dagger-noise 0.05
+  building gpc3 gpc corner 5 orca 150 --dagger-noise 0.05
+  building gpc4 gpc corridor 5 social_force 60 --dagger-noise 0.05
+  building gpc5 gpc doorway 5 social_force 60 --dagger-noise 0.05
+  building gpc6 gpc corner 5 social_force 60 --dagger-noise 0.05
+  building gpc7 gpc corridor 8 orca 60 --dagger-noise 0.05
+  building gpc8 gpc doorway 8 orca 60 --dagger-noise 0.05
+  building gpc9 gpc corner 8 orca 60 --dagger-noise 0.05
+}
+walls_dagger() {  # walls_dagger FIRST DRIVER: a DAgger round on the three suites, parts dagger<FIRST>..<FIRST+4>
+  building "dagger$1" "$2" corridor 5 orca 100
+  building "dagger$(($1 + 1))" "$2" doorway 5 orca 100
+  building "dagger$(($1 + 2))" "$2" corner 5 orca 100
+  building "dagger$(($1 + 3))" "$2" corner 5 social_force 40
+  building "dagger$(($1 + 4))" "$2" corridor 8 orca 40
+}
+walls_start
 for r in 0 1 2 3; do
   wallnet "improved-walls-w$r"
-  M="$OUT/models/improved-walls-w$r.onnx"
-  building "dagger$((10 * r + 10))" "$M" corridor 5 orca 100
-  building "dagger$((10 * r + 11))" "$M" doorway 5 orca 100
-  building "dagger$((10 * r + 12))" "$M" corner 5 orca 100
-  building "dagger$((10 * r + 13))" "$M" corner 5 social_force 40
-  building "dagger$((10 * r + 14))" "$M" corridor 8 orca 40
+  walls_dagger $((10 * r + 10)) "$OUT/models/improved-walls-w$r.onnx"
 done
 wallnet improved-walls-w4
 # the walls network with rounds of navground's Corridor (issue 29; docs/buildings.md, "A round of
@@ -194,22 +199,9 @@ for s in 20001 21001 22001 23001; do
   [ -d "$NG/corridor-$s" ] || python tools/export_navground_scenario.py --scene corridor --out "$NG/corridor-$s" \
     --count 100 --seed "$s"
 done
-gpcnav dataset --out "$D" --samples 4000 --preset improved --layout set-walls --seed 0 --workers "$WORKERS"
-building gpc1 gpc corridor 5 orca 150 --dagger-noise 0.05
-building gpc2 gpc doorway 5 orca 150 --dagger-noise 0.05
-building gpc3 gpc corner 5 orca 150 --dagger-noise 0.05
-building gpc4 gpc corridor 5 social_force 60 --dagger-noise 0.05
-building gpc5 gpc doorway 5 social_force 60 --dagger-noise 0.05
-building gpc6 gpc corner 5 social_force 60 --dagger-noise 0.05
-building gpc7 gpc corridor 8 orca 60 --dagger-noise 0.05
-building gpc8 gpc doorway 8 orca 60 --dagger-noise 0.05
-building gpc9 gpc corner 8 orca 60 --dagger-noise 0.05
+walls_start
 M="$OUT/models/improved-walls-w1.onnx"
-building dagger10 "$M" corridor 5 orca 100
-building dagger11 "$M" doorway 5 orca 100
-building dagger12 "$M" corner 5 orca 100
-building dagger13 "$M" corner 5 social_force 40
-building dagger14 "$M" corridor 8 orca 40
+walls_dagger 10 "$M"
 files() {  # a round on navground's Corridor: files PART DRIVER SEED [ARGS...]
   local part=$1 driver=$2 seed=$3
   shift 3
@@ -218,15 +210,16 @@ files() {  # a round on navground's Corridor: files PART DRIVER SEED [ARGS...]
 }
 files gpc60 gpc 20001 --dagger-noise 0.05
 files dagger61 "$M" 21001
+ng_dagger() {  # ng_dagger FIRST DRIVER SEED: a DAgger round, parts dagger<FIRST>..<FIRST+4>, the last on navground
+  building "dagger$1" "$2" corner 5 orca 100
+  building "dagger$(($1 + 1))" "$2" corner 5 social_force 40
+  building "dagger$(($1 + 2))" "$2" corridor 5 orca 100
+  building "dagger$(($1 + 3))" "$2" doorway 5 orca 100
+  files "dagger$(($1 + 4))" "$2" "$3"
+}
 wallnet improved-walls-ng-c
-for step in "c 2 22001" "d 3 23001"; do
-  set -- $step
-  M="$OUT/models/improved-walls-ng-$1.onnx"
-  building "dagger${2}0" "$M" corner 5 orca 100
-  building "dagger${2}1" "$M" corner 5 social_force 40
-  building "dagger${2}2" "$M" corridor 5 orca 100
-  building "dagger${2}3" "$M" doorway 5 orca 100
-  files "dagger${2}4" "$M" "$3"
-  wallnet "improved-walls-ng-$([ "$1" = c ] && echo d || echo e)"
-done
+ng_dagger 20 "$OUT/models/improved-walls-ng-c.onnx" 22001
+wallnet improved-walls-ng-d
+ng_dagger 30 "$OUT/models/improved-walls-ng-d.onnx" 23001
+wallnet improved-walls-ng-e
 cp "$OUT/models/improved-walls-ng-e.onnx" nn_export/models/improved-walls.onnx

@@ -1,11 +1,15 @@
 #!/usr/bin/env bash
-# run.sh NAME: the rule's cases with the walls network now in nn_export/models/improved-walls.onnx
-# (the shipped one, or C copied there), documents in runs/NAME-*.json
+# run.sh NAME [confirm]: the rule's cases with the walls network now in nn_export/models/improved-walls.onnx
+# (the shipped one, or a candidate copied there), documents NAME-*.json: rule.md's cases (seed 27,
+# navground 6001-6100) into runs/; with "confirm", rule2.md's and rule4.md's confirmation cases (seed 28,
+# navground 6101-6200) into runs2/
 set -euo pipefail
 cd "$(dirname "$0")/../../../.."
-R=docs/data/buildings/walls_net_ng/runs
+if [ "${2:-}" = confirm ]; then R=runs2 S=28 NG=6101; else R=runs S=27 NG=6001; fi
+R=docs/data/buildings/walls_net_ng/$R
+mkdir -p $R
 for s in corridor doorway corner; do
-  gpcnav evaluate --suite $s --count 200 --seed 27 --controller nn --workers 2 --out $R/$1-$s-s27.json > /dev/null
+  gpcnav evaluate --suite $s --count 200 --seed $S --controller nn --workers 2 --out $R/$1-$s-s$S.json > /dev/null
 done
-gpcnav evaluate out/walls2/ng-6001/*.toml --controller nn --workers 2 --out $R/$1-ng6001.json > /dev/null
+gpcnav evaluate out/walls2/ng-$NG/*.toml --controller nn --workers 2 --out $R/$1-ng$NG.json > /dev/null
 echo done $1

@@ -133,6 +133,7 @@ def test_other_arguments_are_refused(reference_dataset):
     (["--dagger", "gpc", "--scheme", "two-pass"], "--scheme"),
     (["--samples", "10", "--dagger-files", "a.toml"], "--dagger-files"),
     (["--dagger", "gpc", "--dagger-suite", "corridor", "--dagger-files", "a.toml"], "not both"),
+    (["--dagger", "gpc", "--episodes", "3", "--dagger-files", "a.toml"], "--episodes does not apply"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, argv, words):
     proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(tmp_path / "d"), *argv],

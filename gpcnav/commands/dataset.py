@@ -68,7 +68,8 @@ def add_arguments(p):
                    help="--dagger: label each visited situation by the GPC solved afresh from its fixed guesses "
                         "(cold, default) or by a GPC kept in step with the episode, as it commands in closed loop "
                         "(closed-loop; nn_export/training/dataset/onpolicy.py)")
-    p.add_argument("--episodes", type=int, default=100, help="episodes of the random suite for --dagger")
+    p.add_argument("--episodes", type=int, default=None,
+                   help="episodes of the suite for --dagger (default 100; with --dagger-files, one a file)")
     p.add_argument("--round", type=int, default=1, help="DAgger round number (names the part: dagger<R>)")
     p.add_argument("--dagger-noise", type=float, default=0.0, metavar="SIGMA",
                    help="--dagger: add N(0, SIGMA) m/s to each wheel speed the driver applies (DART: the "
@@ -118,6 +119,8 @@ def run(args) -> int:
                          "on-policy rounds: they need --dagger")
     if args.dagger_files and args.dagger_suite:
         raise UsageError("give --dagger-suite or --dagger-files, not both")
+    if args.dagger_files and args.episodes is not None:
+        raise UsageError("--dagger-files runs one episode a file: --episodes does not apply")
     if args.labels == "closed-loop" and args.tie_margin is not None:
         raise UsageError("--tie-margin applies to cold labels, not --labels closed-loop")
     if args.dagger is not None:
@@ -233,8 +236,8 @@ def _dagger(args) -> int:
         scenarios = _dagger_files(args.dagger_files, suite_seed, args.start_offset)
         suite, episodes = "files", len(scenarios)
     else:
-        scenarios = _dagger_scenarios(suite, args.episodes, suite_seed, args.start_offset, args.movers, args.behaviour)
-        episodes = args.episodes
+        episodes = 100 if args.episodes is None else args.episodes
+        scenarios = _dagger_scenarios(suite, episodes, suite_seed, args.start_offset, args.movers, args.behaviour)
     options = OnPolicyOptions(config, layout, solver, robot,
                               mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
                               noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE,
@@ -270,7 +273,7 @@ def _dagger_manifest(args) -> dict:
     from nn_export.training.dataset import read_manifest
     if not (args.out / "manifest.json").is_file():
         raise UsageError(f"--dagger appends to an existing dataset, and {args.out} has no manifest.json")
-    if args.episodes < 1:
+    if args.episodes is not None and args.episodes < 1:
         raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
     if args.round < 1:
         raise UsageError(f"--round must be at least 1, got {args.round}")

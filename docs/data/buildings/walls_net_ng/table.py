@@ -4,6 +4,7 @@ the rule's three conditions over the 700 episodes (``tools/rule_table.py``).
 
     python table.py runs > table.md      (rule.md: C on seed 27 and navground 6001-6100)
     python table.py runs2 > table2.md    (rule4.md: E on seed 28 and navground 6101-6200)
+    python table.py runs3 > table3.md    (rule5.md: F on seed 29 and navground 6201-6300)
 """
 import json
 import sys
@@ -13,11 +14,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "tools"))
 from rule_table import compare, verdict  # noqa: E402
 
 runs = Path(sys.argv[1])
-second = runs.name == "runs2"
-SETS = ["corridor-s28", "doorway-s28", "corner-s28", "ng6101"] if second else ["corridor-s27", "doorway-s27",
-                                                                              "corner-s27", "ng6001"]
+# the folder: its suite seed, its first navground seed and the candidate's name
+seed, ng, candidate = {"runs": (27, 6001, "C"), "runs2": (28, 6101, "E"), "runs3": (29, 6201, "F")}[runs.name]
+SETS = [f"corridor-s{seed}", f"doorway-s{seed}", f"corner-s{seed}", f"ng{ng}"]
 tot = compare(runs, {"nn": SETS}, file=lambda side, c, name: f"{side}-{name}.json", median=False,
-              extra=(f"interventions an episode ({'E' if second else 'C'})",
+              extra=(f"interventions an episode ({candidate})",
                      lambda doc: f"{doc['interventions'] / doc['episodes']:.1f}"))["nn"]
 
 

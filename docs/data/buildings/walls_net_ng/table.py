@@ -7,6 +7,7 @@ the rule's three conditions over the 700 episodes (``tools/rule_table.py``).
     python table.py runs3 > table3.md    (rule5.md: F on seed 29 and navground 6201-6300)
     python table.py runs4 > table4.md    (rule6.md: G on seed 30 and navground 6301-6400)
     python table.py runs5 > table5.md    (rule7.md: H on seed 31 and navground 6401-6500)
+    python table.py runs6 > table6.md    (rule8.md: E's check with the margin near walls, seed 32, navground 6501-6600)
 """
 import json
 import sys
@@ -19,7 +20,8 @@ runs = Path(sys.argv[1])
 # the folder: its suite seed, its first navground seed and the candidate's name
 seed, ng, candidate = {"runs": (27, 6001, "C"), "runs2": (28, 6101, "E"), "runs3": (29, 6201, "F"),
                           "runs4": (30, 6301, "G"),
-                          "runs5": (31, 6401, "H")}[runs.name]
+                          "runs5": (31, 6401, "H"),
+                          "runs6": (32, 6501, "E + margin")}[runs.name]
 SETS = [f"corridor-s{seed}", f"doorway-s{seed}", f"corner-s{seed}", f"ng{ng}"]
 tot = compare(runs, {"nn": SETS}, file=lambda side, c, name: f"{side}-{name}.json", median=False,
               extra=(f"interventions an episode ({candidate})",

@@ -19,9 +19,8 @@ from rule_table import compare, verdict  # noqa: E402
 runs = Path(sys.argv[1])
 # the folder: its suite seed, its first navground seed and the candidate's name
 seed, ng, candidate = {"runs": (27, 6001, "C"), "runs2": (28, 6101, "E"), "runs3": (29, 6201, "F"),
-                          "runs4": (30, 6301, "G"),
-                          "runs5": (31, 6401, "H"),
-                          "runs6": (32, 6501, "E + margin")}[runs.name]
+                       "runs4": (30, 6301, "G"), "runs5": (31, 6401, "H"),
+                       "runs6": (32, 6501, "E + margin")}[runs.name]
 SETS = [f"corridor-s{seed}", f"doorway-s{seed}", f"corner-s{seed}", f"ng{ng}"]
 tot = compare(runs, {"nn": SETS}, file=lambda side, c, name: f"{side}-{name}.json", median=False,
               extra=(f"interventions an episode ({candidate})",

@@ -6,10 +6,17 @@ makes it) is asked every decision in the same observation, and its answer thrown
 shadow: it plans from the state the network drove to, keeping its own filters and warm start).
 Per decision: whether the check replaced the network's command (a fallback: the network has no
 alternatives) and whether the GPC's check had to go past the GPC's own plan and alternatives
-to a manoeuvre (its fallback). The four counts tell the network's share of the check's
-interventions (the GPC's answer would have passed) from the state's (it would not have either).
+to a manoeuvre (its fallback). The four counts tell the states where the network is stopped
+and the GPC, checked as it is, is not, from those where both are. The two checks differ (the
+GPC's plans trusted for 3 s, the network's roll-out for 4.5 s; the GPC's alternatives; near
+walls the GPC's smaller margin), so the first count is not the network's answers alone.
 
-    python shadow.py out/walls2/ng-24001/*.toml > output.txt
+The run recorded in output.txt, from the repository's root (navground seeds 24001-24020, seen in
+the training of rule5.md's candidate; exported by ``python tools/export_navground_scenario.py
+--scene corridor --out out/walls2/ng-24001 --count 100 --seed 24001``):
+
+    python docs/data/buildings/walls_net_ng/shadow/shadow.py $(ls out/walls2/ng-24001/*.toml | head -20) \
+        > docs/data/buildings/walls_net_ng/shadow/output.txt
 """
 from __future__ import annotations
 

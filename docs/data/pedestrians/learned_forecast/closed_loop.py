@@ -1,0 +1,124 @@
+"""Closed loop: the GPC behind its check (as ``gpcnav --controller gpc`` runs it) with the
+learned forecast in place of its EKF's for every walker measured at the last 9 samples (the
+others keep the EKF's), as tools/oracle_forecasts.py swaps in the truth.
+
+    python closed_loop.py MODEL.onnx SUITE SEED MOVERS EPISODES(A-B) [BEHAVIOUR] [--ekf] [--cov=learned|ekf|max]
+
+``--cov``: the learned forecast's own deviations (default), the EKF's covariances with the
+learned means (``ekf``), or the EKF's widened to the learned where that is wider (``max``).
+"""
+import sys
+from pathlib import Path
+
+import numpy as np
+import onnxruntime as ort
+
+from casadi_gpc.config import preset
+from casadi_gpc.planner.gpc import GPCController
+from casadi_gpc.safety import Shield
+from casadi_gpc.types import ObstacleForecast
+from gpcnav.commands.common import for_run
+from gpcnav.controllers import check_settings
+from scenarios import Suite
+from scenarios.simulator import simulate
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from data import H, PAST, features  # noqa: E402
+
+
+class LearnedForecast:
+    """The walkers' measured positions of the last PAST + 1 samples and the learned forecast."""
+
+    def __init__(self, path: str, sample_time_s: float, cov: str = "learned"):
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = opts.inter_op_num_threads = 1
+        self.sess = ort.InferenceSession(path, opts, providers=["CPUExecutionProvider"])
+        self.T, self.cov = sample_time_s, cov
+        self.reset()
+
+    def reset(self):
+        self.hist = {}  # id -> {sample: (x, y)}
+        self.used = self.kept = 0
+
+    def __call__(self, obs, own):
+        k = int(round(obs.t_s / self.T))
+        for m in obs.moving:
+            if m.position_m is not None and all(np.isfinite(m.position_m)):
+                h = self.hist.setdefault(m.obstacle_id, {})
+                h[k] = tuple(m.position_m)
+                for old in [s for s in h if s < k - PAST]:
+                    del h[old]
+        ids = sorted(self.hist)
+        meas = np.full((PAST + 1, len(ids), 2), np.nan)
+        for c, i in enumerate(ids):
+            for s, p in self.hist[i].items():
+                meas[s - (k - PAST), c] = p
+        col = {i: c for c, i in enumerate(ids)}
+        rows, where = [], []
+        for n, f in enumerate(own):
+            c = col.get(f.obstacle_id)
+            ft = None if c is None else features(meas, PAST, c)
+            if ft is not None:
+                rows.append(ft)
+                where.append(n)
+        out = list(own)
+        if rows:
+            X = np.array([r[0] for r in rows], dtype=np.float32)
+            Y = self.sess.run(None, {"x": X})[0].astype(float)
+            for (x, c, s), n, y in zip(rows, where, Y):
+                f = own[n]
+                R = np.array([[c, -s], [s, c]])
+                now = meas[PAST, col[f.obstacle_id]]
+                means = now + y[:2 * H].reshape(H, 2) @ R.T
+                var = np.exp(2 * y[2 * H:])
+                covs = var[:, None, None] * np.eye(2)[None]
+                if self.cov == "ekf":  # the filter's own covariances: only the means are learned
+                    covs = np.asarray(f.covs_m2)
+                elif self.cov == "max":  # the filter's, widened where the learned one is wider
+                    ekf = np.asarray(f.covs_m2)
+                    lam = np.linalg.eigvalsh(ekf)[:, -1]
+                    covs = ekf + np.maximum(var - lam, 0.0)[:, None, None] * np.eye(2)[None]
+                out[n] = ObstacleForecast(f.obstacle_id, f.radius_m, means, covs)
+        self.used += len(rows)
+        self.kept += len(own) - len(rows)
+        return out
+
+
+class LearnedGPC(GPCController):
+    forecaster = None
+
+    def reset(self):
+        super().reset()
+        if self.forecaster is not None:
+            self.forecaster.reset()
+
+    def estimate(self, obs):
+        own = super().estimate(obs)
+        return own if self.forecaster is None else self.forecaster(obs, own)
+
+
+def main():
+    model, suite, seed, movers, eps = sys.argv[1:6]
+    rest = sys.argv[6:]
+    behaviour = next((r for r in rest if not r.startswith("--")), "orca")
+    a, b = (int(v) for v in eps.split("-"))
+    seed, movers = int(seed), int(movers)
+    S = Suite(suite, b + 1, seed, movers, behaviour)
+    got = []
+    for i in range(a, b + 1):
+        sc = S.scenario(i)
+        cfg = for_run(preset("improved"), [sc])
+        gpc = LearnedGPC(cfg, sc.robot)
+        if "--ekf" not in rest:
+            cov = next((r.split("=", 1)[1] for r in rest if r.startswith("--cov=")), "learned")
+            gpc.forecaster = LearnedForecast(model, cfg.sample_time_s, cov)
+        log = simulate(sc, Shield(gpc, sc.robot, check_settings("gpc", gpc, cfg, "on"), planner_config=cfg), "gpc-lp")
+        t = np.array(log.compute_time_s) * 1e3
+        got.append(log.outcome)
+        print(f"episode {i:4d}: {log.outcome:12s} clearance {log.min_clearance_m:6.3f} m  decision median "
+              f"{np.median(t):.2f} ms", flush=True)
+    print(", ".join(f"{got.count(o)} {o}" for o in ("reached_goal", "collided", "timed_out")) + f" of {len(got)}")
+
+
+if __name__ == "__main__":
+    main()

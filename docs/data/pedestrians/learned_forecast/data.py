@@ -1,0 +1,94 @@
+"""Walkers' tracks for a learned forecast: the crowd suites' walkers (blind to the robot, so
+their motion does not depend on it) moved by the simulator's own mover world, sample by
+sample (0.5 s), measured with the suites' 0.02 m noise; one sample per walker and instant
+with 8 past and 12 future positions in the scene.
+
+    python data.py OUT.npz SEEDS (a range A-B) [suites...]
+
+Each sample, in the walker's frame (origin at its measured position now, x along its
+measured displacement over the last 2 s, or the world's x when it moved less than 5 cm):
+its 8 previous measured positions (16), the K nearest other walkers within 6 m now
+(present, position, velocity over the last interval: 5 each, nearest first), and the target:
+its true positions at steps 1..12 less its measured position now (24)."""
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "tools"))
+from oracle_forecasts import true_positions  # noqa: E402
+from scenarios import Suite  # noqa: E402
+
+T, PAST, H, K, NEAR_M = 0.5, 8, 12, 8, 6.0
+SUITES = [("square-crossing", 10, "orca"), ("square-crossing", 20, "orca"), ("square-crossing", 30, "orca"),
+          ("square-crossing", 20, "social_force"), ("circle-crossing", 10, "orca"), ("circle-crossing", 5, "orca")]
+
+
+def frame(meas_past: np.ndarray) -> tuple[float, float]:
+    """cos, sin of the walker's frame from its measured positions (oldest first, now last)."""
+    d = meas_past[-1] - meas_past[-5]
+    n = float(np.hypot(*d))
+    return (1.0, 0.0) if n < 0.05 else (d[0] / n, d[1] / n)
+
+
+def features(meas: np.ndarray, k: int, j: int) -> tuple[np.ndarray, float, float] | None:
+    """The input of walker ``j`` at sample ``k`` from the measurements ``meas`` (samples,
+    walkers, 2; NaN where absent), and its frame (cos, sin); None without 8 past positions."""
+    past = meas[k - PAST:k + 1, j]
+    if k < PAST or not np.isfinite(past).all():
+        return None
+    c, s = frame(past)
+    R = np.array([[c, s], [-s, c]])
+    now = past[-1]
+    own = ((past[:-1] - now) @ R.T).ravel()
+    others = []
+    here, before = meas[k], meas[k - 1]
+    for i in range(meas.shape[1]):
+        if i == j or not (np.isfinite(here[i]).all() and np.isfinite(before[i]).all()):
+            continue
+        rel = here[i] - now
+        d = float(np.hypot(*rel))
+        if d <= NEAR_M:
+            others.append((d, rel @ R.T, (here[i] - before[i]) / T @ R.T))
+    others.sort(key=lambda o: o[0])
+    nb = np.zeros(5 * K)
+    for n, (_, p, v) in enumerate(others[:K]):
+        nb[5 * n:5 * n + 5] = (1.0, *p, *v)
+    return np.concatenate([own, nb]), c, s
+
+
+def episode(job):
+    name, seed, movers, behaviour, index = job
+    sc = Suite(name, index + 1, seed, movers, behaviour).scenario(index)
+    truth = true_positions(sc, T, H, hold_absent=False)
+    rng = np.random.default_rng([seed, index, movers, 17])
+    meas = truth + rng.normal(0.0, 0.02, truth.shape)
+    X, Y = [], []
+    for k in range(PAST, truth.shape[0] - H):
+        for j in range(truth.shape[1]):
+            fut = truth[k + 1:k + H + 1, j]
+            if not np.isfinite(fut).all():
+                continue
+            f = features(meas, k, j)
+            if f is None:
+                continue
+            x, c, s = f
+            R = np.array([[c, s], [-s, c]])
+            X.append(x)
+            Y.append(((fut - meas[k, j]) @ R.T).ravel())
+    return np.array(X).reshape(-1, 2 * PAST + 5 * K), np.array(Y).reshape(-1, 2 * H)
+
+
+if __name__ == "__main__":
+    out, seeds = sys.argv[1], sys.argv[2]
+    a, b = (int(v) for v in seeds.split("-"))
+    suites = SUITES if len(sys.argv) <= 3 else [
+        (n, int(m), beh) for n, m, beh in (s.split(":") for s in sys.argv[3:])]
+    jobs = [(n, seed, m, beh, 0) for seed in range(a, b + 1) for n, m, beh in suites]
+    with ProcessPoolExecutor(1) as ex:
+        parts = list(ex.map(episode, jobs, chunksize=4))
+    X = np.concatenate([p[0] for p in parts])
+    Y = np.concatenate([p[1] for p in parts])
+    np.savez_compressed(out, X=X, Y=Y)
+    print(out, X.shape, Y.shape)

@@ -63,9 +63,9 @@ def test_address_without_ray_backend_is_refused(tmp_path):
 def test_evaluate_on_ray_killed_partway_resumes_to_the_uninterrupted_document(tmp_path, local_ray):
     """The finished episodes are kept by the driver as they come back from the cluster: a
     driver killed with kill -9 and started again reuses them, on Ray as on local workers."""
-    from test_resume import _kill_partway, _reused_line, _same_document
+    from test_resume import NO_CLOCK, _kill_partway, _reused_line, _same_document
     argv = ["evaluate", "--suite", "circle-crossing", "--movers", "10", "--count", "8", "--workers", "2",
-            "--backend", "ray", "--address", local_ray]
+            "--backend", "ray", "--address", local_ray, *NO_CLOCK]
     _cli(tmp_path, *argv, "--out", "W.json")
     kept = _kill_partway(tmp_path, tmp_path / "E.json.episodes", [*argv, "--out", "E.json"], 3)
     n_kept = sum(len(v) for v in kept.values())

@@ -26,6 +26,13 @@ MEASURED = {"compute_time_s", "events"}
 which include solves over their time budget."""
 
 CROWD = ["--suite", "circle-crossing", "--movers", "10", "--seed", "0"]
+NO_CLOCK = ["--set", "time_budget_s=3600"]
+"""The planner's answer depends on the wall clock through its time budget alone: a solve that
+ends later than the budget (the sample time) is not used. On a busy machine a solve can run
+over it in one run and not in the other, and the two documents then differ by design (seen
+with Ray's processes and two other jobs on the 2-core machine: decisions of 160 ms median, 8
+over the budget). The runs compared here take an hour's budget, so that what they compare is
+the resuming alone."""
 
 
 def _env():
@@ -82,7 +89,7 @@ def _reused_line(stderr: str, command: str) -> int:
 
 
 def _resume_evaluate(tmp_path, count: int, workers: int, kill_at: int):
-    argv = ["evaluate", *CROWD, "--count", count, "--workers", workers]
+    argv = ["evaluate", *CROWD, *NO_CLOCK, "--count", count, "--workers", workers]
     whole = _cli(tmp_path, *argv, "--out", "W.json")
     assert whole.returncode == 0, whole.stderr[-2000:]
     assert "reused" not in whole.stderr and not (tmp_path / "W.json.episodes").exists()  # removed once written
@@ -108,7 +115,7 @@ def test_evaluate_60_crowd_episodes_killed_partway_resumes_to_the_uninterrupted_
 
 
 def test_compare_of_two_controllers_killed_partway_resumes_to_the_uninterrupted_document(tmp_path):
-    argv = ["compare", *CROWD, "--count", "6", "--controllers", "gpc,orca", "--workers", "2"]
+    argv = ["compare", *CROWD, *NO_CLOCK, "--count", "6", "--controllers", "gpc,orca", "--workers", "2"]
     whole = _cli(tmp_path, *argv, "--out", "W.json")
     assert whole.returncode == 0, whole.stderr[-2000:]
     kept = _kill_partway(tmp_path, tmp_path / "C.json.episodes", [*argv, "--out", "C.json"], 4)

@@ -2,7 +2,9 @@
 learned forecast in place of its EKF's for every walker measured at the last 9 samples (the
 others keep the EKF's), as tools/oracle_forecasts.py swaps in the truth.
 
-    python closed_loop.py MODEL.onnx SUITE SEED MOVERS EPISODES(A-B) [BEHAVIOUR] [--ekf] [--cov=learned|ekf|max]
+    python closed_loop.py MODEL.onnx SUITE SEED MOVERS EPISODES(A-B) [BEHAVIOUR] [--ekf] [--ekf-means] [--cov=learned|ekf|max|fixedS]
+
+``--ekf-means``: keep the EKF's means and swap only the covariances (with ``--cov=fixedS``).
 
 ``--cov``: the learned forecast's own deviations (default), the EKF's covariances with the
 learned means (``ekf``), or the EKF's widened to the learned where that is wider (``max``).
@@ -33,7 +35,7 @@ class LearnedForecast:
         opts = ort.SessionOptions()
         opts.intra_op_num_threads = opts.inter_op_num_threads = 1
         self.sess = ort.InferenceSession(path, opts, providers=["CPUExecutionProvider"])
-        self.T, self.cov = sample_time_s, cov
+        self.T, self.cov, self.means = sample_time_s, cov, "learned"
         self.reset()
 
     def reset(self):
@@ -62,6 +64,14 @@ class LearnedForecast:
                 rows.append(ft)
                 where.append(n)
         out = list(own)
+        if self.means == "ekf":  # the EKF's own means, only the deviation swapped (every track seen twice)
+            for n, f in enumerate(own):
+                if self.cov.startswith("fixed") and getattr(f, "initialised", True):
+                    S = float(self.cov[5:])
+                    out[n] = ObstacleForecast(f.obstacle_id, f.radius_m, np.asarray(f.means_m),
+                                              S ** 2 * np.tile(np.eye(2), (H, 1, 1)))
+            self.kept += len(own)
+            return out
         if rows:
             X = np.array([r[0] for r in rows], dtype=np.float32)
             Y = self.sess.run(None, {"x": X})[0].astype(float)
@@ -74,6 +84,8 @@ class LearnedForecast:
                 covs = var[:, None, None] * np.eye(2)[None]
                 if self.cov == "ekf":  # the filter's own covariances: only the means are learned
                     covs = np.asarray(f.covs_m2)
+                elif self.cov.startswith("fixed"):  # one standard deviation for every step, m
+                    covs = float(self.cov[5:]) ** 2 * np.tile(np.eye(2), (H, 1, 1))
                 elif self.cov == "max":  # the filter's, widened where the learned one is wider
                     ekf = np.asarray(f.covs_m2)
                     lam = np.linalg.eigvalsh(ekf)[:, -1]
@@ -112,6 +124,8 @@ def main():
         if "--ekf" not in rest:
             cov = next((r.split("=", 1)[1] for r in rest if r.startswith("--cov=")), "learned")
             gpc.forecaster = LearnedForecast(model, cfg.sample_time_s, cov)
+            if "--ekf-means" in rest:
+                gpc.forecaster.means = "ekf"
         log = simulate(sc, Shield(gpc, sc.robot, check_settings("gpc", gpc, cfg, "on"), planner_config=cfg), "gpc-lp")
         t = np.array(log.compute_time_s) * 1e3
         got.append(log.outcome)

@@ -7,7 +7,8 @@ others keep the EKF's), as tools/oracle_forecasts.py swaps in the truth.
 ``--ekf-means``: keep the EKF's means and swap only the covariances (with ``--cov=fixedS``).
 
 ``--cov``: the learned forecast's own deviations (default), the EKF's covariances with the
-learned means (``ekf``), or the EKF's widened to the learned where that is wider (``max``).
+learned means (``ekf``), the EKF's widened to the learned where that is wider (``max``), or
+one fixed deviation for every step (``fixedS``, S in m).
 """
 import sys
 from pathlib import Path

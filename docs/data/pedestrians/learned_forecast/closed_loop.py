@@ -55,7 +55,8 @@ class LearnedForecast:
         meas = np.full((PAST + 1, len(ids), 2), np.nan)
         for c, i in enumerate(ids):
             for s, p in self.hist[i].items():
-                meas[s - (k - PAST), c] = p
+                if s >= k - PAST:  # a walker not measured lately keeps older rows
+                    meas[s - (k - PAST), c] = p
         col = {i: c for c, i in enumerate(ids)}
         rows, where = [], []
         for n, f in enumerate(own):

@@ -3,6 +3,7 @@ learned forecast in place of its EKF's for every walker measured at the last 9 s
 others keep the EKF's), as tools/oracle_forecasts.py swaps in the truth.
 
     python closed_loop.py MODEL.onnx SUITE SEED MOVERS EPISODES(A-B) [BEHAVIOUR] [--ekf] [--ekf-means] [--cov=learned|ekf|max|fixedS]
+    python closed_loop.py MODEL.onnx files 'GLOB' 0 EPISODES(A-B) [--ekf]   (scenario files, sorted)
 
 ``--ekf-means``: keep the EKF's means and swap only the covariances (with ``--cov=fixedS``).
 
@@ -23,10 +24,13 @@ from casadi_gpc.types import ObstacleForecast
 from gpcnav.commands.common import for_run
 from gpcnav.controllers import check_settings
 from scenarios import Suite
+from scenarios.loader import load_scenario
+from scenarios.metrics import episode_metrics
 from scenarios.simulator import simulate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from data import H, PAST, features  # noqa: E402
+from data import H, PAST, SECTORS, features  # noqa: E402
+from nn_export.runtime.wall_scan import wall_segment_rows  # noqa: E402
 
 
 class LearnedForecast:
@@ -37,9 +41,11 @@ class LearnedForecast:
         opts.intra_op_num_threads = opts.inter_op_num_threads = 1
         self.sess = ort.InferenceSession(path, opts, providers=["CPUExecutionProvider"])
         self.T, self.cov, self.means = sample_time_s, cov, "learned"
+        self.reads_walls = self.sess.get_inputs()[0].shape[1] == 2 * PAST + 40 + SECTORS
         self.reset()
 
     def reset(self):
+        self._walls = None
         self.hist = {}  # id -> {sample: (x, y)}
         self.used = self.kept = 0
 
@@ -58,10 +64,15 @@ class LearnedForecast:
                 if s >= k - PAST:  # a walker not measured lately keeps older rows
                     meas[s - (k - PAST), c] = p
         col = {i: c for c, i in enumerate(ids)}
+        walls = None
+        if self.reads_walls:  # the map's segments, made once
+            if self._walls is None:
+                self._walls = wall_segment_rows(obs.walls) if obs.walls else np.zeros((0, 4))
+            walls = self._walls
         rows, where = [], []
         for n, f in enumerate(own):
             c = col.get(f.obstacle_id)
-            ft = None if c is None else features(meas, PAST, c)
+            ft = None if c is None else features(meas, PAST, c, walls)
             if ft is not None:
                 rows.append(ft)
                 where.append(n)
@@ -116,9 +127,13 @@ def main():
     rest = sys.argv[6:]
     behaviour = next((r for r in rest if not r.startswith("--")), "orca")
     a, b = (int(v) for v in eps.split("-"))
-    seed, movers = int(seed), int(movers)
-    S = Suite(suite, b + 1, seed, movers, behaviour)
-    got = []
+    if suite == "files":  # SEED is a glob of scenario files, EPISODES indices into them, sorted
+        import glob
+        paths = sorted(glob.glob(seed))
+        S = type("Files", (), {"scenario": staticmethod(lambda i: load_scenario(paths[i]))})
+    else:
+        S = Suite(suite, b + 1, int(seed), int(movers), behaviour)
+    got, approaching = [], 0
     for i in range(a, b + 1):
         sc = S.scenario(i)
         cfg = for_run(preset("improved"), [sc])
@@ -130,10 +145,14 @@ def main():
                 gpc.forecaster.means = "ekf"
         log = simulate(sc, Shield(gpc, sc.robot, check_settings("gpc", gpc, cfg, "on"), planner_config=cfg), "gpc-lp")
         t = np.array(log.compute_time_s) * 1e3
+        m = episode_metrics(log)
         got.append(log.outcome)
+        approaching += m.robot_approaching
         print(f"episode {i:4d}: {log.outcome:12s} clearance {log.min_clearance_m:6.3f} m  decision median "
-              f"{np.median(t):.2f} ms", flush=True)
-    print(", ".join(f"{got.count(o)} {o}" for o in ("reached_goal", "collided", "timed_out")) + f" of {len(got)}")
+              f"{np.median(t):.2f} ms  interventions {m.interventions}"
+              + ("  robot approaching" if m.robot_approaching else ""), flush=True)
+    print(", ".join(f"{got.count(o)} {o}" for o in ("reached_goal", "collided", "timed_out")) + f" of {len(got)}"
+          + f" ({approaching} with the robot approaching)")
 
 
 if __name__ == "__main__":

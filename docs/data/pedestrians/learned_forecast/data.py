@@ -8,19 +8,28 @@ with 8 past and 12 future positions in the scene.
 Each sample, in the walker's frame (origin at its measured position now, x along its
 measured displacement over the last 2 s, or the world's x when it moved less than 5 cm):
 its 8 previous measured positions (16), the K nearest other walkers within 6 m now
-(present, position, velocity over the last interval: 5 each, nearest first), and the target:
-its true positions at steps 1..12 less its measured position now (24)."""
+(present, position, velocity over the last interval: 5 each, nearest first), in a scene with
+walls the walls as a 16-sector scan to 4 m from the walker in its frame (the walls network's
+own scan, nn_export.runtime.wall_scan), and the target: its true positions at steps 1..12
+less its measured position now (24).
+
+    python data.py OUT.npz SEEDS [suite:movers:behaviour ...]   (the building suites read walls)"""
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import math
+
 import numpy as np
+
+from nn_export.runtime.wall_scan import wall_scan, wall_segment_rows
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "tools"))
 from oracle_forecasts import true_positions  # noqa: E402
 from scenarios import Suite  # noqa: E402
 
 T, PAST, H, K, NEAR_M = 0.5, 8, 12, 8, 6.0
+SECTORS, SCAN_M = 16, 4.0
 SUITES = [("square-crossing", 10, "orca"), ("square-crossing", 20, "orca"), ("square-crossing", 30, "orca"),
           ("square-crossing", 20, "social_force"), ("circle-crossing", 10, "orca"), ("circle-crossing", 5, "orca")]
 
@@ -32,9 +41,10 @@ def frame(meas_past: np.ndarray) -> tuple[float, float]:
     return (1.0, 0.0) if n < 0.05 else (d[0] / n, d[1] / n)
 
 
-def features(meas: np.ndarray, k: int, j: int) -> tuple[np.ndarray, float, float] | None:
+def features(meas: np.ndarray, k: int, j: int, wall_rows=None) -> tuple[np.ndarray, float, float] | None:
     """The input of walker ``j`` at sample ``k`` from the measurements ``meas`` (samples,
-    walkers, 2; NaN where absent), and its frame (cos, sin); None without 8 past positions."""
+    walkers, 2; NaN where absent), and its frame (cos, sin); None without 8 past positions.
+    ``wall_rows``: the scene's wall segments (``wall_segment_rows``), scanned from the walker."""
     past = meas[k - PAST:k + 1, j]
     if k < PAST or not np.isfinite(past).all():
         return None
@@ -55,13 +65,17 @@ def features(meas: np.ndarray, k: int, j: int) -> tuple[np.ndarray, float, float
     nb = np.zeros(5 * K)
     for n, (_, p, v) in enumerate(others[:K]):
         nb[5 * n:5 * n + 5] = (1.0, *p, *v)
-    return np.concatenate([own, nb]), c, s
+    if wall_rows is None:
+        return np.concatenate([own, nb]), c, s
+    scan = wall_scan(wall_rows, float(now[0]), float(now[1]), math.atan2(s, c), SECTORS, SCAN_M)
+    return np.concatenate([own, nb, scan]), c, s
 
 
 def episode(job):
     name, seed, movers, behaviour, index = job
     sc = Suite(name, index + 1, seed, movers, behaviour).scenario(index)
     truth = true_positions(sc, T, H, hold_absent=False)
+    walls = wall_segment_rows([w.points for w in sc.walls]) if sc.walls else None
     rng = np.random.default_rng([seed, index, movers, 17])
     meas = truth + rng.normal(0.0, 0.02, truth.shape)
     X, Y = [], []
@@ -70,14 +84,15 @@ def episode(job):
             fut = truth[k + 1:k + H + 1, j]
             if not np.isfinite(fut).all():
                 continue
-            f = features(meas, k, j)
+            f = features(meas, k, j, walls)
             if f is None:
                 continue
             x, c, s = f
             R = np.array([[c, s], [-s, c]])
             X.append(x)
             Y.append(((fut - meas[k, j]) @ R.T).ravel())
-    return np.array(X).reshape(-1, 2 * PAST + 5 * K), np.array(Y).reshape(-1, 2 * H)
+    n_in = 2 * PAST + 5 * K + (SECTORS if walls is not None else 0)
+    return np.array(X).reshape(-1, n_in), np.array(Y).reshape(-1, 2 * H)
 
 
 if __name__ == "__main__":
@@ -86,7 +101,7 @@ if __name__ == "__main__":
     suites = SUITES if len(sys.argv) <= 3 else [
         (n, int(m), beh) for n, m, beh in (s.split(":") for s in sys.argv[3:])]
     jobs = [(n, seed, m, beh, 0) for seed in range(a, b + 1) for n, m, beh in suites]
-    with ProcessPoolExecutor(1) as ex:
+    with ProcessPoolExecutor(2) as ex:
         parts = list(ex.map(episode, jobs, chunksize=4))
     X = np.concatenate([p[0] for p in parts])
     Y = np.concatenate([p[1] for p in parts])

@@ -16,15 +16,17 @@ from oracle_forecasts import true_positions  # noqa: E402
 from scenarios import Suite  # noqa: E402
 from casadi_gpc.estimation.ekf import ObstacleEKF, EKFSettings  # noqa: E402
 from data import H, PAST, T, features  # noqa: E402
+from nn_export.runtime.wall_scan import wall_segment_rows  # noqa: E402
 
 STEPS = [1, 2, 4, 8, 12]
 
 
-def compare(sess, tr, Z, err, inside):
+def compare(sess, tr, Z, err, inside, wall_rows=None):
     """Each person of ``tr`` (true positions, ``(samples, people, 2)``, NaN where absent),
     measured ``Z``, forecast by the EKF (run over their measurements from their first) and by
     the learned network, at every sample with 8 past and 12 future positions: errors and
-    whether the truth falls within 1 and 2 deviations, appended to ``err`` and ``inside``."""
+    whether the truth falls within 1 and 2 deviations, appended to ``err`` and ``inside``.
+    ``wall_rows``: the scene's walls, for a network that reads them."""
     K, n = tr.shape[:2]
     for j in range(n):
         f = ObstacleEKF(T, EKFSettings())
@@ -39,7 +41,7 @@ def compare(sess, tr, Z, err, inside):
             fut = tr[k + 1:k + H + 1, j]
             if not np.isfinite(fut).all():
                 break
-            ft = features(Z, k, j)
+            ft = features(Z, k, j, wall_rows)
             if ft is None:
                 continue
             x, c, s = ft
@@ -66,7 +68,8 @@ def main():
     for idx in range(count):
         sc = Suite(suite, idx + 1, seed, movers, behaviour).scenario(idx)
         tr = true_positions(sc, T, 0, hold_absent=False)[:int(sc.duration_s / T) + 1]
-        compare(sess, tr, tr + rng.normal(0, 0.02, tr.shape), err, inside)
+        walls = wall_segment_rows([w.points for w in sc.walls]) if sc.walls else None
+        compare(sess, tr, tr + rng.normal(0, 0.02, tr.shape), err, inside, walls)
     print(f"{suite} {behaviour} seed {seed} movers {movers}, {count} episodes: error (m) at steps {STEPS}")
     report(err, inside)
 

@@ -77,7 +77,13 @@ def episode(job):
     truth = true_positions(sc, T, H, hold_absent=False)
     walls = wall_segment_rows([w.points for w in sc.walls]) if sc.walls else None
     rng = np.random.default_rng([seed, index, movers, 17])
-    meas = truth + rng.normal(0.0, 0.02, truth.shape)
+    return pairs(truth, truth + rng.normal(0.0, 0.02, truth.shape), walls)
+
+
+def pairs(truth: np.ndarray, meas: np.ndarray, walls=None) -> tuple[np.ndarray, np.ndarray]:
+    """Every sample of ``truth`` (``(samples, walkers, 2)``, NaN where absent) measured as
+    ``meas``: the inputs (:func:`features`) and the targets, the true positions at steps
+    1..12 less the measured one now, in the walker's frame."""
     X, Y = [], []
     for k in range(PAST, truth.shape[0] - H):
         for j in range(truth.shape[1]):

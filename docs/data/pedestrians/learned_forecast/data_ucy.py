@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from scenarios.recordings import SHIPPED, read_recording, shipped_recording
-from data import H, PAST, T, features
+from data import PAST, T, pairs
 
 
 def grid(rec) -> np.ndarray:
@@ -31,22 +31,7 @@ def load(name: str):
 
 def samples(truth: np.ndarray, seed: int, mirror: bool = True):
     rng = np.random.default_rng(seed)
-    meas = truth + rng.normal(0.0, 0.02, truth.shape)
-    X, Y = [], []
-    for k in range(PAST, truth.shape[0] - H):
-        present = np.flatnonzero(np.isfinite(truth[k + H]).all(axis=1) & np.isfinite(truth[k]).all(axis=1))
-        for j in present:
-            fut = truth[k + 1:k + H + 1, j]
-            if not np.isfinite(fut).all():
-                continue
-            f = features(meas, k, j)
-            if f is None:
-                continue
-            x, c, s = f
-            R = np.array([[c, s], [-s, c]])
-            X.append(x)
-            Y.append(((fut - meas[k, j]) @ R.T).ravel())
-    X, Y = np.array(X).reshape(-1, 2 * PAST + 40), np.array(Y).reshape(-1, 2 * H)
+    X, Y = pairs(truth, truth + rng.normal(0.0, 0.02, truth.shape))
     if mirror:  # y negated: the own past's and the targets' odd entries, each neighbour's y and vy
         Xm, Ym = X.copy(), Y.copy()
         Xm[:, 1:2 * PAST:2] *= -1

@@ -47,9 +47,16 @@ class LearnedForecast:
     def reset(self):
         self._walls = None
         self.hist = {}  # id -> {sample: (x, y)}
-        self.used = self.kept = 0
+
+    def _fixed(self) -> np.ndarray:
+        """``--cov=fixedS``: S m for every step, as covariances (H, 2, 2)."""
+        return float(self.cov[5:]) ** 2 * np.tile(np.eye(2), (H, 1, 1))
 
     def __call__(self, obs, own):
+        if self.means == "ekf":  # the EKF's own means for every track, only the deviation swapped
+            if not self.cov.startswith("fixed"):
+                return list(own)
+            return [ObstacleForecast(f.obstacle_id, f.radius_m, np.asarray(f.means_m), self._fixed()) for f in own]
         k = int(round(obs.t_s / self.T))
         for m in obs.moving:
             if m.position_m is not None and all(np.isfinite(m.position_m)):
@@ -77,14 +84,6 @@ class LearnedForecast:
                 rows.append(ft)
                 where.append(n)
         out = list(own)
-        if self.means == "ekf":  # the EKF's own means, only the deviation swapped (every track seen twice)
-            for n, f in enumerate(own):
-                if self.cov.startswith("fixed") and getattr(f, "initialised", True):
-                    S = float(self.cov[5:])
-                    out[n] = ObstacleForecast(f.obstacle_id, f.radius_m, np.asarray(f.means_m),
-                                              S ** 2 * np.tile(np.eye(2), (H, 1, 1)))
-            self.kept += len(own)
-            return out
         if rows:
             X = np.array([r[0] for r in rows], dtype=np.float32)
             Y = self.sess.run(None, {"x": X})[0].astype(float)
@@ -97,15 +96,13 @@ class LearnedForecast:
                 covs = var[:, None, None] * np.eye(2)[None]
                 if self.cov == "ekf":  # the filter's own covariances: only the means are learned
                     covs = np.asarray(f.covs_m2)
-                elif self.cov.startswith("fixed"):  # one standard deviation for every step, m
-                    covs = float(self.cov[5:]) ** 2 * np.tile(np.eye(2), (H, 1, 1))
+                elif self.cov.startswith("fixed"):
+                    covs = self._fixed()
                 elif self.cov == "max":  # the filter's, widened where the learned one is wider
                     ekf = np.asarray(f.covs_m2)
                     lam = np.linalg.eigvalsh(ekf)[:, -1]
                     covs = ekf + np.maximum(var - lam, 0.0)[:, None, None] * np.eye(2)[None]
                 out[n] = ObstacleForecast(f.obstacle_id, f.radius_m, means, covs)
-        self.used += len(rows)
-        self.kept += len(own) - len(rows)
         return out
 
 

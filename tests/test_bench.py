@@ -282,3 +282,49 @@ def test_the_gpc_decision_rows_run_the_check_that_controller_gpc_runs(monkeypatc
     monkeypatch.setitem(C.REGISTRY, "gpc", C.Kind(C.REGISTRY["gpc"].default_shield, lambda *a: searched))
     decision_run(sc, cfg)
     assert seen[-1] == searched
+
+
+CROWDED_WITH_A_WALL = SHORT + """
+[[moving_obstacles]]
+position = [9.0, 3.0]
+heading_deg = 180.0
+speed_mps = 0.4
+radius_m = 0.3
+
+[[walls]]
+points = [[-1.0, -1.5], [10.0, -1.5]]
+
+[sensing]
+range_m = 5.0
+"""
+
+
+def test_a_scene_with_more_movers_than_the_slots_and_walls_is_benched_on_the_nlp_of_each_problem(write_scenario):
+    """The planner solves the crowd's NLP (more mover slots) at the ticks that track more
+    movers than the preset's slots hold, and an NLP with wall slots where the map has walls;
+    the bench records which NLP each problem was posed on and solves it there (it once built
+    every solver on the preset's NLP alone, and failed on the first crowd problem with a
+    shape error)."""
+    from casadi_gpc.problem.cost import build_problem
+    from scenarios import load_scenario
+    sc = load_scenario(write_scenario(CROWDED_WITH_A_WALL))
+    cfg = replace(PAPER, max_moving=1, crowd_moving=2).for_walls(True)
+    rec = record_problems(sc, cfg)
+    used = rec.nlp_configs()
+    # the second mover comes into the sensor's range part way: both NLPs were solved
+    assert sorted(c.max_moving for c in used.values()) == [1, 2]
+    assert all(c.max_walls == cfg.max_walls > 0 for c in used.values())
+    sizes = {k: build_problem(c, sc.robot).layout.size for k, c in used.items()}
+    assert len(set(sizes.values())) == 2
+    assert all(np.size(q.p) == sizes[q.nlp] for q in rec.problems)
+    doc = run_bench(sc, cfg, ["ipopt-warm", "sqpmethod-daqp"], gpc_rows=False)
+    slots = {n["moving_slots"]: n["problems"] for n in doc["nlps"]}
+    assert set(slots) == {1, 2} and min(slots.values()) > 0
+    assert sum(slots.values()) == doc["problems"] + doc["multistart_problems"]
+    solvers = [r for r in doc["results"] if r["kind"] == "solver"]
+    assert [r["name"] for r in solvers] == ["ipopt-warm", "sqpmethod-daqp"]
+    for r in solvers:
+        assert r["problems"] == doc["problems"] and r["success_rate"] > 0.9
+        assert any(n.startswith("NLP 0: ") for n in r["notes"]) and any(n.startswith("NLP 1: ") for n in r["notes"])
+    ipopt = next(r for r in solvers if r["name"] == "ipopt-warm")
+    assert ipopt["vs_reference"]["as_good_rate"] == ipopt["success_rate"]  # the reference against itself

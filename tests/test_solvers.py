@@ -213,6 +213,48 @@ def test_a_second_backend_of_the_same_settings_reuses_the_library_this_process_b
     assert known_library(what) is None
 
 
+def test_the_backup_compiles_beside_the_main_solver_and_is_then_compiled(tmp_path, monkeypatch, capsys):
+    """On an empty cache the planner's backup (IPOPT, its functions compiled) is compiled in a
+    process of its own while the main solver's compiles run: its compiler starts before the
+    main solver's first and is waited for after its last, so a fresh install waits for the
+    longer of the two, not their sum. The backup is then compiled, a second controller of the
+    same settings compiles nothing, and the background compile says so in one line."""
+    if solvers.c_compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    from pathlib import Path
+    from casadi_gpc.solvers import compiling
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
+    events = []
+    popen, finish = compiling.subprocess.Popen, compiling.Compile.finish
+
+    def spy_popen(args, **kw):
+        events.append(("start", Path(args[-2]).name.split("_")[1]))  # [cc, flags, sources, "-o", out, "-lm"]
+        return popen(args, **kw)
+
+    def spy_finish(self):
+        running = self._proc is not None
+        out = finish(self)
+        if running:
+            events.append(("finish", Path(self._lib or "gpc_failed_x").name.split("_")[1]))
+        return out
+
+    monkeypatch.setattr(compiling.subprocess, "Popen", spy_popen)
+    monkeypatch.setattr(compiling.Compile, "finish", spy_finish)
+    before = dict(COMPILE_EVENTS)
+    ctl = GPCController(SMALL)
+    assert sorted(events) == sorted([(w, p) for p in ("ipopt", "sqpmethod", "fatrop") for w in ("start", "finish")])
+    at = {e: k for k, e in enumerate(events)}
+    assert at[("start", "ipopt")] < at[("start", "sqpmethod")] < at[("finish", "sqpmethod")]
+    assert at[("finish", "fatrop")] < at[("finish", "ipopt")]
+    assert ctl.solver_info["backup"] == "ipopt-warm-compiled" and ctl.backup.compiled
+    assert COMPILE_EVENTS["compiled"] == before["compiled"] + 3
+    assert len(list(tmp_path.glob("gpc_ipopt_*.so"))) == 1
+    again = GPCController(SMALL)
+    assert again.backup.compiled and COMPILE_EVENTS["compiled"] == before["compiled"] + 3
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if "(ipopt)" in ln]
+    assert len(lines) == 1 and "beside the other solvers" in lines[0] and " done in " in lines[0]
+
+
 def test_without_a_compiler_the_backend_says_so_and_counts_the_fallback(tmp_path, monkeypatch):
     monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("CC", "no-such-compiler-gpcnav")
@@ -289,12 +331,13 @@ class _Failing:
 def test_a_failed_solve_is_retried_by_the_backup_solver_and_counted():
     sc = _short(paper_scenarios()[1], 15.0)
     ctl = GPCController(replace(PAPER, solver=FASTEST_SOLVER), sc.robot)
-    assert ctl.solver_info["backup"] == "ipopt-warm"
+    assert ctl.solver_info["backup"] == "ipopt-warm-compiled"
     ctl.backend = failing = _Failing()
     log = simulate(sc, ctl, "gpc")
     assert failing.calls == ctl.counters["solves"] == ctl.counters["backup_solves"] > 0
     assert ctl.counters["backup_successes"] == ctl.counters["backup_solves"] and log.fallbacks == 0
-    # every answer came from the backup: the run is IPOPT's own
+    # every answer came from the backup (IPOPT, its functions compiled where there is a
+    # compiler): the run is uncompiled IPOPT's own, the same iterates
     ref = simulate(sc, GPCController(replace(PAPER, solver="ipopt-warm"), sc.robot), "gpc")
     np.testing.assert_allclose(np.asarray(log.states), np.asarray(ref.states), atol=1e-9)
     # without a backup the same failures are the planner's fallback

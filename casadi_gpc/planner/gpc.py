@@ -65,9 +65,11 @@ class GPCController(MultiStart):
     """Extra IPOPT options (the IPOPT backends only)."""
     compile_solver: bool = True
     """Use compiled NLP functions where the backend offers them (cached on disk)."""
-    backup_solver: str | None = "ipopt-warm"
+    backup_solver: str | None = "ipopt-warm-compiled"
     """Re-solves, from the same start, a solve the main solver failed on (while the step's
-    budget lasts; counted in ``counters['backup_solves']``). None: no second try."""
+    budget lasts; counted in ``counters['backup_solves']``). None: no second try. IPOPT's
+    warm start, its NLP functions compiled when ``compile_solver`` is (the same iterates as
+    uncompiled, four to five times faster: docs/solvers.md, "Backup")."""
 
     def __post_init__(self):
         self.sample_time_s = self.config.sample_time_s
@@ -173,6 +175,12 @@ class GPCController(MultiStart):
         self.backup: Backend | None = tier.backup
         self._lanes: SolveLanes | None = tier.lanes
         self._ref_slice, self._rollout = tier.ref_slice, tier.rollout
+
+    @property
+    def nlps(self) -> tuple[GPCProblem, ...]:
+        """The NLPs this controller solves, in order: the preset's, and the crowd's where it
+        has one (:mod:`casadi_gpc.planner.tiers`); :attr:`problem` is the one in use."""
+        return tuple(tier.problem for tier in self._tiers)
 
     def _use_for(self, p: np.ndarray) -> None:
         """Solve on the tier whose NLP takes the parameters ``p`` (a tick posed earlier, a

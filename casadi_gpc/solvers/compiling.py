@@ -27,7 +27,8 @@ import casadi as ca
 
 from ..io import cache_dir  # where compiled libraries are kept (one rule, casadi-free)
 
-__all__ = ["CFLAGS", "COMPILE_EVENTS", "ANNOUNCE", "cache_dir", "c_compiler", "compiled_library", "build_nlpsol",
+__all__ = ["CFLAGS", "COMPILE_EVENTS", "ANNOUNCE", "cache_dir", "c_compiler", "compiled_library", "start_compile",
+           "Compile", "build_nlpsol",
            "known_library", "remember_library"]
 
 CFLAGS = ("-O1", "-fPIC", "-shared")
@@ -127,47 +128,107 @@ def _library_key(plugin: str, nlp: dict, compiler: str, extra: dict) -> str:
     return h.hexdigest()[:20]
 
 
+class Compile:
+    """One library's compile, begun by :func:`start_compile`: the C code generated and the
+    compiler running in its own process (or nothing to do: the library was cached, or there
+    is no compiler). :meth:`finish` waits for it and gives ``(library path or None, note)``,
+    as :func:`compiled_library` does. The cache folder's lock for this library is held from
+    the start to the finish."""
+
+    def __init__(self, lib: str | None, note: str, proc: subprocess.Popen | None = None, out: Path | None = None,
+                 err=None, stack: contextlib.ExitStack | None = None, announce: str | None = None,
+                 what: tuple | None = None):
+        self._lib, self._note, self._proc, self._out, self._err = lib, note, proc, out, err
+        self._stack, self._announce, self._what, self._t0 = stack, announce, what, time.monotonic()
+
+    def finish(self) -> tuple[str | None, str]:
+        """Wait for the compiler (if it runs) and put the library in the cache (and, given
+        ``what``, in this process's memory: :func:`remember_library`)."""
+        if self._proc is None:
+            if self._lib is not None and self._what is not None:
+                remember_library(self._what, self._lib)
+            return self._lib, self._note
+        proc, self._proc = self._proc, None
+        try:
+            proc.wait()
+            if proc.returncode != 0:
+                self._err.seek(0)
+                lines = self._err.read().strip().splitlines()
+                self._lib, self._note = None, f"compile failed ({proc.args[0]}): {lines[-1] if lines else ''}"
+            else:
+                os.replace(self._out, self._lib)
+                COMPILE_EVENTS["compiled"] += 1
+        finally:
+            self._stack.close()  # the temporary folder, the announcement (in the foreground), the lock
+        if self._announce is not None and ANNOUNCE:  # compiled beside other work: one line when done
+            print(f"gpcnav: {self._announce} ... done in {time.monotonic() - self._t0:.0f} s", file=sys.stderr,
+                  flush=True)
+        if self._lib is not None and self._what is not None:
+            remember_library(self._what, self._lib)
+        return self._lib, self._note
+
+
+def start_compile(solver: ca.Function, plugin: str, nlp: dict, extra: dict | None = None,
+                  background: bool = False, what: tuple | None = None) -> Compile:
+    """Begin compiling the NLP functions of ``solver`` (see :func:`compiled_library`): the code
+    generated now, the compiler started in its own process; :meth:`Compile.finish` waits for
+    it. ``background``: announce the compile in one line when it is finished (other work,
+    other compiles, may print in between), not while it runs. ``what``: remember the library
+    under it when finished (:func:`remember_library`)."""
+    extra = extra or {}
+    cc = c_compiler()
+    if cc is None:
+        return Compile(None, f"no C compiler ({os.environ.get('CC') or 'gcc'}) found: uncompiled CasADi functions")
+    key = _library_key(plugin, nlp, cc, extra)
+    folder = cache_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    lib = folder / f"gpc_{plugin}_{key}.so"
+    cached = Compile(str(lib), f"compiled functions (cached {lib.name})", what=what)
+    if lib.exists():
+        COMPILE_EVENTS["cache_hits"] += 1
+        return cached
+    stack = contextlib.ExitStack()
+    try:
+        stack.enter_context(_locked(folder / f"gpc_{plugin}_{key}.lock", lib.name))
+        if lib.exists():  # another process compiled it while we waited
+            COMPILE_EVENTS["cache_hits"] += 1
+            stack.close()
+            return cached
+        text = (f"compiling the planner's NLP ({plugin}) to C with {Path(cc).name} {CFLAGS[0]}"
+                f"{' beside the other solvers' if background else ''}, once (kept in {folder}, $GPCNAV_CACHE_DIR)")
+        if not background:
+            stack.enter_context(_announced(text))
+        tmp = stack.enter_context(tempfile.TemporaryDirectory(dir=folder))
+        src = Path(tmp) / f"gpc_{plugin}_{key}.c"
+        cwd = os.getcwd()
+        try:
+            os.chdir(tmp)  # the code generator writes next to the current directory
+            solver.generate_dependencies(src.name)
+        finally:
+            os.chdir(cwd)
+        sources = [str(src)]
+        for fname, text in extra.items():
+            (Path(tmp) / fname).write_text(text)
+            sources.append(str(Path(tmp) / fname))
+        out = Path(tmp) / lib.name
+        # the compiler's messages to a file: a pipe nobody reads while it runs could fill and stall it
+        err = stack.enter_context(open(Path(tmp) / "cc.err", "w+"))
+        proc = subprocess.Popen([cc, *CFLAGS, *sources, "-o", str(out), "-lm"], stdout=subprocess.DEVNULL,
+                                stderr=err)
+    except BaseException:
+        stack.close()
+        raise
+    return Compile(str(lib), f"compiled functions (compiled {lib.name})", proc, out, err, stack,
+                   text if background else None, what)
+
+
 def compiled_library(solver: ca.Function, plugin: str, nlp: dict, extra: dict | None = None) -> tuple[str | None, str]:
     """Path of the compiled NLP functions of ``solver`` (compiled now if not cached), or
     ``(None, reason)`` when there is no compiler or the compile fails.
 
     ``extra``: more C sources (file name -> text) compiled into the same library; they
     are part of the hash."""
-    extra = extra or {}
-    cc = c_compiler()
-    if cc is None:
-        return None, f"no C compiler ({os.environ.get('CC') or 'gcc'}) found: uncompiled CasADi functions"
-    key = _library_key(plugin, nlp, cc, extra)
-    folder = cache_dir()
-    folder.mkdir(parents=True, exist_ok=True)
-    lib = folder / f"gpc_{plugin}_{key}.so"
-    if lib.exists():
-        COMPILE_EVENTS["cache_hits"] += 1
-        return str(lib), f"compiled functions (cached {lib.name})"
-    with _locked(folder / f"gpc_{plugin}_{key}.lock", lib.name):
-        if lib.exists():  # another process compiled it while we waited
-            COMPILE_EVENTS["cache_hits"] += 1
-            return str(lib), f"compiled functions (cached {lib.name})"
-        with _announced(f"compiling the planner's NLP ({plugin}) to C with {Path(cc).name} {CFLAGS[0]}, once "
-                        f"(kept in {folder}, $GPCNAV_CACHE_DIR)"), tempfile.TemporaryDirectory(dir=folder) as tmp:
-            src = Path(tmp) / f"gpc_{plugin}_{key}.c"
-            cwd = os.getcwd()
-            try:
-                os.chdir(tmp)  # the code generator writes next to the current directory
-                solver.generate_dependencies(src.name)
-            finally:
-                os.chdir(cwd)
-            sources = [str(src)]
-            for fname, text in extra.items():
-                (Path(tmp) / fname).write_text(text)
-                sources.append(str(Path(tmp) / fname))
-            out = Path(tmp) / lib.name
-            proc = subprocess.run([cc, *CFLAGS, *sources, "-o", str(out), "-lm"], capture_output=True, text=True)
-            if proc.returncode != 0:
-                return None, f"compile failed ({cc}): {proc.stderr.strip().splitlines()[-1] if proc.stderr else ''}"
-            os.replace(out, lib)
-    COMPILE_EVENTS["compiled"] += 1
-    return str(lib), f"compiled functions (compiled {lib.name})"
+    return start_compile(solver, plugin, nlp, extra).finish()
 
 
 def build_nlpsol(name: str, plugin: str, nlp, opts: dict, compiled: bool, what: tuple | None = None

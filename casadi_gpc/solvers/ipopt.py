@@ -2,11 +2,13 @@
 multiplier warm start), optionally with compiled NLP functions."""
 from __future__ import annotations
 
+import casadi as ca
+
 from ..problem.cost import GPCProblem
 from .base import CasadiBackend
-from .compiling import build_nlpsol
+from .compiling import Compile, build_nlpsol, known_library, start_compile
 
-__all__ = ["IpoptBackend"]
+__all__ = ["IpoptBackend", "start_ipopt_library"]
 
 _IPOPT_OK = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 _IPOPT_BASE = {"ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-9, "ipopt.max_iter": 200,
@@ -24,7 +26,8 @@ class IpoptBackend(CasadiBackend):
         if max_wall_time_s is not None:
             opts["ipopt.max_wall_time"] = float(max_wall_time_s)
         opts.update(extra_options or {})
-        solver, self.compiled, note = build_nlpsol(name.replace("-", "_"), "ipopt", problem.nlp, opts, compiled)
+        solver, self.compiled, note = build_nlpsol(name.replace("-", "_"), "ipopt", problem.nlp, opts, compiled,
+                                                   _library_what(problem))
         self.notes.append(note)
         self._setup(solver)
 
@@ -33,3 +36,23 @@ class IpoptBackend(CasadiBackend):
         status = str(stats.get("return_status", "unknown"))
         return status in _IPOPT_OK, status, int(stats.get("iter_count", -1))
 
+
+
+def _library_what(problem: GPCProblem) -> tuple:
+    """What IPOPT's generated code depends on (:func:`~casadi_gpc.solvers.compiling.known_library`):
+    the NLP only, not the options, so a second backend of the same problem in this process
+    loads the library the first found."""
+    return ("ipopt", problem.config, problem.robot)
+
+
+def start_ipopt_library(problem: GPCProblem) -> Compile | None:
+    """Begin compiling IPOPT's NLP functions for ``problem`` in a process of their own, beside
+    other work (the planner's main solver compiling its own), so a fresh cache pays the
+    longer of the two compiles rather than their sum; None when this process already has the
+    library. Once ``finish()`` returns, an :class:`IpoptBackend` of the problem, compiled,
+    loads it."""
+    what = _library_what(problem)
+    if known_library(what) is not None:
+        return None
+    solver = ca.nlpsol("ipopt_code", "ipopt", problem.nlp, dict(_IPOPT_BASE, **_IPOPT_WARM))
+    return start_compile(solver, "ipopt", problem.nlp, background=True, what=what)

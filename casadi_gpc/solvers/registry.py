@@ -6,11 +6,11 @@ from ..problem.cost import GPCProblem
 from .base import Backend
 from .fatrop import FatropBackend
 from .hybrid import HybridBackend
-from .ipopt import IpoptBackend
+from .ipopt import IpoptBackend, start_ipopt_library
 from .powell import PowellBackend
 from .sqp import SqpBackend
 
-__all__ = ["SOLVER_NAMES", "ALIASES", "FASTEST_SOLVER", "canonical_name", "make_backend"]
+__all__ = ["SOLVER_NAMES", "ALIASES", "FASTEST_SOLVER", "canonical_name", "make_backend", "start_backend"]
 
 SOLVER_NAMES = ("ipopt-cold", "ipopt-warm", "ipopt-warm-compiled", "sqpmethod-qrqp", "sqpmethod-daqp", "fatrop",
                 "sqpmethod-daqp+fatrop", "powell")
@@ -48,3 +48,14 @@ def make_backend(name: str, problem: GPCProblem, max_wall_time_s: float | None =
     if name == "fatrop":
         return FatropBackend(name, problem, compiled)
     return PowellBackend(name, problem)
+
+
+def start_backend(name: str, problem: GPCProblem, compiled: bool = True):
+    """Begin what building ``name`` on ``problem`` can do beside other work: the C compile of
+    IPOPT's functions (``ipopt-*-compiled``), in a process of its own. An object whose
+    ``finish()`` waits for it (call it before :func:`make_backend` of the same), or None when
+    there is nothing to begin."""
+    name = canonical_name(name)
+    if compiled and name.startswith("ipopt-") and name.endswith("-compiled"):
+        return start_ipopt_library(problem)
+    return None

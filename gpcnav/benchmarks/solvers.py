@@ -3,7 +3,10 @@ every solver (and, through :func:`policy_rows`, any policy) on the same problems
 
 The run is recorded with the reference solver (``ipopt-warm``). Each control step with a
 previous plan gives one **problem**: its NLP parameters and the warm start, the previous
-plan shifted one step with its multipliers. Those are the ``problems`` of BENCH.json. The
+plan shifted one step with its multipliers, and which of the planner's NLPs it was posed on
+(the preset's, or the crowd's with more mover slots at the ticks that track more movers than
+the preset's slots hold: :mod:`casadi_gpc.planner.tiers`; each solver solves a problem on
+its own NLP). Those are the ``problems`` of BENCH.json. The
 planner also solves from its fixed guesses (``casadi_gpc.planner.guesses``) near obstacles and at
 a step without a previous plan; those cold starts are recorded as well and reported apart,
 under ``multistart``, because from a far start two correct solvers may end in different
@@ -19,7 +22,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -59,6 +62,9 @@ class RecordedProblem:
     """``warm`` or the name of the guess."""
     primary: bool = False
     """The step's warm-started problem (see the module docstring)."""
+    nlp: int = 0
+    """Which of the recording planner's NLPs it was posed on (an index into
+    :attr:`Recording.configs`)."""
 
 
 @dataclass
@@ -70,6 +76,14 @@ class Recording:
     problems: list
     observations: list
     log: RunLog
+    configs: tuple = ()
+    """The settings of each NLP the planner had (``RecordedProblem.nlp`` indexes them; the
+    first is ``config``'s own)."""
+
+    def nlp_configs(self) -> dict[int, PlannerConfig]:
+        """The settings of the NLPs some recorded problem was posed on, by index."""
+        configs = self.configs or (self.config,)
+        return {k: configs[k] for k in sorted({q.nlp for q in self.problems})}
 
     @property
     def primary(self) -> list[RecordedProblem]:
@@ -94,9 +108,11 @@ class _RecordingController(GPCController):
 
     def solve_many(self, p, starts):
         copy = (lambda a: None if a is None else np.array(a, dtype=float))
+        self._use_for(p)  # the NLP that takes p, as the solve below does
+        nlp = next(k for k, problem in enumerate(self.nlps) if problem is self.problem)
         for guess, u0, lam_x, lam_g in starts:
             self.recorded.append(RecordedProblem(len(self.observations) - 1, self.observations[-1].t_s, copy(p),
-                                                 copy(u0), copy(lam_x), copy(lam_g), guess or "unnamed"))
+                                                 copy(u0), copy(lam_x), copy(lam_g), guess or "unnamed", nlp=nlp))
         return super().solve_many(p, starts)
 
 
@@ -112,7 +128,8 @@ def record_problems(scenario, config: PlannerConfig) -> Recording:
         by_step.setdefault(q.step, []).append(i)
     primary = {i for idx in by_step.values() for i in idx if ctl.recorded[i].start == "warm"}
     problems = [RecordedProblem(**{**q.__dict__, "primary": i in primary}) for i, q in enumerate(ctl.recorded)]
-    return Recording(config, scenario.robot, problems, ctl.observations, log)
+    return Recording(config, scenario.robot, problems, ctl.observations, log,
+                     tuple(problem.config for problem in ctl.nlps))
 
 
 STEP_PROBLEMS_ONLY = ("powell",)
@@ -120,10 +137,17 @@ STEP_PROBLEMS_ONLY = ("powell",)
 multistart answers would add nothing the step problems do not already show."""
 
 
-def run_solvers(problems: Sequence[RecordedProblem], backends: dict[str, Backend],
+def _on(per_nlp, q: RecordedProblem):
+    """``per_nlp``'s entry for the NLP ``q`` was posed on: one object for every NLP, or a
+    mapping from ``RecordedProblem.nlp`` to one per NLP."""
+    return per_nlp[q.nlp] if isinstance(per_nlp, Mapping) else per_nlp
+
+
+def run_solvers(problems: Sequence[RecordedProblem], backends: dict[str, Backend | Mapping[int, Backend]],
                 progress: Callable | None = None,
                 step_problems_only: Sequence[str] = STEP_PROBLEMS_ONLY) -> dict[str, list[SolveResult | None]]:
     """Every backend on every problem, interleaved; the solvers' order rotates per problem.
+    ``backends[name]``: the solver's backend, or one per NLP (by ``RecordedProblem.nlp``).
     Backends in ``step_problems_only`` get None for the multistart problems."""
     names = list(backends)
     out: dict[str, list] = {n: [] for n in names}
@@ -132,20 +156,20 @@ def run_solvers(problems: Sequence[RecordedProblem], backends: dict[str, Backend
         for j in range(len(names)):
             name = names[(j + k) % len(names)]
             skip = name in step_problems_only and not q.primary
-            out[name].append(None if skip else backends[name].solve(q.p, q.u0, q.lam_x, q.lam_g))
+            out[name].append(None if skip else _on(backends[name], q).solve(q.p, q.u0, q.lam_x, q.lam_g))
     return out
 
 
-def _costs(problem: GPCProblem, problems, results: dict[str, list[SolveResult]]) -> dict[str, np.ndarray]:
-    """Each solver's cost on each problem by the problem's own cost function (NaN if failed)."""
+def _costs(nlps: GPCProblem | Mapping[int, GPCProblem], problems, results: dict[str, list[SolveResult]]) -> dict[str, np.ndarray]:
+    """Each solver's cost on each problem by its NLP's own cost function (NaN if failed)."""
     out = {}
     for name, res in results.items():
-        out[name] = np.array([float(problem.cost_fn(r.u, q.p)) if r is not None and r.success else np.nan
+        out[name] = np.array([float(_on(nlps, q).cost_fn(r.u, q.p)) if r is not None and r.success else np.nan
                               for r, q in zip(res, problems)])
     return out
 
 
-def _summary(problem: GPCProblem, problems, results, costs, name: str, reference: str) -> dict:
+def _summary(nlps, problems, results, costs, name: str, reference: str) -> dict:
     res = results[name]
     ok = np.array([r.success for r in res], dtype=bool)
     with warnings.catch_warnings():  # a problem every solver failed has no best: NaN
@@ -162,7 +186,7 @@ def _summary(problem: GPCProblem, problems, results, costs, name: str, reference
         "success_rate": float(ok.mean()) if len(ok) else 0.0,
         "cost_ratio_to_best": {"median": float(np.median(ratio)) if ratio.size else float("nan"),
                                "max": float(np.max(ratio)) if ratio.size else float("nan")},
-        "constraint_violation_mps": {"max": max((constraint_violation_mps(problem, r.u, q.p)
+        "constraint_violation_mps": {"max": max((constraint_violation_mps(_on(nlps, q), r.u, q.p)
                                                  for r, q in zip(res, problems) if r.success), default=0.0)},
     }
     if reference in costs:
@@ -214,9 +238,11 @@ def _step_agreement(steps: np.ndarray, cost: np.ndarray, ref: np.ndarray) -> dic
     return {"steps": n, "as_good_rate": as_good / max(n, 1), "worse": worse, "better": better}
 
 
-def solver_rows(problem: GPCProblem, recording: Recording, results: dict[str, list[SolveResult]],
-                backends: dict[str, Backend], reference: str = REFERENCE) -> list[dict]:
-    """One BENCH row per solver: the step problems, and the multistart solves under ``multistart``."""
+def solver_rows(nlps: GPCProblem | Mapping[int, GPCProblem], recording: Recording,
+                results: dict[str, list[SolveResult]], backends: dict[str, Backend | Mapping[int, Backend]],
+                reference: str = REFERENCE) -> list[dict]:
+    """One BENCH row per solver: the step problems, and the multistart solves under ``multistart``.
+    ``nlps`` and ``backends[name]``: one for every problem, or one per NLP (``RecordedProblem.nlp``)."""
     prim = [i for i, q in enumerate(recording.problems) if q.primary]
     multi = [i for i, q in enumerate(recording.problems) if not q.primary]
     rows = []
@@ -224,24 +250,26 @@ def solver_rows(problem: GPCProblem, recording: Recording, results: dict[str, li
     for label, idx in (("primary", prim), ("multistart", multi)):
         qs = [recording.problems[i] for i in idx]
         sub = {n: [r[i] for i in idx] for n, r in results.items()}
-        costs = _costs(problem, qs, sub)
+        costs = _costs(nlps, qs, sub)
         parts[label] = (qs, sub, costs)
-    all_costs = _costs(problem, recording.problems, results)
+    all_costs = _costs(nlps, recording.problems, results)
     steps = np.array([q.step for q in recording.problems])
     for name in results:
         qs, sub, costs = parts["primary"]
-        row = {"name": name, "kind": "solver", **_summary(problem, qs, sub, costs, name, reference)}
+        row = {"name": name, "kind": "solver", **_summary(nlps, qs, sub, costs, name, reference)}
         qs_m, sub_m, costs_m = parts["multistart"]
         ran_all = all(r is not None for r in results[name])
         if qs_m and ran_all:
-            row["multistart"] = _summary(problem, qs_m, sub_m, costs_m, name, reference)
+            row["multistart"] = _summary(nlps, qs_m, sub_m, costs_m, name, reference)
         if reference in all_costs and ran_all:
             row["planner_steps"] = _step_agreement(steps, all_costs[name], all_costs[reference])
         if ran_all:
             # what the planner spends solving in this run: step and multistart solves
             row["total_time_s"] = float(sum(r.solve_time_s for r in results[name]))
-        notes = list(backends[name].notes) + ([] if ran_all else ["run on the step problems only"])
-        row.update({"compiled": backends[name].compiled, "notes": notes,
+        per_nlp = backends[name] if isinstance(backends[name], Mapping) else {0: backends[name]}
+        notes = [note if len(per_nlp) == 1 else f"NLP {k}: {note}" for k, b in per_nlp.items() for note in b.notes]
+        notes += [] if ran_all else ["run on the step problems only"]
+        row.update({"compiled": all(b.compiled for b in per_nlp.values()), "notes": notes,
                     "time_samples_s": [r.solve_time_s for r in sub[name]]})
         rows.append(_finite_or_none(row))
     return rows
@@ -338,24 +366,27 @@ def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_N
     say(f"recording the control problems of {scenario.name} (preset {config.name}, H={config.horizon}, "
         f"T={config.sample_time_s} s)")
     recording = record_problems(scenario, config)
-    problem = None
+    from casadi_gpc.problem.cost import build_problem
+    # every NLP a recorded problem was posed on (the crowd's too, where the run had more movers
+    # than the preset's slots), each solver built on each
+    nlps = {k: build_problem(c, scenario.robot) for k, c in recording.nlp_configs().items()}
     backends = {}
     for name in names:
-        say(f"building {name}")
-        t0 = time.perf_counter()
-        if problem is None:
-            from casadi_gpc.problem.cost import build_problem
-            problem = build_problem(config, scenario.robot)
-        backends[name] = make_backend(name, problem, compiled=compiled)
-        say(f"  {name}: {'; '.join(backends[name].notes)} ({time.perf_counter() - t0:.1f} s)")
+        backends[name] = {}
+        for k, nlp in nlps.items():
+            t0 = time.perf_counter()
+            what = name if len(nlps) == 1 else f"{name} on NLP {k} ({nlp.config.max_moving} mover slots)"
+            say(f"building {what}")
+            backends[name][k] = make_backend(name, nlp, compiled=compiled)
+            say(f"  {what}: {'; '.join(backends[name][k].notes)} ({time.perf_counter() - t0:.1f} s)")
     results = run_solvers(recording.problems, backends, progress)
-    rows = solver_rows(problem, recording, results, backends)
+    rows = solver_rows(nlps, recording, results, backends)
     chosen, rule = choose_solver(rows)
     extra = list(policies)
     if gpc_rows:
         def gpc(solver):
             return lambda: GPCController(config.with_overrides(solver=solver), scenario.robot, compile_solver=compiled)
-        extra = [(f"gpc[{REFERENCE}]", gpc(REFERENCE)), (f"gpc[{chosen}]", gpc(chosen))] + extra
+        extra = [(f"gpc[{name}]", gpc(name)) for name in dict.fromkeys((REFERENCE, chosen))] + extra
     rows += policy_rows(recording, extra)
     by_name = {r["name"]: r for r in rows}
     ch = by_name[chosen]
@@ -368,6 +399,9 @@ def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_N
         "sample_time_s": config.sample_time_s,
         "reference": REFERENCE,
         "recorded_run": {"outcome": recording.log.outcome, "steps": len(recording.log.compute_time_s)},
+        "nlps": [{"index": k, "moving_slots": nlp.config.max_moving, "static_slots": nlp.config.max_static,
+                  "wall_slots": nlp.config.max_walls, "parameters": nlp.layout.size,
+                  "problems": sum(q.nlp == k for q in recording.problems)} for k, nlp in nlps.items()],
         "chosen": {"name": chosen, "rule": rule, "median_time_s": ch["time_s"]["median"],
                    "speedup_vs_reference": by_name[REFERENCE]["time_s"]["median"] / ch["time_s"]["median"],
                    "success_rate": ch["success_rate"],

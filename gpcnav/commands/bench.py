@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_preset_arguments, check_output_files, planner_config, progress
+from .common import add_preset_arguments, check_output_files, for_run, planner_config, progress
 
 DEFAULT_SCENARIO = "fig7_2_crossing"
 
@@ -134,6 +134,9 @@ def run(args) -> int:
     if args.crowd_movers < 0:
         raise UsageError(f"--crowd-movers must be 0 or more, got {args.crowd_movers}")
     crowd = [] if not args.crowd_movers else [Suite("circle-crossing", 1, 1, args.crowd_movers, "orca").scenario(0)]
+    # the planner as evaluate runs these scenes: wall slots where one has walls, the crowd NLP
+    # where one has more movers than the preset's slots
+    config = for_run(config, [scenario, *crowd])
     doc = run_bench(scenario, config, solvers, policies=extra_policies(args, config, scenario.robot),
                     gpc_rows=not args.no_gpc_rows,
                     progress=lambda it: progress(it, desc="problems", unit="problem"), say=say,
@@ -150,7 +153,9 @@ def run(args) -> int:
     ch = doc["chosen"]
     print(f"{doc['scenario']} [preset {doc['preset']}, H={doc['horizon']}, T={doc['sample_time_s']} s]: "
           f"{doc['problems']} step problems (+{doc['multistart_problems']} multistart solves, "
-          f"reported under 'multistart' in BENCH.json)")
+          f"reported under 'multistart' in BENCH.json)" + (
+              "; posed on " + " and ".join(f"{n['problems']} on the NLP with {n['moving_slots']} mover slots"
+                                            for n in doc["nlps"]) if len(doc["nlps"]) > 1 else ""))
     print(format_table(doc))
     if any(r["name"] == "onnxruntime" for r in doc["results"]):
         from nn_export.training.bench_rows import network_summary

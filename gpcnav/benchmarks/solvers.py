@@ -479,7 +479,7 @@ def bench_figure(doc: dict):
     ax.set_yscale("log")
     ax.set_xticks(range(1, len(rows) + 1), [r["name"] for r in rows], rotation=30, ha="right", fontsize=7)
     ax.set_ylabel("time per solve / decision (ms, log scale)")
-    ax.set_title(f"{doc['scenario']}, preset {doc['preset']} (H={doc['horizon']}): {doc['problems']} problems; "
+    ax.set_title(f"{doc['scenario']}, preset {doc['preset']} (H={doc['horizon']}): {doc['problems']} problems\n"
                  f"chosen {chosen} (green); whiskers 5-95 %", fontsize=8)
     ax.grid(True, which="both", axis="y", lw=0.3, alpha=0.5)
     fig.tight_layout()

@@ -255,6 +255,45 @@ def test_the_backup_compiles_beside_the_main_solver_and_is_then_compiled(tmp_pat
     assert len(lines) == 1 and "beside the other solvers" in lines[0] and " done in " in lines[0]
 
 
+def test_a_cancelled_background_compile_stops_its_compiler_and_leaves_nothing(tmp_path, monkeypatch):
+    """A controller whose main solver fails to build (an error, Ctrl-C) cancels the backup's
+    compile instead of waiting for it: the compiler is stopped, the cache holds no library
+    and no lock, and a later start compiles it whole."""
+    if solvers.c_compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    from casadi_gpc.solvers import start_backend
+    from casadi_gpc.planner import tiers
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
+    problem = build_problem(SMALL)
+    job = start_backend("ipopt-warm-compiled", problem)
+    proc = job._proc
+    assert proc is not None and proc.poll() is None  # compiling
+    job.cancel()
+    assert proc.poll() is not None and not list(tmp_path.glob("gpc_ipopt_*.so"))
+    assert not [p for p in tmp_path.iterdir() if p.is_dir()]  # its temporary folder is gone
+    lib, note = start_backend("ipopt-warm-compiled", problem).finish()  # the lock was released
+    assert lib is not None and "compiled gpc_ipopt_" in note and len(list(tmp_path.glob("gpc_ipopt_*.so"))) == 1
+
+    # the planner's tier: the main solver's build fails, the backup's compile is cancelled, the error is the caller's
+    started = []
+
+    def failing_backend(*a, **kw):
+        raise KeyboardInterrupt
+
+    def spy_start(name, problem, compiled=True):
+        job = start_backend(name, problem, compiled)
+        started.append(job)
+        return job
+
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path / "second"))
+    monkeypatch.setattr(tiers, "make_backend", failing_backend)
+    monkeypatch.setattr(tiers, "start_backend", spy_start)
+    with pytest.raises(KeyboardInterrupt):
+        tiers.build_tier(SMALL, problem.robot, 0.5, True, {}, "ipopt-warm-compiled")
+    assert len(started) == 1 and started[0]._proc is None  # cancelled, not left running
+    assert not list((tmp_path / "second").glob("gpc_ipopt_*.so"))
+
+
 def test_without_a_compiler_the_backend_says_so_and_counts_the_fallback(tmp_path, monkeypatch):
     monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("CC", "no-such-compiler-gpcnav")

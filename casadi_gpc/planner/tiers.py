@@ -55,9 +55,12 @@ def build_tier(config: PlannerConfig, robot: RobotParams, time_budget_s: float, 
     try:
         backend = make_backend(config.solver, problem, max_wall_time_s=time_budget_s, compiled=compiled,
                                ipopt_options=ipopt_options)
-    finally:
+    except BaseException:  # an error or Ctrl-C: do not wait for a compile nobody will use
         if started is not None:
-            started.finish()
+            started.cancel()
+        raise
+    if started is not None:
+        started.finish()
     backup = None
     if backup_solver is not None and canonical_name(backup_solver) != backend.name:
         backup = make_backend(backup_solver, problem, max_wall_time_s=BACKUP_SHARE * time_budget_s,

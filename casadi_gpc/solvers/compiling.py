@@ -167,6 +167,18 @@ class Compile:
             remember_library(self._what, self._lib)
         return self._lib, self._note
 
+    def cancel(self) -> None:
+        """Stop the compiler (if it runs) and leave nothing in the cache: for a caller that
+        gives up (an error, Ctrl-C) and must not wait for a compile it will not use."""
+        if self._proc is None:
+            return
+        proc, self._proc = self._proc, None
+        try:
+            proc.kill()
+            proc.wait()
+        finally:
+            self._stack.close()
+
 
 def start_compile(solver: ca.Function, plugin: str, nlp: dict, extra: dict | None = None,
                   background: bool = False, what: tuple | None = None) -> Compile:

@@ -255,6 +255,19 @@ def test_the_backup_compiles_beside_the_main_solver_and_is_then_compiled(tmp_pat
     assert len(lines) == 1 and "beside the other solvers" in lines[0] and " done in " in lines[0]
 
 
+def test_an_ipopt_planner_gets_no_ipopt_backup():
+    """IPOPT compiled takes IPOPT's own steps: a planner solving with IPOPT, compiled or not,
+    has no backup (it would fail where the main solver failed); any other solver has it."""
+    from casadi_gpc.solvers import same_iterates
+    assert same_iterates("ipopt", "ipopt-warm-compiled") and same_iterates("ipopt-warm-compiled", "ipopt-warm")
+    assert not same_iterates("ipopt-cold", "ipopt-warm-compiled")
+    assert not same_iterates(FASTEST_SOLVER, "ipopt-warm-compiled")
+    for solver in ("ipopt-warm", "ipopt-warm-compiled"):
+        ctl = GPCController(replace(SMALL, solver=solver))
+        assert ctl.backup is None and ctl.solver_info["backup"] is None
+    assert GPCController(replace(SMALL, solver="sqpmethod-daqp")).solver_info["backup"] == "ipopt-warm-compiled"
+
+
 def test_a_cancelled_background_compile_stops_its_compiler_and_leaves_nothing(tmp_path, monkeypatch):
     """A controller whose main solver fails to build (an error, Ctrl-C) cancels the backup's
     compile instead of waiting for it: the compiler is stopped, the cache holds no library

@@ -20,7 +20,7 @@ from ..buffered import BufferedFunction
 from ..config import PlannerConfig
 from ..problem.cost import GPCProblem, build_problem
 from ..robot import RobotParams
-from ..solvers import Backend, canonical_name, make_backend, start_backend
+from ..solvers import Backend, make_backend, same_iterates, start_backend
 from .lanes import SolveLanes
 
 BACKUP_SHARE = 0.5
@@ -49,6 +49,8 @@ def build_tier(config: PlannerConfig, robot: RobotParams, time_budget_s: float, 
     iteration limits) and, unless it is the same solver, the backup that stops itself at
     :data:`BACKUP_SHARE` of the budget (a decision never outlives its sample time)."""
     problem = build_problem(config, robot)
+    if backup_solver is not None and same_iterates(backup_solver, config.solver):
+        backup_solver = None  # it would fail where the main solver failed, step for step
     # the backup's compile (IPOPT's, where its library is not cached yet) runs in its own
     # process while the main solver's compile runs here: a fresh cache waits for the longer
     started = None if backup_solver is None else start_backend(backup_solver, problem, compiled)
@@ -62,7 +64,7 @@ def build_tier(config: PlannerConfig, robot: RobotParams, time_budget_s: float, 
     if started is not None:
         started.finish()
     backup = None
-    if backup_solver is not None and canonical_name(backup_solver) != backend.name:
+    if backup_solver is not None:
         backup = make_backend(backup_solver, problem, max_wall_time_s=BACKUP_SHARE * time_budget_s,
                               compiled=compiled, ipopt_options=ipopt_options)
     return SolveTier(problem, backend, backup, BufferedFunction(problem.rollout_fn),

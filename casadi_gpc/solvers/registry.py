@@ -10,7 +10,8 @@ from .ipopt import IpoptBackend, start_ipopt_library
 from .powell import PowellBackend
 from .sqp import SqpBackend
 
-__all__ = ["SOLVER_NAMES", "ALIASES", "FASTEST_SOLVER", "canonical_name", "make_backend", "start_backend"]
+__all__ = ["SOLVER_NAMES", "ALIASES", "FASTEST_SOLVER", "canonical_name", "same_iterates", "make_backend",
+           "start_backend"]
 
 SOLVER_NAMES = ("ipopt-cold", "ipopt-warm", "ipopt-warm-compiled", "sqpmethod-qrqp", "sqpmethod-daqp", "fatrop",
                 "sqpmethod-daqp+fatrop", "powell")
@@ -26,6 +27,17 @@ def canonical_name(name: str) -> str:
     if name not in SOLVER_NAMES:
         raise ValueError(f"unknown solver {name!r} (choose from {', '.join(SOLVER_NAMES + tuple(ALIASES))})")
     return name
+
+
+def same_iterates(a: str, b: str) -> bool:
+    """Whether solvers ``a`` and ``b`` take the same steps from the same start: the same
+    backend, or the same IPOPT on CasADi's functions and on the same functions compiled (the
+    same iterates to the bit, docs/solvers.md, "Backup"). A failed solve of one is not worth
+    solving again with the other."""
+    def algorithm(name: str) -> str:
+        name = canonical_name(name)
+        return name[:-len("-compiled")] if name.endswith("-compiled") else name
+    return algorithm(a) == algorithm(b)
 
 
 def make_backend(name: str, problem: GPCProblem, max_wall_time_s: float | None = None,

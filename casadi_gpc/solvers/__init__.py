@@ -36,10 +36,12 @@ finite; nothing else is accepted silently.
 from .base import Backend, SolveResult, constraint_violation_mps
 from .compiling import CFLAGS, COMPILE_EVENTS, c_compiler, cache_dir, compiled_library
 from .powell import project_increments
-from .registry import ALIASES, FASTEST_SOLVER, SOLVER_NAMES, canonical_name, make_backend, same_iterates, start_backend
+from .registry import (ALIASES, FASTEST_SOLVER, SOLVER_NAMES, canonical_name, make_backend, same_iterates,
+                       start_backend)
 
 __all__ = [
-    "SOLVER_NAMES", "ALIASES", "FASTEST_SOLVER", "SolveResult", "Backend", "make_backend", "start_backend", "same_iterates", "canonical_name",
+    "SOLVER_NAMES", "ALIASES", "FASTEST_SOLVER", "SolveResult", "Backend", "make_backend", "start_backend",
+    "same_iterates", "canonical_name",
     "cache_dir", "c_compiler", "COMPILE_EVENTS", "project_increments", "constraint_violation_mps", "CFLAGS",
     "compiled_library",
 ]

@@ -219,8 +219,8 @@ def start_compile(solver: ca.Function, plugin: str, nlp: dict, extra: dict | Non
         finally:
             os.chdir(cwd)
         sources = [str(src)]
-        for fname, text in extra.items():
-            (Path(tmp) / fname).write_text(text)
+        for fname, code in extra.items():
+            (Path(tmp) / fname).write_text(code)
             sources.append(str(Path(tmp) / fname))
         out = Path(tmp) / lib.name
         # the compiler's messages to a file: a pipe nobody reads while it runs could fill and stall it

@@ -37,7 +37,6 @@ class IpoptBackend(CasadiBackend):
         return status in _IPOPT_OK, status, int(stats.get("iter_count", -1))
 
 
-
 def _library_what(problem: GPCProblem) -> tuple:
     """What IPOPT's generated code depends on (:func:`~casadi_gpc.solvers.compiling.known_library`):
     the NLP only, not the options, so a second backend of the same problem in this process

@@ -160,7 +160,8 @@ def run_solvers(problems: Sequence[RecordedProblem], backends: dict[str, Backend
     return out
 
 
-def _costs(nlps: GPCProblem | Mapping[int, GPCProblem], problems, results: dict[str, list[SolveResult]]) -> dict[str, np.ndarray]:
+def _costs(nlps: GPCProblem | Mapping[int, GPCProblem], problems,
+           results: dict[str, list[SolveResult]]) -> dict[str, np.ndarray]:
     """Each solver's cost on each problem by its NLP's own cost function (NaN if failed)."""
     out = {}
     for name, res in results.items():

@@ -215,10 +215,11 @@ def test_a_second_backend_of_the_same_settings_reuses_the_library_this_process_b
 
 def test_the_backup_compiles_beside_the_main_solver_and_is_then_compiled(tmp_path, monkeypatch, capsys):
     """On an empty cache the planner's backup (IPOPT, its functions compiled) is compiled in a
-    process of its own while the main solver's compiles run: its compiler starts before the
-    main solver's first and is waited for after its last, so a fresh install waits for the
-    longer of the two, not their sum. The backup is then compiled, a second controller of the
-    same settings compiles nothing, and the background compile says so in one line."""
+    process of its own while the main solver's compiles run, and so is the hybrid's fatrop
+    while its SQP compiles: each compiler starts before the SQP's and is waited for after
+    it, so a fresh install waits for the longest, not the sum. The backup is then compiled, a
+    second controller of the same settings compiles nothing, and each background compile
+    says so in one line."""
     if solvers.c_compiler() is None:
         pytest.skip("no C compiler on this machine")
     from pathlib import Path
@@ -244,15 +245,18 @@ def test_the_backup_compiles_beside_the_main_solver_and_is_then_compiled(tmp_pat
     ctl = GPCController(SMALL)
     assert sorted(events) == sorted([(w, p) for p in ("ipopt", "sqpmethod", "fatrop") for w in ("start", "finish")])
     at = {e: k for k, e in enumerate(events)}
-    assert at[("start", "ipopt")] < at[("start", "sqpmethod")] < at[("finish", "sqpmethod")]
-    assert at[("finish", "fatrop")] < at[("finish", "ipopt")]
+    # the hybrid's fatrop beside its SQP, the backup beside both
+    assert at[("start", "ipopt")] < at[("start", "fatrop")] < at[("start", "sqpmethod")]
+    assert at[("finish", "sqpmethod")] < at[("finish", "fatrop")] < at[("finish", "ipopt")]
     assert ctl.solver_info["backup"] == "ipopt-warm-compiled" and ctl.backup.compiled
     assert COMPILE_EVENTS["compiled"] == before["compiled"] + 3
     assert len(list(tmp_path.glob("gpc_ipopt_*.so"))) == 1
     again = GPCController(SMALL)
     assert again.backup.compiled and COMPILE_EVENTS["compiled"] == before["compiled"] + 3
-    lines = [ln for ln in capsys.readouterr().err.splitlines() if "(ipopt)" in ln]
-    assert len(lines) == 1 and "beside the other solvers" in lines[0] and " done in " in lines[0]
+    err = capsys.readouterr().err.splitlines()
+    for plugin in ("ipopt", "fatrop"):
+        lines = [ln for ln in err if f"({plugin})" in ln]
+        assert len(lines) == 1 and "beside the other solvers" in lines[0] and " done in " in lines[0]
 
 
 def test_an_ipopt_planner_gets_no_ipopt_backup():

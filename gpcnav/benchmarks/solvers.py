@@ -33,7 +33,8 @@ from casadi_gpc.planner.gpc import GPCController
 from scenarios.metrics import time_stats
 from casadi_gpc.robot import RobotParams
 from scenarios.simulator import RunLog, simulate
-from casadi_gpc.solvers import SOLVER_NAMES, Backend, SolveResult, constraint_violation_mps, make_backend
+from casadi_gpc.solvers import (SOLVER_NAMES, Backend, SolveResult, canonical_name, constraint_violation_mps,
+                                make_backend)
 from casadi_gpc.types import Observation, Policy
 
 __all__ = ["REFERENCE", "SAME_COST_RELATIVE", "AGREE_FRACTION", "RecordedProblem", "Recording",
@@ -409,24 +410,36 @@ def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_N
                    "as_good_as_reference_rate": (ch.get("vs_reference") or {}).get("as_good_rate", 1.0)},
         "results": rows,
         "speedup": speedups(rows, chosen),
-        "decisions": decision_rows([scenario, *decision_scenarios], config, ch["time_s"]["median"], say),
+        "decisions": decision_rows([scenario, *decision_scenarios], config, *_planner_solve(by_name, config, chosen),
+                                   say),
         "timing": "time_s: wall time of one solve called from Python (conversions included), one call per "
                   "problem, solvers interleaved problem by problem",
     }
     return _finite_or_none(doc)
 
 
-def decision_rows(scenarios, config: PlannerConfig, warm_solve_median_s: float, say) -> list[dict]:
+def _planner_solve(by_name: dict, config: PlannerConfig, chosen: str) -> tuple[str, float]:
+    """The solver the planner runs (``config.solver``) and its median warm solve in this run,
+    where it was benched; else the chosen one's."""
+    name = canonical_name(config.solver)
+    row = by_name.get(name)
+    if row is None or row.get("kind") != "solver":
+        name, row = chosen, by_name[chosen]
+    return name, row["time_s"]["median"]
+
+
+def decision_rows(scenarios, config: PlannerConfig, warm_solver: str, warm_solve_median_s: float,
+                  say) -> list[dict]:
     """The planner's whole decision on each scenario (closed loop, as shipped) beside one
-    warm solve of the chosen solver, and its persistent candidates against the full
-    multi-start on the same recorded problems."""
+    warm solve of ``warm_solver`` (the planner's own where it was benched), and its
+    persistent candidates against the full multi-start on the same recorded problems."""
     from .decisions import compare_candidates, decision_run, record_ticks
     out = []
     for sc in scenarios:
         say(f"the planner's decision on {sc.name} ({len(sc.moving)} movers), and its candidates against the "
             f"full multi-start")
         row = decision_run(sc, config)
-        row["single_warm_solve_median_s"] = warm_solve_median_s
+        row["single_warm_solve_median_s"], row["single_warm_solver"] = warm_solve_median_s, warm_solver
         row["decision_over_warm_solve"] = row["time_s"]["median"] / warm_solve_median_s
         row["candidates_vs_multistart"] = compare_candidates(record_ticks(sc, config), config, sc.robot)
         out.append(row)

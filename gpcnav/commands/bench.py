@@ -165,7 +165,8 @@ def run(args) -> int:
         print(f"decision on {d['scenario']} ({d['movers']} movers, closed loop, behind the check layer): median "
               f"{t['median'] * 1e3:.3f} ms (p95 {t['p95'] * 1e3:.2f}, p99 {t.get('p99', t['p95']) * 1e3:.2f}, "
               f"max {t['max'] * 1e3:.2f}) = "
-              f"{d['decision_over_warm_solve']:.1f} warm solves of the chosen solver; {d['solves_per_decision']:.2f} "
+              f"{d['decision_over_warm_solve']:.1f} warm solves of {d['single_warm_solver']}; "
+              f"{d['solves_per_decision']:.2f} "
               f"solves per decision, the fixed guesses at {d['full_multistart_share']:.0%} of them; persistent "
               f"candidates as good as the full multi-start at {cv['as_good_rate']:.1%} of {cv['steps']} steps "
               f"({cv['solves_per_step']['persistent']:.2f} against {cv['solves_per_step']['multistart']:.2f} solves "
@@ -188,5 +189,7 @@ def run(args) -> int:
               f"{r['speedup_median']:.1f}x, p99 {r['speedup_p99']:.1f}x, max {r['speedup_max']:.1f}x")
     print(f"chosen: {ch['name']}  median {ch['median_time_s'] * 1e3:.3f} ms  "
           f"{ch['speedup_vs_reference']:.1f}x faster than {doc['reference']}  success {ch['success_rate']:.1%}  "
-          f"as good as {doc['reference']} on {ch['as_good_as_reference_rate']:.1%} of the problems")
+          f"as good as {doc['reference']} on {ch['as_good_as_reference_rate']:.1%} of the problems"
+          + (f" (the rule's pick on this scene; the planner solves with its preset's {config.solver})"
+             if ch["name"] != config.solver else ""))
     return 0

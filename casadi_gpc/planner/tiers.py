@@ -21,6 +21,7 @@ from ..config import PlannerConfig
 from ..problem.cost import GPCProblem, build_problem
 from ..robot import RobotParams
 from ..solvers import Backend, make_backend, same_iterates, start_backend
+from ..solvers.compiling import while_compiling
 from .lanes import SolveLanes
 
 BACKUP_SHARE = 0.5
@@ -54,15 +55,8 @@ def build_tier(config: PlannerConfig, robot: RobotParams, time_budget_s: float, 
     # the backup's compile (IPOPT's, where its library is not cached yet) runs in its own
     # process while the main solver's compile runs here: a fresh cache waits for the longer
     started = None if backup_solver is None else start_backend(backup_solver, problem, compiled)
-    try:
-        backend = make_backend(config.solver, problem, max_wall_time_s=time_budget_s, compiled=compiled,
-                               ipopt_options=ipopt_options)
-    except BaseException:  # an error or Ctrl-C: do not wait for a compile nobody will use
-        if started is not None:
-            started.cancel()
-        raise
-    if started is not None:
-        started.finish()
+    backend = while_compiling(started, lambda: make_backend(config.solver, problem, max_wall_time_s=time_budget_s,
+                                                            compiled=compiled, ipopt_options=ipopt_options))
     backup = None
     if backup_solver is not None:
         backup = make_backend(backup_solver, problem, max_wall_time_s=BACKUP_SHARE * time_budget_s,

@@ -28,7 +28,7 @@ import casadi as ca
 from ..io import cache_dir  # where compiled libraries are kept (one rule, casadi-free)
 
 __all__ = ["CFLAGS", "COMPILE_EVENTS", "ANNOUNCE", "cache_dir", "c_compiler", "compiled_library", "start_compile",
-           "Compile", "build_nlpsol",
+           "Compile", "while_compiling", "build_nlpsol",
            "known_library", "remember_library"]
 
 CFLAGS = ("-O1", "-fPIC", "-shared")
@@ -232,6 +232,21 @@ def start_compile(solver: ca.Function, plugin: str, nlp: dict, extra: dict | Non
         raise
     return Compile(str(lib), f"compiled functions (compiled {lib.name})", proc, out, err, stack,
                    text if background else None, what)
+
+
+def while_compiling(started: Compile | None, build):
+    """``build()`` while ``started`` (a :class:`Compile`, or None) compiles in its own process:
+    then the compile is finished, or cancelled if ``build`` raised (an error, Ctrl-C: nobody
+    waits for a compile that will not be used). Returns what ``build`` returned."""
+    try:
+        out = build()
+    except BaseException:
+        if started is not None:
+            started.cancel()
+        raise
+    if started is not None:
+        started.finish()
+    return out
 
 
 def compiled_library(solver: ca.Function, plugin: str, nlp: dict, extra: dict | None = None) -> tuple[str | None, str]:

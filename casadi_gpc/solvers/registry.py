@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ..problem.cost import GPCProblem
 from .base import Backend
+from .compiling import while_compiling
 from .fatrop import FatropBackend, start_fatrop_library
 from .hybrid import HybridBackend
 from .ipopt import IpoptBackend, start_ipopt_library
@@ -55,15 +56,8 @@ def make_backend(name: str, problem: GPCProblem, max_wall_time_s: float | None =
     if name == "sqpmethod-daqp+fatrop":
         # fatrop's compile (where its library is not cached yet) in its own process while the
         # SQP's runs here: a fresh cache waits for the longer of the two, not their sum
-        started = start_fatrop_library(problem) if compiled else None
-        try:
-            sqp = SqpBackend("sqpmethod-daqp", problem, "daqp", compiled)
-        except BaseException:  # an error or Ctrl-C: do not wait for a compile nobody will use
-            if started is not None:
-                started.cancel()
-            raise
-        if started is not None:
-            started.finish()
+        sqp = while_compiling(start_fatrop_library(problem) if compiled else None,
+                              lambda: SqpBackend("sqpmethod-daqp", problem, "daqp", compiled))
         return HybridBackend(name, sqp, FatropBackend("fatrop", problem, compiled))
     if name.startswith("sqpmethod-"):
         return SqpBackend(name, problem, name.split("-", 1)[1], compiled)

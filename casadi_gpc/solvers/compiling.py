@@ -144,25 +144,22 @@ class Compile:
     def finish(self) -> tuple[str | None, str]:
         """Wait for the compiler (if it runs) and put the library in the cache (and, given
         ``what``, in this process's memory: :func:`remember_library`)."""
-        if self._proc is None:
-            if self._lib is not None and self._what is not None:
-                remember_library(self._what, self._lib)
-            return self._lib, self._note
-        proc, self._proc = self._proc, None
-        try:
-            proc.wait()
-            if proc.returncode != 0:
-                self._err.seek(0)
-                lines = self._err.read().strip().splitlines()
-                self._lib, self._note = None, f"compile failed ({proc.args[0]}): {lines[-1] if lines else ''}"
-            else:
-                os.replace(self._out, self._lib)
-                COMPILE_EVENTS["compiled"] += 1
-        finally:
-            self._stack.close()  # the temporary folder, the announcement (in the foreground), the lock
-        if self._announce is not None and ANNOUNCE:  # compiled beside other work: one line when done
-            print(f"gpcnav: {self._announce} ... done in {time.monotonic() - self._t0:.0f} s", file=sys.stderr,
-                  flush=True)
+        if self._proc is not None:
+            proc, self._proc = self._proc, None
+            try:
+                proc.wait()
+                if proc.returncode != 0:
+                    self._err.seek(0)
+                    lines = self._err.read().strip().splitlines()
+                    self._lib, self._note = None, f"compile failed ({proc.args[0]}): {lines[-1] if lines else ''}"
+                else:
+                    os.replace(self._out, self._lib)
+                    COMPILE_EVENTS["compiled"] += 1
+            finally:
+                self._stack.close()  # the temporary folder, the announcement (in the foreground), the lock
+            if self._announce is not None and ANNOUNCE:  # compiled beside other work: one line when done
+                print(f"gpcnav: {self._announce} ... done in {time.monotonic() - self._t0:.0f} s", file=sys.stderr,
+                      flush=True)
         if self._lib is not None and self._what is not None:
             remember_library(self._what, self._lib)
         return self._lib, self._note

@@ -4,14 +4,18 @@ new one, never half of one."""
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
+import re
+import socket
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_file", "json_default", "write_json", "write_text", "write_bytes", "save_figure", "cache_dir"]
+__all__ = ["atomic_file", "abandoned", "json_default", "write_json", "write_text", "write_bytes", "save_figure",
+           "cache_dir"]
 
 
 def cache_dir() -> Path:
@@ -29,13 +33,42 @@ def json_default(o):
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
+def _host() -> str:
+    return hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]
+
+
+_WRITER = re.compile(r"\.([0-9a-f]{8})-([0-9]+)\.[a-z0-9_]+")
+
+
+def abandoned(tmp) -> bool:
+    """Whether the temporary file ``tmp`` (named by :func:`atomic_file`) was left by a writer
+    that can no longer finish it: a process of this machine that no longer runs (killed
+    mid-write). A temporary of another machine, or of a name this module did not make, is
+    never called abandoned: its writer may be running."""
+    found = _WRITER.findall(Path(tmp).name)
+    if not found or found[-1][0] != _host():
+        return False
+    pid = int(found[-1][1])
+    if pid == os.getpid():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # it runs, as another user
+        return False
+    return False
+
+
 @contextlib.contextmanager
 def atomic_file(path, suffix: str = ""):
     """Yield a temporary path beside ``path``; on a clean exit it is synced to disk and
-    renamed over ``path`` (with ordinary permissions), otherwise removed."""
+    renamed over ``path`` (with ordinary permissions), otherwise removed. The temporary's name
+    says which machine and process writes it (:func:`abandoned`)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_host()}-{os.getpid()}.", suffix=suffix or path.suffix,
+                               dir=path.parent)
     os.close(fd)
     tmp = Path(tmp)
     try:

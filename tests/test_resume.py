@@ -167,6 +167,35 @@ def test_a_damaged_episode_file_is_run_again(tmp_path):
     assert json.loads(files[0].read_text())["format"] == 1  # written again, whole
 
 
+def test_a_write_killed_midway_leaves_a_temporary_the_finished_run_removes(tmp_path):
+    """kill -9 while the parent writes an episode leaves that write's temporary file; the run
+    that finishes the evaluation removes it (its writer is gone) and the folder with it, at
+    once, not ten minutes later. A temporary whose writer still runs (another evaluation
+    writing into the same folder) is left alone."""
+    from casadi_gpc.io import abandoned
+    from gpcnav.commands.episode_store import EpisodeStore
+    store = tmp_path / "E.json.episodes"
+    code = ("import os, sys; from casadi_gpc.io import atomic_file\n"
+            "with atomic_file(sys.argv[1]) as tmp:\n"
+            "    tmp.write_text('{\"half')\n    print(tmp, flush=True); os.kill(os.getpid(), 9)")
+    killed = subprocess.run([sys.executable, "-c", code, str(store / "0abc.json")], capture_output=True, text=True,
+                            cwd=REPO, env=_env(), timeout=60)
+    assert killed.returncode == -signal.SIGKILL
+    left = Path(killed.stdout.strip())
+    assert left.exists() and left.parent == store and abandoned(left)
+
+    from casadi_gpc.io import atomic_file
+    with atomic_file(store / "1def.json") as running:  # this process's own write, under way
+        running.write_text("{")
+        assert not abandoned(running)
+        EpisodeStore(store).remove([])
+        assert not left.exists() and running.exists() and store.is_dir()
+    assert not abandoned(store / ".1def.json.00000000-1.abcd1234.json")  # another machine's writer
+    (store / "1def.json").unlink()
+    EpisodeStore(store).remove([])
+    assert not store.exists()
+
+
 # --- the keys ------------------------------------------------------------------------------------
 def _keys():
     from casadi_gpc.config import preset

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casadi_gpc.io import write_text
+from casadi_gpc.io import abandoned, write_text
 
 __all__ = ["EpisodeStore", "store_folder", "code_stamp", "run_key", "episode_key", "canonical", "STORE_FORMAT"]
 
@@ -203,7 +203,7 @@ class EpisodeStore:
             self._path(key).unlink(missing_ok=True)
         try:
             for stale in self.folder.glob(".*.json"):  # a killed write's temporary, not a running one's
-                if time.time() - stale.stat().st_mtime > 600:
+                if abandoned(stale) or time.time() - stale.stat().st_mtime > 600:
                     stale.unlink(missing_ok=True)
             os.rmdir(self.folder)
         except OSError:

@@ -1,7 +1,7 @@
 #!/bin/bash
 # bash run.sh OUTDIR   (from the repository root): the rule's runs, both sides, seeds 38 and 39
 set -e
-out=$1; mkdir -p $out
+out=$1; mkdir -p $out   # the documents of record are in runs/ here
 for seed in 38 39; do
   for s in corridor doorway corner; do
     for side in shipped option; do

@@ -327,6 +327,24 @@ def check(spec: ControllerSpec, config, robot) -> None:
         make(ControllerSpec(spec.name, shield="off"), config, robot)
 
 
+def check_scenarios(spec: ControllerSpec, config, scenarios) -> None:
+    """:func:`check` for the robot of every scenario of a run, each distinct robot once,
+    before any work: a network trained for another robot than one of the files' is refused in
+    one line that names that file (it was found only when its episode came, after minutes of
+    other work)."""
+    seen = []
+    for sc in scenarios:
+        if sc.robot in seen:
+            continue
+        seen.append(sc.robot)
+        try:
+            check(spec, config, sc.robot)
+        except UsageError as exc:
+            if len(seen) == 1:
+                raise
+            raise UsageError(f"{exc} (the robot of {sc.source or sc.name})") from None
+
+
 def describe(controller) -> dict:
     """What a document records of a controller: its class, sample time and settings (the
     peers' settings dataclasses, the GPC's solver, the network's model)."""

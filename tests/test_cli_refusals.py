@@ -140,3 +140,22 @@ def test_a_reachable_port_passes_the_check():
         s.bind(("127.0.0.1", 0))
         s.listen()
         check_reachable(f"127.0.0.1:{s.getsockname()[1]}")
+
+
+@pytest.mark.parametrize("command", ["evaluate", "compare"])
+def test_a_network_for_another_robot_than_one_file_s_is_refused_before_any_episode(command, tmp_path):
+    """The network is checked against the robot of every file, not the first one's alone: it
+    was refused only when the second file's episode came, after the planner's compile."""
+    text = SCENE.read_text()
+    other = text.replace("[robot]\n", "[robot]\nradius_m = 0.22\nwheel_base_m = 0.35\n", 1)
+    assert other != text
+    (tmp_path / "other.toml").write_text(other.replace('name = "fig7_1_head_on"', 'name = "other_robot"'))
+    ctl = ["--controller", "nn"] if command == "evaluate" else ["--controllers", "gpc,nn"]
+    t0 = time.monotonic()
+    proc = subprocess.run([sys.executable, "-m", "gpcnav", command, str(SCENE), str(tmp_path / "other.toml"), *ctl,
+                           "--out", str(tmp_path / "OUT.json")], capture_output=True, text=True, timeout=120,
+                          cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "another robot" in lines[0] and "other.toml" in lines[0], proc.stderr
+    assert time.monotonic() - t0 < 30 and sorted(p.name for p in tmp_path.iterdir()) == ["other.toml"]

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..controllers import check, parse_controller_list, spec_from_args
+from ..controllers import check_scenarios, parse_controller_list, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, connected, planner_config,
                      for_pool, for_run)
@@ -58,7 +58,7 @@ def run(args) -> int:
     specs = [spec_from_args(args, name) for name in parse_controller_list(args.controllers)]
     robot = scenarios[0].robot
     for spec in specs:
-        check(spec, config, robot)
+        check_scenarios(spec, config, scenarios)
     with connected(pool):
         extras = [controller_extra(spec, config, robot) for spec in specs]
         store, keys = open_store(args, specs, config, extras, scenarios)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..controllers import ControllerSpec, check, spec_from_args
+from ..controllers import ControllerSpec, check_scenarios, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
                      connected, planner_config, progress, recorded_changes, suite_from_args,
@@ -236,7 +236,7 @@ def run(args) -> int:
     pool = pool_from_args(args)
     config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
     spec = spec_from_args(args)
-    check(spec, config, scenarios[0].robot)
+    check_scenarios(spec, config, scenarios)
     check_output_files(out=args.out)
     with connected(pool):
         extra = controller_extra(spec, config, scenarios[0].robot)

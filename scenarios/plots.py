@@ -9,7 +9,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
-__all__ = ["plot_run", "run_figure", "animate_run", "mover_colour"]
+__all__ = ["plot_run", "run_figure", "animate_run", "mover_colour", "walls_beside"]
 
 _OBSTACLE_COLOURS = ["tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan"]
 
@@ -22,6 +22,32 @@ def mover_colour(j: int, n_moving: int):
     cmap = plt.get_cmap("tab20")
     palette = [cmap(i) for i in range(20) if i not in (0, 1)]  # 0, 1: blues (the robot's)
     return palette[j % len(palette)]
+
+
+WALL_VIEW_M = 1.5
+"""How far beyond the robot's, the reference's and the movers' extent a wall beside them
+widens the view (a corridor's side 1.25 m from its middle, a room's wall)."""
+
+
+def walls_beside(walls, xrange, yrange, margin_m: float = WALL_VIEW_M) -> np.ndarray:
+    """The points of the wall polylines ``walls`` (each ``(k, 2)``) beside the view
+    ``xrange`` x ``yrange``: of a segment running more along x than along y, those within the
+    x-range and at most ``margin_m`` above or below the y-range; of one running more along y,
+    those within the y-range and at most ``margin_m`` to either side; ``(n, 2)``. A view
+    that includes them shows the walls alongside what happens (a room's, a corridor's sides),
+    not the lengths of wall running on beyond it (each segment sampled every 5 cm, its ends
+    included)."""
+    (x0, x1), (y0, y1) = sorted(xrange), sorted(yrange)
+    out = []
+    for w in walls:
+        for a, b in zip(w[:-1], w[1:]):
+            k = max(2, int(np.ceil(np.hypot(*(b - a)) / 0.05)) + 1)
+            P = a + np.linspace(0.0, 1.0, k)[:, None] * (b - a)
+            along_x = abs(b[0] - a[0]) >= abs(b[1] - a[1])
+            u, v = (P[:, 0], P[:, 1]) if along_x else (P[:, 1], P[:, 0])
+            (u0, u1), (v0, v1) = ((x0, x1), (y0, y1)) if along_x else ((y0, y1), (x0, x1))
+            out.append(P[(u >= u0) & (u <= u1) & (v >= v0 - margin_m) & (v <= v1 + margin_m)])
+    return np.concatenate(out) if out else np.empty((0, 2))
 
 
 def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 3.0, title: str | None = None):
@@ -43,7 +69,7 @@ def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 
                 color="tab:blue", lw=0.8)
         ax.annotate(f"{t[k]:.0f}", (x[k], y[k]), fontsize=6, color="tab:blue", ha="center", va="center")
     walls = [np.asarray(w["points"], dtype=float) for w in doc.get("walls", [])]
-    if walls:  # walls run on beyond where anyone goes: they do not set the view (autolim off)
+    if walls:  # walls run on beyond where anyone goes: they do not set the view (autolim off) ...
         ax.add_collection(LineCollection(walls, colors="0.25", linewidths=3.0, capstyle="butt", label="wall"),
                           autolim=False)
     obstacles = doc.get("obstacles", [])
@@ -69,6 +95,11 @@ def plot_run(ax, doc: dict, robot_radius_m: float = 0.35, mark_every_s: float = 
     if doc.get("outcome") == "collided":
         ax.add_patch(Circle((x[-1], y[-1]), robot_radius_m, color="tab:blue", alpha=0.35))
         ax.plot(x[-1], y[-1], marker="X", color="black", ms=8, label=f"collision at {t[-1]:.1f} s")
+    if walls:  # ... but a wall beside what is drawn is in the view (a room's, a corridor's sides)
+        near = walls_beside(walls, ax.dataLim.intervalx, ax.dataLim.intervaly)
+        if len(near):
+            ax.update_datalim(near)
+            ax.autoscale_view()
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -100,6 +131,9 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
            for o in doc.get("obstacles", [])]
     allx = np.concatenate([x] + [o["x"] for o in obs])
     ally = np.concatenate([y] + [o["y"] for o in obs])
+    near = walls_beside([np.asarray(w["points"], dtype=float) for w in doc.get("walls", [])],
+                        (np.nanmin(allx), np.nanmax(allx)), (np.nanmin(ally), np.nanmax(ally)), margin_m=1.0)
+    allx, ally = np.concatenate([allx, near[:, 0]]), np.concatenate([ally, near[:, 1]])
     ax.set_xlim(np.nanmin(allx) - 1, np.nanmax(allx) + 1)
     ax.set_ylim(np.nanmin(ally) - 1, np.nanmax(ally) + 1)
     ax.set_aspect("equal")

@@ -103,6 +103,31 @@ def test_plots_draw_the_walls(tmp_path):
     assert len(json.loads((tmp_path / "r.json").read_text())["walls"]) == 2
 
 
+
+def test_the_view_takes_the_walls_beside_what_happens_not_their_lengths_beyond_it():
+    """A room's wall 0.65 m below the robot's path was left out of the figure (walls did not
+    set the view): now a wall beside the view widens it, up to 1.5 m, and a wall that runs on
+    along it does not stretch it."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from scenarios.plots import plot_run, walls_beside
+    corridor = [np.array([[-50.0, 1.25], [50.0, 1.25]]), np.array([[-50.0, -1.25], [50.0, -1.25]])]
+    near = walls_beside(corridor, (0.0, 10.0), (-0.5, 0.5))
+    assert near[:, 0].min() >= 0.0 and near[:, 0].max() <= 10.0 and set(np.round(near[:, 1], 9)) == {1.25, -1.25}
+    assert len(walls_beside(corridor, (0.0, 10.0), (3.0, 4.0))) == 0      # 1.75 m and more away
+    room = np.array([[-4.0, -4.0], [4.0, -4.0], [4.0, 4.0], [-4.0, 4.0], [-4.0, -4.0]])
+    doc = {"trajectory": {"t": [0.0, 1.0], "x": [-3.0, 2.0], "y": [-3.0, -3.0], "heading_rad": [0.0, 0.0]},
+           "sample_time_s": 0.5, "walls": [{"points": room.tolist()}], "obstacles": [], "scenario": "room",
+           "controller": "gpc", "outcome": "timed_out", "min_clearance_m": 0.1}
+    fig, ax = plt.subplots()
+    plot_run(ax, doc)
+    fig.canvas.draw()
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert y0 <= -4.0 and x0 <= -4.0      # the floor's wall and the side's, 0.65 m and 0.65 m away
+    assert y1 < 4.0                        # the far wall, 6.65 m away, is not brought in
+    plt.close(fig)
+
 def test_the_check_layer_measures_the_distance_to_a_walls_segments_exactly():
     """The check's distance to a wall is the distance to its segments (the simulator's rule):
     from a point, as the scenario's own geometry measures it; from a chord (the robot's

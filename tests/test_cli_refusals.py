@@ -51,6 +51,11 @@ CASES = [
      "would overwrite it"),
     (["evaluate", "--suite", "random", "--count", "1000000"], "--count must be at most"),
     (["evaluate", "--suite", "circle-crossing", "--movers", "60", "--count", "2"], "cannot place 60 movers"),
+    (["simulate", SCENE, "--plot", "{tmp}/out/r.txt"], "matplotlib does not write .txt figures"),
+    (["simulate", SCENE, "--plot", "{tmp}/out/r"], "takes a figure's format from its extension"),
+    (["bench", "--plot", "{tmp}/out/b.toml"], "matplotlib does not write .toml figures"),
+    (["simulate", SCENE, "--animate", "{tmp}/out/a.mp4"], "an animation is written as a GIF"),
+    (["simulate", SCENE, "--out", "{tmp}/out/r.json", "--plot", "{tmp}/out/r.json"], "one file for two outputs"),
 ]
 
 
@@ -159,3 +164,28 @@ def test_a_network_for_another_robot_than_one_file_s_is_refused_before_any_episo
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "another robot" in lines[0] and "other.toml" in lines[0], proc.stderr
     assert time.monotonic() - t0 < 30 and sorted(p.name for p in tmp_path.iterdir()) == ["other.toml"]
+
+
+
+@pytest.mark.parametrize("command", ["simulate", "evaluate", "compare"])
+def test_an_output_that_is_the_scenario_file_is_refused_and_the_file_kept(command, tmp_path):
+    """``--out`` naming the scenario file itself replaced the user's file by the run's JSON."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE.read_text())
+    ctl = ["--controllers", "blind,stand"] if command == "compare" else ["--controller", "blind"]
+    for out in ("scene.toml", "./scene.toml", str(scene)):
+        proc = subprocess.run([sys.executable, "-m", "gpcnav", command, "scene.toml", *ctl, "--out", out],
+                              capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                              env={**os.environ, "PYTHONPATH": str(REPO)})
+        assert proc.returncode == 2, proc.stderr[-2000:]
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and "is the scenario file" in lines[0], proc.stderr
+        assert scene.read_text() == SCENE.read_text() and sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]
+    if command == "compare":  # the table beside --out would be the scenario
+        md = tmp_path / "scene.md"
+        md.write_text(SCENE.read_text())
+        proc = subprocess.run([sys.executable, "-m", "gpcnav", command, "scene.md", *ctl, "--out", "scene.json"],
+                              capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                              env={**os.environ, "PYTHONPATH": str(REPO)})
+        assert proc.returncode == 2 and "is one of the scenario files" in proc.stderr, proc.stderr
+        assert md.read_text() == SCENE.read_text()

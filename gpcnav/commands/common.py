@@ -283,18 +283,56 @@ def make_output_folder(path: Path, option: str) -> None:
     _make_folder(path, f"{option} {path}")
 
 
-def check_output_files(**paths) -> None:
+FIGURE_OPTIONS = ("plot",)
+"""Output options that take a figure: their file's extension must be one matplotlib writes."""
+ANIMATION_OPTIONS = ("animate",)
+"""Output options that take an animation: a GIF (``.gif``), the one format written."""
+
+
+def check_output_files(inputs=(), **paths) -> None:
     """Refuse in one line (exit 2), before any work, an output file (option name -> path or
     None) that could not be written: a path that is a folder, or whose folder cannot be made
-    or written in (``/proc/x.png``). Nothing is left behind: a missing folder is made when the
-    file is written."""
-    for option, path in paths.items():
-        if path is None:
-            continue
+    or written in (``/proc/x.png``); one of the ``inputs`` (the scenario files: it would be
+    overwritten), or the same file as another output; a figure whose extension matplotlib does
+    not write (``--plot r.txt`` failed after the whole run), an animation that is not a
+    ``.gif``. Nothing is left behind: a missing folder is made when the file is written."""
+    given = {option: Path(path) for option, path in paths.items() if path is not None}
+    ins = [Path(i) for i in inputs if i]
+    seen: dict[Path, str] = {}
+    for option, path in given.items():
         what = f"--{option.replace('_', '-')} {path}"
         if path.is_dir():
             raise UsageError(f"{what} is a folder, not a file")
+        for i in ins:
+            if same_file(path, i):
+                raise UsageError(f"{what} is the scenario file {i}: it would be overwritten")
+        key = path.resolve()
+        if key in seen:
+            raise UsageError(f"{what} is also given to --{seen[key].replace('_', '-')}: one file for two outputs")
+        seen[key] = option
+        if option in FIGURE_OPTIONS:
+            check_figure_path(path, what)
+        if option in ANIMATION_OPTIONS and path.suffix.lower() != ".gif":
+            raise UsageError(f"{what}: an animation is written as a GIF; name it .gif")
         check_writable_folder(path.parent, f"{what}: its folder {path.parent}")
+
+
+def check_figure_path(path: Path, what: str) -> None:
+    """Refuse a figure whose extension matplotlib does not write, naming those it does."""
+    from matplotlib.backend_bases import FigureCanvasBase
+    formats = FigureCanvasBase.get_supported_filetypes()
+    ext = path.suffix.lower().lstrip(".")
+    if ext not in formats:
+        said = f"does not write .{ext} figures" if ext else "takes a figure's format from its extension, and it has none"
+        raise UsageError(f"{what}: matplotlib {said} (it writes {', '.join('.' + f for f in sorted(formats))})")
+
+
+def same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` name the same file (``b`` exists; ``a`` may not yet)."""
+    try:
+        return a.exists() and os.path.samefile(a, b)
+    except OSError:
+        return a.resolve() == b.resolve()
 
 
 def check_writable_folder(folder: Path, what: str) -> None:

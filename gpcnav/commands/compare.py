@@ -12,8 +12,8 @@ from pathlib import Path
 
 from ..controllers import check_scenarios, parse_controller_list, spec_from_args
 from ..errors import UsageError
-from .common import (add_controller_arguments, add_suite_arguments, check_output_files, connected, planner_config,
-                     for_pool, for_run)
+from .common import (add_controller_arguments, add_suite_arguments, check_output_files, connected, for_pool,
+                     for_run, planner_config, same_file)
 from .evaluate import (add_pool_arguments, add_resume_arguments, close_store, controller_extra, eval_doc, log_to_stderr,
                        open_store, pool_from_args, run_episodes, scenarios_from_args)
 
@@ -37,14 +37,18 @@ def compare_document(specs, results, config, suite, seed, scenarios, extras, bac
             "suite_spec": suite.describe() if suite else None}
 
 
-def check_compare_outputs(out) -> None:
-    """``--out`` and the table and figure beside it: each writable, none a folder."""
-    check_output_files(out=out)
+def check_compare_outputs(out, inputs=()) -> None:
+    """``--out`` and the table and figure beside it: each writable, none a folder, none one of
+    the scenario files ``inputs``."""
+    check_output_files(inputs=inputs, out=out)
     if out is not None:
         for beside in (out.with_suffix(".md"), out.with_suffix(".png")):
+            what = "table" if beside.suffix == ".md" else "figure"
             if beside.is_dir() or beside == out:
-                raise UsageError(f"--out {out}: the {'table' if beside.suffix == '.md' else 'figure'} beside it, "
+                raise UsageError(f"--out {out}: the {what} beside it, "
                                  f"{beside}, {'is a folder' if beside.is_dir() else 'would overwrite it'}")
+            if any(i and same_file(beside, Path(i)) for i in inputs):
+                raise UsageError(f"--out {out}: the {what} beside it, {beside}, is one of the scenario files")
 
 
 def run(args) -> int:
@@ -54,7 +58,7 @@ def run(args) -> int:
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
     config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
-    check_compare_outputs(args.out)
+    check_compare_outputs(args.out, [sc.source for sc in scenarios])
     specs = [spec_from_args(args, name) for name in parse_controller_list(args.controllers)]
     robot = scenarios[0].robot
     for spec in specs:

@@ -237,7 +237,7 @@ def run(args) -> int:
     config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
     spec = spec_from_args(args)
     check_scenarios(spec, config, scenarios)
-    check_output_files(out=args.out)
+    check_output_files(inputs=[sc.source for sc in scenarios], out=args.out)
     with connected(pool):
         extra = controller_extra(spec, config, scenarios[0].robot)
         store, keys = open_store(args, [spec], config, [extra], scenarios)

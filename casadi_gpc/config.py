@@ -187,6 +187,7 @@ class PlannerConfig:
     and the step falls back (counted). None: the sample time."""
 
     def __post_init__(self):
+        self._check_numbers()
         if self.forecast not in FORECASTS:
             raise ValueError(f"forecast must be one of {', '.join(FORECASTS)}, got {self.forecast!r}")
         if self.cold_starts is not None and self.cold_starts < 1:
@@ -217,6 +218,31 @@ class PlannerConfig:
         if not (isinstance(self.cold_start_gap, int) and self.cold_start_gap >= 0):
             raise ValueError(f"cold_start_gap must be a whole number, not negative, got {self.cold_start_gap!r}")
 
+    def _check_numbers(self) -> None:
+        """Refuse, naming the setting, a number no planner can be built or run with (they
+        crashed later, inside CasADi or IPOPT, or ran with a negative weight)."""
+        if not (isinstance(self.horizon, int) and not isinstance(self.horizon, bool) and self.horizon >= 1):
+            raise ValueError(f"horizon must be a whole number of at least 1, got {self.horizon!r}")
+        if not (math.isfinite(self.sample_time_s) and self.sample_time_s > 0):
+            raise ValueError(f"sample_time_s must be finite and above 0 s, got {self.sample_time_s!r}")
+        for name in _WEIGHTS:
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be finite and not negative (a weight), got {v!r}")
+        for name in _NOT_NEGATIVE:
+            v = getattr(self, name)
+            if v is not None and not v >= 0:  # NaN fails too
+                raise ValueError(f"{name} must not be negative, got {v!r}")
+        for name in _POSITIVE:
+            v = getattr(self, name)
+            if v is not None and not v > 0:
+                raise ValueError(f"{name} must be above 0, got {v!r}")
+        for name in _COUNTS:
+            v = getattr(self, name)
+            low = 1 if name == "solve_lanes" else 0
+            if not (isinstance(v, int) and not isinstance(v, bool) and v >= low):
+                raise ValueError(f"{name} must be a whole number of at least {low}, got {v!r}")
+
     def for_walls(self, walls: bool) -> "PlannerConfig":
         """These settings for a map with walls (``walls``): the NLP's wall slots
         (:data:`WALL_SLOTS`) unless it has some; without walls, unchanged (the NLP it always
@@ -238,6 +264,18 @@ class PlannerConfig:
 
 
 FORECASTS = ("turn", "straight")
+_WEIGHTS = ("xi_moving", "xi_static", "lambda1", "lambda2", "tracking_weight", "heading_weight", "clearance_penalty",
+            "goal_weight")
+"""The cost's weights: finite, not negative (a negative one rewards what the cost penalises)."""
+_NOT_NEGATIVE = ("uncertainty_scale_m", "clearance_softening_m", "clearance_margin_m", "margin_smoothing_m",
+                 "uncertainty_sigmas", "max_lead_m", "relevance_range_m", "multistart_range_m", "relevance_memory_s",
+                 "surprise_ratio", "prune_ratio", "swerve_turn_rate_rad_s")
+"""Lengths, times and ratios that may be 0 (or None where the setting allows it), or
+infinite where that means "no limit", but not negative or NaN."""
+_POSITIVE = ("influence_m", "multistart_period_s", "time_budget_s")
+"""Settings that must be above 0 where they are set."""
+_COUNTS = ("max_moving", "max_static", "max_walls", "solve_lanes")
+"""Whole numbers: slots (0 or more) and the solve lanes (1 or more)."""
 """The movers' forecast models (:attr:`PlannerConfig.forecast`)."""
 
 WALL_SLOTS = 6

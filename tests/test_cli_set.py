@@ -41,10 +41,34 @@ def test_values_are_read_as_the_setting_s_type():
     ("walls_sigma_cap_m=-1", "walls_sigma_cap_m must be finite"),
     ("max_walls=3", "adapted to each run"),
     ("cold_starts", "NAME=VALUE"),
+    # numbers no planner is built or run with: they crashed inside CasADi or IPOPT (after a
+    # compile), or ran with a negative weight
+    ("horizon=0", "horizon must be a whole number of at least 1"),
+    ("horizon=-3", "horizon must be a whole number of at least 1"),
+    ("sample_time_s=0", "sample_time_s must be finite and above 0 s"),
+    ("sample_time_s=-0.5", "sample_time_s must be finite and above 0 s"),
+    ("lambda1=-63", "lambda1 must be finite and not negative"),
+    ("goal_weight=-1", "goal_weight must be finite and not negative"),
+    ("influence_m=-1", "influence_m must be above 0"),
+    ("uncertainty_sigmas=-2", "uncertainty_sigmas must not be negative"),
+    ("solve_lanes=0", "solve_lanes must be a whole number of at least 1"),
+    ("max_moving=-1", "max_moving must be a whole number of at least 0"),
 ])
 def test_bad_settings_are_refused_in_one_line(item, words):
     with pytest.raises(UsageError, match=words):
         with_settings(IMPROVED, [item])
+
+
+def test_the_command_line_s_bounds_hold_for_a_value_given_with_set():
+    """--set horizon=50 is refused as --horizon 50 is (the compile grows steeply with H)."""
+    import argparse
+    from gpcnav.commands.common import planner_config
+    base = dict(preset="improved", sample_time=None, horizon=None, solver=None)
+    with pytest.raises(UsageError, match="horizon must be at most"):
+        planner_config(argparse.Namespace(**base, planner_set=["horizon=50"]))
+    with pytest.raises(UsageError, match="sample_time_s must be at least"):
+        planner_config(argparse.Namespace(**base, planner_set=["sample_time_s=0.001"]))
+    assert planner_config(argparse.Namespace(**base, planner_set=["horizon=8"])).horizon == 8
 
 
 def test_what_a_run_adapts_is_not_a_change():

@@ -77,7 +77,14 @@ def planner_config(args):
         except ValueError as exc:
             raise UsageError(f"--solver: {exc}") from None
     cfg = cfg.with_overrides(sample_time_s=args.sample_time, horizon=args.horizon, solver=solver)
-    return with_settings(cfg, getattr(args, "planner_set", None) or [])
+    cfg = with_settings(cfg, getattr(args, "planner_set", None) or [])
+    # the same bounds for a value given with --set (the dataclass refuses only the impossible)
+    if cfg.horizon > MAX_HORIZON:
+        raise UsageError(f"--set horizon must be at most {MAX_HORIZON}, got {cfg.horizon} (as --horizon)")
+    if cfg.sample_time_s < MIN_SAMPLE_TIME_S:
+        raise UsageError(f"--set sample_time_s must be at least {MIN_SAMPLE_TIME_S} s, got {cfg.sample_time_s} "
+                         f"(as --sample-time)")
+    return cfg
 
 
 RUN_ADAPTED = ("max_walls", "crowd_moving")

@@ -17,6 +17,8 @@ __all__ = [
     "ObstacleForecast",
     "ControlDecision",
     "Policy",
+    "ProtocolError",
+    "checked_decision",
 ]
 
 
@@ -111,3 +113,19 @@ class Policy(Protocol):
     def reset(self) -> None: ...
 
     def decide(self, observation: Observation) -> ControlDecision: ...
+
+
+class ProtocolError(TypeError):
+    """A controller that does not answer the :class:`Policy` protocol at run time: its
+    ``decide()`` returned something other than a :class:`ControlDecision`."""
+
+
+def checked_decision(decision, policy) -> ControlDecision:
+    """``decision``, which ``policy.decide()`` returned, if it is a :class:`ControlDecision`;
+    else a :class:`ProtocolError` naming the class (a tuple failed later, as an
+    ``AttributeError`` deep in the simulator)."""
+    if not isinstance(decision, ControlDecision):
+        cls = type(policy)
+        raise ProtocolError(f"{cls.__module__}.{cls.__qualname__}.decide() returned a {type(decision).__name__}, not "
+                            f"a casadi_gpc.ControlDecision (the Policy protocol)")
+    return decision

@@ -63,9 +63,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     from scenarios import ScenarioError
+    from casadi_gpc.types import ProtocolError
     try:
         return int(args._run(args) or 0)
-    except (UsageError, ScenarioError) as exc:
+    except (UsageError, ScenarioError, ProtocolError) as exc:
         print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -192,6 +192,7 @@ class NavigationEnv(Env):
         if scenario is not None:
             from scenarios import load_scenario
             self._file_scenario = load_scenario(scenario)
+            self._check_duration(self._file_scenario)
         else:
             from scenarios import Suite
             if count is not None and count < 1:
@@ -215,6 +216,14 @@ class NavigationEnv(Env):
         where its scenario has walls."""
 
     # --- episodes ----------------------------------------------------------------------
+    def _check_duration(self, scenario) -> None:
+        """Refuse a scenario whose episode would end before its first step (the first
+        ``step()`` then said "call reset() first" just after ``reset()``)."""
+        if scenario.duration_s < self.sample_time_s:
+            raise ValueError(f"{scenario.source or scenario.name}: duration_s {scenario.duration_s:g} s is shorter than "
+                             f"one step of the environment ({self.sample_time_s:g} s): an episode would end before its "
+                             f"first step")
+
     def _next_scenario(self, options: dict | None):
         if self._file_scenario is not None:
             return self._file_scenario.with_seed(int(self.np_random.integers(0, 2 ** 31 - 1)))
@@ -274,6 +283,7 @@ class NavigationEnv(Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         scenario = self._next_scenario(options)
+        self._check_duration(scenario)
         self.episode = Episode(scenario, self.sample_time_s, self.expert_name or "gym")
         self._bank = TrackBank(self.sample_time_s, EKFSettings().for_sample_time(self.sample_time_s))
         self._s_m = 0.0

@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .loader import LARGEST
+
 __all__ = ["Recording", "RecordingError", "read_recording", "seconds_per_frame", "SHIPPED", "shipped_recording",
            "MAX_GAP_S"]
 
@@ -108,6 +110,9 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
             raise RecordingError(f"{path}: line {n}: not a number in {line.strip()!r}") from None
         if not all(math.isfinite(v) for v in values):
             raise RecordingError(f"{path}: line {n}: numbers must be finite, got {line.strip()!r}")
+        if max(abs(v) for v in values) > LARGEST:  # the scenario files' bound: a case could not be written
+            raise RecordingError(f"{path}: line {n}: numbers must be at most {LARGEST:g} in magnitude, got "
+                                 f"{line.strip()!r}")
         if values[0] < 0:
             raise RecordingError(f"{path}: line {n}: the frame must not be negative, got {parts[0]}")
         rows.append(values)

@@ -16,7 +16,7 @@ import numpy as np
 from .movers import MoverWorld
 from casadi_gpc.geometry import segments_cross
 from casadi_gpc.robot import RobotState, brake_wheels, robot_step
-from casadi_gpc.types import ControlDecision, ObstacleMeasurement, Observation, Policy
+from casadi_gpc.types import ControlDecision, ObstacleMeasurement, Observation, Policy, checked_decision
 
 __all__ = ["RunLog", "Episode", "simulate", "GOAL_TOLERANCE_M", "SUBSTEPS"]
 
@@ -276,7 +276,7 @@ def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
     while not episode.done:
         obs = episode.observation()
         t0 = time.perf_counter()
-        decision = controller.decide(obs)
+        decision = checked_decision(controller.decide(obs), controller)
         episode.step(decision, time.perf_counter() - t0)
     log = episode.log
     for name, value in getattr(controller, "counters", {}).items():

@@ -189,3 +189,15 @@ def test_an_output_that_is_the_scenario_file_is_refused_and_the_file_kept(comman
                               env={**os.environ, "PYTHONPATH": str(REPO)})
         assert proc.returncode == 2 and "is one of the scenario files" in proc.stderr, proc.stderr
         assert md.read_text() == SCENE.read_text()
+
+
+def test_bench_on_a_scene_shorter_than_one_sample_is_refused_before_any_work(tmp_path):
+    """It recorded no problem and stopped on a division by zero after building every solver."""
+    short = tmp_path / "short.toml"
+    short.write_text(SCENE.read_text().replace("duration_s = ", "duration_s = 0.1 #", 1))
+    proc = subprocess.run([sys.executable, "-m", "gpcnav", "bench", str(short), "--solvers", "sqpmethod-daqp+fatrop",
+                           "--out", str(tmp_path / "B.json")], capture_output=True, text=True, timeout=120,
+                          cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "shorter than one sample" in lines[0] and not (tmp_path / "B.json").exists()

@@ -47,6 +47,10 @@ USER_MODULE = textwrap.dedent('''
     class NeedsArguments:
         def __init__(self, gain):
             self.gain = gain
+
+    class ReturnsTuple(MyPolicy):
+        def decide(self, observation):
+            return (0.1, 0.1)
 ''')
 
 
@@ -147,6 +151,20 @@ def test_a_controller_that_cannot_be_loaded_exits_2_with_one_line(outside, name,
     assert r.returncode == 2, r.stderr
     assert message in r.stderr and "Traceback" not in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and r.stdout == ""
+
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "empty.toml", "--controller", "mymod:ReturnsTuple"],
+    ["simulate", "empty.toml", "--controller", "mymod:ReturnsTuple", "--shield"],
+    ["evaluate", "empty.toml", "empty.toml", "--controller", "mymod:ReturnsTuple", "--workers", "2"],
+    ["compare", "empty.toml", "--controllers", "stand,mymod:ReturnsTuple", "--workers", "1"],
+])
+def test_a_decide_that_does_not_return_a_control_decision_exits_2_with_one_line(outside, argv):
+    """It failed as an AttributeError deep in the simulator (or the check layer), exit 1."""
+    r = _cli(outside, *argv, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip() == (f"gpcnav {argv[0]}: error: mymod.ReturnsTuple.decide() returned a tuple, not a "
+                                f"casadi_gpc.ControlDecision (the Policy protocol)")
 
 
 def test_the_readme_s_example_policy_runs_bare_and_behind_the_shield(tmp_path):

@@ -168,3 +168,14 @@ def test_walls_give_the_expert_wall_slots_and_count_in_the_clearance(tmp_path):
     plain = NavigationEnv(scenario=_file(tmp_path / "plain"), expert="mppi")
     _, info = plain.reset(seed=0)
     assert plain.expert.config.max_walls == 0 and info["clearance_m"] == math.inf
+
+
+def test_a_scenario_that_ends_before_the_first_step_is_refused_when_made(tmp_path):
+    """Its reset() said the episode had timed out and the first step() then asked for a
+    reset: any training loop stopped there."""
+    with pytest.raises(ValueError, match="shorter than one step of the environment"):
+        NavigationEnv(scenario=_file(tmp_path, duration=0.1))
+    env = NavigationEnv(scenario=_file(tmp_path, duration=0.5))  # one step: it can be taken
+    env.reset(seed=0)
+    *_, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))
+    assert truncated and not terminated and info["outcome"] == "timed_out"

@@ -198,7 +198,8 @@ def test_import_tracks_writes_the_protocols_cases_as_scenario_files(tmp_path, ca
 
 def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
     cases = {"three columns": "0 1 2.0\n", "text": "0 1 a 2\n", "non-finite": "0 1 nan 2\n",
-             "twice at a frame": "0 1 1 1\n0 1 2 2\n", "empty": "\n"}
+             "twice at a frame": "0 1 1 1\n0 1 2 2\n", "empty": "\n",
+             "too large": "0 1 1e300 1.0\n10 1 -1e300 2.0\n"}  # numpy overflow warnings came before the line
     for name, text in cases.items():
         f = tmp_path / f"{name.replace(' ', '_')}.txt"
         f.write_text(text)

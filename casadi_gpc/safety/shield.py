@@ -30,7 +30,7 @@ import numpy as np
 from ..estimation.ekf import EKFSettings
 from ..robot import RobotParams
 from ..estimation.tracking import TrackBank
-from ..types import ControlDecision, Observation
+from ..types import ControlDecision, Observation, checked_decision
 from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
@@ -186,7 +186,7 @@ class Shield:
         and this layer's own filters' updates and forecasts for a controller without
         forecasts) and ``forecast_time_s`` (the controller's forecasts, made here when its
         decision had not read them)."""
-        dec = self.policy.decide(obs)
+        dec = checked_decision(self.policy.decide(obs), self.policy)
         t_forecasts = time.perf_counter()
         if self._bank is None and dec.forecasts:
             # a controller's forecasts are its estimation's, made when first read by some

@@ -368,6 +368,9 @@ def run_bench(scenario, config: PlannerConfig, solvers: Sequence[str] = SOLVER_N
     say(f"recording the control problems of {scenario.name} (preset {config.name}, H={config.horizon}, "
         f"T={config.sample_time_s} s)")
     recording = record_problems(scenario, config)
+    if not recording.problems:
+        raise ValueError(f"{scenario.name}: the run posed the planner no problem ({len(recording.log.compute_time_s)} "
+                         f"decisions): nothing to time")
     from casadi_gpc.problem.cost import build_problem
     # every NLP a recorded problem was posed on (the crowd's too, where the run had more movers
     # than the preset's slots), each solver built on each

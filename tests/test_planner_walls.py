@@ -179,3 +179,61 @@ def test_a_robot_that_starts_against_a_wall_moves_off_at_once():
         moved = next(k for k in range(1, len(xy)) if np.hypot(*(xy[k] - xy[0])) > 0.05)
         assert log.outcome == "reached_goal" and moved <= 3, (heading, moved)
         assert len(log.decisions) <= 48, (heading, len(log.decisions))  # stood for 10-15 s before: 51-63
+
+
+def _scene_at(dx: float, dy: float) -> str:
+    """A corridor with a person coming the other way and a pillar, everything moved by (dx, dy)."""
+    return f"""
+name = "far_{int(dx)}"
+duration_s = 20.0
+[robot]
+position = [{dx}, {dy}]
+heading_deg = 0.0
+[reference]
+position = [{dx}, {dy}]
+heading_deg = 0.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 5.0
+[[moving_obstacles]]
+position = [{dx + 5.0}, {dy + 0.3}]
+heading_deg = 180.0
+speed_mps = 0.3
+radius_m = 0.3
+[[static_obstacles]]
+position = [{dx + 2.5}, {dy - 0.9}]
+radius_m = 0.2
+[[walls]]
+points = [[{dx - 2.0}, {dy + 1.25}], [{dx + 8.0}, {dy + 1.25}]]
+[[walls]]
+points = [[{dx - 2.0}, {dy - 1.25}], [{dx + 8.0}, {dy - 1.25}]]
+[sensing]
+position_noise_std_m = 0.0
+"""
+
+
+def test_a_scene_far_from_the_map_s_origin_is_planned_as_at_it():
+    """In map coordinates of a few thousand kilometres (UTM's 5e6 m) the NLP read positions of
+    that size: its SQP failed starts, the decisions took three times as long (twenty times at
+    1e8 m). It is posed in a frame near the robot now (casadi_gpc.problem.cost.frame_origin): the
+    same scene gives the same path, moved, to within the positions' rounding, and no more solves."""
+    from casadi_gpc.planner.gpc import GPCController
+    from casadi_gpc.problem.cost import frame_origin, to_world
+    from scenarios.simulator import simulate
+    assert not frame_origin(np.array([499.0, -499.0])).any() and list(frame_origin([5e6 + 12.0, -3e6])) == [5e6, -3e6]
+    poses = np.array([[1.0, 2.0, 0.3]])
+    assert to_world(poses, np.array([3.0, 4.0])) is poses  # near the origin: the same array, bit for bit
+    runs = {}
+    for dx, dy in ((0.0, 0.0), (5e6, 4e6), (1e8, -1e8)):
+        sc = scenario_from_dict(tomllib.loads(_scene_at(dx, dy)), "t")
+        cfg = for_run(CFG, [sc])
+        ctl = GPCController(cfg, sc.robot)
+        log = simulate(sc, ctl)
+        xy = np.array([s[:2] for s in log.states]) - (dx, dy)
+        runs[dx] = (log.outcome, xy, ctl.counters.get("backup_solves", 0), ctl.counters.get("fallbacks", 0))
+    outcome, xy, backups, fallbacks = runs[0.0]
+    assert outcome == "reached_goal"
+    for dx in (5e6, 1e8):
+        o, far_xy, b, f = runs[dx]
+        assert (o, b, f) == (outcome, backups, fallbacks)
+        assert len(far_xy) == len(xy) and np.max(np.abs(far_xy - xy)) < 1e-6 * max(1.0, dx / 1e8)

@@ -12,7 +12,7 @@ import numpy as np
 from .candidates import CandidateSet
 from ..config import PlannerConfig, preset
 from ..geometry import walls_reach_m
-from ..problem.cost import GPCProblem
+from ..problem.cost import GPCProblem, to_world
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
 from .guesses import TIE_ORDER
@@ -301,7 +301,7 @@ class GPCController(MultiStart):
             return self._fallback(obs, "all solves failed: " + ", ".join(statuses), forecasts)
         self._warm = best
         self._rollout(best.u, p)
-        poses, wheels = self._rollout.output(0), self._rollout.output(1)
+        poses, wheels = to_world(self._rollout.output(0), x0), self._rollout.output(1)
         self._last_wheels = wheels
         self._path_xy = poses[:, :2]
         return ControlDecision(

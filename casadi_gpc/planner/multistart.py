@@ -12,6 +12,7 @@ import numpy as np
 
 from .candidates import fell_off_a_ridge, shift
 from .guesses import TIE_ORDER, fitted_guesses, initial_guesses, plan_meets_walls, swerve_guesses
+from ..problem.cost import to_world
 from ..solvers import SolveResult
 
 __all__ = ["MultiStart", "Plan", "TIE_RELATIVE"]
@@ -169,7 +170,7 @@ class MultiStart:
         as they are if none fits and ``keep_one`` (nothing else to start from)."""
         if names is not None and not names:
             return []
-        ref_poses = np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3)  # steps 1..H
+        ref_poses = to_world(np.asarray(p[self._ref_slice]).reshape(self.config.horizon, 3), x0)  # steps 1..H
         guesses = initial_guesses(self.problem, x0, ref_speed_mps, ref_poses, names)
         if self._walls_in_slots:
             fitted, narrowed = fitted_guesses(self.problem, x0, ref_speed_mps, ref_poses, guesses, self._walls_in_slots)

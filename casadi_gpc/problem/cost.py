@@ -33,9 +33,36 @@ from ..robot import RobotParams, robot_step
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["ParameterLayout", "GPCProblem", "build_problem", "parameter_blocks", "effort_cost", "state_cost", "rollout_states",
-           "FAR_AWAY_M", "beyond_horizon_cost", "margin_terms", "layout_of"]
+           "FAR_AWAY_M", "beyond_horizon_cost", "margin_terms", "layout_of", "FRAME_TILE_M", "frame_origin",
+           "to_world"]
 
 FAR_AWAY_M = 1.0e4  # where unused obstacle slots are parked
+
+FRAME_TILE_M = 1000.0
+"""The NLP is posed in a frame whose origin is the robot's position rounded to this: within
+500 m of the map's origin (every suite and recording here) the map's own frame, bit for bit.
+Far from it (a map in UTM coordinates, 5e6 m) the positions the NLP reads stay within a
+kilometre: there the SQP failed starts and its decisions took three times as long, and at
+1e8 m twenty times (p95 10 times; the same plan)."""
+
+
+def frame_origin(x0) -> np.ndarray:
+    """The origin of the NLP's frame for a robot at ``x0`` (x, y, ...): its position rounded to
+    :data:`FRAME_TILE_M` (zero near the map's origin). :meth:`ParameterLayout.pack` subtracts
+    it from every position it packs; :func:`to_world` adds it back to the poses the NLP's
+    functions give."""
+    return np.round(np.asarray(x0[:2], dtype=float) / FRAME_TILE_M) * FRAME_TILE_M
+
+
+def to_world(poses, x0) -> np.ndarray:
+    """``poses`` (rows x, y, heading) of the NLP's frame for a robot at ``x0``, in the map's
+    frame (the same array where the frames are one)."""
+    o = frame_origin(x0)
+    if not o.any():
+        return poses
+    out = np.array(poses, dtype=float)
+    out[:, :2] += o
+    return out
 
 
 @dataclass(frozen=True)
@@ -118,12 +145,21 @@ class ParameterLayout:
         them (None: the layout's own, :attr:`margin`). ``sigma_cap_m``: the movers' standard
         deviations that inflate the margin taken at most this (None: their own).
         ``directional``: this tick's margin takes each mover's deviation along the line from it
-        to the robot (a layout with :attr:`directional`; else its worst, ``mov_sigma``)."""
+        to the robot (a layout with :attr:`directional`; else its worst, ``mov_sigma``).
+        Positions are given in the map's frame and packed in the NLP's, whose origin is
+        :func:`frame_origin` of ``x0`` (the map's own near its origin)."""
         H, M, S = self.horizon, self.max_moving, self.max_static
         if len(forecasts) > M or len(statics) > S:
             raise ValueError(f"at most {M} moving and {S} static obstacles fit this NLP")
         p = self._empty.copy()  # every slot parked far away and off (numpy's per-call cost is what counts here)
         sl = self._slices
+        o = frame_origin(x0)
+        far = bool(o.any())  # positions in the frame of frame_origin (near the map's origin, as they are)
+        if far:
+            x0 = np.array(x0, dtype=float)
+            x0[:2] -= o
+            ref = np.array(ref, dtype=float)
+            ref[:, :2] -= o
         p[sl["x0"]] = x0
         p[sl["ref"]] = np.asarray(ref, dtype=float).reshape(-1)
         p[sl["ref_w"]] = 1.0 if ref_weights is None else np.asarray(ref_weights, dtype=float)
@@ -131,6 +167,8 @@ class ParameterLayout:
         if n:  # all forecasts at once, written into the slots' views of p
             covs = np.array([f.covs_m2 for f in forecasts], dtype=float)      # (n, H, 2, 2)
             p[sl["mov_xy"]].reshape(M, H, 2)[:n] = [f.means_m for f in forecasts]
+            if far:
+                p[sl["mov_xy"]].reshape(M, H, 2)[:n] -= o
             p[sl["mov_p"]].reshape(M, H)[:n] = 1.0 + (covs[..., 0, 0] + covs[..., 1, 1]) / uncertainty_scale_m ** 2
             sigma = worst_std_m(covs)
             p[sl["mov_sigma"]].reshape(M, H)[:n] = sigma if sigma_cap_m is None else np.minimum(sigma, sigma_cap_m)
@@ -145,13 +183,14 @@ class ParameterLayout:
         if statics:
             sta_xy, sta_r, sta_on = p[sl["sta_xy"]], p[sl["sta_r"]], p[sl["sta_on"]]
             for j, st in enumerate(statics):
-                sta_xy[2 * j:2 * j + 2] = st.position_m
+                sta_xy[2 * j:2 * j + 2] = np.asarray(st.position_m, dtype=float) - o if far else st.position_m
                 sta_r[j] = st.radius_m
                 sta_on[j] = 1.0
         if len(walls):
             if len(walls) > self.max_walls:
                 raise ValueError(f"at most {self.max_walls} wall segments fit this NLP")
-            p[sl["wall_ab"]][:4 * len(walls)] = np.asarray(walls, dtype=float).reshape(-1)
+            ab = np.asarray(walls, dtype=float).reshape(-1, 2)
+            p[sl["wall_ab"]][:4 * len(walls)] = (ab - o if far else ab).reshape(-1)
             p[sl["wall_on"]][:len(walls)] = 1.0
         if margin is not None:
             if self.margin is None:

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig, preset
-from casadi_gpc.problem.cost import build_problem
+from casadi_gpc.problem.cost import build_problem, to_world
 from casadi_gpc.progress import ReferenceClock
 from casadi_gpc.robot import RobotParams
 from casadi_gpc.problem.selection import planner_parameters
@@ -190,6 +190,7 @@ class MPPIPeer:
             wheels.append(np.clip(wheels[-1] + increment, -vmax, vmax))
         applied = np.diff(np.asarray(wheels), axis=0).reshape(-1)
         poses, planned = (np.asarray(a) for a in self.problem.rollout_fn(applied, self._p))
+        poses = to_world(poses, self._x0)  # the NLP's frame (casadi_gpc.problem.cost.frame_origin) to the map's
         cost = float(self.problem.cost_fn(applied, self._p))
         self._path_xy = poses[:, :2]
         return ControlDecision(float(planned[0, 0]), float(planned[0, 1]), reason="mppi",

@@ -38,7 +38,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from casadi_gpc.config import PlannerConfig
-from casadi_gpc.problem.cost import layout_of
+from casadi_gpc.problem.cost import layout_of, to_world
 from casadi_gpc.robot import RobotParams
 from casadi_gpc.geometry import walls_reach_m
 from casadi_gpc.problem.selection import near_walls, pack_selection, select_obstacles, select_walls
@@ -409,7 +409,7 @@ class Labeller:
         for c in candidates:
             if not c.success:
                 continue
-            poses = np.asarray(ctl.problem.rollout_fn(c.u, p)[0])
+            poses = to_world(np.asarray(ctl.problem.rollout_fn(c.u, p)[0]), x0)
             side = passing_side(poses, obstacle, headings)
             if side not in best or c.cost < best[side].cost:
                 best[side] = c

@@ -134,7 +134,7 @@ def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
     r.table(data, "", _TOP_KEYS, {"name", "duration_s", "robot", "reference"})
     name = data["name"]
     if not isinstance(name, str) or not _NAME.match(name):
-        r.fail("name", "must be a string of letters, digits, '_' and '-'")
+        r.fail("name", "must be a string of ASCII letters, digits, '_' and '-' (it names files and episodes)")
     description = data.get("description", "")
     if not isinstance(description, str):
         r.fail("description", "must be a string")

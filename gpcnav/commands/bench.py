@@ -119,7 +119,8 @@ def run(args) -> int:
     if not _solver_names():
         raise UsageError("bench times the GPC beside the network: it needs CasADi (pip install -e .), which this "
                          "Python cannot import")
-    from gpcnav.benchmarks.solvers import bench_figure, format_table, run_bench
+    from gpcnav.benchmarks.bench_report import bench_figure, format_table
+    from gpcnav.benchmarks.solvers import run_bench
     from scenarios import PAPER_DIR, Suite, load_scenario
 
     from casadi_gpc.io import save_figure, write_json

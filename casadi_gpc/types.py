@@ -43,8 +43,11 @@ class Observation:
     """Everything a controller is told at one sample instant.
 
     Raises ``ValueError`` when the time or the robot's own state is not finite: no
-    controller can answer that safely. A missing or non-finite obstacle *measurement* is a
-    sensor fault, not an error: the obstacle filters skip it and count it.
+    controller can answer that safely; and when an obstacle's size, or a static obstacle's
+    place, is not a finite number (a radius not negative): no controller can keep clear of an
+    obstacle of no known size, and the planner's solves all failed on one, braking for good. A
+    missing or non-finite obstacle *position measurement* is a sensor fault, not an error: the
+    obstacle filters skip it and count it.
     """
 
     t_s: float
@@ -63,6 +66,27 @@ class Observation:
         if not (math.isfinite(self.t_s) and math.isfinite(r.x_m) and math.isfinite(r.y_m)
                 and math.isfinite(r.heading_rad) and math.isfinite(r.v_right_mps) and math.isfinite(r.v_left_mps)):
             raise ValueError(f"observation at t={self.t_s} s has a non-finite time or robot state: {r}")
+        for m in self.moving:
+            if not (m.radius_m >= 0 and math.isfinite(m.radius_m)):
+                raise ValueError(f"observation at t={self.t_s} s: moving obstacle {m.obstacle_id} has radius "
+                                 f"{m.radius_m!r} (a finite number, not negative)")
+        for j, st in enumerate(self.static):
+            x, y = st.position_m
+            if not (st.radius_m >= 0 and math.isfinite(st.radius_m) and math.isfinite(x) and math.isfinite(y)):
+                raise ValueError(f"observation at t={self.t_s} s: static obstacle {j} at {st.position_m!r} with radius "
+                                 f"{st.radius_m!r} (finite numbers, the radius not negative)")
+
+    def with_wheels_within(self, max_wheel_speed_mps: float) -> "Observation | None":
+        """This observation with the robot's wheel speeds held to ``max_wheel_speed_mps``
+        where one reports more (a glitching encoder: the planner's every solve failed from a
+        state its limits forbid, and its brake ramped down from 5 m/s); None where both are
+        within it (float noise of 1e-9 m/s aside)."""
+        r, v = self.robot, float(max_wheel_speed_mps)
+        if abs(r.v_right_mps) <= v + 1e-9 and abs(r.v_left_mps) <= v + 1e-9:
+            return None
+        from dataclasses import replace
+        held = replace(r, v_right_mps=min(max(r.v_right_mps, -v), v), v_left_mps=min(max(r.v_left_mps, -v), v))
+        return replace(self, robot=held)
 
 
 @dataclass(frozen=True)

@@ -169,6 +169,52 @@ def test_observation_refuses_a_non_finite_time_or_robot_state(which, bad):
         Observation(vals["t"], RobotState(vals["x"], vals["y"], vals["h"], vals["vr"], vals["vl"]), ref)
 
 
+@examples(30)
+@given(st.sampled_from(["moving radius", "static radius", "static x", "static y"]),
+       st.sampled_from([math.nan, math.inf, -math.inf, -0.3]))
+def test_observation_refuses_an_obstacle_of_no_known_size_or_place(which, bad):
+    """A NaN radius or a NaN static obstacle had the planner fail every solve and brake for
+    good; a negative radius passed silently. A position measurement that is not finite stays
+    a sensor fault (skipped and counted by the filters), not an error."""
+    from casadi_gpc.types import ObstacleMeasurement, StaticObstacle
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(5.0),), 0.4)
+    robot = RobotState(0.0, 0.0, 0.0, 0.1, 0.1)
+    mover = ObstacleMeasurement(1, (3.0, 0.0), bad if which == "moving radius" else 0.3)
+    static = StaticObstacle((bad if which == "static x" else 2.0, bad if which == "static y" else 1.0),
+                            bad if which == "static radius" else 0.3)
+    if which == "static x" and bad == -0.3 or which == "static y" and bad == -0.3:
+        Observation(1.0, robot, ref, (mover,), (static,))  # a negative coordinate is a place like any
+        return
+    with pytest.raises(ValueError, match="obstacle"):
+        Observation(1.0, robot, ref, (mover,), (static,))
+    Observation(1.0, robot, ref, (ObstacleMeasurement(1, (math.nan, 0.0), 0.3),))  # a sensor fault: no error
+
+
+def test_wheel_speeds_reported_beyond_the_limits_are_held_to_them_and_counted():
+    """A glitching encoder (5 m/s on a 0.8 m/s robot): the planner's every solve failed from a
+    state its limits forbid and its brake commanded 4.6 m/s. Now the planner and the check layer
+    start from the limits, and count it; the command is within them."""
+    from casadi_gpc.config import preset
+    from gpcnav.controllers import ControllerSpec, make
+    from casadi_gpc.planner.gpc import GPCController
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(12.0),), 0.4)
+    glitch = Observation(0.0, RobotState(0.0, 0.0, 0.0, 5.0, -5.0), ref)
+    held = glitch.with_wheels_within(VMAX)
+    assert (held.robot.v_right_mps, held.robot.v_left_mps) == (VMAX, -VMAX)
+    assert Observation(0.0, RobotState(0.0, 0.0, 0.0, VMAX, -VMAX), ref).with_wheels_within(VMAX) is None
+    bare = GPCController(preset("improved"), ROBOT)
+    bare.reset()
+    d = bare.decide(glitch)
+    assert not d.fallback and abs(d.v_right_mps) <= VMAX and abs(d.v_left_mps) <= VMAX
+    assert bare.counters["wheel_state_held"] == 1
+    for name in ("gpc", "nn"):
+        ctl = make(ControllerSpec(name), preset("improved"), ROBOT)
+        ctl.reset()
+        d = ctl.decide(glitch)
+        assert abs(d.v_right_mps) <= VMAX and abs(d.v_left_mps) <= VMAX, name
+        assert ctl.counters["shield_wheel_state_held"] == 1, name
+
+
 # --- the safety filter -------------------------------------------------------------------------
 def assert_within_limits(cmd, v0, T):
     dv = ROBOT.max_step_change_mps(T)

@@ -289,6 +289,10 @@ class GPCController(MultiStart):
         return self.plan(tick.p, tick.x0, tick.ref_speed_mps, tick.near, self._warm)
 
     def _decide(self, obs: Observation) -> ControlDecision:
+        held = obs.with_wheels_within(self.robot.max_wheel_speed_mps)
+        if held is not None:  # planned from the wheels' limits, counted
+            obs = held
+            self.counters["wheel_state_held"] = self.counters.get("wheel_state_held", 0) + 1
         forecasts = self.estimate(obs)
         tick, sel = self.pose(obs, forecasts)
         p, x0 = tick.p, tick.x0

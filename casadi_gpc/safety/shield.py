@@ -186,6 +186,10 @@ class Shield:
         and this layer's own filters' updates and forecasts for a controller without
         forecasts) and ``forecast_time_s`` (the controller's forecasts, made here when its
         decision had not read them)."""
+        held = obs.with_wheels_within(self.robot.max_wheel_speed_mps)
+        if held is not None:  # the controller and the check start from the wheels' limits, counted
+            obs = held
+            self.filter.counters["wheel_state_held"] = self.filter.counters.get("wheel_state_held", 0) + 1
         dec = checked_decision(self.policy.decide(obs), self.policy)
         t_forecasts = time.perf_counter()
         if self._bank is None and dec.forecasts:

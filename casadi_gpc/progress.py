@@ -33,12 +33,14 @@ class ReferenceClock:
     _proj_m: float = 0.0
     _stalled_s: float = 0.0
     _extra_lead_m: float = 0.0
+    _started: bool = False
 
     def reset(self) -> None:
         self.s_m = 0.0
         self._proj_m = 0.0
         self._stalled_s = 0.0
         self._extra_lead_m = 0.0
+        self._started = False
 
     def update(self, path: ReferencePath, t_s: float, robot_xy) -> float:
         """The reference arc length for the sample at ``t_s`` (call once per sample)."""
@@ -52,6 +54,10 @@ class ReferenceClock:
         if self.max_lead_m is None:
             self.s_m = nominal
             return self.s_m
+        if not self._started:
+            self._started = True
+            if t_s > 0.0:
+                return self._join(path, nominal, robot_xy)
         previous = self._proj_m
         self._proj_m = path.project(robot_xy, self._proj_m, window_m=1.0)
         if t_s <= 0.0:
@@ -68,6 +74,19 @@ class ReferenceClock:
             self._extra_lead_m = max(0.0, self._extra_lead_m - step)
         lead = self.max_lead_m + self._extra_lead_m
         self.s_m = min(self.s_m + step, max(self.s_m, self._proj_m + lead), nominal)
+        return self.s_m
+
+    def _join(self, path: ReferencePath, nominal: float, robot_xy) -> float:
+        """The first sample after a reset comes at ``t_s`` > 0 (a robot's own clock, a
+        controller started part-way): the robot's projection is searched along the whole path
+        the paper's point has covered (to 2 cm, then refined), and the point put ``max_lead_m``
+        ahead of it, no further than the paper's. It started at the path's start and searched
+        within 1 m of it: a robot at the path's end at t = 31 s reversed away from its goal, and
+        one on schedule 6 m along stopped."""
+        half = 0.5 * nominal
+        coarse = path.project(robot_xy, half, window_m=half, samples=max(81, int(nominal / 0.02) + 1))
+        self._proj_m = path.project(robot_xy, coarse, window_m=0.05)
+        self.s_m = min(self._proj_m + self.max_lead_m, nominal)
         return self.s_m
 
     def horizon_arclengths(self, path: ReferencePath, horizon: int) -> np.ndarray:

@@ -151,3 +151,27 @@ def test_the_compiled_projection_on_a_line_is_the_numpy_one_bit_for_bit():
         compiled += not math.isnan(_project_on_line(xy[0], xy[1], s_guess, window, samples, p._length,
                                                     *p.__dict__["_line_arrays"]))
     assert 1000 < compiled < 6000  # both ways taken
+
+
+def test_a_clock_started_part_way_joins_the_robot_where_it_is_on_the_path():
+    """The improved clock's first sample after a reset at t > 0 (a robot's own clock): it began
+    at the path's start and searched 1 m around it, so a robot at the end at t = 31 s was told to
+    reverse towards the start, and one on schedule 6 m along was told to stop. A clock started
+    at t = 0, the simulator's, goes as before."""
+    from casadi_gpc.progress import ReferenceClock
+    path = ReferencePath((0.0, 0.0), 0.0, (Segment.line(4.0), Segment.arc(2.0, math.radians(90.0)),
+                                           Segment.line(6.0)), 0.4)
+    for t, s_true in ((15.0, 6.0), (31.0, path.length_m), (1e5, path.length_m), (8.0, 3.2)):
+        clock = ReferenceClock(0.5, max_lead_m=0.5)
+        x, y, _ = path.pose_at_arclength(np.array([s_true]))[0]
+        s = clock.update(path, t, (x, y))
+        assert s == pytest.approx(min(s_true + 0.5, 0.4 * t, path.length_m), abs=0.02), t
+        # and on from there as a clock that had run all along
+        clock.update(path, t + 0.5, (x, y))
+        assert clock.s_m >= s - 1e-12
+    a, b = ReferenceClock(0.5, max_lead_m=0.5), ReferenceClock(0.5, max_lead_m=0.5)
+    b.update(path, 20.0, (8.0, 8.0))
+    b.reset()
+    for k in range(30):  # reset, then from t = 0: the same numbers as a fresh clock
+        xy = (0.3 * k * 0.5, 0.01 * k)
+        assert a.update(path, k * 0.5, xy) == b.update(path, k * 0.5, xy)

@@ -56,6 +56,9 @@ CASES = [
     (["bench", "--plot", "{tmp}/out/b.toml"], "matplotlib does not write .toml figures"),
     (["simulate", SCENE, "--animate", "{tmp}/out/a.mp4"], "an animation is written as a GIF"),
     (["simulate", SCENE, "--out", "{tmp}/out/r.json", "--plot", "{tmp}/out/r.json"], "one file for two outputs"),
+    # found only after the work, as tracebacks
+    (["train", "{tmp}/no-data", "--out", "/proc/mm", "--preset", "paper"], "--out /proc/mm: cannot write files"),
+    (["export", "{tmp}/no-model", "--out", "/proc/x.onnx"], "--out /proc/x.onnx"),
 ]
 
 
@@ -201,3 +204,16 @@ def test_bench_on_a_scene_shorter_than_one_sample_is_refused_before_any_work(tmp
     assert proc.returncode == 2, proc.stderr[-2000:]
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "shorter than one sample" in lines[0] and not (tmp_path / "B.json").exists()
+
+
+
+def test_train_into_a_file_and_export_into_a_folder_are_refused_before_any_work(tmp_path):
+    """Both ran the whole job and then stopped with a traceback (FileExistsError, IsADirectoryError)."""
+    (tmp_path / "afile").write_text("mine")
+    (tmp_path / "adir").mkdir()
+    for argv, words in ((["train", "no-data", "--out", "afile", "--preset", "paper"], "a file, where the trained model"),
+                        (["export", "no-model", "--out", "adir"], "is a folder")):
+        proc = subprocess.run([sys.executable, "-m", "gpcnav", *argv], capture_output=True, text=True, timeout=120,
+                              cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)})
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and words in proc.stderr, proc.stderr
+    assert (tmp_path / "afile").read_text() == "mine" and not list((tmp_path / "adir").iterdir())

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
+from .common import check_output_files
 
 
 def add_arguments(p):
@@ -18,6 +19,7 @@ def add_arguments(p):
 
 
 def run(args) -> int:
+    check_output_files(out=args.out)  # a folder, or a path that cannot be written: a traceback after the work
     if not (args.model_dir / "model.json").is_file():
         raise UsageError(f"{args.model_dir}: not a trained model folder (no model.json; run `gpcnav train` first)")
     try:

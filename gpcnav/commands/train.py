@@ -9,7 +9,8 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import add_preset_arguments, check_seed, config_differences, planner_config, progress
+from .common import (add_preset_arguments, check_seed, check_writable_folder, config_differences, planner_config,
+                     progress)
 
 
 def add_arguments(p):
@@ -79,6 +80,10 @@ def run(args) -> int:
     from nn_export.training.dataset import load_dataset, read_manifest
     cfg = planner_config(args)
     check_seed(args.seed)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():  # found only after the training, as a traceback
+        raise UsageError(f"--out {out}: a file, where the trained model's folder goes")
+    check_writable_folder(out, f"--out {out}")
     if not 1 <= args.layers <= 4:
         raise UsageError(f"--layers must be from 1 to 4, got {args.layers}")
     for name, v, lo in (("--hidden", args.hidden, 1), ("--epochs", args.epochs, 1), ("--patience", args.patience, 1),

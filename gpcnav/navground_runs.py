@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -126,8 +127,10 @@ def markdown(summaries: list[BehaviourSummary]) -> str:
     rows = ["| behaviour | agent-runs | reached | collided | stuck | efficacy (mean) | time to target (mean) |",
             "|---|---|---|---|---|---|---|"]
     for s in summaries:
+        t = s.mean_time_to_target_s
+        time_cell = f"{t:.1f} s" if t == t else "- (none reached)"
         rows.append(f"| {s.behaviour} | {s.agent_runs} | {s.reached} | {s.collided} | {s.stuck} | "
-                    f"{s.mean_efficacy:.3f} | {s.mean_time_to_target_s:.1f} s |")
+                    f"{s.mean_efficacy:.3f} | {time_cell} |")
     return "\n".join(rows)
 
 
@@ -135,7 +138,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m gpcnav.navground_runs", description=__doc__.split("\n\n")[0])
     parser.add_argument("data", type=Path, help="navground's recorded data.h5")
     args = parser.parse_args(argv)
-    print(markdown(summarise(args.data)))
+    try:
+        summaries = summarise(args.data)
+    except (OSError, KeyError, ValueError) as exc:  # not there, not HDF5, not navground's layout
+        print(f"{parser.prog}: error: {args.data}: cannot read navground's recorded runs ({exc})", file=sys.stderr)
+        return 2
+    if not summaries:
+        print(f"{parser.prog}: error: {args.data}: no run recorded (an experiment that stopped before its first run)",
+              file=sys.stderr)
+        return 2
+    print(markdown(summaries))
     return 0
 
 

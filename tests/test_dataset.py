@@ -519,3 +519,25 @@ def test_damaged_manifest_is_rebuilt_from_the_shards(reference_dataset, tmp_path
     assert {n: (out / n).stat().st_mtime_ns for n in kept} == kept  # reused, not relabelled
     for s in man["shards"]:
         np.testing.assert_array_equal(read_shard(out / s)["features"], read_shard(src / s)["features"])
+
+
+def test_train_says_when_its_dataset_is_unfinished(reference_dataset, tmp_path, capsys):
+    """A dataset whose run stopped (its manifest: complete false, fewer samples than asked) was
+    trained on without a word."""
+    import json
+    from gpcnav.cli import main
+    src, _ = reference_dataset
+    out = tmp_path / "ds"
+    out.mkdir()
+    for f in src.iterdir():
+        (out / f.name).write_bytes(f.read_bytes())
+    man = json.loads((out / "manifest.json").read_text())
+    assert main(["train", str(out), "--out", str(tmp_path / "m0"), "--preset", "paper", "--epochs", "1"]) == 0
+    assert "warning" not in capsys.readouterr().err  # a finished dataset: nothing to say
+    man.update(complete=False, samples_requested=120)
+    for part in man.get("parts", {}).values():
+        part["complete"] = False
+    (out / "manifest.json").write_text(json.dumps(man))
+    assert main(["train", str(out), "--out", str(tmp_path / "m1"), "--preset", "paper", "--epochs", "1"]) == 0
+    err = capsys.readouterr().err
+    assert f"gpcnav train: warning: {out} holds 60 of the 120 samples asked" in err

@@ -232,3 +232,14 @@ def test_navground_py_run_knows_the_behaviours_through_the_entry_points(tmp_path
     assert r.returncode == 0, (r.stdout + r.stderr)[-3000:]
     [path] = list(tmp_path.glob("*/data.h5"))
     _check_recorded(path, 1)
+
+
+def test_the_runs_summary_refuses_what_is_not_navground_s_record_in_one_line(tmp_path, capsys):
+    """It ended in h5py's traceback on a missing file or one that is not HDF5."""
+    pytest.importorskip("h5py")
+    from gpcnav.navground_runs import main
+    (tmp_path / "afile").write_text("not HDF5")
+    for path in (tmp_path / "missing.h5", tmp_path / "afile"):
+        assert main([str(path)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and str(path) in err and "cannot read navground's recorded runs" in err

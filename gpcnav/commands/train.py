@@ -116,12 +116,16 @@ def run(args) -> int:
     cfg = cfg.for_walls(bool(first.layout.wall_sectors))  # a layout that reads walls was labelled with wall slots
     for d, s in zip(args.datasets, sets):
         man = s.manifest
+        if man.get("complete") is False:  # said, not silent: a stopped `dataset` resumes with its command
+            print(f"gpcnav train: warning: {d} holds {man.get('samples')} of the {man.get('samples_requested', '?')} "
+                  f"samples asked (its `gpcnav dataset` run stopped; the same command finishes it): training on "
+                  f"those", file=sys.stderr)
         if man.get("preset") != cfg.name:
             raise UsageError(f"{d}: dataset labelled under preset {man.get('preset')!r}, not --preset {cfg.name}")
         differ = config_differences(man.get("planner_config") or {}, cfg.to_dict())
         if differ:
             raise UsageError(f"{d}: dataset labelled with another planner configuration than preset {cfg.name!r} "
-                             f"({', '.join(differ)} differ)")
+                             f"({', '.join(differ)} {'differ' if len(differ) > 1 else 'differs'})")
         if args.layout is not None and s.layout.name != args.layout:
             raise UsageError(f"{d}: dataset has feature layout {s.layout.name!r}, not --layout {args.layout}")
         if s.layout != first.layout or man.get("robot") != first.manifest.get("robot"):

@@ -57,7 +57,7 @@ def read_model_metadata(session: ort.InferenceSession) -> dict:
 
 def _load_session(path: Path) -> tuple[ort.InferenceSession, bytes]:
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such model file")
+        raise FileNotFoundError(f"{path}: {'a folder, not a model file' if path.is_dir() else 'no such model file'}")
     data = path.read_bytes()
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = 1  # a 17-35-2 net gains nothing from threads, and loses to their wake-up

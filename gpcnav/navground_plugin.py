@@ -97,6 +97,9 @@ class GPCBehavior(core.Behavior, name="GPC"):
 
     @preset.setter
     def preset(self, value: str) -> None:
+        from casadi_gpc.config import PRESETS  # settings only: no solver, no network
+        if str(value) not in PRESETS:  # refused when set (navground sets it as a run makes its world)
+            raise ValueError(f"GPC behaviour: unknown preset {value!r} (choose from {', '.join(PRESETS)})")
         self._preset = str(value)
         self._controller = None
 

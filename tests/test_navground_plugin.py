@@ -243,3 +243,12 @@ def test_the_runs_summary_refuses_what_is_not_navground_s_record_in_one_line(tmp
         assert main([str(path)]) == 2
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and str(path) in err and "cannot read navground's recorded runs" in err
+
+
+def test_an_unknown_preset_is_refused_when_set():
+    """It was taken, and the behaviour failed at its first decision, inside a run."""
+    b = core.Behavior.make_type("GPC")
+    with pytest.raises(ValueError, match="unknown preset 'nonsense'"):
+        b.preset = "nonsense"
+    b.preset = "paper"
+    assert b.preset == "paper"

@@ -264,6 +264,7 @@ class PlannerConfig:
 
 
 FORECASTS = ("turn", "straight")
+"""The movers' forecast models (:attr:`PlannerConfig.forecast`)."""
 _WEIGHTS = ("xi_moving", "xi_static", "lambda1", "lambda2", "tracking_weight", "heading_weight", "clearance_penalty",
             "goal_weight")
 """The cost's weights: finite, not negative (a negative one rewards what the cost penalises)."""
@@ -276,7 +277,6 @@ _POSITIVE = ("influence_m", "multistart_period_s", "time_budget_s")
 """Settings that must be above 0 where they are set."""
 _COUNTS = ("max_moving", "max_static", "max_walls", "solve_lanes")
 """Whole numbers: slots (0 or more) and the solve lanes (1 or more)."""
-"""The movers' forecast models (:attr:`PlannerConfig.forecast`)."""
 
 WALL_SLOTS = 6
 """The wall-segment slots a planner gets where the map has walls (``max_walls``): a corner

@@ -221,7 +221,8 @@ def _dagger(args) -> int:
     config = config.for_walls(bool(layout.wall_sectors))
     differ = config_differences(man.get("planner_config") or {}, config.to_dict())
     if differ:
-        raise UsageError(f"{args.out} was labelled with other planner settings ({', '.join(differ)} {'differ' if len(differ) > 1 else 'differs'}): "
+        verb = "differ" if len(differ) > 1 else "differs"
+        raise UsageError(f"{args.out} was labelled with other planner settings ({', '.join(differ)} {verb}): "
                          f"a round appended must be labelled as the rest")
     robot = RobotParams()
     factory = _driver(args, config, robot, by_gpc)

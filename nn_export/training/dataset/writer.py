@@ -72,7 +72,8 @@ def _previous_parts(out: Path, spec: DatasetSpec, log) -> dict:
     prev = parts.get("offpolicy", {}).get("request")
     if prev is not None and prev != request:
         diff = sorted(k for k in set(prev) | set(request) if prev.get(k) != request.get(k))
-        raise DatasetMismatch(f"{out} holds a dataset made with other arguments ({', '.join(diff)} {'differ' if len(diff) > 1 else 'differs'}); "
+        verb = "differ" if len(diff) > 1 else "differs"
+        raise DatasetMismatch(f"{out} holds a dataset made with other arguments ({', '.join(diff)} {verb}); "
                               f"use another --out or the same arguments")
     return dict(parts)
 

@@ -42,10 +42,19 @@ def bench_figure(doc: dict):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    rows = [r for r in doc["results"] if r.get("time_samples_s")]
+    from matplotlib import cbook
+    rows = [r for r in doc["results"] if r.get("time_samples_s") or r.get("time_s")]
     fig, ax = plt.subplots(figsize=(max(6.0, 1.0 + 0.9 * len(rows)), 4.2))
-    data = [np.asarray(r["time_samples_s"]) * 1e3 for r in rows]
-    box = ax.boxplot(data, whis=(5, 95), showfliers=True, patch_artist=True, flierprops={"markersize": 2})
+    stats, summary_only = [], False
+    for r in rows:
+        if r.get("time_samples_s"):
+            stats += cbook.boxplot_stats(np.asarray(r["time_samples_s"]) * 1e3, whis=(5, 95))
+        else:  # a row kept as its summary (the network's bare call): the median, whisker to p95, max
+            t = {k: v * 1e3 for k, v in r["time_s"].items() if k in ("median", "p95", "max")}
+            stats.append({"med": t["median"], "q1": t["median"], "q3": t["median"], "whislo": t["median"],
+                          "whishi": t["p95"], "fliers": [t["max"]]})
+            summary_only = True
+    box = ax.bxp(stats, showfliers=True, patch_artist=True, flierprops={"markersize": 2})
     chosen = doc["chosen"]["name"]
     for patch, r in zip(box["boxes"], rows):
         patch.set_facecolor("tab:green" if r["name"] == chosen else "tab:blue" if r["kind"] == "solver"
@@ -55,7 +64,8 @@ def bench_figure(doc: dict):
     ax.set_xticks(range(1, len(rows) + 1), [r["name"] for r in rows], rotation=30, ha="right", fontsize=7)
     ax.set_ylabel("time per solve / decision (ms, log scale)")
     ax.set_title(f"{doc['scenario']}, preset {doc['preset']} (H={doc['horizon']}): {doc['problems']} problems\n"
-                 f"chosen {chosen} (green); whiskers 5-95 %", fontsize=8)
+                 f"chosen {chosen} (green); whiskers 5-95 %"
+                 + ("; a flat box: a row kept as its median, p95 and max" if summary_only else ""), fontsize=8)
     ax.grid(True, which="both", axis="y", lw=0.3, alpha=0.5)
     fig.tight_layout()
     return fig

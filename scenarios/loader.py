@@ -302,6 +302,12 @@ def _faults(r: _Reader, table) -> Faults:
     )
 
 
+def faults_from_table(table: dict, source: str) -> Faults:
+    """A ``[faults]`` table (``evaluate --faults`` as well as a file's) checked as a file's
+    is: one :class:`ScenarioError` line naming ``source`` and the field."""
+    return _faults(_Reader(source), table)
+
+
 def load_scenario(path) -> Scenario:
     """Read and validate a scenario file; raises :class:`ScenarioError` with one line."""
     path = Path(path)

@@ -270,8 +270,11 @@ def _absent_far(gaps: np.ndarray) -> np.ndarray:
 def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
     """Run one closed-loop episode of ``scenario`` with ``controller`` (reset first)."""
     controller.reset()
-    if hasattr(controller, "inject_failures"):
+    unapplied = 0
+    try:
         controller.inject_failures(scenario.faults.solver_failure_prob, np.random.default_rng([scenario.sensing.seed, 7]))
+    except AttributeError:  # no solver to fail (a network, a peer): said in the events when asked for
+        unapplied = int(scenario.faults.solver_failure_prob > 0)
     episode = Episode(scenario, controller.sample_time_s, controller_name)
     while not episode.done:
         obs = episode.observation()
@@ -279,6 +282,8 @@ def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
         decision = checked_decision(controller.decide(obs), controller)
         episode.step(decision, time.perf_counter() - t0)
     log = episode.log
+    if unapplied:
+        log.events["solver_failures_not_applied"] = 1
     for name, value in getattr(controller, "counters", {}).items():
         if isinstance(value, dict):  # a nested report (e.g. the policy's feature report): flatten it
             for sub, n in value.items():

@@ -418,3 +418,38 @@ delay_steps = 1
         assert log.fallbacks == ev["interventions"]
     else:
         assert log.fallbacks == 0 and "shield_checks" not in ev
+
+
+def test_the_check_layer_passes_solver_failures_on_and_a_network_says_it_has_no_solver():
+    """The default --controller gpc runs behind the check layer, which did not pass the fault on:
+    EVAL.json recorded solver_failure_prob 1 over a run with no failure injected."""
+    pytest.importorskip("casadi")
+    from dataclasses import replace
+    from gpcnav.controllers import ControllerSpec, make
+    from scenarios import Faults, Suite
+    from scenarios.simulator import simulate
+    sc = Suite("encounters", 1, 3).scenario(0)
+    sc = replace(sc, faults=Faults(solver_failure_prob=1.0), duration_s=6.0)
+    gpc = make(ControllerSpec("gpc"), preset("improved"), sc.robot)
+    log = simulate(sc, gpc, "gpc")
+    assert log.events["injected_failures"] == len(log.decisions) > 0 and log.fallbacks == len(log.decisions)
+    assert "solver_failures_not_applied" not in log.events
+    nn = make(ControllerSpec("nn"), preset("improved"), sc.robot)
+    assert simulate(sc, nn, "nn").events["solver_failures_not_applied"] == 1
+    assert "solver_failures_not_applied" not in simulate(replace(sc, faults=Faults()), nn, "nn").events
+
+
+@pytest.mark.parametrize("spec, words", [
+    ("dropout_prob=1.5", "faults.dropout_prob: must be at most 1.0"),
+    ("delay_steps=-1", "faults.delay_steps: must not be negative"),
+    ("outlier_distance_m=0", "faults.outlier_distance_m: must be positive"),
+    ("solver_failure_prob=nan", "faults.solver_failure_prob: must be finite"),
+    ("dropout_prob=0.1,dropout_prob=0.2", "dropout_prob given twice"),
+    ("", "--faults takes NAME=VALUE"),
+])
+def test_faults_on_the_command_line_are_checked_as_a_file_s_are(spec, words):
+    """They ran (dropout_prob=1.5, outlier_distance_m=-2), or stopped after the episodes (NaN)."""
+    from gpcnav.commands.evaluate import parse_faults
+    from gpcnav.errors import UsageError
+    with pytest.raises(UsageError, match=words.replace(".", r"\.")):
+        parse_faults(spec)

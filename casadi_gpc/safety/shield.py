@@ -180,6 +180,16 @@ class Shield:
         H = self.horizon
         return [self._bank.forecast(m, ekf, H) for m, ekf in self._bank.step(obs.moving)]
 
+    def inject_failures(self, probability: float, rng=None) -> None:
+        """The planner's solve failures (``[faults] solver_failure_prob``), passed on to the
+        controller behind this layer where it takes them (the GPC): the default ``--controller
+        gpc`` runs behind the layer, and the fault was never applied there while the documents
+        recorded it. A controller without a solver takes none (the simulator says so)."""
+        inner = getattr(self.policy, "inject_failures", None)
+        if inner is None:
+            raise AttributeError(f"{type(self.policy).__name__} has no solver whose failures can be injected")
+        inner(probability, rng)
+
     def decide(self, obs: Observation) -> ControlDecision:
         """The controller's decision, checked (see the class). Its ``info`` adds
         ``safety_time_s`` (the check's own time, the fallback's included when it steps in,

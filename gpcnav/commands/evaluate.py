@@ -164,21 +164,31 @@ def evaluate(scenarios, kind, config, model=None, workers=1, desc="episodes", sh
 
 
 def parse_faults(spec: str | None):
-    from scenarios import Faults
-    if not spec:
+    """``--faults NAME=VALUE,...`` as the ``[faults]`` table of a file, checked as one is (its
+    ranges were not: ``dropout_prob=1.5`` ran, and NaN stopped the run after its episodes)."""
+    from scenarios import Faults, ScenarioError
+    from scenarios.loader import faults_from_table
+    if spec is None:
         return None
     fields = {f for f in Faults.__dataclass_fields__}
     values = {}
     for item in spec.split(","):
-        key, _, value = item.partition("=")
+        key, eq, value = item.partition("=")
         key = key.strip()
+        if not eq or not key:
+            raise UsageError(f"--faults takes NAME=VALUE,..., got {item!r}")
         if key not in fields:
             raise UsageError(f"--faults: unknown fault {key!r} (known: {', '.join(sorted(fields))})")
+        if key in values:
+            raise UsageError(f"--faults: {key} given twice")
         try:
             values[key] = int(value) if key == "delay_steps" else float(value)
         except ValueError:
             raise UsageError(f"--faults: {key} needs a number, got {value!r}") from None
-    return Faults(**values)
+    try:
+        return faults_from_table(values, "--faults")
+    except ScenarioError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def scenarios_from_args(args) -> tuple[list, object]:

@@ -298,12 +298,23 @@ def make(spec: ControllerSpec, config, robot):
     controller = _make_base(spec, config, robot)
     if mode == "off":
         return controller
+    _check_standby(spec, controller, config)
     from casadi_gpc.safety import Shield
     settings = check_settings(spec.name, controller, config, mode)
     try:
         return Shield(controller, robot, settings, planner_config=config)
     except ImportError as exc:  # the planner on standby needs CasADi
         raise UsageError(f"--shield-fallback gpc needs the planner ({exc}); use --shield-fallback brake") from None
+
+
+def _check_standby(spec: ControllerSpec, controller, config) -> None:
+    """Refuse the planner on standby (``--shield-fallback gpc``) behind a controller that
+    decides at another rate: its plan has the planner's steps, the check the controller's, and
+    the first intervention stopped with a shape error (navground's peers decide every 0.1 s)."""
+    if spec.mode == "gpc" and not math.isclose(float(controller.sample_time_s), float(config.sample_time_s)):
+        raise UsageError(f"--shield-fallback gpc: {spec.name} decides every {float(controller.sample_time_s):g} s and the "
+                         f"planner on standby every {float(config.sample_time_s):g} s; the check needs one rate "
+                         f"(use --shield-fallback brake, or --set sample_time_s)")
 
 
 def make_controller(kind: str, config, robot, model=None, shield: str | None = None, passes: int | None = None):
@@ -324,7 +335,7 @@ def check(spec: ControllerSpec, config, robot) -> None:
     if spec.name == "nn":
         make(ControllerSpec("nn", spec.model, "off", spec.passes), config, robot)  # the model loads
     elif spec.name in PEERS + BASELINES or spec.is_user_class:
-        make(ControllerSpec(spec.name, shield="off"), config, robot)
+        _check_standby(spec, make(ControllerSpec(spec.name, shield="off"), config, robot), config)
 
 
 def check_scenarios(spec: ControllerSpec, config, scenarios) -> None:

@@ -184,3 +184,14 @@ def test_the_readme_s_example_policy_runs_bare_and_behind_the_shield(tmp_path):
         doc = json.loads((tmp_path / "run.json").read_text())
         outcomes.append((doc["outcome"], doc["shield"], doc["interventions"] > 0))
     assert outcomes == [("collided", "off", False), ("reached_goal", "on", True)]
+
+
+def test_the_planner_on_standby_behind_a_controller_of_another_rate_is_refused_before_any_work():
+    """orca (0.1 s) with --shield-fallback gpc (0.5 s) stopped at its first intervention with a
+    shape error; a controller at the planner's rate keeps the standby."""
+    with pytest.raises(UsageError, match="orca decides every 0.1 s and the planner on standby every 0.5 s"):
+        check(ControllerSpec("orca", shield="gpc"), CONFIG, RobotParams())
+    with pytest.raises(UsageError, match="the check needs one rate"):
+        make(ControllerSpec("social_force", shield="gpc"), CONFIG, RobotParams())
+    check(ControllerSpec("blind", shield="gpc"), CONFIG, RobotParams())
+    check(ControllerSpec("orca", shield="on"), CONFIG, RobotParams())

@@ -75,6 +75,8 @@ class Observation:
             if not (st.radius_m >= 0 and math.isfinite(st.radius_m) and math.isfinite(x) and math.isfinite(y)):
                 raise ValueError(f"observation at t={self.t_s} s: static obstacle {j} at {st.position_m!r} with radius "
                                  f"{st.radius_m!r} (finite numbers, the radius not negative)")
+        if len(self.walls):
+            object.__setattr__(self, "walls", _walls_as_tuples(self.walls, self.t_s))
 
     def with_wheels_within(self, max_wheel_speed_mps: float) -> "Observation | None":
         """This observation with the robot's wheel speeds held to ``max_wheel_speed_mps``
@@ -87,6 +89,31 @@ class Observation:
         from dataclasses import replace
         held = replace(r, v_right_mps=min(max(r.v_right_mps, -v), v), v_left_mps=min(max(r.v_left_mps, -v), v))
         return replace(self, robot=held)
+
+
+def _walls_as_tuples(walls, t_s: float) -> tuple:
+    """``walls`` as a tuple of polylines, each a tuple of ``(x, y)`` float pairs, whatever
+    sequences or arrays held them (lists, read from JSON, failed in the check layer as
+    unhashable); a polyline of fewer than two points, a point that is not two numbers, or a
+    number that is not finite refused (a NaN wall had the planner fail every solve; a
+    one-point wall was dropped silently). Walls given as such tuples already are returned as
+    they are."""
+    try:
+        if type(walls) is tuple and all(type(w) is tuple and len(w) >= 2 and all(
+                type(p) is tuple and len(p) == 2 and type(p[0]) is float and type(p[1]) is float
+                and math.isfinite(p[0]) and math.isfinite(p[1]) for p in w) for w in walls):
+            return walls
+        out = []
+        for i, w in enumerate(walls):
+            pts = tuple((float(x), float(y)) for x, y in w)
+            if len(pts) < 2:
+                raise ValueError(f"wall {i} has {len(pts)} point(s): a wall is a polyline of at least two")
+            if not all(math.isfinite(x) and math.isfinite(y) for x, y in pts):
+                raise ValueError(f"wall {i} has a point that is not finite: {pts!r}")
+            out.append(pts)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"observation at t={t_s} s: walls must be polylines of (x, y) points: {exc}") from None
+    return tuple(out)
 
 
 @dataclass(frozen=True)

@@ -345,3 +345,24 @@ def test_policies_answer_finite_commands_within_the_speed_limit(policies, data):
         assert np.isfinite(cmd).all() and np.all(np.abs(cmd) <= VMAX + 1e-6), (key, cmd)
         if d.fallback:  # the safety filter's own answers keep the acceleration limit as well
             assert_within_limits(cmd, [obs.robot.v_right_mps, obs.robot.v_left_mps], T)
+
+
+def test_walls_of_any_sequence_are_read_as_point_tuples_and_bad_walls_refused():
+    """Walls as lists (read from JSON) crashed the check layer as unhashable, numpy arrays the
+    truth test; a NaN wall had the planner fail every solve, a one-point wall was dropped."""
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(5.0),), 0.4)
+    robot = RobotState(0.0, 0.0, 0.0, 0.1, 0.1)
+    want = (((-5.0, 1.25), (20.0, 1.25)), ((-5.0, -1.25), (20.0, -1.25)))
+    for given in ([[[-5, 1.25], [20, 1.25]], [[-5, -1.25], [20, -1.25]]], np.array(want),
+                  tuple(np.array(w) for w in want), want):
+        o = Observation(1.0, robot, ref, walls=given)
+        assert o.walls == want and all(type(p[0]) is float for w in o.walls for p in w)
+    assert Observation(1.0, robot, ref, walls=want).walls is want  # tuples already: as they are
+    one_point = (((1.0, 2.0),),)
+    nan_point = (((0.0, math.nan), (1.0, 1.0)),)
+    three_d = (((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)),)
+    flat = ((0.0, 1.0, 2.0, 3.0),)
+    for bad, words in ((one_point, "at least two"), (nan_point, "not finite"), (three_d, "polylines of"),
+                       (flat, "polylines of")):
+        with pytest.raises(ValueError, match=words):
+            Observation(1.0, robot, ref, walls=bad)

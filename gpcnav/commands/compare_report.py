@@ -80,6 +80,7 @@ def compare_figure(doc: dict):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
     evals = doc["controllers"]
     names = [e["controller"] for e in evals]
     y = np.arange(len(evals))[::-1]
@@ -91,8 +92,9 @@ def compare_figure(doc: dict):
     low = np.array([1.0 - e["failure_rate_upper_95"] for e in evals]) * 100
     ax.barh(y, rate, color=colours, alpha=0.8)
     ax.errorbar(low, y, xerr=[np.zeros_like(low), rate - low], fmt="|", color="k", capsize=3, lw=1)
-    for yi, r in zip(y, rate):
-        ax.text(2, yi, f"{r:.1f}", va="center", fontsize=7)
+    for yi, r in zip(y, rate):  # on a white ground: the whisker may run through it (few episodes)
+        ax.text(2, yi, f"{r:.1f}", va="center", fontsize=7, zorder=4,
+                bbox={"facecolor": "white", "alpha": 0.85, "pad": 0.6, "linewidth": 0})
     ax.set_xlim(0, 102)
     ax.set_xlabel("reached the goal (%)\nbar: rate, whisker: lower 95 % bound")
 
@@ -119,6 +121,8 @@ def compare_figure(doc: dict):
         for patch, i in zip(box["boxes"], shown):
             patch.set_facecolor(colours[i])
             patch.set_alpha(0.6)
+    for i in set(range(len(evals))) - set(shown):  # an empty row says why
+        ax.text(0.02, y[i], "none reached", transform=ax.get_yaxis_transform(), va="center", fontsize=7, color="0.4")
     ax.set_xlabel("time to goal (s), successful episodes\nbox: quartiles, whiskers 5-95 %")
 
     ax = axes[3]
@@ -129,6 +133,14 @@ def compare_figure(doc: dict):
     ax.scatter(med, y, c=colours, s=40, zorder=3)
     ax.scatter(mx, y, marker="|", c="0.4", s=60, zorder=3)
     ax.set_xscale("log")
+    # labels at the decades, and at 2 and 5 of each where the times span less than two; none at
+    # the minor ticks (less than a decade of range printed every minor label over the next)
+    seen = np.concatenate([med, p95, mx])
+    seen = seen[np.isfinite(seen) & (seen > 0)]
+    decades = float(np.log10(seen.max() / seen.min())) if seen.size else 0.0
+    ax.xaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0) if decades < 2.0 else (1.0,)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("decision time (ms, log)\ndot: median, whisker: p95, tick: max")
     for a in axes:
         a.grid(True, axis="x", which="both", lw=0.3, alpha=0.5)

@@ -387,7 +387,10 @@ def parse_controller_list(text: str) -> list[str]:
     names = [n.strip() for n in text.split(",") if n.strip()]
     if not names:
         raise UsageError("--controllers: give at least one controller")
-    return list(dict.fromkeys(names))
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:  # dropped silently before: a one-row table where two were asked for
+        raise UsageError(f"--controllers: {', '.join(twice)} given twice (each controller runs once)")
+    return names
 
 
 def shield_mode(args, kind: str | None = None) -> str:

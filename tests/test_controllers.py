@@ -195,3 +195,18 @@ def test_the_planner_on_standby_behind_a_controller_of_another_rate_is_refused_b
         make(ControllerSpec("social_force", shield="gpc"), CONFIG, RobotParams())
     check(ControllerSpec("blind", shield="gpc"), CONFIG, RobotParams())
     check(ControllerSpec("orca", shield="on"), CONFIG, RobotParams())
+
+
+def test_a_controller_named_twice_in_a_comparison_is_refused():
+    """It was dropped silently: a one-row table where two rows were asked for."""
+    from gpcnav.controllers import parse_controller_list
+    with pytest.raises(UsageError, match="gpc given twice"):
+        parse_controller_list("gpc,orca,gpc")
+    assert parse_controller_list("gpc, orca") == ["gpc", "orca"]
+
+
+def test_an_evaluation_records_a_peer_s_own_sample_time(outside):
+    r = _cli(outside, "evaluate", "empty.toml", "--controller", "orca", "--workers", "1", "--out", "e.json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((outside / "e.json").read_text())
+    assert doc["sample_time_s"] == doc["controller_settings"]["sample_time_s"] == pytest.approx(0.1)

@@ -233,8 +233,10 @@ def eval_doc(spec: ControllerSpec, result, config, suite, seed, extra: dict | No
     """The EVAL document of one controller's ``(metrics, times, events)``."""
     from scenarios.metrics import eval_document
     metrics, times, events = result
+    # the controller's own rate (navground's peers decide every 0.1 s; it said the preset's 0.5)
+    sample_time_s = ((extra or {}).get("controller_settings") or {}).get("sample_time_s", config.sample_time_s)
     return eval_document(spec.label, metrics, times, {
-        "preset": config.name, "sample_time_s": config.sample_time_s, "suite": suite.name if suite else None,
+        "preset": config.name, "sample_time_s": sample_time_s, "suite": suite.name if suite else None,
         "seed": seed if suite else None, **({"suite_spec": suite.describe()} if suite else {}),
         "events": events, **recorded_changes(config), "solve_lanes": config.solve_lanes, **(extra or {}),
     })

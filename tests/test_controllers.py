@@ -156,9 +156,9 @@ def test_a_controller_that_cannot_be_loaded_exits_2_with_one_line(outside, name,
 @pytest.mark.parametrize("argv", [
     ["simulate", "empty.toml", "--controller", "mymod:ReturnsTuple"],
     ["simulate", "empty.toml", "--controller", "mymod:ReturnsTuple", "--shield"],
-    ["evaluate", "empty.toml", "empty.toml", "--controller", "mymod:ReturnsTuple", "--workers", "2"],
-    ["compare", "empty.toml", "--controllers", "stand,mymod:ReturnsTuple", "--workers", "1"],
-])
+    ["evaluate", "empty.toml", "empty.toml", "--controller", "mymod:ReturnsTuple", "--workers", "2", "--out", "e.json"],
+    ["compare", "empty.toml", "--controllers", "stand,mymod:ReturnsTuple", "--workers", "1", "--out", "c.json"],
+])  # --out: the finished episodes kept beside it, not in the shared cache (another run's would be reused)
 def test_a_decide_that_does_not_return_a_control_decision_exits_2_with_one_line(outside, argv):
     """It failed as an AttributeError deep in the simulator (or the check layer), exit 1."""
     r = _cli(outside, *argv, timeout=120)

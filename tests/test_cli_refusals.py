@@ -56,6 +56,11 @@ CASES = [
     (["bench", "--plot", "{tmp}/out/b.toml"], "matplotlib does not write .toml figures"),
     (["simulate", SCENE, "--animate", "{tmp}/out/a.mp4"], "an animation is written as a GIF"),
     (["simulate", SCENE, "--out", "{tmp}/out/r.json", "--plot", "{tmp}/out/r.json"], "one file for two outputs"),
+    # taken and ignored where the suite has its own movers (random --movers 3 ran one mover)
+    (["evaluate", "--suite", "random", "--count", "2", "--movers", "3"], "--movers: suite random has its own movers"),
+    (["compare", "--suite", "ucy", "--count", "2", "--movers", "3"], "--movers: suite ucy has its own movers"),
+    (["evaluate", "--suite", "encounters", "--count", "2", "--behaviour", "orca"],
+     "--behaviour: suite encounters has its own movers"),
     # found only after the work, as tracebacks
     (["train", "{tmp}/no-data", "--out", "/proc/mm", "--preset", "paper"], "--out /proc/mm: cannot write files"),
     (["export", "{tmp}/no-model", "--out", "/proc/x.onnx"], "--out /proc/x.onnx"),

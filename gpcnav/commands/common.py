@@ -223,7 +223,8 @@ def add_suite_arguments(p: argparse.ArgumentParser) -> None:
                         "docs/pedestrians.md)")
     p.add_argument("--count", type=int, default=100, help=f"episodes of the suite (1 to {MAX_COUNT})")
     p.add_argument("--seed", type=int, default=0, help="seed of the suite")
-    p.add_argument("--movers", type=int, default=5, help="crowd suites: how many movers (default 5)")
+    p.add_argument("--movers", type=int, default=None,
+                   help="crowd and building suites: how many movers (default 5)")
     p.add_argument("--behaviour", choices=SUITE_BEHAVIOURS, default=None,
                    help="crowd suites: what the movers do (default orca: walkers that avoid each other, "
                         "not the robot); ucy: replay (default: the recorded people, open loop) or orca / "
@@ -236,14 +237,22 @@ def suite_from_args(args):
     if not getattr(args, "suite", None):
         return None
     from scenarios import Suite
+    from scenarios.suites import BUILDING_SUITES, CROWD_SUITES, RECORDED_SUITES
     for name, low in (("count", 1), ("seed", 0), ("movers", 0)):
-        if getattr(args, name) < low:
+        if getattr(args, name) is not None and getattr(args, name) < low:
             raise UsageError(f"--{name} must be at least {low}, got {getattr(args, name)}")
+    # options a suite does not take were ignored without a word (random --movers 3 ran one mover)
+    if args.movers is not None and args.suite not in CROWD_SUITES + BUILDING_SUITES:
+        raise UsageError(f"--movers: suite {args.suite} has its own movers (the crowd and building suites take "
+                         f"--movers)")
+    if args.behaviour is not None and args.suite not in CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES:
+        raise UsageError(f"--behaviour: suite {args.suite} has its own movers (the crowd, building and recorded "
+                         f"suites take --behaviour)")
     if args.count > MAX_COUNT:
         raise UsageError(f"--count must be at most {MAX_COUNT}, got {args.count} (the scenarios are made before the "
                          f"first episode and every episode is kept until the end; split a larger study by --seed)")
     try:
-        return Suite(args.suite, args.count, args.seed, args.movers, args.behaviour)
+        return Suite(args.suite, args.count, args.seed, 5 if args.movers is None else args.movers, args.behaviour)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
 

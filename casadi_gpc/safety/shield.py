@@ -180,15 +180,13 @@ class Shield:
         H = self.horizon
         return [self._bank.forecast(m, ekf, H) for m, ekf in self._bank.step(obs.moving)]
 
-    def inject_failures(self, probability: float, rng=None) -> None:
+    def inject_failures(self, probability: float, rng=None) -> bool:
         """The planner's solve failures (``[faults] solver_failure_prob``), passed on to the
         controller behind this layer where it takes them (the GPC): the default ``--controller
         gpc`` runs behind the layer, and the fault was never applied there while the documents
-        recorded it. A controller without a solver takes none (the simulator says so)."""
+        recorded it. False where the controller has no solver to fail (the simulator says so)."""
         inner = getattr(self.policy, "inject_failures", None)
-        if inner is None:
-            raise AttributeError(f"{type(self.policy).__name__} has no solver whose failures can be injected")
-        inner(probability, rng)
+        return False if inner is None else inner(probability, rng)
 
     def decide(self, obs: Observation) -> ControlDecision:
         """The controller's decision, checked (see the class). Its ``info`` adds

@@ -71,6 +71,36 @@ def test_the_batch_rows_are_each_filters_own_forecast():
     np.testing.assert_allclose(batch.worst_std_m ** 2, (a + d) / 2 + np.hypot((a - d) / 2, b), rtol=1e-12)
 
 
+@pytest.mark.parametrize("straight", [False, True])
+def test_a_banks_rows_seen_once_stand_as_each_tracks_own_forecast(straight):
+    """Rows of tracks seen once (a crowd just come into view), forecast together: each one's
+    own standing forecast bit for bit, which is the textbook expression (the position's
+    covariance plus I (speed std T j)^2 at step j) also bit for bit; the tracks seen twice
+    among them untouched by it."""
+    rng = np.random.default_rng(11)
+    once = (0, 2, 3, 6)
+    filters = _random_filters(rng, 8, 0.5, seen_once=once)
+    snaps = [f.snapshot() for f in filters]
+    rows = np.array([(*s.state, *s.cov_upper) for s in snaps])
+    seen = [s.measurements_seen for s in snaps]
+    batch = ForecastBatch.of_rows(rows, seen, 0.5, filters[0].settings, 12)
+    if straight:
+        batch = batch.straightened()
+    means, covs = batch.arrays
+    grow = (filters[0].settings.initial_speed_std_mps * 0.5) ** 2
+    steps2 = np.arange(1, 13, dtype=float) ** 2
+    for i, s in enumerate(snaps):
+        m, c = s.predict(12, straight=straight)
+        if i in once:
+            np.testing.assert_array_equal(means[i], m)
+            np.testing.assert_array_equal(covs[i], c)
+            np.testing.assert_array_equal(m, np.tile(np.array(s.state[:2]), (12, 1)))
+            np.testing.assert_array_equal(c, s.cov_array()[:2, :2] + (np.eye(2) * grow) * steps2[:, None, None])
+        else:
+            np.testing.assert_allclose(means[i], m, rtol=0, atol=1e-12 * (1 + np.abs(m).max()))
+            assert not np.allclose(means[i], means[i][:1])  # forecast moving, not standing
+
+
 def test_the_tracker_batches_a_crowd_and_the_check_takes_its_arrays_whole():
     rng = np.random.default_rng(8)
     n = MANY_TRACKS + 3

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .obstacle_model import _TURN_ENTRIES, FilterState, _q_diagonal
+from .obstacle_model import _TURN_ENTRIES, FilterState, _q_diagonal, standing_forecasts
 from .ekf_floats import forecast_rows, straight_noise, worst_std_rows
 
 __all__ = ["forecast_many", "ForecastBatch", "MANY_TRACKS"]
@@ -140,9 +140,13 @@ class ForecastBatch:
                         q = straight_noise(q)
                     means, covs = forecast_rows(rows[:, :5], rows[:, 5:20], float(T), np.array(q), H)
                 own = False
+                once = [i for i, seen in enumerate(self._seen) if seen == 1]
+                if once:  # standing where seen: their own forecast, all at once
+                    means[once], covs[once] = standing_forecasts(rows[once], st, T, H)
+                    own = True
                 for i, seen in enumerate(self._seen):
-                    if seen < 2:
-                        means[i], covs[i] = self.snapshot(i).predict(H)  # standing: its own
+                    if seen < 1:
+                        means[i], covs[i] = self.snapshot(i).predict(H)
                         own = True
                 if made is not None and not own:  # each row's own covariances, the planning ones: their worst
                     worst.flags.writeable = False

@@ -15,7 +15,7 @@ import numpy as np
 from .ekf_floats import cov_array as _cov_array, forecast as _forecast, straight_noise
 
 __all__ = ["EKFSettings", "FilterState", "obstacle_model_step", "planning_covariances", "worst_std_m",
-           "straightened", "GATE_CHI2_2DOF"]
+           "straightened", "standing_forecasts", "GATE_CHI2_2DOF"]
 
 GATE_CHI2_2DOF = 18.42  # chi-square(2) 0.9999 quantile: an innovation beyond it is an outlier
 
@@ -140,6 +140,23 @@ _TURN_ENTRIES = (4, 8, 11, 13, 14)
 in the turn increment's row and column."""
 
 
+def standing_forecasts(rows, settings: "EKFSettings", sample_time_s: float,
+                       horizon: int) -> tuple[np.ndarray, np.ndarray]:
+    """The forecast of tracks seen once, standing where they were seen, the uncertainty growing
+    with the unknown speed (at step j, the position's covariance plus I times
+    ``(initial_speed_std_mps * T * j) ** 2``): means ``(N, H, 2)`` and covariances ``(N, H, 2,
+    2)`` of the rows ``(N, 20)`` (state, then the covariance's upper triangle, as a bank holds
+    them), every row and step at once (a step, or a track, at a time it was most of a decision
+    whose crowd had just come into view). :meth:`FilterState.predict`'s numbers for such a
+    track: it calls this with its one row."""
+    rows = np.asarray(rows, dtype=float).reshape(-1, 20)
+    grow = (settings.initial_speed_std_mps * sample_time_s) ** 2
+    steps2 = np.arange(1, horizon + 1, dtype=float) ** 2
+    pos_cov = rows[:, (5, 6, 6, 10)].reshape(-1, 1, 2, 2)  # P[:2, :2] from the upper triangle
+    covs = pos_cov + (np.eye(2) * grow) * steps2[:, None, None]
+    return np.repeat(rows[:, None, :2], horizon, axis=1), covs
+
+
 def _readonly(values, shape: tuple) -> np.ndarray:
     a = np.array(values).reshape(shape)
     a.flags.writeable = False
@@ -179,14 +196,9 @@ class FilterState(NamedTuple):
         track seen twice or more. ``straight``: the forecast holds the estimated speed and
         heading (:func:`straightened`) instead of turning on by the turn increment."""
         T = self.sample_time_s
-        if self.measurements_seen == 1:
-            # standing where it was seen, the uncertainty growing with the unknown speed: at step
-            # j, P[:2, :2] + I grow j^2, all steps at once (a step at a time it was most of a
-            # decision whose crowd had just come into view)
-            grow = (self.settings.initial_speed_std_mps * T) ** 2
-            steps2 = np.arange(1, horizon + 1, dtype=float) ** 2
-            covs = self.cov_array()[:2, :2] + (np.eye(2) * grow) * steps2[:, None, None]
-            return np.tile(np.array(self.state[:2], dtype=float), (horizon, 1)), covs
+        if self.measurements_seen == 1:  # standing where it was seen
+            means, covs = standing_forecasts((*self.state, *self.cov_upper), self.settings, T, horizon)
+            return means[0], covs[0]
         q = q or _q_diagonal(self.settings, T)
         if straight:
             state, cov_upper, q = straightened(self.state, self.cov_upper, q)

@@ -251,3 +251,28 @@ def test_statics_as_walls_give_the_walls_network_the_octagons_and_nothing_else(t
                 differ += (d.v_right_mps, d.v_left_mps) != (o.v_right_mps, o.v_left_mps)
                 np.testing.assert_array_equal(on.rollout()[0], ref.rollout()[0])
     assert answered == 12 and differ >= 8  # near the wall only; the scan and the slots read differently (10)
+
+
+def test_the_samples_give_the_walls_network_pillars_as_the_deployed_policy_does():
+    """A ``set-walls`` sample in a situation with walls reads each static disc as the policy
+    gives it (``OnnxPolicy(statics_as_walls=True)``): the octagon round it in the scan, no
+    static slot, the same features to the bit as the situation with the octagon among its
+    walls and no static obstacle; without walls the disc stays in its slot (the scan is
+    empty then, and the walls network never answers there)."""
+    from dataclasses import replace
+
+    from casadi_gpc.types import StaticObstacle
+    from nn_export.runtime.wall_scan import scan_rows, static_wall_rows
+    pillar = (StaticObstacle((1.2, -0.3), 0.25),)
+    octagon = tuple(tuple(map(tuple, r.reshape(2, 2))) for r in static_wall_rows(pillar))
+    with_pillar = replace(_situation(), statics=pillar)
+    as_walls = replace(_situation(walls=CORRIDOR + octagon), statics=())
+    f = compute_features(LAY, with_pillar)
+    assert np.array_equal(f, compute_features(LAY, as_walls))
+    assert not np.array_equal(f, compute_features(LAY, _situation()))  # the pillar is read, in the scan
+    assert f[LAY.feature_names.index("sta1_present")] == 0.0
+    open_floor = replace(_situation(walls=()), statics=pillar)
+    g = compute_features(LAY, open_floor)
+    assert g[LAY.feature_names.index("sta1_present")] == 1.0 and np.all(g[-WALL_SECTORS:] == WALL_SCAN_RANGE_M)
+    rows = wall_segment_rows(CORRIDOR)
+    assert scan_rows(rows, ()) == (rows, ())

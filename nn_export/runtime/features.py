@@ -56,7 +56,7 @@ from casadi_gpc.types import StaticObstacle
 
 from .layouts import FeatureLayout
 from .situation import Situation, TrackEstimate
-from .wall_scan import wall_scan, wall_segment_rows
+from .wall_scan import scan_rows, wall_scan, wall_segment_rows
 
 __all__ = ["order_by_distance", "compute_features", "feature_values", "feature_values_from", "compute_features_batch",
            "RolloutFeatures", "mirror_features", "wrap_pi"]
@@ -236,9 +236,11 @@ def feature_values(layout: FeatureLayout, situation: Situation, report: dict | N
     ref_poses = np.asarray(situation.ref_poses, dtype=float)
     if ref_poses.shape != (layout.horizon + 1, 3):
         raise ValueError(f"expected desired poses of shape {(layout.horizon + 1, 3)}, got {ref_poses.shape}")
+    statics, wall_rows = situation.statics, None
+    if layout.wall_sectors and situation.walls:  # the static discs in the scan, as the deployed policy gives them
+        wall_rows, statics = scan_rows(wall_segment_rows(situation.walls), statics)
     return feature_values_from(layout, situation.robot, ref_poses.tolist(), situation.sample_time_s, situation.tracks,
-                               situation.statics, report,
-                               wall_segment_rows(situation.walls) if layout.wall_sectors and situation.walls else None)
+                               statics, report, wall_rows)
 
 
 def feature_values_from(layout: FeatureLayout, robot: RobotState, ref_rows: list, sample_time_s: float,

@@ -51,7 +51,7 @@ from .set_slots import CrowdSlots
 from .situation import Situation, reference_rows, straight_estimates
 from .side_networks import CrowdNetwork, WallsNetwork
 from .tracker import SituationTracker
-from .wall_scan import static_wall_rows, wall_segment_rows
+from .wall_scan import scan_rows, static_wall_rows, wall_segment_rows
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "shipped_walls_model_path",
            "SHIPPED",
@@ -388,7 +388,7 @@ class OnnxPolicy:
         if side is not None:  # the walls network near a wall, else the crowd network where the main one cannot hold it
             net, rows = side
             if net is walls and statics and self.statics_as_walls:  # the discs in its scan, as a range sensor sees them
-                rows, statics = np.concatenate((rows, self._disc_rows(statics))), ()
+                rows, statics = scan_rows(rows, statics, self._disc_rows(statics))
             batch = getattr(tracks[0], "batch_", None) if tracks else None
             if batch is not None:
                 batch.arrays  # the forecasts made together, as the features and a check read them

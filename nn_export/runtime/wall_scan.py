@@ -28,8 +28,8 @@ import numpy as np
 
 from casadi_gpc.geometry import segment_rows as wall_segment_rows  # the walls' segments as (ax, ay, bx, by) rows
 
-__all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "DISC_SIDES", "wall_segment_rows", "static_wall_rows", "segments_near",
-           "wall_scan", "sector_mirror"]
+__all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "DISC_SIDES", "wall_segment_rows", "static_wall_rows", "scan_rows",
+           "segments_near", "wall_scan", "sector_mirror"]
 
 WALL_SECTORS = 24
 """Sectors of the scan (15 degrees each: at 2 m a sector is 0.52 m wide, less than a door)."""
@@ -57,6 +57,20 @@ def static_wall_rows(statics, sides: int = DISC_SIDES) -> np.ndarray:
         pts = [(cx + r * math.cos(2 * half * k), cy + r * math.sin(2 * half * k)) for k in range(sides + 1)]
         rows += [(*a, *b) for a, b in zip(pts[:-1], pts[1:])]
     return np.array(rows, dtype=float).reshape(-1, 4)
+
+
+def scan_rows(wall_rows: np.ndarray, statics, disc_rows: np.ndarray | None = None) -> tuple[np.ndarray, tuple]:
+    """What a walls network reads of a map with walls and static discs: the wall segments
+    ``wall_rows`` with each disc drawn in as the polygon round it (:func:`static_wall_rows`;
+    ``disc_rows``: those rows when the caller keeps them), and no static disc left for its
+    slots. The one rule for the deployed policy's decisions and roll-outs
+    (``OnnxPolicy(statics_as_walls=True)``, the default) and for the samples it is trained on
+    (:func:`~nn_export.runtime.features.feature_values` of a ``set-walls`` layout in a
+    situation with walls), so that a pillar reaches the network as its training showed it.
+    ``(wall_rows, statics)`` unchanged where there is no static disc."""
+    if not statics:
+        return wall_rows, statics
+    return np.concatenate((wall_rows, static_wall_rows(statics) if disc_rows is None else disc_rows)), ()
 
 
 def segments_near(rows: np.ndarray, x: float, y: float, reach_m: float) -> np.ndarray:

@@ -241,6 +241,34 @@ def test_shipped_model_matches_its_preset(name):
         OnnxPolicy(path, preset=other)
 
 
+def test_the_shipped_model_named_by_its_path_keeps_its_crowd_and_walls_networks(tmp_path):
+    """``--model`` (or navground's ``model``) naming the shipped file, or a copy of it elsewhere,
+    is the shipped model: the same crowd and walls networks answer beside it, the same decisions
+    (named, it used to run alone and froze in front of a pillar its layout has no slot for); a
+    model of other bytes runs alone."""
+    path = shipped_model_path("improved")
+    if not path.is_file():
+        pytest.skip("model not shipped yet")
+    copy = tmp_path / "mine.onnx"
+    copy.write_bytes(path.read_bytes())
+    default = OnnxPolicy(preset="improved")
+    assert "crowd_model" in default.model_info and "walls_model" in default.model_info
+    for named in (OnnxPolicy(path, preset="improved"), OnnxPolicy(copy, preset="improved")):
+        for key in ("crowd_model", "walls_model"):
+            assert named.model_info[key]["sha256"] == default.model_info[key]["sha256"]
+    cfg = preset("improved")
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(10.0),), 0.4)
+    obs = Observation(0.0, RobotState(0.0, 0.0, 0.0, 0.2, 0.2), ref, (),
+                      (StaticObstacle((1.5, 0.05), 0.3), StaticObstacle((2.5, -0.6), 0.3)))
+    named = OnnxPolicy(copy, preset="improved")
+    a, b = default.decide(obs), named.decide(obs)
+    assert (a.v_right_mps, a.v_left_mps, a.reason) == (b.v_right_mps, b.v_left_mps, b.reason)
+    assert a.reason == "one pass: crowd network"  # two discs: beyond the main model's static slots
+    other = _model(tmp_path, preset_name="improved", name="other")
+    assert "crowd_model" not in OnnxPolicy(other, preset="improved").model_info
+    assert cfg.sample_time_s == named.sample_time_s
+
+
 def test_default_policy_is_the_improved_preset():
     if not shipped_model_path("improved").is_file():
         pytest.skip("model not shipped yet")

@@ -149,7 +149,7 @@ class OnnxPolicy:
         A network of the ``set`` layout (one pass) that answers, in place of ``model``,
         whenever more obstacles are in range than ``model``'s layout has slots for (a
         one-obstacle model among walkers). ``"shipped"`` (default): the crowd network shipped
-        for the preset (:func:`shipped_crowd_model_path`) when ``model`` is the shipped one and
+        for the preset (:func:`shipped_crowd_model_path`) when ``model`` is the shipped one (None, or a file with its bytes) and
         its layout is not a set; None: never. Its decisions are counted (``crowd_network``).
     walls_model : path, None or ``"shipped"``
         A network of the ``set-walls`` layout (one pass) that answers, in place of the other
@@ -233,18 +233,22 @@ class OnnxPolicy:
             "validation_rmse_mps": float(meta["validation_rmse_mps"]), "two_pass": self.two_pass,
             "safety_distance_m": self.safety_distance_m,
         }
+        # the shipped model by its bytes, wherever the file is (named with --model, or navground's
+        # ``model``, it was left without its crowd and walls networks and froze at a pillar)
+        shipped_main = shipped_model_path(self.config.name)
+        is_shipped = model is None or (shipped_main.is_file() and shipped_main.read_bytes() == data)
         self._one_pass_decision = _decision_maker("one pass")
         self._crowd_decision = _decision_maker("one pass: crowd network")
         if isinstance(crowd_model, str) and crowd_model == SHIPPED:
             shipped = shipped_crowd_model_path(self.config.name)
-            crowd_model = shipped if model is None and not self.layout.is_set and shipped.is_file() else None
+            crowd_model = shipped if is_shipped and not self.layout.is_set and shipped.is_file() else None
         self._crowd = None if crowd_model is None else CrowdNetwork(Path(crowd_model), self.config.name, self.robot,
                                                                       self.layout)
         if self._crowd is not None:
             self.model_info["crowd_model"] = self._crowd.info
         if isinstance(walls_model, str) and walls_model == SHIPPED:
             shipped = shipped_walls_model_path(self.config.name)
-            walls_model = shipped if model is None and not self.layout.wall_sectors and shipped.is_file() else None
+            walls_model = shipped if is_shipped and not self.layout.wall_sectors and shipped.is_file() else None
         self._walls = None if walls_model is None else WallsNetwork(Path(walls_model), self.config.name, self.robot,
                                                                       self.layout)
         self._walls_decision = _decision_maker("one pass: walls network")

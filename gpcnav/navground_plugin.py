@@ -111,7 +111,10 @@ class GPCBehavior(core.Behavior, name="GPC"):
 
     @max_wheel_acceleration.setter
     def max_wheel_acceleration(self, value: float) -> None:
-        self._max_wheel_acceleration = float(value)
+        value = float(value)
+        if not (math.isfinite(value) and value > 0.0):  # the schema's "positive" is not enforced on set
+            raise ValueError(f"GPC behaviour: max_wheel_acceleration must be a positive number of m/s^2, got {value!r}")
+        self._max_wheel_acceleration = value
         self._controller = None
 
     def get_environment_state(self) -> core.GeometricState:

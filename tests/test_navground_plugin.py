@@ -252,3 +252,15 @@ def test_an_unknown_preset_is_refused_when_set():
         b.preset = "nonsense"
     b.preset = "paper"
     assert b.preset == "paper"
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0, float("nan"), float("inf")])
+def test_a_wheel_acceleration_that_is_not_a_positive_number_is_refused_when_set(value):
+    """Zero divided by zero in the check at the first decision, a negative one drove the agent
+    away; both were taken (navground's schema marks it positive but does not refuse on set)."""
+    for name in ("GPC", "GPCNetwork"):
+        b = core.Behavior.make_type(name)
+        with pytest.raises(ValueError, match="max_wheel_acceleration must be a positive number"):
+            b.max_wheel_acceleration = value
+        b.max_wheel_acceleration = 1.5  # (navground keeps it as a float32)
+        assert b.max_wheel_acceleration == 1.5

@@ -86,11 +86,19 @@ def test_missing_file(tmp_path):
     _one_line_refusal(e, tmp_path / "nope.onnx")
 
 
-@pytest.mark.parametrize("damage", ["truncated", "garbage", "empty", "flipped"])
+def _bad_utf8_in_metadata(data: bytes) -> bytes:
+    """The file with one byte of its metadata's JSON no longer UTF-8 (the graph still loads)."""
+    b = bytearray(data)
+    b[b.find(b'{"') + 5] = 0xFF
+    return bytes(b)
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage", "empty", "flipped", "metadata"])
 def test_damaged_files_are_refused_at_load_time(paper_model, tmp_path, damage):
     data = paper_model.read_bytes()
     bad = {"truncated": data[: len(data) // 2], "garbage": b"not an onnx model at all" * 10, "empty": b"",
-           "flipped": data[:40] + bytes(b ^ 0xFF for b in data[40:400]) + data[400:]}[damage]
+           "flipped": data[:40] + bytes(b ^ 0xFF for b in data[40:400]) + data[400:],
+           "metadata": _bad_utf8_in_metadata(data) if damage == "metadata" else b""}[damage]
     path = tmp_path / f"{damage}.onnx"
     path.write_bytes(bad)
     with pytest.raises(ValueError) as e:

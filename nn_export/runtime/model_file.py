@@ -51,8 +51,13 @@ def _one_line(exc: BaseException) -> str:
     return text[0][:200] if text else type(exc).__name__
 
 
-def read_model_metadata(session: ort.InferenceSession) -> dict:
-    return dict(session.get_modelmeta().custom_metadata_map)
+def read_model_metadata(session: ort.InferenceSession, path: Path | None = None) -> dict:
+    """The model's metadata; unreadable ones (corrupt bytes in an otherwise loadable file) a
+    ``ValueError`` naming ``path``."""
+    try:
+        return dict(session.get_modelmeta().custom_metadata_map)
+    except (UnicodeDecodeError, RuntimeError, ValueError) as exc:
+        raise ValueError(f"{path or 'the model'}: unreadable model metadata ({_one_line(exc)})") from None
 
 
 def _load_session(path: Path) -> tuple[ort.InferenceSession, bytes]:

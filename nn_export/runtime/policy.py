@@ -195,7 +195,7 @@ class OnnxPolicy:
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
         self.session, data = _load_session(path)
-        meta = read_model_metadata(self.session)
+        meta = read_model_metadata(self.session, path)
         self.layout, self.config, self.steps = _validate(path, self.session, meta, preset, self.robot)
         self.sample_time_s = self.config.sample_time_s
         self.horizon = self.config.horizon

@@ -30,7 +30,7 @@ class CrowdNetwork:
 
     def __init__(self, path: Path, preset: str, robot: RobotParams, main: FeatureLayout):
         self.session, data = _load_session(path)
-        meta = read_model_metadata(self.session)
+        meta = read_model_metadata(self.session, path)
         self.layout, _, self.steps = _validate(path, self.session, meta, preset, robot)
         if not self.layout.is_set or self.layout.horizon != main.horizon:
             raise ValueError(f"{path}: a {self.role} network must have a set layout and horizon {main.horizon} "

@@ -61,6 +61,10 @@ CASES = [
     (["compare", "--suite", "ucy", "--count", "2", "--movers", "3"], "--movers: suite ucy has its own movers"),
     (["evaluate", "--suite", "encounters", "--count", "2", "--behaviour", "orca"],
      "--behaviour: suite encounters has its own movers"),
+    # a suite's options with scenario files: taken and ignored (one episode, the EVAL's seed null)
+    (["evaluate", SCENE, "--count", "5", "--seed", "5", "--controller", "orca"], "--count, --seed: choose a suite's"),
+    (["compare", SCENE, "--movers", "3", "--controllers", "orca,hrvo"], "--movers: chooses a suite's episodes"),
+    (["evaluate", SCENE, "--behaviour", "orca", "--controller", "orca"], "give it with --suite"),
     # found only after the work, as tracebacks
     (["train", "{tmp}/no-data", "--out", "/proc/mm", "--preset", "paper"], "--out /proc/mm: cannot write files"),
     (["export", "{tmp}/no-model", "--out", "/proc/x.onnx"], "--out /proc/x.onnx"),

@@ -134,6 +134,13 @@ def test_other_arguments_are_refused(reference_dataset):
     (["--samples", "10", "--dagger-files", "a.toml"], "--dagger-files"),
     (["--dagger", "gpc", "--dagger-suite", "corridor", "--dagger-files", "a.toml"], "not both"),
     (["--dagger", "gpc", "--episodes", "3", "--dagger-files", "a.toml"], "--episodes does not apply"),
+    # the contract's suite options (--suite, --count) are the round's; options a suite does not take were ignored
+    (["--dagger", "gpc", "--suite", "random", "--count", "3", "--movers", "3"], "--movers: suite random has its own"),
+    (["--dagger", "gpc", "--movers", "3"], "--movers: suite random has its own movers"),
+    (["--dagger", "gpc", "--suite", "encounters", "--behaviour", "orca"], "--behaviour: suite encounters"),
+    (["--dagger", "gpc", "--behaviour", "replay", "--dagger-files", "a.toml"], "runs the files as they are"),
+    (["--samples", "10", "--movers", "3"], "need --dagger"),
+    (["--samples", "10", "--count", "3"], "need --dagger"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, argv, words):
     proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(tmp_path / "d"), *argv],
@@ -392,10 +399,13 @@ def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
                            str(tmp_path / "m.onnx"), "--episodes", "2", "--preset", "paper"],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
-    # the GPC itself drives a round: its own closed-loop states, in part gpc1
-    gpcnav("dataset", "--out", out, "--dagger", "gpc", "--episodes", "1", "--preset", "paper", "--workers", "1")
+    # the GPC itself drives a round: its own closed-loop states, in part gpc1 (the contract's spelling
+    # of the suite, --suite NAME --count N, as evaluate's)
+    gpcnav("dataset", "--out", out, "--dagger", "gpc", "--suite", "random", "--count", "1", "--preset", "paper",
+           "--workers", "1")
     man2 = read_manifest(out)
     gpc_part = man2["parts"]["gpc1"]
+    assert gpc_part["info"]["suite"] == "random" and gpc_part["episodes"] == 1
     assert gpc_part["samples"] > 0 and gpc_part["info"]["safety_filter"] is None
     assert man2["samples"] == man["samples"] + gpc_part["samples"]
     assert gpc_part["info"]["suite_seed"] != part["info"]["suite_seed"]

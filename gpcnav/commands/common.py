@@ -221,8 +221,8 @@ def add_suite_arguments(p: argparse.ArgumentParser) -> None:
                         "circle-crossing, square-crossing: crowds in CrowdNav's geometry, docs/scenarios.md; "
                         "corridor, doorway, corner: people in buildings, walls; ucy: the people of the UCY recordings, "
                         "docs/pedestrians.md)")
-    p.add_argument("--count", type=int, default=100, help=f"episodes of the suite (1 to {MAX_COUNT})")
-    p.add_argument("--seed", type=int, default=0, help="seed of the suite")
+    p.add_argument("--count", type=int, default=None, help=f"episodes of the suite, 1 to {MAX_COUNT} (default: 100)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the suite (default: 0)")
     p.add_argument("--movers", type=int, default=None,
                    help="crowd and building suites: how many movers (default 5)")
     p.add_argument("--behaviour", choices=SUITE_BEHAVIOURS, default=None,
@@ -231,23 +231,34 @@ def add_suite_arguments(p: argparse.ArgumentParser) -> None:
                         "social_force (walkers that follow their recording and give way to the robot)")
 
 
+def check_suite_options(suite: str, movers, behaviour) -> None:
+    """Refuse, in one line, ``--movers`` / ``--behaviour`` given for a suite that does not take
+    them (they were ignored without a word: random --movers 3 ran one mover)."""
+    from scenarios.suites import BUILDING_SUITES, CROWD_SUITES, RECORDED_SUITES
+    if movers is not None and suite not in CROWD_SUITES + BUILDING_SUITES:
+        raise UsageError(f"--movers: suite {suite} has its own movers (the crowd and building suites take --movers)")
+    if behaviour is not None and suite not in CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES:
+        raise UsageError(f"--behaviour: suite {suite} has its own movers (the crowd, building and recorded "
+                         f"suites take --behaviour)")
+
+
 def suite_from_args(args):
     """The :class:`scenarios.Suite` the options name (None without ``--suite``); bad values
     are a one-line error."""
     if not getattr(args, "suite", None):
+        # options of a suite given with scenario files were ignored without a word
+        given = [f"--{n}" for n in ("count", "seed", "movers", "behaviour") if getattr(args, n, None) is not None]
+        if given:
+            raise UsageError(f"{', '.join(given)}: {'choose' if len(given) > 1 else 'chooses'} a suite's episodes, "
+                             f"give {'them' if len(given) > 1 else 'it'} with --suite (scenario files run as they are)")
         return None
     from scenarios import Suite
-    from scenarios.suites import BUILDING_SUITES, CROWD_SUITES, RECORDED_SUITES
+    args.count = 100 if args.count is None else args.count
+    args.seed = 0 if args.seed is None else args.seed
     for name, low in (("count", 1), ("seed", 0), ("movers", 0)):
         if getattr(args, name) is not None and getattr(args, name) < low:
             raise UsageError(f"--{name} must be at least {low}, got {getattr(args, name)}")
-    # options a suite does not take were ignored without a word (random --movers 3 ran one mover)
-    if args.movers is not None and args.suite not in CROWD_SUITES + BUILDING_SUITES:
-        raise UsageError(f"--movers: suite {args.suite} has its own movers (the crowd and building suites take "
-                         f"--movers)")
-    if args.behaviour is not None and args.suite not in CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES:
-        raise UsageError(f"--behaviour: suite {args.suite} has its own movers (the crowd, building and recorded "
-                         f"suites take --behaviour)")
+    check_suite_options(args.suite, args.movers, args.behaviour)
     if args.count > MAX_COUNT:
         raise UsageError(f"--count must be at most {MAX_COUNT}, got {args.count} (the scenarios are made before the "
                          f"first episode and every episode is kept until the end; split a larger study by --seed)")

@@ -15,10 +15,11 @@ import os
 import sys
 from pathlib import Path
 
-from scenarios import CROWD_BEHAVIOURS, CROWD_SUITES, SUITES
+from scenarios import CROWD_SUITES, SUITES
+from scenarios.suites import SUITE_BEHAVIOURS
 
 from ..errors import UsageError
-from .common import (add_preset_arguments, check_seed, config_differences, connected, planner_config, progress,
+from .common import (add_preset_arguments, check_seed, check_suite_options, config_differences, connected, planner_config, progress,
                      usable_cores)
 
 MAX_SAMPLES = 100_000_000
@@ -68,23 +69,26 @@ def add_arguments(p):
                    help="--dagger: label each visited situation by the GPC solved afresh from its fixed guesses "
                         "(cold, default) or by a GPC kept in step with the episode, as it commands in closed loop "
                         "(closed-loop; nn_export/training/dataset/onpolicy.py)")
-    p.add_argument("--episodes", type=int, default=None,
+    p.add_argument("--episodes", "--count", dest="episodes", type=int, default=None,
                    help="episodes of the suite for --dagger (default 100; with --dagger-files, one a file)")
     p.add_argument("--round", type=int, default=1, help="DAgger round number (names the part: dagger<R>)")
     p.add_argument("--dagger-noise", type=float, default=0.0, metavar="SIGMA",
                    help="--dagger: add N(0, SIGMA) m/s to each wheel speed the driver applies (DART: the "
                         "GPC drives, the states spread as a learner's errors would spread them; labels "
                         "are unaffected); default 0")
-    p.add_argument("--dagger-suite", choices=SUITES, default=None,
+    p.add_argument("--dagger-suite", "--suite", dest="dagger_suite", choices=SUITES, default=None,
                    help="--dagger: the episodes' suite (default: random, or random-multi for the multi and set "
-                        "layouts; encounters: the family of the paper's Fig. 7; the crowd suites take --movers "
-                        "and --behaviour)")
+                        "layouts; encounters: the family of the paper's Fig. 7; the crowd and building suites take "
+                        "--movers and --behaviour, ucy --behaviour); its seed is --seed plus 1000 times --round "
+                        "(plus 500 where the GPC drives), so that rounds never repeat each other")
     p.add_argument("--dagger-files", type=Path, nargs="+", default=None, metavar="SCENARIO.toml",
                    help="--dagger: drive these scenario files instead of a suite (one episode each; e.g. "
                         "navground's scenes exported by tools/export_navground_scenario.py, or your own)")
-    p.add_argument("--movers", type=int, default=5, help="--dagger on a crowd suite: walkers per scene (default 5)")
-    p.add_argument("--behaviour", choices=CROWD_BEHAVIOURS, default="orca",
-                   help="--dagger on a crowd suite: how the walkers move (default orca)")
+    p.add_argument("--movers", type=int, default=None,
+                   help="--dagger on a crowd or building suite: walkers per scene (default 5)")
+    p.add_argument("--behaviour", choices=SUITE_BEHAVIOURS, default=None,
+                   help="--dagger on a crowd or building suite: how the walkers move (default orca); ucy: replay "
+                        "(default) or orca / social_force")
     p.add_argument("--start-offset", type=float, default=0.0, metavar="M",
                    help="--dagger: start each episode's robot U(-M, M) m beside the path, turned by "
                         "U(-M/2, M/2) rad (recovering starts, as in Fig. 7.3); default 0")
@@ -121,6 +125,12 @@ def run(args) -> int:
         raise UsageError("give --dagger-suite or --dagger-files, not both")
     if args.dagger_files and args.episodes is not None:
         raise UsageError("--dagger-files runs one episode a file: --episodes does not apply")
+    if args.dagger is None and (args.movers is not None or args.behaviour is not None or args.episodes is not None):
+        raise UsageError("--episodes, --movers and --behaviour choose an on-policy round's episodes: they need --dagger")
+    if args.dagger_files and (args.movers is not None or args.behaviour is not None):
+        raise UsageError("--movers and --behaviour choose a suite's walkers: --dagger-files runs the files as they are")
+    if args.dagger is not None and not args.dagger_files:  # (the default suites, random and random-multi, take neither)
+        check_suite_options(args.dagger_suite or "random", args.movers, args.behaviour)
     if args.labels == "closed-loop" and args.tie_margin is not None:
         raise UsageError("--tie-margin applies to cold labels, not --labels closed-loop")
     if args.dagger is not None:
@@ -231,14 +241,18 @@ def _dagger(args) -> int:
     suite = args.dagger_suite or ("random-multi" if layout.name in ("multi", "set", "set-walls") else "random")
     # episodes never repeat the evaluation suite (seed 1) nor each other (GPC parts: +500)
     suite_seed = args.seed + 1000 * args.round + (500 if by_gpc else 0)
-    if args.movers < 0:
+    if args.movers is not None and args.movers < 0:
         raise UsageError(f"--movers must not be negative, got {args.movers}")
+    movers = 5 if args.movers is None else args.movers
     if args.dagger_files:
         scenarios = _dagger_files(args.dagger_files, suite_seed, args.start_offset)
         suite, episodes = "files", len(scenarios)
     else:
         episodes = 100 if args.episodes is None else args.episodes
-        scenarios = _dagger_scenarios(suite, episodes, suite_seed, args.start_offset, args.movers, args.behaviour)
+        try:
+            scenarios = _dagger_scenarios(suite, episodes, suite_seed, args.start_offset, movers, args.behaviour)
+        except ValueError as exc:  # e.g. more walkers than the geometry can place
+            raise UsageError(f"--suite {suite}: {exc}") from None
     options = OnPolicyOptions(config, layout, solver, robot,
                               mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
                               noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE,
@@ -247,7 +261,7 @@ def _dagger(args) -> int:
     with connected(pool):
         arrays, stats = collect_on_policy_parallel(factory, scenarios, options, pool,
                                                    progress=lambda **kw: progress(desc=f"{part}", **kw))
-    crowd = {"movers": args.movers, "behaviour": args.behaviour} if suite in CROWD_SUITES else {}
+    crowd = {"movers": movers, "behaviour": _behaviour(suite, args.behaviour)} if suite in CROWD_SUITES else {}
     if args.dagger_files:
         crowd = {"files": [sc.name for sc in scenarios]}
     info = {"round": args.round, "model": str(args.dagger), "suite": suite, **crowd, "episodes": episodes,
@@ -315,8 +329,14 @@ def _dagger_files(paths, suite_seed: int, start_offset_m: float) -> list:
     return _offset([load_scenario(p) for p in paths], suite_seed, start_offset_m)
 
 
+def _behaviour(suite: str, behaviour: str | None) -> str:
+    """The walkers' behaviour a suite runs with (``behaviour``, else the suite's default)."""
+    from scenarios.suites import default_behaviour
+    return default_behaviour(suite) if behaviour is None else behaviour
+
+
 def _dagger_scenarios(suite: str, episodes: int, suite_seed: int, start_offset_m: float, movers: int = 5,
-                      behaviour: str = "orca") -> list:
+                      behaviour: str | None = None) -> list:
     """The round's episodes, their starts moved up to ``start_offset_m`` beside the path."""
     from scenarios import Suite
     return _offset(Suite(suite, episodes, suite_seed, movers, behaviour).scenarios(), suite_seed, start_offset_m)

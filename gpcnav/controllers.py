@@ -210,6 +210,14 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
+def check_controller_name(name: str, what: str = "--controller") -> None:
+    """Refuse (``ValueError`` naming ``what``) a name that is neither a built-in controller nor
+    ``MODULE:CLASS`` in form; the class itself is imported when the controller is made."""
+    module_name, sep, class_name = name.partition(":")
+    if name not in BUILTIN and not (sep and module_name and class_name):
+        raise ValueError(f"{what} {name!r}: not a controller (choose from {', '.join(BUILTIN)}, or MODULE:CLASS)")
+
+
 def load_user_class(text: str) -> type:
     """The class named by ``MODULE:CLASS`` (``CLASS`` may be dotted), imported with the
     current folder first on ``sys.path``. A one-line :class:`UsageError` when the module

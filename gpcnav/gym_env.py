@@ -175,29 +175,46 @@ class NavigationEnv(Env):
 
     metadata = {"render_modes": []}
 
-    def __init__(self, scenario: str | Path | None = None, suite: str | None = None, movers: int = 5,
-                 behaviour: str = "orca", suite_seed: int = 0, count: int | None = None, preset: str = "improved",
+    def __init__(self, scenario: str | Path | None = None, suite: str | None = None, movers: int | None = None,
+                 behaviour: str | None = None, suite_seed: int = 0, count: int | None = None, preset: str = "improved",
                  sample_time_s: float | None = None, expert: str | None = None,
-                 layout: ObservationLayout = ObservationLayout(), reward: RewardSettings = RewardSettings()):
+                 layout: ObservationLayout = ObservationLayout(), reward: RewardSettings = RewardSettings(),
+                 render_mode: str | None = None):
+        if render_mode is not None:  # (gymnasium.make passes it when asked for one)
+            raise ValueError(f"render_mode {render_mode!r}: this environment renders nothing (draw an episode with "
+                             f"gpcnav simulate SCENARIO --plot FIG.png or --animate ANIM.gif)")
         if scenario is not None and suite is not None:
             raise ValueError("give scenario=PATH or suite=NAME, not both")
         if scenario is None and suite is None:
             suite = DEFAULT_SUITE
         self.config = preset_config(preset)
-        self.sample_time_s = float(sample_time_s or self.config.sample_time_s)
-        if not self.sample_time_s > 0:
+        self.sample_time_s = float(self.config.sample_time_s if sample_time_s is None else sample_time_s)
+        if not (math.isfinite(self.sample_time_s) and self.sample_time_s > 0):
             raise ValueError(f"sample_time_s must be positive, got {sample_time_s}")
+        if expert is not None:  # a name of the registry, refused now rather than at the first reset
+            from .controllers import check_controller_name
+            check_controller_name(str(expert), "expert")
         self._file_scenario = None
         self.suite = None
         if scenario is not None:
             from scenarios import load_scenario
+            given = [k for k, v in (("movers", movers), ("behaviour", behaviour), ("count", count)) if v is not None]
+            if given or suite_seed:  # a suite's options: taken and ignored with a file
+                raise ValueError(f"{', '.join(given + ['suite_seed'] * bool(suite_seed))}: options of a suite, not of "
+                                 f"scenario={scenario!s} (a file runs as it is)")
             self._file_scenario = load_scenario(scenario)
             self._check_duration(self._file_scenario)
         else:
             from scenarios import Suite
+            from scenarios.suites import BUILDING_SUITES, CROWD_SUITES, RECORDED_SUITES
             if count is not None and count < 1:
                 raise ValueError(f"count must be at least 1, got {count}")
-            self.suite = Suite(suite, count or 1, suite_seed, movers, behaviour)
+            if movers is not None and suite not in CROWD_SUITES + BUILDING_SUITES:
+                raise ValueError(f"movers: suite {suite} has its own movers (the crowd and building suites take movers)")
+            if behaviour is not None and suite not in CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES:
+                raise ValueError(f"behaviour: suite {suite} has its own movers (the crowd, building and recorded suites "
+                                 f"take behaviour)")
+            self.suite = Suite(suite, count or 1, suite_seed, 5 if movers is None else movers, behaviour)
         self.count = count
         self.layout, self.reward_settings = layout, reward
         self.expert_name = expert
@@ -230,6 +247,8 @@ class NavigationEnv(Env):
         index = (options or {}).get("index")
         if index is None:
             index = int(self.np_random.integers(0, self.count if self.count else 2 ** 31 - 1))
+        elif int(index) < 0:  # (any other: episode ``index`` of the suite, ``count`` or not: the draws' set only)
+            raise ValueError(f"options index {index}: an episode of the suite is 0 or more")
         return self.suite.scenario(int(index))
 
     def _expert(self, scenario):

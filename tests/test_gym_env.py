@@ -179,3 +179,25 @@ def test_a_scenario_that_ends_before_the_first_step_is_refused_when_made(tmp_pat
     env.reset(seed=0)
     *_, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))
     assert truncated and not terminated and info["outcome"] == "timed_out"
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"sample_time_s": 0}, "sample_time_s must be positive"),  # was taken as "the preset's"
+    ({"sample_time_s": float("nan")}, "sample_time_s must be positive"),
+    ({"expert": "nope"}, "expert 'nope': not a controller"),  # was refused only at the first reset
+    ({"suite": "random", "movers": 7}, "movers: suite random has its own movers"),  # taken and ignored
+    ({"suite": "encounters", "behaviour": "orca"}, "behaviour: suite encounters has its own movers"),
+    ({"scenario": PAPER_DIR / "fig7_2_crossing.toml", "movers": 7, "behaviour": "orca"}, "options of a suite"),
+    ({"scenario": PAPER_DIR / "fig7_2_crossing.toml", "suite_seed": 3}, "options of a suite"),
+    ({"render_mode": "human"}, "renders nothing"),  # was a TypeError
+])
+def test_keywords_it_cannot_honour_are_refused_when_made(kwargs, words):
+    with pytest.raises(ValueError, match=words):
+        NavigationEnv(**kwargs)
+
+
+def test_a_negative_episode_index_is_refused():
+    env = NavigationEnv(suite="circle-crossing", movers=3, count=2)
+    env.reset(seed=0, options={"index": 1})
+    with pytest.raises(ValueError, match="an episode of the suite is 0 or more"):
+        env.reset(seed=0, options={"index": -1})

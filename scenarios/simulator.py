@@ -202,17 +202,22 @@ class Episode:
             log.clipped_commands += 1
         self.world.advance(t + T, self._robot_motion(self.state, lim, t))
         gaps = self.interval_clearances(lim)
-        if gaps.size:
-            log.min_clearance_m = min(log.min_clearance_m, float(gaps.min()))
-        log.mover_clearance_m.append(float(gaps[:, :self._n_moving].min()) if self._n_moving else math.inf)
-        x, y, h = robot_step(np, self.state[0], self.state[1], self.state[2], lim[0], lim[1], T, robot.wheel_base_m)
+        hit = bool(gaps.size) and gaps.min() < 0.0
+        # the episode ends at the first instant with an overlap: nothing after it is measured
+        first = int(np.argmax(gaps.min(axis=1) < 0.0)) if hit else SUBSTEPS - 1
+        upto = gaps[:first + 1]
+        if upto.size:
+            log.min_clearance_m = min(log.min_clearance_m, float(upto.min()))
+        log.mover_clearance_m.append(float(upto[:, :self._n_moving].min()) if self._n_moving else math.inf)
+        if hit:  # what was hit and how, from the interval's start
+            log.collision = self._collision(first, int(np.argmin(gaps[first])), lim, t)
+        tau = T * (first + 1) / SUBSTEPS
+        x, y, h = robot_step(np, self.state[0], self.state[1], self.state[2], lim[0], lim[1], tau, robot.wheel_base_m)
         self.state = np.array([x, y, h, lim[0], lim[1]], dtype=float)
         self.k += 1
-        self._record(t + T)
-        if gaps.size and gaps.min() < 0.0:
-            first = int(np.argmax(gaps.min(axis=1) < 0.0))
-            log.collision = self._collision(first, int(np.argmin(gaps[first])), lim, t)
-            return self._finish("collided", t + T * (first + 1) / SUBSTEPS)
+        self._record(t + tau)  # the robot where the episode ends
+        if hit:
+            return self._finish("collided", t + tau)
         end = sc.reference.end_pose
         if (t + T) >= sc.reference.duration_s - 1e-9 and math.hypot(x - end[0], y - end[1]) <= GOAL_TOLERANCE_M:
             return self._finish("reached_goal", t + T)
@@ -225,7 +230,10 @@ class Episode:
         (CONTRACT.md, RUN.json's ``collision``): the obstacle's kind and index among its kind,
         the time, the robot's velocity component towards the obstacle's centre or the wall's
         nearest point (the point of contact lies on that line), and how long the obstacle had
-        existed."""
+        existed. Called with :attr:`state` still the interval's start (``t0``). (Until
+        2026-11-30 it was called after the state had moved to the interval's end, so the
+        robot's position and heading were taken ``substep + 1`` sub-steps past it: the
+        direction of the contact, and so the speed towards it, from the wrong place.)"""
         sc, st = self.scenario, self.state
         tau = self.sample_time_s * (substep + 1) / SUBSTEPS
         x, y, h = robot_step(math, st[0], st[1], st[2], wheels[0], wheels[1], tau, sc.robot.wheel_base_m)

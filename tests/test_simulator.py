@@ -94,16 +94,50 @@ def test_driving_into_an_obstacle_collides_at_the_right_time():
     assert episode_metrics(log).collided
 
 
+def test_a_collision_is_measured_where_it_happens():
+    """The episode ends at the first instant with an overlap: the robot is recorded there, the
+    smallest clearance is that of the instants up to it (not the rest of the interval, where the
+    robot drove on into the obstacle), and the robot's speed towards the obstacle is taken from
+    its position and heading at that instant (they were taken a whole interval further on). An
+    arc into a disc, checked against the robot model from the interval's start, by hand."""
+    from casadi_gpc.robot import robot_step
+    vr, vl = 0.8, 0.2  # turning left all along (a circle of 5/12 m): the heading at contact is not the interval's end's
+    R, phi = ROBOT.wheel_base_m * (vr + vl) / (2 * (vr - vl)), 2.2
+    disc = StaticObstacle((R * math.sin(phi), R * (1 - math.cos(phi))), 0.3)  # on the circle, 1.8 s along it
+    log = simulate(scenario(static=[disc], duration_s=10.0), Scripted(lambda t, r: (vr, vl), sample_time_s=1.0))
+    assert log.outcome == "collided"
+    c, t_hit = log.collision, log.end_time_s
+    # independently: the interval's start (the simulator's record), the robot model to each instant
+    k = int(t_hit // 1.0 - (t_hit % 1.0 == 0))  # the interval the contact falls in
+    s0 = log.states[k]
+    assert log.t[k] == pytest.approx(k * 1.0)
+    def at(tau):
+        return robot_step(math, s0[0], s0[1], s0[2], vr, vl, tau, ROBOT.wheel_base_m)  # the wheels applied
+    taus = [1.0 * (i + 1) / SUBSTEPS for i in range(SUBSTEPS)]
+    gaps = [math.hypot(disc.position_m[0] - at(tau)[0], disc.position_m[1] - at(tau)[1]) - 0.65 for tau in taus]
+    first = next(i for i, g in enumerate(gaps) if g < 0.0)
+    assert t_hit == pytest.approx(k + taus[first])
+    x, y, h = at(taus[first])
+    np.testing.assert_allclose(log.states[-1][:3], (x, y, h), atol=1e-12)  # recorded where it ended
+    assert log.t[-1] == pytest.approx(t_hit)
+    assert log.min_clearance_m == pytest.approx(gaps[first], abs=1e-12)  # the first overlap's, no later one's
+    assert min(gaps) < gaps[first] - 0.05  # (the rest of the interval goes deeper)
+    d = math.hypot(disc.position_m[0] - x, disc.position_m[1] - y)
+    towards = 0.5 * (vr + vl) * (math.cos(h) * (disc.position_m[0] - x) + math.sin(h) * (disc.position_m[1] - y)) / d
+    assert c["robot_speed_towards_mps"] == pytest.approx(towards, abs=1e-12)
+
+
 def test_collision_between_samples_is_caught():
     """A fast obstacle passes through a robot standing still between two samples: at every
     sample instant the discs are apart, in between they overlap."""
     ob = MovingObstacleSpec((-3.0, 0.0), 0.0, 2.0, 0.3)  # at x = -3, -1, 1, 3 at t = 0, 1, 2, 3
     sc = scenario(moving=[ob], duration_s=5.0)
     log = simulate(sc, Scripted(lambda t, r: (0.0, 0.0), sample_time_s=1.0))
-    gaps_at_samples = [np.hypot(*(o[0] - s[:2])) - 0.65 for s, o in zip(log.states, log.obstacle_xy)]
+    # (the last record is where the episode ended, at the first overlap, not a sample instant)
+    gaps_at_samples = [np.hypot(*(o[0] - s[:2])) - 0.65 for s, o in zip(log.states[:-1], log.obstacle_xy[:-1])]
     assert min(gaps_at_samples) > 0.3
     assert log.outcome == "collided"
-    assert 1.0 < log.end_time_s < 2.0
+    assert 1.0 < log.end_time_s < 2.0 and log.t[-1] == log.end_time_s
     # the same pass 0.7 m to the side misses, with the smallest gap, 0.05 m, between samples
     ob_side = MovingObstacleSpec((-3.0, 0.7), 0.0, 2.0, 0.3)
     log = simulate(scenario(moving=[ob_side], duration_s=5.0), Scripted(lambda t, r: (0.0, 0.0), 1.0))

@@ -34,7 +34,11 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["AgentRun", "BehaviourSummary", "agent_runs", "summarise", "markdown"]
+__all__ = ["AgentRun", "BehaviourSummary", "agent_runs", "summarise", "markdown", "RECORDS"]
+
+RECORDS = {"record_world": ("'world'",), "record_deadlocks": ("'deadlocks'",), "record_collisions": ("'collisions'",),
+           "record_efficacy": ("'efficacy'",), "record_pose": ("'poses'",)}
+"""The experiment's records this reads, and the words of h5py's error where one is missing."""
 
 
 @dataclass(frozen=True)
@@ -141,7 +145,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         summaries = summarise(args.data)
     except (OSError, KeyError, ValueError) as exc:  # not there, not HDF5, not navground's layout
-        print(f"{parser.prog}: error: {args.data}: cannot read navground's recorded runs ({exc})", file=sys.stderr)
+        what = str(exc)
+        missing = [r for r, words in RECORDS.items() if any(w in what for w in words)] if args.data.is_file() else []
+        hint = f"; record it in the experiment: {', '.join(f'{r}: true' for r in missing)}" if missing else ""
+        print(f"{parser.prog}: error: {args.data}: cannot read navground's recorded runs ({what}){hint}",
+              file=sys.stderr)
         return 2
     if not summaries:
         print(f"{parser.prog}: error: {args.data}: no run recorded (an experiment that stopped before its first run)",

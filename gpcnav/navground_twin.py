@@ -251,6 +251,33 @@ def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     return lo, hi
 
 
+def _refusal(paths, settings: TwinSettings) -> str | None:
+    """Why these files and settings cannot run (one line), or None: a file that is not a
+    scenario, one with walls or with movers that are not walkers with goals (navground's world
+    of it cannot be built), a behaviour navground does not know."""
+    from navground import core
+
+    from scenarios import load_scenario
+    from scenarios.loader import ScenarioError
+    if settings.behaviour not in core.Behavior.types:
+        core.load_plugins()  # GPC, GPCNetwork: gpcnav's own behaviours
+    if settings.behaviour not in core.Behavior.types:
+        return f"--behaviour {settings.behaviour!r}: not a navground behaviour (choose from " \
+               f"{', '.join(sorted(t for t in core.Behavior.types if t))})"
+    for path in paths:
+        try:
+            sc = load_scenario(path)
+        except ScenarioError as exc:
+            return str(exc)
+        if getattr(sc, "walls", ()):
+            return f"{path}: walls are not exported to navground"
+        for j, m in enumerate(sc.moving):
+            if getattr(m, "behaviour", "constant") not in ("orca", "social_force") or hasattr(m, "track"):
+                return f"{path}: mover {j} is not a walker with a goal (navground's twin takes navground's scenes, " \
+                       f"tools/export_navground_scenario.py)"
+    return None
+
+
 def _run_one(args):
     path, settings = args
     from scenarios import load_scenario
@@ -275,6 +302,10 @@ def main(argv=None) -> int:
         props[name] = value.lower() == "true" if value.lower() in ("true", "false") else float(value)
     settings = TwinSettings(a.behaviour, a.safety_margin, acceleration_limit=not a.no_acceleration_limit,
                             properties=props, blind_walkers_see_robot=a.walkers_see_robot)
+    bad = _refusal(a.scenarios, settings)  # every file and the behaviour checked before any run
+    if bad:
+        print(f"{p.prog}: error: {bad}", file=sys.stderr)
+        return 2
     jobs = [(path, settings) for path in a.scenarios]
     if a.workers > 1:
         from concurrent.futures import ProcessPoolExecutor

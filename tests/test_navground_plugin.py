@@ -264,3 +264,19 @@ def test_a_wheel_acceleration_that_is_not_a_positive_number_is_refused_when_set(
             b.max_wheel_acceleration = value
         b.max_wheel_acceleration = 1.5  # (navground keeps it as a float32)
         assert b.max_wheel_acceleration == 1.5
+
+
+def test_recorded_runs_without_a_record_they_need_say_which(tmp_path, capsys):
+    """A data file of an experiment that did not record the world (or the deadlocks): the line
+    says which record to switch on (it said only "can't locate attribute: 'world'")."""
+    h5py = pytest.importorskip("h5py")
+    from gpcnav.navground_runs import main
+    path = tmp_path / "data.h5"
+    with h5py.File(path, "w") as f:
+        run = f.create_group("run_0")
+        run.attrs["time_step"] = 0.1
+        for name in ("poses", "efficacy", "deadlocks", "collisions"):
+            run.create_dataset(name, data=[[0.0]])
+    assert main([str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "record_world: true" in err

@@ -115,3 +115,19 @@ def test_navground_s_own_gpc_experiment_is_the_exported_scene():
         for a, b in zip(ours.agents, exported.agents):
             assert np.asarray(a.position) == pytest.approx(np.asarray(b.position), abs=1e-6)
             assert np.asarray(a.task.waypoints[0]) == pytest.approx(np.asarray(b.task.waypoints[0]), abs=1e-6)
+
+
+def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
+    """A file that is not a scenario, one whose movers navground's world cannot hold, a behaviour
+    navground does not know: one line naming it, exit 2, before any run (they were tracebacks)."""
+    from conftest import PAPER_DIR
+    from gpcnav.navground_twin import main
+    (tmp_path / "notes.toml").write_text("not = [toml")
+    good = tmp_path / "one.toml"
+    good.write_text(straight_line_toml("one"))
+    for argv, words in (([str(tmp_path / "notes.toml")], "notes.toml: not valid TOML"),
+                        ([str(PAPER_DIR / "fig7_1_head_on.toml")], "mover 0 is not a walker with a goal"),
+                        ([str(good), "--behaviour", "Nope"], "--behaviour 'Nope': not a navground behaviour")):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and words in err and "Traceback" not in err

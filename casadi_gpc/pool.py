@@ -138,6 +138,7 @@ def _worker_init():
     except (OSError, AttributeError):
         pass
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and stops as on Ctrl-C on SIGTERM (gpcnav.cli); a worker just ends
 
 
 def _run_local(fn, tasks: list, workers: int):

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
 
 from .errors import UsageError
 
@@ -60,19 +62,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (``timeout``, a job scheduler, ``kill``), raised in the main thread so that the
+    command stops as on Ctrl-C: its ``finally`` blocks run (a compile's temporary folder is
+    removed, finished episodes are kept) and it says so in one line."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
+
+
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     from scenarios import ScenarioError
     from casadi_gpc.types import ProtocolError
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    else:
+        previous = None
     try:
         return int(args._run(args) or 0)
     except (UsageError, ScenarioError, ProtocolError) as exc:
         print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         resumes = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
-        print(f"gpcnav {args.command}: interrupted{resumes}", file=sys.stderr)
-        return 130
+        what = "terminated" if isinstance(exc, Terminated) else "interrupted"
+        print(f"gpcnav {args.command}: {what}{resumes}", file=sys.stderr)
+        return 143 if isinstance(exc, Terminated) else 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -131,3 +131,17 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and words in err and "Traceback" not in err
+
+
+def test_the_twin_table_refuses_a_file_it_cannot_read_in_one_line(tmp_path):
+    import subprocess
+    import sys
+
+    from conftest import REPO
+    (tmp_path / "eval.json").write_text('{"episodes_detail": []}')
+    for paths, words in (([tmp_path / "nope.json", tmp_path / "eval.json"], "nope.json: cannot read it"),
+                         ([tmp_path / "eval.json", tmp_path / "eval.json"], "not the document expected (no 'episodes')")):
+        proc = subprocess.run([sys.executable, str(REPO / "tools" / "twin_table.py"), "scene", *map(str, paths)],
+                              capture_output=True, text=True, timeout=60)
+        assert proc.returncode == 2 and not proc.stdout
+        assert proc.stderr.count("\n") == 1 and words in proc.stderr

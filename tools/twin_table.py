@@ -13,6 +13,7 @@ Usage::
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import sys
 
 from scipy.stats import fisher_exact
@@ -30,9 +31,25 @@ def _cell(k: int, n: int) -> str:
     return f"{k} ({100 * lo:.1f}-{100 * hi:.1f} %)"
 
 
+def _refuse(message: str):
+    print(f"twin_table.py: error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def _document(path: str, key: str) -> dict:
+    """The JSON document at ``path`` holding ``key``; a one-line exit naming it otherwise."""
+    try:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        _refuse(f"{path}: cannot read it ({type(exc).__name__}: {exc})")
+    if not isinstance(doc, dict) or key not in doc:
+        _refuse(f"{path}: not the document expected (no {key!r})")
+    return doc
+
+
 def row(label: str, eval_path: str, twin_path: str) -> str:
-    ev = json.load(open(eval_path))
-    tw = json.load(open(twin_path))
+    ev = _document(eval_path, "episodes_detail")  # gpcnav evaluate's EVAL.json
+    tw = _document(twin_path, "episodes")  # python -m gpcnav.navground_twin --out
     a = {e["scenario"]: e["outcome"] for e in ev["episodes_detail"]}
     b = {e["name"]: e["outcome"] for e in tw["episodes"]}
     if set(a) != set(b):
@@ -50,11 +67,11 @@ def main(argv: list[str]) -> int:
     if not argv or len(argv) % 3:
         print(__doc__)
         return 2
+    rows = [row(*argv[i:i + 3]) for i in range(0, len(argv), 3)]  # every file read before anything is printed
     print("| scene, behaviour | episodes | gpcnav: reached (95 % CP) | navground: reached (95 % CP) | Fisher p | "
           "gpcnav: collided (95 % CP) | navground: collided (95 % CP) | Fisher p | collided in both |")
     print("|---|---|---|---|---|---|---|---|---|")
-    for i in range(0, len(argv), 3):
-        print(row(*argv[i:i + 3]))
+    print("\n".join(rows))
     return 0
 
 

@@ -19,8 +19,8 @@ from scenarios import CROWD_SUITES, SUITES
 from scenarios.suites import SUITE_BEHAVIOURS
 
 from ..errors import UsageError
-from .common import (add_preset_arguments, check_seed, check_suite_options, config_differences, connected, planner_config, progress,
-                     usable_cores)
+from .common import (add_preset_arguments, check_seed, check_suite_options, config_differences, connected,
+                     planner_config, progress, usable_cores)
 
 MAX_SAMPLES = 100_000_000
 """The most samples one ``--samples`` asks for: labelling runs at 100-1000 samples/s on a

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 import threading
@@ -68,8 +69,24 @@ class Terminated(KeyboardInterrupt):
     removed, finished episodes are kept) and it says so in one line."""
 
 
+_TERMINATING = threading.Event()
+_STOPPED = threading.Event()
+
+
 def _terminate(signum, frame):
+    """SIGTERM's handler: raise :class:`Terminated` in the main thread. An exception raised
+    while CasADi's C++ code calls back into Python (its output) is lost there, and the command
+    ran on to its end (measured: a SIGTERM during a compile's code generation), so the signal is
+    sent again every second until :func:`main` has caught one."""
+    if not _TERMINATING.is_set():
+        _TERMINATING.set()
+        threading.Thread(target=_repeat, daemon=True).start()
     raise Terminated()
+
+
+def _repeat():
+    while not _STOPPED.wait(1.0):
+        os.kill(os.getpid(), signal.SIGTERM)
 
 
 def main(argv=None) -> int:
@@ -86,13 +103,14 @@ def main(argv=None) -> int:
         print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
+        _STOPPED.set()
         resumes = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
         what = "terminated" if isinstance(exc, Terminated) else "interrupted"
         print(f"gpcnav {args.command}: {what}{resumes}", file=sys.stderr)
         return 143 if isinstance(exc, Terminated) else 130
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        if previous is not None:  # (stopping on a SIGTERM: the repeated ones are not the next command's)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN if _TERMINATING.is_set() else previous)
 
 
 if __name__ == "__main__":

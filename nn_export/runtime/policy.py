@@ -149,8 +149,9 @@ class OnnxPolicy:
         A network of the ``set`` layout (one pass) that answers, in place of ``model``,
         whenever more obstacles are in range than ``model``'s layout has slots for (a
         one-obstacle model among walkers). ``"shipped"`` (default): the crowd network shipped
-        for the preset (:func:`shipped_crowd_model_path`) when ``model`` is the shipped one (None, or a file with its bytes) and
-        its layout is not a set; None: never. Its decisions are counted (``crowd_network``).
+        for the preset (:func:`shipped_crowd_model_path`) when ``model`` is the shipped one
+        (None, or a file with its bytes) and its layout is not a set; None: never. Its
+        decisions are counted (``crowd_network``).
     walls_model : path, None or ``"shipped"``
         A network of the ``set-walls`` layout (one pass) that answers, in place of the other
         two, whenever a wall of the map is within its scan's range of the robot.

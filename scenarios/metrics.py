@@ -40,13 +40,16 @@ def clopper_pearson_upper(failures: int, trials: int, confidence: float = 0.95) 
     return float(beta.ppf(confidence, failures + 1, trials - failures))
 
 
-def path_length_m(states, sample_time_s: float) -> float:
+def path_length_m(states, sample_time_s: float, times=None) -> float:
     """Length of the robot's path: each interval is an arc driven at the constant speed
-    applied over it (the wheel speeds recorded with the state at its end)."""
+    applied over it (the wheel speeds recorded with the state at its end), for
+    ``sample_time_s``, or for the time between the records ``times`` when given (a collided
+    run's last interval ends at the contact)."""
     st = np.asarray(states, dtype=float)
     if len(st) < 2:
         return 0.0
-    return float(np.sum(np.abs(0.5 * (st[1:, 3] + st[1:, 4]))) * sample_time_s)
+    dt = np.diff(np.asarray(times, dtype=float)) if times is not None else sample_time_s
+    return float(np.sum(np.abs(0.5 * (st[1:, 3] + st[1:, 4])) * dt))
 
 
 def intervention_count(events: dict) -> int:
@@ -114,11 +117,12 @@ def longest_stop_s(log: RunLog) -> float:
     slow[0] = False  # the robot starts at rest
     if log.outcome == "reached_goal":
         slow[-1] = False
-    best = run = 0
-    for s in slow[1:]:
-        run = run + 1 if s else 0
+    dt = np.diff(np.asarray(log.t, dtype=float))  # (a collided run's last interval ends at the contact)
+    best = run = 0.0
+    for s, d in zip(slow[1:], dt):
+        run = run + d if s else 0.0
         best = max(best, run)
-    return best * log.sample_time_s
+    return float(best)
 
 
 @dataclass(frozen=True)
@@ -162,7 +166,9 @@ class EpisodeMetrics:
 def episode_metrics(log: RunLog) -> EpisodeMetrics:
     st = np.asarray(log.states)
     ref = np.asarray(log.ref_poses)
-    err = np.hypot(st[:, 0] - ref[:, 0], st[:, 1] - ref[:, 1])
+    t, T = np.asarray(log.t, dtype=float), log.sample_time_s
+    at_samples = np.abs(t / T - np.round(t / T)) < 1e-9  # the tracking error at the samples, not at a contact
+    err = np.hypot(st[at_samples, 0] - ref[at_samples, 0], st[at_samples, 1] - ref[at_samples, 1])
     mover = np.asarray(log.mover_clearance_m, dtype=float)
     danger = mover[mover < DANGER_CLEARANCE_M]
     return EpisodeMetrics(
@@ -176,7 +182,7 @@ def episode_metrics(log: RunLog) -> EpisodeMetrics:
         fallbacks=int(log.fallbacks),
         longest_stop_s=longest_stop_s(log),
         compute_median_s=float(np.median(log.compute_time_s)) if log.compute_time_s else 0.0,
-        path_length_m=path_length_m(log.states, log.sample_time_s),
+        path_length_m=path_length_m(log.states, log.sample_time_s, log.t),
         danger_steps=int(danger.size),
         danger_clearance_sum_m=float(danger.sum()),
         interventions=intervention_count(log.events),

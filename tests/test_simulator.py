@@ -125,6 +125,14 @@ def test_a_collision_is_measured_where_it_happens():
     d = math.hypot(disc.position_m[0] - x, disc.position_m[1] - y)
     towards = 0.5 * (vr + vl) * (math.cos(h) * (disc.position_m[0] - x) + math.sin(h) * (disc.position_m[1] - y)) / d
     assert c["robot_speed_towards_mps"] == pytest.approx(towards, abs=1e-12)
+    m = episode_metrics(log)  # the path and the stops end at the contact too (found by an audit)
+    assert m.path_length_m == pytest.approx(0.5 * (vr + vl) * t_hit, abs=1e-12)
+    stood = simulate(scenario(moving=[MovingObstacleSpec((-3.0, 0.0), 0.0, 2.0, 0.3)], duration_s=5.0),
+                     Scripted(lambda t, r: (0.0, 0.0), sample_time_s=1.0))
+    assert stood.outcome == "collided" and longest_stop_s(stood) == pytest.approx(stood.end_time_s)
+    assert episode_metrics(stood).tracking_rmse_m == pytest.approx(  # at the samples 0 and 1 s only
+        math.sqrt(np.mean([math.hypot(*(np.asarray(s[:2]) - r[:2])) ** 2
+                           for s, r in zip(stood.states[:-1], stood.ref_poses[:-1])])), abs=1e-12)
 
 
 def test_collision_between_samples_is_caught():

@@ -169,7 +169,8 @@ def episode_metrics(log: RunLog) -> EpisodeMetrics:
     t, T = np.asarray(log.t, dtype=float), log.sample_time_s
     at_samples = np.abs(t / T - np.round(t / T)) < 1e-9  # the tracking error at the samples, not at a contact
     err = np.hypot(st[at_samples, 0] - ref[at_samples, 0], st[at_samples, 1] - ref[at_samples, 1])
-    mover = np.asarray(log.mover_clearance_m, dtype=float)
+    # CrowdNav's danger, as the contract counts it: the samples at which some mover is within 0.2 m
+    mover = np.asarray(log.mover_sample_clearance_m, dtype=float)
     danger = mover[mover < DANGER_CLEARANCE_M]
     return EpisodeMetrics(
         scenario=log.scenario.name,

@@ -37,7 +37,8 @@ class RunLog:
     obstacle_xy: list = field(default_factory=list)     # (n_obstacles, 2) true positions at t
     compute_time_s: list = field(default_factory=list)
     decisions: list = field(default_factory=list)
-    mover_clearance_m: list = field(default_factory=list)
+    mover_clearance_m: list = field(default_factory=list)   # smallest gap to a mover over each interval
+    mover_sample_clearance_m: list = field(default_factory=list)  # ... at each sample (the interval's end, or the contact)
     """Per sample interval: the smallest disc-to-disc gap to any moving obstacle over the
     interval's collision-check instants (inf without movers)."""
     min_clearance_m: float = float("inf")
@@ -209,6 +210,7 @@ class Episode:
         if upto.size:
             log.min_clearance_m = min(log.min_clearance_m, float(upto.min()))
         log.mover_clearance_m.append(float(upto[:, :self._n_moving].min()) if self._n_moving else math.inf)
+        log.mover_sample_clearance_m.append(float(upto[-1, :self._n_moving].min()) if self._n_moving else math.inf)
         if hit:  # what was hit and how, from the interval's start
             log.collision = self._collision(first, int(np.argmin(gaps[first])), lim, t)
         tau = T * (first + 1) / SUBSTEPS

@@ -151,6 +151,10 @@ def test_collision_between_samples_is_caught():
     log = simulate(scenario(moving=[ob_side], duration_s=5.0), Scripted(lambda t, r: (0.0, 0.0), 1.0))
     assert log.outcome == "timed_out"
     assert log.min_clearance_m == pytest.approx(0.05, abs=1e-12)
+    # the danger rate counts samples (the contract's), and at none was the mover within 0.2 m: at the
+    # samples 1 and 2 s it is 0.57 m away (it counted the two intervals it passed in, as in danger)
+    m = episode_metrics(log)
+    assert m.danger_steps == 0 and math.hypot(1.0, 0.7) - 0.65 > 0.2
 
 
 def test_moving_robot_jumping_past_an_obstacle_between_samples_collides():

@@ -114,7 +114,10 @@ class Episode:
         self.state = scenario.robot_start.as_array().astype(float)
         self.state[3:] = 0.0
         self.k = 0
-        self.n_steps = int(np.floor(scenario.duration_s / T + 1e-9))  # never run past duration_s
+        # the run ends at duration_s (CONTRACT.md): its last interval is cut there when duration_s is not a
+        # whole number of samples (a run shorter than one sample has none: a run of no sample)
+        whole = int(np.floor(scenario.duration_s / T + 1e-9))
+        self.n_steps = whole + int(whole > 0 and scenario.duration_s - whole * T > 1e-9)
         self.done = False
         self._static_xy = np.array([s.position_m for s in scenario.static], dtype=float).reshape(-1, 2)
         self._radii = np.array([m.radius_m for m in scenario.moving] + [s.radius_m for s in scenario.static])
@@ -163,11 +166,17 @@ class Episode:
             return x, y, speed * math.cos(h), speed * math.sin(h)
         return at
 
+    def interval_s(self) -> float:
+        """The coming interval's length: the sample time, or, for the last one, what is left to
+        ``duration_s``."""
+        return min(self.sample_time_s, self.scenario.duration_s - self.t_s) if self.k == self.n_steps - 1 \
+            else self.sample_time_s
+
     def interval_clearances(self, wheels: np.ndarray) -> np.ndarray:
         """Gaps to every obstacle at :data:`SUBSTEPS` evenly spaced instants inside the
         coming interval, shape ``(SUBSTEPS, n_obstacles)`` (moving, static, then the walls:
         the robot's disc to the polyline), with the robot driving ``wheels`` (exact arcs)."""
-        T, t0, st = self.sample_time_s, self.t_s, self.state
+        T, t0, st = self.interval_s(), self.t_s, self.state
         tau = T * np.arange(1, SUBSTEPS + 1) / SUBSTEPS
         x, y, _ = robot_step(np, st[0], st[1], st[2], wheels[0], wheels[1], tau, self.scenario.robot.wheel_base_m)
         xy = self._obstacles_at(t0 + tau)                                   # (S, n, 2)
@@ -201,7 +210,8 @@ class Episode:
                       -robot.max_wheel_speed_mps, robot.max_wheel_speed_mps)
         if np.any(np.abs(lim - cmd) > 1e-9):
             log.clipped_commands += 1
-        self.world.advance(t + T, self._robot_motion(self.state, lim, t))
+        L = self.interval_s()  # T, or less for a last interval cut at duration_s
+        self.world.advance(t + L, self._robot_motion(self.state, lim, t))
         gaps = self.interval_clearances(lim)
         hit = bool(gaps.size) and gaps.min() < 0.0
         # the episode ends at the first instant with an overlap: nothing after it is measured
@@ -212,8 +222,8 @@ class Episode:
         log.mover_clearance_m.append(float(upto[:, :self._n_moving].min()) if self._n_moving else math.inf)
         log.mover_sample_clearance_m.append(float(upto[-1, :self._n_moving].min()) if self._n_moving else math.inf)
         if hit:  # what was hit and how, from the interval's start
-            log.collision = self._collision(first, int(np.argmin(gaps[first])), lim, t)
-        tau = T * (first + 1) / SUBSTEPS
+            log.collision = self._collision(first, int(np.argmin(gaps[first])), lim, t, L)
+        tau = L * (first + 1) / SUBSTEPS
         x, y, h = robot_step(np, self.state[0], self.state[1], self.state[2], lim[0], lim[1], tau, robot.wheel_base_m)
         self.state = np.array([x, y, h, lim[0], lim[1]], dtype=float)
         self.k += 1
@@ -221,13 +231,13 @@ class Episode:
         if hit:
             return self._finish("collided", t + tau)
         end = sc.reference.end_pose
-        if (t + T) >= sc.reference.duration_s - 1e-9 and math.hypot(x - end[0], y - end[1]) <= GOAL_TOLERANCE_M:
-            return self._finish("reached_goal", t + T)
+        if (t + L) >= sc.reference.duration_s - 1e-9 and math.hypot(x - end[0], y - end[1]) <= GOAL_TOLERANCE_M:
+            return self._finish("reached_goal", t + L)
         if self.k >= self.n_steps:
-            return self._finish("timed_out", self.n_steps * T)
+            return self._finish("timed_out", t + L)
         return None
 
-    def _collision(self, substep: int, j: int, wheels: np.ndarray, t0: float) -> dict:
+    def _collision(self, substep: int, j: int, wheels: np.ndarray, t0: float, interval_s: float) -> dict:
         """What was hit and how, at the first collision-check instant with an overlap
         (CONTRACT.md, RUN.json's ``collision``): the obstacle's kind and index among its kind,
         the time, the robot's velocity component towards the obstacle's centre or the wall's
@@ -237,7 +247,7 @@ class Episode:
         robot's position and heading were taken ``substep + 1`` sub-steps past it: the
         direction of the contact, and so the speed towards it, from the wrong place.)"""
         sc, st = self.scenario, self.state
-        tau = self.sample_time_s * (substep + 1) / SUBSTEPS
+        tau = interval_s * (substep + 1) / SUBSTEPS
         x, y, h = robot_step(math, st[0], st[1], st[2], wheels[0], wheels[1], tau, sc.robot.wheel_base_m)
         v = 0.5 * (wheels[0] + wheels[1])
         t = t0 + tau

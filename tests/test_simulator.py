@@ -78,6 +78,20 @@ def test_goal_tolerance(short_m, outcome):
     assert log.outcome == outcome
 
 
+def test_the_run_ends_at_duration_s_not_at_the_sample_before_it():
+    """A time limit that is not a whole number of samples (10.25 s at 0.5 s): the last interval is
+    driven and checked up to it (CONTRACT.md: timed out at ``duration_s``). It ended at 10.0 s, and
+    a mover reaching the robot at 10.1 s was not seen (found by an audit)."""
+    log = simulate(scenario(duration_s=10.25), straight(0.0))
+    assert log.outcome == "timed_out" and log.end_time_s == pytest.approx(10.25) and log.t[-1] == pytest.approx(10.25)
+    assert len(log.decisions) == 21  # samples 0, 0.5, ..., 10.0
+    ob = MovingObstacleSpec((5.7, 0.0), math.pi, 0.5, 0.3)  # the discs touch at 10.1 s
+    hit = simulate(scenario(moving=[ob], duration_s=10.25), straight(0.0))
+    assert hit.outcome == "collided" and 10.1 - 1e-9 <= hit.end_time_s <= 10.1 + 0.25 / SUBSTEPS + 1e-9
+    short = simulate(scenario(moving=[ob], duration_s=10.0), straight(0.0))  # the same, cut at 10 s
+    assert short.outcome == "timed_out" and short.end_time_s == pytest.approx(10.0)
+
+
 def test_time_limit_gives_timed_out():
     log = simulate(scenario(duration_s=7.5), straight(0.4))
     assert log.outcome == "timed_out"

@@ -111,7 +111,9 @@ def time_stats(values, limit_s: float | None = None) -> dict:
 
 
 def longest_stop_s(log: RunLog) -> float:
-    """Longest time both wheels stayed under 0.05 m/s, excluding the start and the end."""
+    """Longest time both wheels stayed under 0.05 m/s, excluding the start (the robot starts at
+    rest) and, in a run that reached its goal, the end (standing at the goal is not a stop); a
+    run that timed out or collided standing counts its last stop."""
     st = np.asarray(log.states)
     slow = np.all(np.abs(st[:, 3:5]) < STOP_SPEED_MPS, axis=1)
     slow[0] = False  # the robot starts at rest

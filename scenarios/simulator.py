@@ -37,10 +37,12 @@ class RunLog:
     obstacle_xy: list = field(default_factory=list)     # (n_obstacles, 2) true positions at t
     compute_time_s: list = field(default_factory=list)
     decisions: list = field(default_factory=list)
-    mover_clearance_m: list = field(default_factory=list)   # smallest gap to a mover over each interval
-    mover_sample_clearance_m: list = field(default_factory=list)  # ... at each sample (the interval's end, or the contact)
+    mover_clearance_m: list = field(default_factory=list)
     """Per sample interval: the smallest disc-to-disc gap to any moving obstacle over the
-    interval's collision-check instants (inf without movers)."""
+    interval's collision-check instants up to a contact (inf without movers)."""
+    mover_sample_clearance_m: list = field(default_factory=list)
+    """Per sample interval: the same gap at its end, the next sample (or the contact, or
+    ``duration_s``): what the danger rate counts (CONTRACT.md: per sample)."""
     min_clearance_m: float = float("inf")
     outcome: str = "timed_out"
     end_time_s: float = 0.0

@@ -222,10 +222,11 @@ def load_user_class(text: str) -> type:
     """The class named by ``MODULE:CLASS`` (``CLASS`` may be dotted), imported with the
     current folder first on ``sys.path``. A one-line :class:`UsageError` when the module
     cannot be imported or has no such class."""
-    module_name, sep, class_name = text.partition(":")
-    if not sep or not module_name or not class_name:
-        raise UsageError(f"--controller {text!r}: not a controller (choose from {', '.join(BUILTIN)}, "
-                         "or MODULE:CLASS)")
+    try:
+        check_controller_name(text)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    module_name, _, class_name = text.partition(":")
     cwd = os.getcwd()
     if cwd not in sys.path:
         sys.path.insert(0, cwd)

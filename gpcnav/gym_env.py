@@ -206,14 +206,10 @@ class NavigationEnv(Env):
             self._check_duration(self._file_scenario)
         else:
             from scenarios import Suite
-            from scenarios.suites import BUILDING_SUITES, CROWD_SUITES, RECORDED_SUITES
+            from scenarios.suites import check_suite_options
             if count is not None and count < 1:
                 raise ValueError(f"count must be at least 1, got {count}")
-            if movers is not None and suite not in CROWD_SUITES + BUILDING_SUITES:
-                raise ValueError(f"movers: suite {suite} has its own movers (the crowd and building suites take movers)")
-            if behaviour is not None and suite not in CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES:
-                raise ValueError(f"behaviour: suite {suite} has its own movers (the crowd, building and recorded suites "
-                                 f"take behaviour)")
+            check_suite_options(suite, movers, behaviour)
             self.suite = Suite(suite, count or 1, suite_seed, 5 if movers is None else movers, behaviour)
         self.count = count
         self.layout, self.reward_settings = layout, reward

@@ -168,9 +168,8 @@ class EpisodeMetrics:
 def episode_metrics(log: RunLog) -> EpisodeMetrics:
     st = np.asarray(log.states)
     ref = np.asarray(log.ref_poses)
-    t, T = np.asarray(log.t, dtype=float), log.sample_time_s
-    at_samples = np.abs(t / T - np.round(t / T)) < 1e-9  # the tracking error at the samples, not at a contact
-    err = np.hypot(st[at_samples, 0] - ref[at_samples, 0], st[at_samples, 1] - ref[at_samples, 1])
+    k = log.at_samples()  # the tracking error at the samples, not at a contact
+    err = np.hypot(st[k, 0] - ref[k, 0], st[k, 1] - ref[k, 1])
     # CrowdNav's danger, as the contract counts it: the samples at which some mover is within 0.2 m
     mover = np.asarray(log.mover_sample_clearance_m, dtype=float)
     danger = mover[mover < DANGER_CLEARANCE_M]

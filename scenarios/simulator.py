@@ -26,7 +26,8 @@ SUBSTEPS = 20  # collision-check instants per sample interval (the contract asks
 
 @dataclass
 class RunLog:
-    """Everything that happened in one episode, sampled at the controller's sample instants."""
+    """Everything that happened in one episode, recorded at the controller's sample instants and,
+    last, where it ended (a contact, or ``duration_s`` between samples: :meth:`at_samples`)."""
 
     scenario: object
     controller: str
@@ -50,6 +51,12 @@ class RunLog:
     clipped_commands: int = 0
     events: dict = field(default_factory=dict)
     collision: dict | None = None
+
+    def at_samples(self) -> np.ndarray:
+        """The indices of the records at sample instants (a collided run's last record is at
+        the contact, a run cut at ``duration_s`` ends between samples)."""
+        t = np.asarray(self.t, dtype=float) / self.sample_time_s
+        return np.flatnonzero(np.abs(t - np.round(t)) < 1e-9)
     """What was hit and how, for a collided episode (:meth:`Episode._collision`)."""
 
 

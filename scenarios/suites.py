@@ -25,7 +25,7 @@ from .random_suite import SUITES as RANDOM_SUITES
 from .random_suite import random_scenario
 
 __all__ = ["SUITES", "RANDOM_SUITES", "CROWD_SUITES", "BUILDING_SUITES", "RECORDED_SUITES", "CROWD_BEHAVIOURS", "SUITE_BEHAVIOURS",
-           "Suite", "suite_scenario", "default_behaviour"]
+           "Suite", "suite_scenario", "default_behaviour", "check_suite_options"]
 
 RECORDED_SUITES = ("ucy",)
 SUITES = RANDOM_SUITES + CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES
@@ -38,6 +38,17 @@ def default_behaviour(name: str) -> str:
     """The movers' behaviour of suite ``name`` unless told: ``replay`` for the recorded
     people, ``orca`` for the crowds."""
     return "replay" if name in RECORDED_SUITES else "orca"
+
+
+def check_suite_options(name: str, movers, behaviour) -> None:
+    """Refuse (``ValueError``) ``movers`` / ``behaviour`` given for a suite that does not take
+    them (they were taken and ignored: random with 3 movers ran one): the crowd and building
+    suites take both, the recorded people ``behaviour``. None: not given."""
+    if movers is not None and name not in CROWD_SUITES + BUILDING_SUITES:
+        raise ValueError(f"movers: suite {name} has its own movers (the crowd and building suites take movers)")
+    if behaviour is not None and name not in CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES:
+        raise ValueError(f"behaviour: suite {name} has its own movers (the crowd, building and recorded suites "
+                         f"take behaviour)")
 
 
 @dataclass(frozen=True)

@@ -145,8 +145,7 @@ def main(argv=None) -> int:
             gpc.use_truth(truth, [m.radius_m for m in sc.moving], std, args.forecast == "present")
             log = simulate(sc, Shield(gpc, sc.robot, check_settings("gpc", gpc, cfg, "on"), planner_config=cfg),
                            "gpc-oracle")
-            at_samples = [k for k, t in enumerate(log.t) if abs(t / T - round(t / T)) < 1e-9]  # (a contact's is not)
-            recorded = np.array(log.obstacle_xy, dtype=float)[at_samples, :len(sc.moving)]
+            recorded = np.array(log.obstacle_xy, dtype=float)[log.at_samples(), :len(sc.moving)]
             there = np.isfinite(recorded)
             assert np.array_equal(truth[:len(recorded)][there], recorded[there]), \
                 "the oracle's positions are not the simulator's"

@@ -232,14 +232,12 @@ def add_suite_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def check_suite_options(suite: str, movers, behaviour) -> None:
-    """Refuse, in one line, ``--movers`` / ``--behaviour`` given for a suite that does not take
-    them (they were ignored without a word: random --movers 3 ran one mover)."""
-    from scenarios.suites import BUILDING_SUITES, CROWD_SUITES, RECORDED_SUITES
-    if movers is not None and suite not in CROWD_SUITES + BUILDING_SUITES:
-        raise UsageError(f"--movers: suite {suite} has its own movers (the crowd and building suites take --movers)")
-    if behaviour is not None and suite not in CROWD_SUITES + BUILDING_SUITES + RECORDED_SUITES:
-        raise UsageError(f"--behaviour: suite {suite} has its own movers (the crowd, building and recorded "
-                         f"suites take --behaviour)")
+    """:func:`scenarios.suites.check_suite_options` as a one-line error naming the option."""
+    from scenarios.suites import check_suite_options as check
+    try:
+        check(suite, movers, behaviour)
+    except ValueError as exc:
+        raise UsageError(f"--{exc}") from None
 
 
 def suite_from_args(args):

@@ -789,8 +789,9 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     f = SafetyFilter(ROBOT, 0.5, 12)
     N = 12 * f.substeps
     kept, contact, fixed, drives = np.array([40, 10, 30]), np.array([20, N, 20]), np.full(3, N), np.full(3, N)
+    rdrives = drives.copy()  # the uncertain drive-in (robust_drive_ties), the same as the plain one here
     monkeypatch.setattr(f, "clearances", lambda *a: (np.full(3, -0.2), np.zeros(3), np.zeros(3, int),
-                                                     np.zeros(3, int), kept, contact, fixed, drives))
+                                                     np.zeros(3, int), kept, contact, fixed, drives, rdrives))
     obstacles = f.obstacle_tracks([forecast((3.0, 0.0), (0.0, 0.0), 0.5, 12)], ())
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "b" and not best.safe and best.contact_s == 6.0
@@ -810,12 +811,27 @@ def test_options_that_all_lose_the_margin_rank_by_the_expected_discs_first(monke
     contact[:], drives[:] = [14, 4, 13], [N, N, N]  # driven into only after the commitment time: by time
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "a" and best.drives_in_s == f.commit_s
+    # equal on the drive-in and the expected discs: the one moving towards a person's uncertain
+    # disc later, before the fixed obstacles and the margin (past the commitment time all equal)
+    kept[:], contact[:], fixed[:], drives[:] = [30, 20, 10], [N, N, N], [N, N, 2], [N, N, N]
+    rdrives[:] = [3, N, 40]
+    best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
+    assert best.continuation == "b" and best.uncertain_drives_in_s == f.commit_s and best.drives_in_s == f.commit_s
+    rdrives[1] = 13  # 'b' and 'c' both after the commitment time: then the fixed obstacles ('b')
+    assert f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"]).continuation == "b"
+    fixed[1] = 1  # ... 'c' now off the wall longer
+    assert f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"]).continuation == "c"
+    rdrives[:] = N
     contact[:], drives[:] = [5, 3, 2], [5, 3, 8]  # all drive in within it: the latest, whoever touches first
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
     assert best.continuation == "c" and best.drives_in_s == 1.0 and best.contact_s == 0.25
     driven, run_into = check(False, 4.0, 1.0), check(False, 4.0, 0.5)
     driven.drives_in_s, run_into.drives_in_s = 1.0, 1.5
     assert better(run_into, driven) and not better(driven, run_into)
+    # equal on both: moving towards an uncertain disc later wins, before the walls and the margin
+    calm, pushy = check(False, 1.0, 6.0, fixed=0.1), check(False, 4.0, 6.0)
+    calm.uncertain_drives_in_s, pushy.uncertain_drives_in_s = 1.5, 0.5
+    assert better(calm, pushy) and not better(pushy, calm)
     drives[:] = N
     kept[:] = [N, 10, 30]  # one keeps the inflated margin all along: it wins
     best = f._check_best(np.zeros(5), np.zeros((3, 12, 2)), obstacles, ["a", "b", "c"])
@@ -928,7 +944,7 @@ def test_being_inside_a_persons_disc_does_not_license_the_robot_into_a_wall():
     state = np.array([0.0, 0.0, -0.6, 0.0, 0.0])  # heading 34 degrees towards the wall
     into = np.tile([0.3, 0.3], (1, H, 1))           # straight on: into the wall
     along, along_state = into.copy(), np.zeros(5)    # the same, heading along the wall
-    _, _, _, _, kept, contact, fixed, _ = f.clearances(state, into, obs)
+    _, _, _, _, kept, contact, fixed, _, _ = f.clearances(state, into, obs)
     # the wall is closer than the margin now: the margin is lost as soon as the robot closes in on it
     wall_gap = np.abs(f.rollout(state, into)[0].imag + (r + 0.03)) - r  # to the line y = -(r + 0.03)
     first_closer = int(np.argmax(wall_gap[1:] < 0.03 - 1e-6))
@@ -961,7 +977,8 @@ def _random_crowd(rng, f, n_statics: int):
 def _numpy_clearances(f, state, W, obs, robust: bool = False):
     """The check's clearances in whole-array numpy (the form the compiled one replaced), as an
     independent implementation: discs only (moving, then static). ``robust``: a mover's
-    inflated disc counts for the drive-in as well (``CheckSettings.robust_drive_in``)."""
+    inflated disc counts for the drive-in as well (``CheckSettings.robust_drive_in``); the last
+    answer, the drive-in so counted where ``f.robust_drive_ties`` (else the one before again)."""
     M, N = W.shape[0], f.horizon * f.substeps
     q, touch = obs.sub_samples()
     rel = f.rollout(state, W)[:, None, :] - q
@@ -986,12 +1003,13 @@ def _numpy_clearances(f, state, W, obs, robust: bool = False):
     toward = ((p[:, None, 1:] - p[:, None, :-1]) * np.conj(q[None, :, 1:] - p[:, None, 1:])).real \
         / np.abs(q[None, :, 1:] - p[:, None, 1:]) / (f.sample_time_s / f.substeps)   # (M, n, N), m/s
     zone = touched.copy()
-    if robust:  # a mover's inflated disc, below its own inflated clearance now
-        zone[:, :nm] |= gap[:, :nm] < np.minimum(0.0, own[:, :nm] - 1e-6)[..., None]
-    driven = (zone & (toward > DRIVEN_MPS)).any(axis=1)[:, :f._commit_chords]
-    return (flat[np.arange(M), k], now, k % N, k // N, np.where(below.any(axis=1), below.argmax(axis=1), N),
-            np.where(below0.any(axis=1), below0.argmax(axis=1), N), np.where(fixed.any(axis=1), fixed.argmax(axis=1), N),
-            np.where(driven.any(axis=1), driven.argmax(axis=1), N))
+    zone[:, :nm] |= gap[:, :nm] < np.minimum(0.0, own[:, :nm] - 1e-6)[..., None]  # a mover's inflated disc, below
+    # its own inflated clearance now
+    first = lambda z: np.where(z.any(axis=1), z.argmax(axis=1), N)  # noqa: E731
+    driven = first((touched & (toward > DRIVEN_MPS)).any(axis=1)[:, :f._commit_chords])
+    driven_robust = first((zone & (toward > DRIVEN_MPS)).any(axis=1)[:, :f._commit_chords])
+    return (flat[np.arange(M), k], now, k % N, k // N, first(below), first(below0), first(fixed),
+            driven_robust if robust else driven, driven_robust if f.robust_drive_ties or robust else driven)
 
 
 def test_a_drive_in_judged_against_the_uncertain_discs_is_the_whole_array_one():
@@ -1009,11 +1027,34 @@ def test_a_drive_in_judged_against_the_uncertain_discs_is_the_whole_array_one():
         state, obs, W = _random_crowd(rng, robust, i % 3)
         got, ref, base = robust.clearances(state, W, obs), _numpy_clearances(robust, state, W, obs, True), \
             plain.clearances(state, W, obs)
-        assert np.array_equal(got[7], ref[7])
+        assert np.array_equal(got[7], ref[7]) and np.array_equal(got[8], ref[8]) and np.array_equal(got[8], got[7])
         for x, y in zip(got[:7], base[:7]):
             assert np.array_equal(x, y)
         assert np.all(got[7] <= base[7])
         sooner += int((got[7] < base[7]).sum())
+    assert sooner > 20
+
+
+def test_the_uncertain_drive_in_as_a_tie_break_is_the_whole_array_one():
+    """``robust_drive_ties``: the ninth answer is the drive-in counted against the inflated discs
+    too (the whole-array form above), the first eight are the plain check's, bit for bit; off,
+    the ninth is the eighth again. Among random crowds, some sequences must differ in the two
+    counts, or nothing is compared."""
+    T, H = 0.5, 12
+    rng = np.random.default_rng(13)
+    plain, ties = SafetyFilter(ROBOT, T, H, search=True), SafetyFilter(ROBOT, T, H, search=True,
+                                                                      robust_drive_ties=True)
+    sooner = 0
+    for i in range(60):
+        state, obs, W = _random_crowd(rng, ties, i % 3)
+        got, ref, base = ties.clearances(state, W, obs), _numpy_clearances(ties, state, W, obs), \
+            plain.clearances(state, W, obs)
+        assert np.array_equal(got[8], ref[8]) and np.array_equal(got[7], ref[7])
+        assert np.array_equal(base[8], base[7])
+        for x, y in zip(got[:8], base[:8]):
+            assert np.array_equal(x, y)
+        assert np.all(got[8] <= got[7])
+        sooner += int((got[8] < got[7]).sum())
     assert sooner > 20
 
 

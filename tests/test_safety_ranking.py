@@ -25,22 +25,25 @@ def _best_numpy(among: np.ndarray, cmin: np.ndarray) -> int:
     return int(np.argmax(among & (cmin >= cmin[among].max() - TIE_M)))
 
 
-def best_unsafe_index_numpy(cmin, kept, contact, fixed, drives, commit: int) -> int:
-    """:func:`best_unsafe_index` as numpy took it (the reference)."""
+def best_unsafe_index_numpy(cmin, kept, contact, fixed, drives, rdrives, commit: int) -> int:
+    """:func:`best_unsafe_index` as numpy took it (the reference; with the uncertain drive-in's
+    key, ``rdrives``, after the contact's)."""
     driven = np.minimum(drives, commit)
     first = driven == driven.max()
     first &= contact == contact[first].max()
+    rdriven = np.minimum(rdrives, commit)
+    first &= rdriven == rdriven[first].max()
     first &= fixed == fixed[first].max()
     return _best_numpy(first & (kept == kept[first].max()), cmin)
 
 
-def pick_index_numpy(cmin, kept, contact, fixed, drives, n_chords: int, commit: int) -> int:
+def pick_index_numpy(cmin, kept, contact, fixed, drives, rdrives, n_chords: int, commit: int) -> int:
     """:func:`pick_index` as numpy took it (the reference)."""
     if len(cmin) <= 1:
         return 0
     safe = kept == n_chords
     return _best_numpy(safe, cmin) if safe.any() else best_unsafe_index_numpy(cmin, kept, contact, fixed, drives,
-                                                                              commit)
+                                                                              rdrives, commit)
 
 
 def within_limits_numpy(robot, sample_time_s, v0, wheels: np.ndarray) -> bool:
@@ -76,7 +79,7 @@ def _crowd(rng, n: int, spread: float = 3.0):
 def _random_found(rng, M: int, N: int, commit: int):
     cmin = rng.choice([-0.3, -0.1, 0.0, 0.02, 0.1, 0.1 + 5e-10, 0.3], M) + rng.choice([0.0, 1e-12], M)
     pick = lambda: rng.choice([0, 3, 8, 12, 20, N], M).astype(np.int64)  # noqa: E731 (ties on purpose)
-    return cmin, pick(), pick(), pick(), pick()
+    return cmin, pick(), pick(), pick(), pick(), pick()
 
 
 def test_pick_index_is_the_numpy_forms():
@@ -145,7 +148,7 @@ def _old_search(f, state, obstacles, wish):
         cost = (((W - w) ** 2).sum(axis=2) * f._search_weights).sum(axis=1)
         i = int(np.argmin(np.where(safe, cost, np.inf)))
     else:
-        i = best_unsafe_index_numpy(found[0], found[4], found[5], found[6], found[7], f._commit_chords)
+        i = best_unsafe_index_numpy(found[0], found[4], found[5], found[6], found[7], found[8], f._commit_chords)
     return f._search_names[i], W[i], f._verdict(found, i, obstacles, f._search_names[i])
 
 

@@ -89,6 +89,13 @@ class SafetyCheck:
     that time (``inf`` for a sequence that keeps the margin). What ranks first among
     sequences that lose the margin: a contact the robot can no longer brake out of is better
     met standing or giving way than driving (:meth:`TrajectoryCheck._better`)."""
+    uncertain_drives_in_s: float = math.inf
+    """The same with a person's disc inflated by the forecast's uncertainty (the discs the margin
+    is kept from) counted as touching them, when the check's ``robust_drive_ties`` is on (else
+    :attr:`drives_in_s` again): what ranks sequences equal on :attr:`drives_in_s` and
+    :attr:`contact_s`, so that among options that all miss the people where the forecasts expect
+    them, the one that does not move towards anyone where they may be is taken
+    (docs/data/pedestrians/robust_ties/)."""
 
 
 
@@ -345,26 +352,28 @@ class TrajectoryCheck(Clearances):
 
     def _pick(self, found: tuple, obstacles, labels: list[str]) -> SafetyCheck:
         """:meth:`_check_best` of :meth:`clearances`' answer ``found``."""
-        i = pick_index(found[0], found[4], found[5], found[6], found[7], self.horizon * self.substeps,
+        i = pick_index(found[0], found[4], found[5], found[6], found[7], found[8], self.horizon * self.substeps,
                        self._commit_chords)  # compiled (ranking.py: the numpy form's index)
         return self._verdict(found, i, obstacles, labels[i])
 
     def _best_unsafe(self, found: tuple) -> int:
         """The index of the best of sequences that all lose the margin, by :meth:`_better`'s
         order: the latest to drive into a contact within the commitment time, then the longest
-        clear of the expected discs, then the longest off the fixed obstacles, then the longest
-        keeping the margin, then the largest smallest clearance, then the first."""
-        return best_unsafe_index(found[0], found[4], found[5], found[6], found[7], self._commit_chords)
+        clear of the expected discs, then (with ``robust_drive_ties``) the latest to move towards
+        a person inside their uncertain disc within it, then the longest off the fixed obstacles,
+        then the longest keeping the margin, then the largest smallest clearance, then the first."""
+        return best_unsafe_index(found[0], found[4], found[5], found[6], found[7], found[8], self._commit_chords)
 
     def _verdict(self, found: tuple, i: int, obstacles, label: str) -> SafetyCheck:
         """The :class:`SafetyCheck` of the ``i``-th sequence of :meth:`clearances`' answer ``found``."""
-        cmin, now, chord, which, kept, contact, fixed, _ = found
-        N, tau = self.horizon * self.substeps, self.sample_time_s / self.substeps
+        cmin, now, chord, which, kept, contact, fixed, drives, rdrives = found
+        N, tau, commit = self.horizon * self.substeps, self.sample_time_s / self.substeps, self._commit_chords
         safe = bool(kept[i] == N)
         return SafetyCheck(safe, float(cmin[i]), float(now[i]), float(chord[i] + 1) * tau,
                            obstacles.label(int(which[i])), label, float(kept[i]) * tau,
                            contact_s=float(contact[i]) * tau, fixed_contact_s=float(fixed[i]) * tau,
-                           drives_in_s=math.inf if safe else float(min(int(found[7][i]), self._commit_chords)) * tau)
+                           drives_in_s=math.inf if safe else float(min(int(drives[i]), commit)) * tau,
+                           uncertain_drives_in_s=math.inf if safe else float(min(int(rdrives[i]), commit)) * tau)
 
     @staticmethod
     def _better(a: SafetyCheck, b: SafetyCheck) -> bool:
@@ -374,7 +383,9 @@ class TrajectoryCheck(Clearances):
         is not the robot's doing, and a person who sees the robot can still avoid it), then
         the one that stays clear of the obstacles' expected discs
         longer (:attr:`SafetyCheck.contact_s`: the walls' and static obstacles' own, the
-        movers' where the forecasts expect them), then the one that stays off the walls and
+        movers' where the forecasts expect them), then the one that moves towards a person
+        inside their uncertain disc later (:attr:`SafetyCheck.uncertain_drives_in_s`, the
+        same as the first unless the check's ``robust_drive_ties`` is on), then the one that stays off the walls and
         static obstacles longer (:attr:`SafetyCheck.fixed_contact_s`), then the one that keeps
         the margin from their inflated discs longer (:attr:`SafetyCheck.kept_s`); then the
         larger smallest clearance.
@@ -390,6 +401,8 @@ class TrajectoryCheck(Clearances):
             return a.drives_in_s > b.drives_in_s
         if not a.safe and abs(a.contact_s - b.contact_s) > 1e-12:
             return a.contact_s > b.contact_s
+        if not a.safe and abs(a.uncertain_drives_in_s - b.uncertain_drives_in_s) > 1e-12:
+            return a.uncertain_drives_in_s > b.uncertain_drives_in_s
         if not a.safe and abs(a.fixed_contact_s - b.fixed_contact_s) > 1e-12:
             return a.fixed_contact_s > b.fixed_contact_s
         return a.kept_s > b.kept_s + 1e-12 or (abs(a.kept_s - b.kept_s) <= 1e-12

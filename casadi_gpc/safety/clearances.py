@@ -27,6 +27,12 @@ class Clearances:
     (:func:`~casadi_gpc.safety.distances.chord_clearances`' ``robust_drives``; set by
     :class:`~casadi_gpc.safety.filter.SafetyFilter`)."""
 
+    robust_drive_ties = False
+    """Whether options equal on the first two keys of the check's order are ranked next by how
+    late each moves towards a person inside their disc inflated by the forecast's uncertainty
+    (the ninth of :meth:`clearances`' answers; set by
+    :class:`~casadi_gpc.safety.filter.SafetyFilter`)."""
+
     def rollout(self, state, wheels: np.ndarray) -> np.ndarray:
         """Robot positions at the sub-sample instants as complex numbers x + iy,
         ``(M, H * substeps + 1)``, the first column now. ``state`` = (x, y, heading, ...),
@@ -44,7 +50,9 @@ class Clearances:
         closes in), H * substeps when it never does; and the same for the fixed obstacles
         alone, the walls and static discs; and how many pass, within the commitment time,
         before it drives into what it touches (moving towards it faster than
-        :data:`DRIVEN_MPS` while touching it; H * substeps when it does not so soon)
+        :data:`DRIVEN_MPS` while touching it; H * substeps when it does not so soon); and the
+        same with a person's disc inflated by the forecast's uncertainty counted as touching
+        them (with :attr:`robust_drive_ties`; else the count before, again)
         (:func:`~casadi_gpc.safety.distances.chord_clearances`,
         compiled: every sequence against every obstacle, at less than the numpy form's cost
         against the few within reach)."""
@@ -53,13 +61,13 @@ class Clearances:
         if not len(obstacles.q) + len(walls):
             inf = np.full(M, np.inf)
             return (inf, inf, np.zeros(M, int), np.zeros(M, int), np.full(M, N), np.full(M, N), np.full(M, N),
-                    np.full(M, N))
+                    np.full(M, N), np.full(M, N))
         q, touch = obstacles.sub_samples()
-        cmin, now, chord, which, kept, contact, fixed, drives = chord_clearances(
+        cmin, now, chord, which, kept, contact, fixed, drives, rdrives = chord_clearances(
             self.rollout(state, wheels), q, touch, obstacles.radii, walls, self.robot.radius_m, self.margin_m,
             NOT_WORSE_M, len(obstacles.moving), DRIVEN_MPS * self.sample_time_s / self.substeps, self._commit_chords,
-            self.robust_drive_in)
-        return cmin, np.full(M, now), chord, which, kept, contact, fixed, drives
+            self.robust_drive_in, self.robust_drive_ties)
+        return cmin, np.full(M, now), chord, which, kept, contact, fixed, drives, rdrives
 
     def wall_bounds(self, p0: complex, walls: np.ndarray, reach) -> np.ndarray:
         """``(nw, len(reach))``: the clearance to each wall that a robot within path length

@@ -112,11 +112,11 @@ def closest_on_segment(p, a, b):  # pragma: no cover (compiled)
     return a + _along(p - a, b - a) * (b - a)
 
 
-@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1]))(complex128[:, ::1], "
-      "complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64, float64, int64, "
-      "boolean)", cache=True)
+@njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1]))("
+      "complex128[:, ::1], complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64, "
+      "float64, int64, boolean, boolean)", cache=True)
 def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse, n_moving, drive_step,
-                     commit, robust_drives):  # pragma: no cover (compiled)
+                     commit, robust_drives, robust_ties):  # pragma: no cover (compiled)
     """For the roll-outs ``p`` (``(M, N + 1)`` complex, the first column now), the discs at
     ``q`` (``(n, N + 1)`` complex) touched at ``touch`` (``(n, N)``, inflated) and ``radii``
     (``(n,)``, not inflated), and the wall segments ``walls`` (``(nw, 2)`` complex ends,
@@ -138,7 +138,10 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     them. With ``robust_drives`` a mover's inflated disc counts for that last count as well
     (``touch``, with the threshold of the inflated clearance now, as the expected disc's is of
     the expected clearance now): moving towards a person inside the disc the margin is kept
-    from drives into them; walls and static discs keep the test above."""
+    from drives into them; walls and static discs keep the test above. Last of all, with
+    ``robust_ties``, the same count taken that robust way whatever ``robust_drives`` says (the
+    tie-break of :attr:`~casadi_gpc.safety.check.SafetyCheck.uncertain_drives_in_s`); without it,
+    a copy of the count before."""
     M, N = p.shape[0], p.shape[1] - 1
     n, nw = q.shape[0], walls.shape[0]
     cmin = np.empty(M)
@@ -148,6 +151,7 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     contact = np.full(M, N, np.int64)
     fixed = np.full(M, N, np.int64)
     drives = np.full(M, N, np.int64)
+    rdrives = np.full(M, N, np.int64)
     p0 = p[0, 0]
     # now: each obstacle's inflated clearance and distance to its expected disc (or the wall),
     # and the least inflated clearance (the clearance now this returns)
@@ -165,12 +169,14 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     # the thresholds: inside an obstacle's margin (or disc) now, not to close in on it further;
     # each obstacle's from its own clearance now (being inside one person's margin licenses the
     # robot neither into a wall nor towards anyone else)
-    thr, thr0, thr1 = np.empty(n + nw), np.empty(n + nw), np.empty(n + nw)
+    thr, thr0, thr1, thr2 = np.empty(n + nw), np.empty(n + nw), np.empty(n + nw), np.empty(n + nw)
     for j in range(n + nw):
         thr[j] = min(margin, now_j[j] - not_worse)
         thr0[j] = min(0.0, now0_j[j] - not_worse)
-        # robust_drives: a mover's inflated disc, entered (or, inside it now, closed in on)
-        thr1[j] = min(0.0, now_j[j] - not_worse) if robust_drives and j < n_moving else thr0[j]
+        # a mover's inflated disc, entered (or, inside it now, closed in on): robust_drives's
+        # drive-in (thr1) and robust_ties's (thr2)
+        thr2[j] = min(0.0, now_j[j] - not_worse) if j < n_moving else thr0[j]
+        thr1[j] = thr2[j] if robust_drives else thr0[j]
     highest = thr.max() if n + nw else margin  # a gap at or above it loses the margin nowhere
     dist = np.empty((n + nw, N))
     # a lower bound of each obstacle's distance to any path that stays within D of now: its
@@ -233,7 +239,9 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
         cmin[m], which[m], chord[m] = best, bj, bc
         if M == 1 and best >= highest:
             continue  # never below: no need to find where (clear of the inflated discs: of the expected ones too)
-        k_kept, k_contact, k_fixed, k_drives = N, N, N, N
+        k_kept, k_contact, k_fixed, k_drives, k_rdrives = N, N, N, N, N
+        if not robust_ties:
+            k_rdrives = 0  # not wanted: the loop's end does not wait for it (the copy is made below)
         any_fixed = False  # a fixed obstacle near enough to be touched: its first touch is wanted too
         for j in range(n_moving, n + nw):
             any_fixed = any_fixed or computed[j]
@@ -251,19 +259,28 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
                         k_contact = c
                     if k_fixed == N and j >= n_moving:
                         k_fixed = c
+                r_inside = inside or (j < n_moving and dist[j, c] - t < thr2[j])
                 if robust_drives and j < n_moving:
-                    inside = inside or dist[j, c] - t < thr1[j]
-                if inside and k_drives == N and c < commit:
+                    inside = r_inside
+                wanted = (inside and k_drives == N) or (r_inside and k_rdrives == N)
+                if wanted and c < commit:
                     end = p[m, c + 1]
                     u = (q[j, c + 1] if j < n else closest_on_segment(end, walls[j - n, 0], walls[j - n, 1])) - end
                     du = _norm(u.real, u.imag)
                     v = end - p[m, c]
                     if du > 0.0 and (v.real * u.real + v.imag * u.imag) > drive_step * du:
-                        k_drives = c
-            if k_kept < N and k_contact < N and (k_fixed < N or not any_fixed) and (k_drives < N or c + 1 >= commit):
+                        if inside and k_drives == N:
+                            k_drives = c
+                        if r_inside and k_rdrives == N:
+                            k_rdrives = c
+            if k_kept < N and k_contact < N and (k_fixed < N or not any_fixed) and (
+                    (k_drives < N and k_rdrives < N) or c + 1 >= commit):
                 break
         kept[m], contact[m], fixed[m], drives[m] = k_kept, k_contact, k_fixed, k_drives
-    return cmin, now, chord, which, kept, contact, fixed, drives
+        rdrives[m] = k_rdrives if robust_ties else k_drives
+    if not robust_ties:
+        rdrives[:] = drives  # (for a sequence never below, both are N)
+    return cmin, now, chord, which, kept, contact, fixed, drives, rdrives
 
 
 @njit("float64[:, ::1](complex128[::1], complex128[:, ::1])", cache=True)

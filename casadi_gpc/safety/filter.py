@@ -94,7 +94,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
                  sigmas: float = 2.0, substeps: int = 4, fallback=None, trust_planner_s: float | None = None,
                  trust_rollout_s: float | None = None, safer_alternatives: bool = False, search: bool = False,
                  search_two_phase: bool = False, robust_drive_in: bool = False, search_near_walls: bool = False,
-                 walls_margins: tuple[float, float] | None = None):
+                 walls_margins: tuple[float, float] | None = None, robust_drive_ties: bool = False):
         super().__init__(robot, sample_time_s, horizon, margin_m, sigmas, substeps)
         if fallback is not None and not callable(getattr(fallback, "decide", None)):
             raise TypeError("fallback must have a decide(observation) method")
@@ -114,6 +114,7 @@ class SafetyFilter(WayOutSearch, QuickScreen):
         self.search_near_walls = bool(search_near_walls)
         self._search_setting = (self.search_way_out, self.search_two_phase)
         self.robust_drive_in = bool(robust_drive_in)  # Clearances': a drive-in judged against the uncertain discs too
+        self.robust_drive_ties = bool(robust_drive_ties)  # Clearances': that judgement as a tie-break
         # with walls_margins the margin and sigmas are set at each check: these where the check is
         # handed a wall, the open ones elsewhere (CheckSettings.walls_margin_m)
         if walls_margins is not None and not all(math.isfinite(v) and v >= 0 for v in walls_margins):

@@ -3,7 +3,9 @@
 :meth:`~casadi_gpc.safety.clearances.Clearances.clearances`' numbers, by the check's order
 (one that keeps the margin, the largest smallest clearance among those; else the latest to drive
 into a contact within the commitment time, then the longest clear of the expected discs, then
-the longest off the fixed obstacles, then the longest keeping the margin, then the largest
+the latest to move towards a person inside their uncertain disc within the commitment time (the
+same as the first key unless the check's ``robust_drive_ties`` is on), then the longest off the
+fixed obstacles, then the longest keeping the margin, then the largest
 smallest clearance; the first on a tie, clearances within :data:`TIE_M` a tie).
 
 The numpy form it replaces took some ten whole-array calls a pick (three to five picks in a
@@ -47,10 +49,22 @@ def _best(among, cmin):  # pragma: no cover (compiled)
     return 0
 
 
-@njit(types.int64(_F, _I, _I, _I, _I, types.int64), cache=True)
-def best_unsafe_index(cmin, kept, contact, fixed, drives, commit):  # pragma: no cover (compiled)
+@njit(cache=True)
+def _keep_top(first, key):  # pragma: no cover (compiled)
+    """``first &= key == key[first].max()``, ``first`` not empty."""
+    top = -1
+    seen = False
+    for i in range(first.shape[0]):
+        if first[i] and (not seen or key[i] > top):
+            top, seen = key[i], True
+    for i in range(first.shape[0]):
+        first[i] = first[i] and key[i] == top
+
+
+@njit(types.int64(_F, _I, _I, _I, _I, _I, types.int64), cache=True)
+def best_unsafe_index(cmin, kept, contact, fixed, drives, rdrives, commit):  # pragma: no cover (compiled)
     """The index of the best of sequences that all lose the margin (the module's order);
-    ``commit`` the commitment time's chord (``drives`` above it count as it)."""
+    ``commit`` the commitment time's chord (``drives`` and ``rdrives`` above it count as it)."""
     M = cmin.shape[0]
     first = np.empty(M, np.bool_)
     top = drives[0] if drives[0] < commit else commit
@@ -60,19 +74,18 @@ def best_unsafe_index(cmin, kept, contact, fixed, drives, commit):  # pragma: no
             top = d
     for i in range(M):
         first[i] = (drives[i] if drives[i] < commit else commit) == top
-    for key in (contact, fixed, kept):
-        top = -1
-        seen = False
-        for i in range(M):
-            if first[i] and (not seen or key[i] > top):
-                top, seen = key[i], True
-        for i in range(M):
-            first[i] = first[i] and key[i] == top
+    _keep_top(first, contact)
+    rd = np.empty(M, np.int64)
+    for i in range(M):
+        rd[i] = rdrives[i] if rdrives[i] < commit else commit
+    _keep_top(first, rd)
+    _keep_top(first, fixed)
+    _keep_top(first, kept)
     return _best(first, cmin)
 
 
-@njit(types.int64(_F, _I, _I, _I, _I, types.int64, types.int64), cache=True)
-def pick_index(cmin, kept, contact, fixed, drives, n_chords, commit):  # pragma: no cover (compiled)
+@njit(types.int64(_F, _I, _I, _I, _I, _I, types.int64, types.int64), cache=True)
+def pick_index(cmin, kept, contact, fixed, drives, rdrives, n_chords, commit):  # pragma: no cover (compiled)
     """The best sequence's index (the module's order; 0 for a single one): ``kept`` equal to
     ``n_chords`` keeps the margin over the horizon."""
     M = cmin.shape[0]
@@ -85,7 +98,7 @@ def pick_index(cmin, kept, contact, fixed, drives, n_chords, commit):  # pragma:
         any_safe = any_safe or safe[i]
     if any_safe:
         return _best(safe, cmin)
-    return best_unsafe_index(cmin, kept, contact, fixed, drives, commit)
+    return best_unsafe_index(cmin, kept, contact, fixed, drives, rdrives, commit)
 
 
 def within_limits_floats(v0r: float, v0l: float, rows: list, dv_tol: float, vmax_tol: float) -> bool:

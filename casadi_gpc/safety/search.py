@@ -76,12 +76,12 @@ class WayOutSearch:
         self.counters["two_phase_searched"] += 1
         names = self._search_names if names is None else names
         H, N = self.horizon, self.horizon * self.substeps
-        cmin, kept, contact, fixed, drives = (np.array(found[k]) for k in (0, 4, 5, 6, 7))
+        cmin, kept, contact, fixed, drives, rdrives = (np.array(found[k]) for k in (0, 4, 5, 6, 7, 8))
         bases = []
         for _ in range(min(TWO_PHASE_BASES, len(cmin))):
-            b = int(best_unsafe_index(cmin, kept, contact, fixed, drives, self._commit_chords))
+            b = int(best_unsafe_index(cmin, kept, contact, fixed, drives, rdrives, self._commit_chords))
             bases.append(b)
-            cmin[b], kept[b], contact[b], fixed[b], drives[b] = -np.inf, -1, -1, -1, -1  # out of the next pick
+            cmin[b], kept[b], contact[b], fixed[b], drives[b], rdrives[b] = -np.inf, -1, -1, -1, -1, -1  # out of the next pick
         switches = [s for s in (int(round(t / self.sample_time_s)) for t in TWO_PHASE_SWITCH_S) if 1 <= s < H]
         best = None  # (check, name, wheels) of the best unsafe continuation so far
         for b in bases:

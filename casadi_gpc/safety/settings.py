@@ -88,6 +88,12 @@ class CheckSettings:
         forecast's uncertainty counts as driving into them, as inside their expected disc does
         (walls and static obstacles, known exactly, as before). Off by default
         (docs/data/deploy/robust_drive_in/).
+    robust_drive_ties : bool
+        The same judgement as a tie-break only: among options that lose the margin and are
+        equal on the first two keys (how late they drive into an expected disc or a wall, how
+        long they stay clear of the expected discs), the one that moves towards a person
+        inside their uncertain disc later is taken. Off by default
+        (docs/data/pedestrians/robust_ties/).
     fallback : str
         One of :data:`FALLBACKS`.
     margin_m : float
@@ -113,6 +119,7 @@ class CheckSettings:
     walls_margin_m: float | None = None
     walls_sigmas: float | None = None
     robust_drive_in: bool = False
+    robust_drive_ties: bool = False
     fallback: str = "manoeuvres"
     margin_m: float = 0.05
     sigmas: float = 2.0

@@ -104,7 +104,8 @@ class Shield:
                                    search_near_walls=settings.search_near_walls,
                                    walls_margins=None if settings.walls_margin_m is None else
                                    (settings.walls_margin_m, settings.walls_sigmas),
-                                   robust_drive_in=settings.robust_drive_in)
+                                   robust_drive_in=settings.robust_drive_in,
+                                   robust_drive_ties=settings.robust_drive_ties)
         self.uses_policy_forecasts = bool(getattr(policy, "provides_forecasts", False))
         self.trust_plans = settings.trust_plans
         self.previous_plan = settings.previous_plan

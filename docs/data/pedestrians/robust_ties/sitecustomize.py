@@ -1,0 +1,15 @@
+"""Experiment switch (use with PYTHONPATH=<this folder>, run.sh): GPCNAV_EXP_TIES=1 gives the GPC's
+check robust_drive_ties (rule.md)."""
+import os
+import sys
+
+if os.environ.get("GPCNAV_EXP_TIES") == "1":
+    from dataclasses import replace
+    from gpcnav import controllers as C
+    _orig_gpc = C._gpc_check
+
+    def _gpc_check(*a, **kw):
+        return replace(_orig_gpc(*a, **kw), robust_drive_ties=True)
+
+    C.REGISTRY["gpc"] = C.Kind(C.REGISTRY["gpc"].default_shield, _gpc_check)
+    print("GPCNAV_EXP_TIES=1: the GPC's check breaks ties by the drive-in into the uncertain discs", file=sys.stderr)

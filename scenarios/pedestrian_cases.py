@@ -77,15 +77,22 @@ class CaseSpec:
 
 
 def _busiest_point(rec: Recording) -> np.ndarray:
+    """The centre of the 1 m cell with the most people (every 3 s) in it and its eight
+    neighbours; on a tie, the first by x, then y. Counted over the occupied cells only, so a
+    stray row kilometres away costs nothing (a dense grid over every position asked 75 GB for
+    one person 100 km off: found by an audit)."""
     times = np.arange(rec.start_s, rec.end_s, CANDIDATE_EVERY_S)
     pts = np.concatenate([rec.positions_at(t) for t in times] + [np.zeros((0, 2))])
     lo = np.floor(pts.min(axis=0))
-    idx = np.floor(pts - lo).astype(int)
-    grid = np.zeros(idx.max(axis=0) + 3)
-    np.add.at(grid, (idx[:, 0] + 1, idx[:, 1] + 1), 1.0)
-    smooth = sum(np.roll(np.roll(grid, dx, 0), dy, 1) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
-    i, j = np.unravel_index(np.argmax(smooth), smooth.shape)
-    return lo + np.array([i - 1, j - 1]) + 0.5
+    cells, counts = np.unique(np.floor(pts - lo).astype(np.int64), axis=0, return_counts=True)
+    smooth: dict[tuple[int, int], int] = {}
+    for (i, j), c in zip(cells.tolist(), counts.tolist()):
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                smooth[(i + dx, j + dy)] = smooth.get((i + dx, j + dy), 0) + c
+    top = max(smooth.values())
+    i, j = min(k for k, c in smooth.items() if c == top)
+    return lo + np.array([i, j]) + 0.5
 
 
 def _flow_axis(rec: Recording) -> np.ndarray:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import gzip
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,8 +25,8 @@ import numpy as np
 
 from .loader import LARGEST
 
-__all__ = ["Recording", "RecordingError", "read_recording", "seconds_per_frame", "SHIPPED", "shipped_recording",
-           "MAX_GAP_S"]
+__all__ = ["Recording", "RecordingError", "read_recording", "recording_name", "seconds_per_frame", "SHIPPED",
+           "shipped_recording", "MAX_GAP_S"]
 
 RECORDINGS_DIR = Path(__file__).parent / "recordings"
 SHIPPED = ("crowds_zara01", "crowds_zara02", "students003")
@@ -134,7 +135,22 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
     if not tracks:
         raise RecordingError(f"{path}: no person has two rows in a row")
     tracks.sort(key=lambda tr: (tr[0, 0], tr[0, 1], tr[0, 2]))
-    return Recording(path.name.split(".")[0], spf, tuple(tracks))
+    return Recording(recording_name(path), spf, tuple(tracks))
+
+
+def recording_name(path) -> str:
+    """The name a recording's cases are named after: its file's name without ``.gz`` and
+    ``.txt``, every run of characters a scenario's name may not hold (CONTRACT.md: letters,
+    digits, '_' and '-') made one '_', and no '-' or '_' first (a case named '-along-000.toml'
+    reads as an option on a command line): ``crowds_zara01.txt.gz`` -> ``crowds_zara01``,
+    ``my rec.txt`` -> ``my_rec``, ``zara.v2.txt`` -> ``zara_v2`` (cut at the first dot, two
+    versions of a recording wrote over each other's cases; a space or a '+' made cases no
+    command would read: found by an audit)."""
+    stem = Path(path).name
+    for ext in (".gz", ".txt"):
+        if stem.lower().endswith(ext):
+            stem = stem[:-len(ext)]
+    return re.sub(r"[^A-Za-z0-9_-]+", "_", stem).lstrip("-_") or "recording"
 
 
 def shipped_recording(name: str) -> Recording:

@@ -169,6 +169,19 @@ def test_collision_between_samples_is_caught():
     # samples 1 and 2 s it is 0.57 m away (it counted the two intervals it passed in, as in danger)
     m = episode_metrics(log)
     assert m.danger_steps == 0 and math.hypot(1.0, 0.7) - 0.65 > 0.2
+    # a contact is not a sample either (found by an audit: the run above, head on, counted its
+    # contact as a sample in danger, with the overlap as its clearance)
+    m = episode_metrics(simulate(sc, Scripted(lambda t, r: (0.0, 0.0), sample_time_s=1.0)))
+    assert m.outcome == "collided" and m.danger_steps == 0 and m.danger_clearance_sum_m == 0.0
+    # ... while a sample within 0.2 m is, and a run cut at duration_s between samples ends at none:
+    # a mover standing 0.1 m outside contact, samples at 1 and 2 s, the run cut at 2.5 s
+    near = MovingObstacleSpec((0.0, 0.75), 0.0, 0.0, 0.3)
+    m = episode_metrics(simulate(scenario(moving=[near], duration_s=2.5), Scripted(lambda t, r: (0.0, 0.0), 1.0)))
+    assert m.outcome == "timed_out" and m.steps == 3
+    assert m.danger_steps == 2 and m.danger_clearance_sum_m == pytest.approx(2 * 0.1, abs=1e-12)
+    close = MovingObstacleSpec((-2.15, 0.0), 0.0, 1.0, 0.3)  # at x = -1.15 at t = 1 s: 0.5 m from contact
+    m = episode_metrics(simulate(scenario(moving=[close], duration_s=5.0), Scripted(lambda t, r: (0.0, 0.0), 1.0)))
+    assert m.outcome == "collided" and m.danger_steps == 0  # 1 s: 0.5 m; the contact at 1.5 s not counted
 
 
 def test_moving_robot_jumping_past_an_obstacle_between_samples_collides():

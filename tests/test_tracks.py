@@ -211,6 +211,40 @@ def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
                  "--seconds-per-frame", "-1"]) == 2
 
 
+def test_import_tracks_names_cases_that_every_command_reads(tmp_path):
+    """A recording's file name with a space, a '+', a non-ASCII letter, a second dot or a
+    leading dot made case names the loader refuses (written all the same), cut at the first dot
+    or read as an option (found by an audit): the cases are named from the name made valid."""
+    from scenarios.recordings import recording_name
+    assert recording_name("crowds_zara01.txt.gz") == "crowds_zara01"  # the shipped cases keep their names
+    assert recording_name("/data/my rec.txt") == "my_rec" and recording_name("eth+ucy.TXT") == "eth_ucy"
+    assert recording_name("café.txt") == "caf_" and recording_name("zara.v2.txt") == "zara_v2"
+    assert recording_name(".hidden.txt") == "hidden" and recording_name("-dash.txt") == "dash"
+    assert recording_name("++.txt") == "recording"
+    text = _excerpt(tmp_path, 40.0).read_text()
+    for fname, prefix in (("my rec.txt", "my_rec-"), ("zara.v2.txt", "zara_v2-")):
+        (tmp_path / fname).write_text(text)
+        out = tmp_path / prefix
+        assert main(["import-tracks", str(tmp_path / fname), "--out", str(out), "--max-cases", "3"]) == 0
+        files = sorted(out.glob("*.toml"))
+        assert len(files) == 3
+        for f in files:
+            assert f.name.startswith(prefix) and load_scenario(f).name == f.stem
+
+
+def test_import_tracks_takes_a_stray_row_far_away(tmp_path):
+    """The busiest square is found over the occupied cells: a person 100 km away asked a dense
+    grid for 75 GB (a traceback, exit 1; found by an audit). Now the same cases as without them."""
+    from scenarios.pedestrian_cases import cases
+    from scenarios.recordings import read_recording
+    f = _excerpt(tmp_path, 60.0)
+    far = tmp_path / "far.txt"
+    far.write_text(f.read_text() + "0 9999 100000.0 100000.0\n10 9999 100000.0 100000.0\n")  # standing: the flow as before
+    base, with_far = cases(read_recording(f)), cases(read_recording(far))
+    assert base and [(c.task, c.start_s, c.start_xy) for c in base] == [(c.task, c.start_s, c.start_xy) for c in with_far]
+    assert main(["import-tracks", str(far), "--out", str(tmp_path / "o"), "--max-cases", "1"]) == 0
+
+
 def test_the_ucy_suite_is_seeded_and_covers_every_case():
     from scenarios import Suite
     a, b = Suite("ucy", 3, 1).scenarios(), Suite("ucy", 3, 1).scenarios()

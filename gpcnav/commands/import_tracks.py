@@ -25,7 +25,9 @@ def add_arguments(p):
 
 
 def run(args) -> int:
+    import tomllib
     from scenarios import load_scenario
+    from scenarios.loader import scenario_from_dict
     from scenarios.pedestrian_cases import case_scenario, cases
     from scenarios.writer import scenario_document, to_toml
     from scenarios.recordings import RecordingError, read_recording
@@ -46,12 +48,21 @@ def run(args) -> int:
     if args.max_cases is not None and args.max_cases < len(found):
         step = len(found) / args.max_cases
         found = [found[int(k * step)] for k in range(args.max_cases)]
-    make_output_folder(args.out, "--out")
+    # every file made and read back before the first is written: a case that would not load
+    # leaves nothing behind
+    texts = {}
     for k, case in enumerate(found):
         sc = case_scenario(rec, case, args.behaviour, seed=k)
         path = args.out / f"{sc.name}.toml"
-        write_text(path, to_toml(scenario_document(sc)))
-    load_scenario(path)  # the last one read back: what was written is a valid scenario file
+        texts[path] = to_toml(scenario_document(sc))
+        try:
+            scenario_from_dict(tomllib.loads(texts[path]), str(path))
+        except ValueError as exc:
+            raise UsageError(f"{args.recording}: case {sc.name} would not load: {exc}") from None
+    make_output_folder(args.out, "--out")
+    for path, text in texts.items():
+        write_text(path, text)
+    load_scenario(path)  # the last one read back from its file
     print(f"{args.recording}: {len(rec.tracks)} tracks, {rec.end_s - rec.start_s:.0f} s "
           f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} cases written to {args.out}", file=sys.stdout)
     return 0

@@ -211,7 +211,7 @@ def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
                  "--seconds-per-frame", "-1"]) == 2
 
 
-def test_import_tracks_names_cases_that_every_command_reads(tmp_path):
+def test_import_tracks_names_cases_that_every_command_reads(tmp_path, capsys):
     """A recording's file name with a space, a '+', a non-ASCII letter, a second dot or a
     leading dot made case names the loader refuses (written all the same), cut at the first dot
     or read as an option (found by an audit): the cases are named from the name made valid."""
@@ -230,6 +230,10 @@ def test_import_tracks_names_cases_that_every_command_reads(tmp_path):
         assert len(files) == 3
         for f in files:
             assert f.name.startswith(prefix) and load_scenario(f).name == f.stem
+    # into a folder that holds other cases: said, in one line (a glob of it takes them too)
+    assert main(["import-tracks", str(tmp_path / "my rec.txt"), "--out", str(tmp_path / "zara_v2-"),
+                 "--max-cases", "2"]) == 0
+    assert "also holds 3 other scenario files" in capsys.readouterr().err
 
 
 def test_import_tracks_takes_a_stray_row_far_away(tmp_path):

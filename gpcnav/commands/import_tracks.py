@@ -60,9 +60,13 @@ def run(args) -> int:
         except ValueError as exc:
             raise UsageError(f"{args.recording}: case {sc.name} would not load: {exc}") from None
     make_output_folder(args.out, "--out")
+    others = sorted(set(args.out.glob("*.toml")) - set(texts))
     for path, text in texts.items():
         write_text(path, text)
     load_scenario(path)  # the last one read back from its file
+    if others:  # cases of another recording or run: a glob of the folder takes them too
+        print(f"note: {args.out} also holds {len(others)} other scenario files (e.g. {others[0].name}), "
+              f"not written by this run", file=sys.stderr)
     print(f"{args.recording}: {len(rec.tracks)} tracks, {rec.end_s - rec.start_s:.0f} s "
           f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} cases written to {args.out}", file=sys.stdout)
     return 0

@@ -73,12 +73,16 @@ def _gpc_check(controller, config, mode: str):
     (:attr:`casadi_gpc.config.PlannerConfig.walls_margin_m`: ``improved``), the check keeps
     :data:`WALLS_CHECK_MARGIN_M` plus the planner's ``walls_sigmas`` standard deviations and
     searches its way out in two phases (BW5, adopted by a rule on unseen cases:
-    docs/data/buildings/walls_margin/rule3.md); elsewhere it is the check above."""
+    docs/data/buildings/walls_margin/rule3.md); elsewhere it is the check above. Where every
+    option loses the margin, options equal on the drive-in and on the expected discs are ranked
+    by how late they move towards a person inside their uncertain disc (``robust_drive_ties``,
+    adopted by a rule on unseen cases, 2026-11-30: docs/data/pedestrians/robust_ties/rule.md)."""
     from casadi_gpc.safety import CheckSettings, safer_alternatives_for
     near_walls = {} if getattr(config, "walls_margin_m", None) is None else dict(
         search=True, search_two_phase=True, search_near_walls=True, walls_margin_m=WALLS_CHECK_MARGIN_M,
         walls_sigmas=config.walls_sigmas)
-    return CheckSettings(trust_plans=True, safer_alternatives=safer_alternatives_for(config), **near_walls)
+    return CheckSettings(trust_plans=True, safer_alternatives=safer_alternatives_for(config), robust_drive_ties=True,
+                         **near_walls)
 
 
 WALLS_CHECK_MARGIN_M = 0.05

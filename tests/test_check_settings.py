@@ -58,6 +58,7 @@ def test_the_registry_declares_what_each_controller_is_trusted_with(name):
     # out and the near-walls margin apply only near walls, where the preset has a margin there
     # (docs/data/buildings/walls_margin/rule3.md)
     assert not gpc.robust_drive_in
+    assert gpc.robust_drive_ties  # as a tie-break it was adopted (docs/data/pedestrians/robust_ties/rule.md)
     if cfg.walls_margin_m is None:
         assert not gpc.search and not gpc.search_two_phase and gpc.walls_margin_m is None
     else:

@@ -8,14 +8,36 @@ import hashlib
 import json
 import os
 import re
+import shutil
 import socket
 import tempfile
+import threading
+from glob import escape as glob_escape
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_file", "abandoned", "json_default", "write_json", "write_text", "write_bytes", "save_figure",
-           "cache_dir"]
+__all__ = ["atomic_file", "abandoned", "sweep_abandoned", "writer_tag", "request_stop", "stop_requested", "clear_stop",
+           "json_default", "write_json", "write_text", "write_bytes", "save_figure", "cache_dir"]
+
+
+_STOP = threading.Event()
+
+
+def request_stop() -> None:
+    """Say that the command is stopping (Ctrl-C, SIGTERM: ``gpcnav.cli``): from now on
+    :func:`atomic_file` writes nothing, so that work finished after the stop was asked (a solve
+    the interrupt broke, taken for a failed one) is never kept as if whole."""
+    _STOP.set()
+
+
+def stop_requested() -> bool:
+    return _STOP.is_set()
+
+
+def clear_stop() -> None:
+    """A new command starts (``gpcnav.cli.main``, called again in one process)."""
+    _STOP.clear()
 
 
 def cache_dir() -> Path:
@@ -40,6 +62,12 @@ def _host() -> str:
 _WRITER = re.compile(r"\.([0-9a-f]{8})-([0-9]+)\.[a-z0-9_]+")
 
 
+def writer_tag() -> str:
+    """``.HOST-PID``: what a temporary's name holds so that :func:`abandoned` can tell whether
+    its writer still runs (``tempfile``'s random part follows it after a dot)."""
+    return f".{_host()}-{os.getpid()}"
+
+
 def abandoned(tmp) -> bool:
     """Whether the temporary file ``tmp`` (named by :func:`atomic_file`) was left by a writer
     that can no longer finish it: a process of this machine that no longer runs (killed
@@ -60,14 +88,40 @@ def abandoned(tmp) -> bool:
     return False
 
 
+def sweep_abandoned(folder, pattern: str) -> int:
+    """Remove what matches ``pattern`` in ``folder`` and :func:`abandoned` says a killed
+    writer left (files, or folders with what they hold); returns how many. Nothing a running
+    writer, or another machine's, may still use is touched."""
+    gone = 0
+    try:
+        found = list(Path(folder).glob(pattern))
+    except OSError:
+        return 0
+    for stale in found:
+        if not abandoned(stale):
+            continue
+        try:
+            if stale.is_dir() and not stale.is_symlink():
+                shutil.rmtree(stale)
+            else:
+                stale.unlink()
+            gone += 1
+        except OSError:
+            pass  # gone already, or not ours to remove
+    return gone
+
+
 @contextlib.contextmanager
 def atomic_file(path, suffix: str = ""):
     """Yield a temporary path beside ``path``; on a clean exit it is synced to disk and
     renamed over ``path`` (with ordinary permissions), otherwise removed. The temporary's name
     says which machine and process writes it (:func:`abandoned`)."""
+    if _STOP.is_set():
+        raise KeyboardInterrupt(f"stopping: {Path(path).name} not written")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_host()}-{os.getpid()}.", suffix=suffix or path.suffix,
+    sweep_abandoned(path.parent, f".{glob_escape(path.name)}.*")  # a kill -9 mid-write's, of this file
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}{writer_tag()}.", suffix=suffix or path.suffix,
                                dir=path.parent)
     os.close(fd)
     tmp = Path(tmp)

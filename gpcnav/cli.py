@@ -4,6 +4,7 @@ check layer, real pedestrians, buildings, and the architecture."""
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import signal
@@ -71,46 +72,90 @@ class Terminated(KeyboardInterrupt):
 
 _TERMINATING = threading.Event()
 _STOPPED = threading.Event()
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
-def _terminate(signum, frame):
-    """SIGTERM's handler: raise :class:`Terminated` in the main thread. An exception raised
-    while CasADi's C++ code calls back into Python (its output) is lost there, and the command
-    ran on to its end (measured: a SIGTERM during a compile's code generation), so the signal is
-    sent again every second until :func:`main` has caught one."""
+def _stop(signum, frame):
+    """SIGINT's and SIGTERM's handler: from now on nothing more is written
+    (:func:`casadi_gpc.io.request_stop`), and :class:`KeyboardInterrupt` (SIGINT) or
+    :class:`Terminated` (SIGTERM) is raised in the main thread. An exception raised while
+    CasADi's C++ code calls back into Python (its output, its solvers' interrupt check) is lost
+    there, or taken for a failed solve, and the command ran on to its end with that episode's
+    numbers changed (measured: a SIGTERM during a compile's code generation; a Ctrl-C during a
+    solve, 1 run in 5 with one worker), so the signal is sent again every second until
+    :func:`main` has caught one, and what finishes meanwhile is not kept."""
+    from casadi_gpc.io import request_stop
+    request_stop()
     if not _TERMINATING.is_set():
         _TERMINATING.set()
-        threading.Thread(target=_repeat, daemon=True).start()
-    raise Terminated()
+        threading.Thread(target=_repeat, args=(signum,), daemon=True).start()
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
-def _repeat():
+def _repeat(signum):
     while not _STOPPED.wait(1.0):
-        os.kill(os.getpid(), signal.SIGTERM)
+        os.kill(os.getpid(), signum)
+
+
+def _stopped(args, terminated: bool) -> int:
+    _STOPPED.set()
+    resumes = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
+    if args.command == "dataset" and getattr(args, "dagger", None) is not None:
+        resumes = "; an on-policy round is kept only whole: the same command runs it again"
+    print(f"gpcnav {args.command}: {'terminated' if terminated else 'interrupted'}{resumes}", file=sys.stderr)
+    return 143 if terminated else 130
 
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     from scenarios import ScenarioError
+    from casadi_gpc.io import clear_stop, stop_requested
     from casadi_gpc.types import ProtocolError
+    _TERMINATING.clear()
+    _STOPPED.clear()
+    clear_stop()
+    previous = {}
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _terminate)
-    else:
-        previous = None
+        previous = {sig: signal.signal(sig, _stop) for sig in _SIGNALS}
     try:
         return int(args._run(args) or 0)
     except (UsageError, ScenarioError, ProtocolError) as exc:
+        if stop_requested():
+            return _stopped(args, _terminated(exc))
         print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
-        _STOPPED.set()
-        resumes = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
-        what = "terminated" if isinstance(exc, Terminated) else "interrupted"
-        print(f"gpcnav {args.command}: {what}{resumes}", file=sys.stderr)
-        return 143 if isinstance(exc, Terminated) else 130
+        return _stopped(args, _terminated(exc))
+    except OSError as exc:
+        if stop_requested():
+            return _stopped(args, _terminated(exc))
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        # a full disk: what finished before is kept (every file is written whole or not at all)
+        print(f"gpcnav {args.command}: error: {exc.strerror}: {exc.filename or 'a file'}", file=sys.stderr)
+        return 1
+    except Exception as exc:
+        # a stop raised inside a library's call back into Python comes out as its error (numpy's,
+        # CasADi's SystemError "returned a result with an exception set"): a stop all the same
+        if stop_requested():
+            return _stopped(args, _terminated(exc))
+        raise
     finally:
-        if previous is not None:  # (stopping on a SIGTERM: the repeated ones are not the next command's)
-            signal.signal(signal.SIGTERM, signal.SIG_IGN if _TERMINATING.is_set() else previous)
+        _STOPPED.set()
+        clear_stop()
+        for sig, handler in previous.items():  # (stopping: the repeated signals are not the next command's)
+            signal.signal(sig, signal.SIG_IGN if _TERMINATING.is_set() else handler)
+
+
+def _terminated(exc: BaseException) -> bool:
+    """Whether a stop was SIGTERM's: ``exc`` or what it came from is :class:`Terminated`."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, Terminated):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 if __name__ == "__main__":

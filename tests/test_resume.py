@@ -196,6 +196,56 @@ def test_a_write_killed_midway_leaves_a_temporary_the_finished_run_removes(tmp_p
     assert not store.exists()
 
 
+def _killed_writer(tmp_path, target: Path) -> Path:
+    """The temporary a kill -9 left while writing ``target``."""
+    code = ("import os, sys; from casadi_gpc.io import atomic_file\n"
+            "with atomic_file(sys.argv[1]) as tmp:\n"
+            "    tmp.write_text('{\"half')\n    print(tmp, flush=True); os.kill(os.getpid(), 9)")
+    killed = subprocess.run([sys.executable, "-c", code, str(target)], capture_output=True, text=True,
+                            cwd=REPO, env=_env(), timeout=60)
+    assert killed.returncode == -signal.SIGKILL
+    return Path(killed.stdout.strip())
+
+
+def test_a_document_killed_mid_write_leaves_nothing_once_written_again(tmp_path):
+    """kill -9 while a document (EVAL.json, COMPARE.json) is written left a hidden temporary
+    that no later run removed (found by an audit): the next write of the same file removes it;
+    a temporary whose writer runs, or of another file, stays."""
+    from casadi_gpc.io import atomic_file, write_text
+    out = tmp_path / "C.json"
+    left = _killed_writer(tmp_path, out)
+    other = _killed_writer(tmp_path, tmp_path / "D.json")
+    assert left.exists() and other.exists()
+    with atomic_file(tmp_path / "C.json") as running:  # this process's own, under way
+        running.write_text("{")
+        write_text(out, "{}\n")  # (another write of the same file, as a second run's)
+        assert running.exists() and not left.exists()
+    assert out.read_text() == "{" and other.exists()  # (the last to finish wins)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["C.json", other.name])
+
+
+def test_a_compile_killed_midway_leaves_its_build_folder_to_the_next_compile(tmp_path):
+    """kill -9 during the planner's first compile left a folder of generated C in the cache
+    (found by an audit): the next compile removes build folders whose process no longer runs,
+    and old-named ones (``tmp*``) holding an NLP's C an hour old; not a running compile's."""
+    from casadi_gpc.io import writer_tag
+    from casadi_gpc.solvers.compiling import LEGACY_BUILD_AGE_S, _sweep_builds
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead = int(gone.stdout)
+    tag = writer_tag()
+    host = tag[1:].split("-")[0]
+    killed = tmp_path / f".build.{host}-{dead}.abc_123"
+    running = tmp_path / f".build{tag}.def456"
+    old, young = tmp_path / "tmpold", tmp_path / "tmpyoung"
+    for d in (killed, running, old, young):
+        d.mkdir()
+        (d / "gpc_fatrop_0123.c").write_text("int x;\n")
+    then = time.time() - LEGACY_BUILD_AGE_S - 60
+    os.utime(old, (then, then))
+    _sweep_builds(tmp_path)
+    assert not killed.exists() and not old.exists() and running.exists() and young.exists()
+
+
 # --- the keys ------------------------------------------------------------------------------------
 def _keys():
     from casadi_gpc.config import preset
@@ -252,3 +302,25 @@ def test_every_setting_that_decides_an_episode_is_in_its_key(tmp_path):
     before = run_key(ControllerSpec("nn", model), cfg, {})
     model.write_bytes(b"two")  # the same path, another model
     assert run_key(ControllerSpec("nn", model), cfg, {}) != before
+
+
+def test_a_user_controllers_helper_module_is_in_its_key(tmp_path, monkeypatch):
+    """A user's ``MODULE:CLASS`` that imports a helper beside it: editing the helper gives other
+    keys (an edited helper's episodes were mixed with the old ones in a resumed run: found by an
+    audit); a file beside it that it does not import does not."""
+    import sys
+    from gpcnav.commands.episode_store import _user_module_digest
+    pkg = f"usermods_{tmp_path.name}"  # a name no other test imports
+    (tmp_path / f"{pkg}_ctl.py").write_text(f"import {pkg}_helper\nclass Straight:\n    pass\n")
+    (tmp_path / f"{pkg}_helper.py").write_text("SPEED = 0.3\n")
+    (tmp_path / "unrelated.py").write_text("X = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        first = _user_module_digest(f"{pkg}_ctl:Straight")
+        (tmp_path / "unrelated.py").write_text("X = 2\n")
+        assert _user_module_digest(f"{pkg}_ctl:Straight") == first
+        (tmp_path / f"{pkg}_helper.py").write_text("SPEED = 0.6\n")
+        assert _user_module_digest(f"{pkg}_ctl:Straight") not in (first, None)
+    finally:
+        for m in (f"{pkg}_ctl", f"{pkg}_helper"):
+            sys.modules.pop(m, None)

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from ..io import cache_dir  # where compiled libraries are kept (one rule, casadi-free)
+from ..io import cache_dir, sweep_abandoned, writer_tag  # (the cache: one rule, casadi-free)
 
 __all__ = ["CFLAGS", "COMPILE_EVENTS", "ANNOUNCE", "cache_dir", "c_compiler", "compiled_library", "start_compile",
            "Compile", "while_compiling", "build_nlpsol",
@@ -177,6 +177,24 @@ class Compile:
             self._stack.close()
 
 
+LEGACY_BUILD_AGE_S = 3600.0
+"""A build folder of the old name (``tmp*``, before 2026-11-30) this old is a killed compile's:
+no compile takes an hour."""
+
+
+def _sweep_builds(folder: Path) -> None:
+    """Remove the build folders of compiles killed mid-way (kill -9: no ``finally`` ran): those
+    named by a process of this machine that no longer runs, and the old-named ones holding the
+    generated C of an NLP, an hour old."""
+    sweep_abandoned(folder, ".build.*")
+    for old in folder.glob("tmp*"):
+        try:
+            if old.is_dir() and any(old.glob("gpc_*.c")) and time.time() - old.stat().st_mtime > LEGACY_BUILD_AGE_S:
+                shutil.rmtree(old)
+        except OSError:
+            pass
+
+
 def start_compile(solver: ca.Function, plugin: str, nlp: dict, extra: dict | None = None,
                   background: bool = False, what: tuple | None = None) -> Compile:
     """Begin compiling the NLP functions of ``solver`` (see :func:`compiled_library`): the code
@@ -207,7 +225,8 @@ def start_compile(solver: ca.Function, plugin: str, nlp: dict, extra: dict | Non
                 f"{' beside the other solvers' if background else ''}, once (kept in {folder}, $GPCNAV_CACHE_DIR)")
         if not background:
             stack.enter_context(_announced(text))
-        tmp = stack.enter_context(tempfile.TemporaryDirectory(dir=folder))
+        _sweep_builds(folder)
+        tmp = stack.enter_context(tempfile.TemporaryDirectory(dir=folder, prefix=f".build{writer_tag()}."))
         src = Path(tmp) / f"gpc_{plugin}_{key}.c"
         cwd = os.getcwd()
         try:

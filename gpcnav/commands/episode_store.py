@@ -124,15 +124,41 @@ def code_stamp() -> str:
     return _STAMP["stamp"]
 
 
+_OURS = ("casadi_gpc", "scenarios", "nn_export", "gpcnav")
+
+
 def _user_module_digest(name: str) -> str | None:
-    """The source of a user's ``MODULE:CLASS`` module (None if it has no file)."""
+    """The source of a user's ``MODULE:CLASS`` module and of every module it brought in from
+    its own folder (a helper beside it; found by an audit: an edited helper's episodes were
+    mixed with the old ones), by path; None if it has no file. Modules of the standard library,
+    of installed packages and of gpcnav's own packages (in the code stamp) are not its own."""
+    import sys
+    import sysconfig
     module = name.partition(":")[0]
     try:
         spec = importlib.util.find_spec(module)
     except (ImportError, ValueError):
         return None
     origin = getattr(spec, "origin", None)
-    return _file_digest(Path(origin)) if origin and Path(origin).is_file() else None
+    if not origin or not Path(origin).is_file():
+        return None
+    try:
+        importlib.import_module(module)  # (the controller is made from it anyway): what it imports
+    except Exception:  # noqa: BLE001 (its own error is reported where the controller is made)
+        return _file_digest(Path(origin))
+    home = Path(origin).resolve().parent
+    installed = {Path(p).resolve() for p in (sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"],
+                                            sysconfig.get_paths()["stdlib"])}
+    files = {Path(origin).resolve()}
+    for mod in list(sys.modules.values()):
+        f = getattr(mod, "__file__", None)
+        top = (getattr(mod, "__name__", "") or "").partition(".")[0]
+        if not f or top in _OURS or not f.endswith(".py"):
+            continue
+        f = Path(f).resolve()
+        if f.is_relative_to(home) and not any(f.is_relative_to(i) for i in installed) and f.is_file():
+            files.add(f)
+    return _digest({str(f.relative_to(home)): _file_digest(f) for f in sorted(files)})
 
 
 def run_key(spec, config, extra: dict) -> str:

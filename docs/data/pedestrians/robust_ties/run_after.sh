@@ -8,7 +8,8 @@ while read -r name args; do
   [ -z "$name" ] && continue
   if [ "$name" = ng ]; then set -- $(ls /work/main/out/ng-corridor/*.toml); else set -- $args --seed 1; fi
   gpcnav evaluate "$@" --controller gpc --workers 2 --out "$out/$name.json" > "$out/$name.log" 2>&1
-  echo "$name $(date +%T) rc=$?"
+  rc=$?
+  echo "$name $(date +%T) rc=$rc"
 done <<'SETS'
 ucy40 --suite ucy --count 40
 ucyr40 --suite ucy --count 40 --behaviour orca

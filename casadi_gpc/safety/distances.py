@@ -259,9 +259,11 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
                         k_contact = c
                     if k_fixed == N and j >= n_moving:
                         k_fixed = c
-                r_inside = inside or (j < n_moving and dist[j, c] - t < thr2[j])
-                if robust_drives and j < n_moving:
-                    inside = r_inside
+                r_inside = inside  # (the robust count's: wanted only with robust_ties or robust_drives)
+                if (robust_ties or robust_drives) and not inside and j < n_moving:
+                    r_inside = dist[j, c] - t < thr2[j]
+                    if robust_drives:
+                        inside = r_inside
                 wanted = (inside and k_drives == N) or (r_inside and k_rdrives == N)
                 if wanted and c < commit:
                     end = p[m, c + 1]

@@ -81,7 +81,8 @@ class WayOutSearch:
         for _ in range(min(TWO_PHASE_BASES, len(cmin))):
             b = int(best_unsafe_index(cmin, kept, contact, fixed, drives, rdrives, self._commit_chords))
             bases.append(b)
-            cmin[b], kept[b], contact[b], fixed[b], drives[b], rdrives[b] = -np.inf, -1, -1, -1, -1, -1  # out of the next pick
+            # out of the next pick
+            cmin[b], kept[b], contact[b], fixed[b], drives[b], rdrives[b] = -np.inf, -1, -1, -1, -1, -1
         switches = [s for s in (int(round(t / self.sample_time_s)) for t in TWO_PHASE_SWITCH_S) if 1 <= s < H]
         best = None  # (check, name, wheels) of the best unsafe continuation so far
         for b in bases:

@@ -35,8 +35,8 @@ for name in SETS:
         for k in total[f]:
             total[f][k] += c[f][k]
     cell = lambda x: f"{x['reached_goal']} / {x['collided']} ({x['approaching']}) / {x['timed_out']}"  # noqa: E731
-    print(f"| {name} ({c[B]['n']}) | {cell(c[B])} | {cell(c[T])} | {c[B]['median_ms']:.2f} / {c[B]['p99_ms']:.1f}, "
-          f"{c[T]['median_ms']:.2f} / {c[T]['p99_ms']:.1f} |")
+    print(f"| {name} ({c[B]['n']}) | {cell(c[B])} | {cell(c[T])} | "
+          f"{c[B]['median_ms']:.2f} / {c[B]['p99_ms']:.1f}, {c[T]['median_ms']:.2f} / {c[T]['p99_ms']:.1f} |")
 b, t = total[B], total[T]
 print(f"| **sum** | {b['reached_goal']} / {b['collided']} ({b['approaching']}) / {b['timed_out']} | "
       f"{t['reached_goal']} / {t['collided']} ({t['approaching']}) / {t['timed_out']} | |")

@@ -107,6 +107,9 @@ def _nn_check(controller, config, mode: str):
     (docs/nn-deploy.md: one collision in the 800 episodes of the crowd suites on seed 1, 6 in
     1 000 crossings among 10 walkers on seeds 1-5, more than the GPC among walls; fewer
     interventions than with the GPC on standby).
+    Options that all lose the margin and are equal on the drive-in and the expected discs are
+    ranked by the drive-in into the uncertain discs (``robust_drive_ties``, adopted by a rule on
+    unseen cases, 2026-11-30: docs/data/pedestrians/robust_ties/nn_rule.md).
     Mode ``gpc`` keeps the GPC on standby behind the network instead of the search (CasADi;
     docs/nn-crowds.md, "The network's roll-out as its plan")."""
     from casadi_gpc.safety import ROLLOUT_TRUST_S, CheckSettings
@@ -117,7 +120,7 @@ def _nn_check(controller, config, mode: str):
                              trust_rollout_s=ROLLOUT_TRUST_S if rollouts else None, fallback="planner")
     return CheckSettings(trust_plans=plans, previous_plan=plans, rollouts=rollouts,
                          trust_rollout_s=ROLLOUT_TRUST_S if rollouts else None, search=True, search_two_phase=True,
-                         fallback="manoeuvres")
+                         robust_drive_ties=True, fallback="manoeuvres")
 
 
 def _reactive_check(controller, config, mode: str):

@@ -73,6 +73,7 @@ def test_the_registry_declares_what_each_controller_is_trusted_with(name):
     bare = check_settings("nn", _Net(), cfg, "on")                     # the planner-free check, deployed
     assert bare.rollouts and bare.trust_rollout_s == ROLLOUT_TRUST_S and bare.fallback == "manoeuvres"
     assert bare.search and not bare.trust_plans
+    assert bare.robust_drive_ties and not bare.robust_drive_in  # adopted by nn_rule.md (docs/data/pedestrians/robust_ties/)
     plans = check_settings("nn", _PlanNet(), cfg, "on")
     assert plans.trust_plans and plans.previous_plan and not plans.rollouts and plans.search
     for peer in ("orca", "hrvo", "social_force", "mppi", "stand", "blind", "mymod:Mine"):

@@ -1012,49 +1012,29 @@ def _numpy_clearances(f, state, W, obs, robust: bool = False):
             driven_robust if robust else driven, driven_robust if f.robust_drive_ties or robust else driven)
 
 
-def test_a_drive_in_judged_against_the_uncertain_discs_is_the_whole_array_one():
-    """``robust_drive_in``: the first chord within the commitment time on which the robot moves
-    towards a mover inside its inflated disc (or its expected one, or a static's), against the
-    whole-array form written out above; everything else as without it, and the drive-in never
-    later. Among random crowds, some sequences must drive in sooner by it, or nothing is
-    compared."""
+@pytest.mark.parametrize("setting", ["robust_drive_in", "robust_drive_ties"])
+def test_the_drive_in_against_the_uncertain_discs_is_the_whole_array_one(setting):
+    """The first chord within the commitment time on which the robot moves towards a mover
+    inside its inflated disc (or its expected one, or a static's), against the whole-array form
+    written out above: with ``robust_drive_in`` as the drive-in's count (the eighth answer), with
+    ``robust_drive_ties`` as the ninth, the tie-break's, the first eight the plain check's; the
+    answers before the count it changes as without it, bit for bit, and it never later. Among
+    random crowds, some sequences must drive in sooner by it, or nothing is compared."""
     T, H = 0.5, 12
-    rng = np.random.default_rng(12)
-    plain, robust = SafetyFilter(ROBOT, T, H, search=True), SafetyFilter(ROBOT, T, H, search=True,
-                                                                        robust_drive_in=True)
+    rng = np.random.default_rng(12 if setting == "robust_drive_in" else 13)
+    plain, other = SafetyFilter(ROBOT, T, H, search=True), SafetyFilter(ROBOT, T, H, search=True, **{setting: True})
+    k = 7 if setting == "robust_drive_in" else 8  # the count the setting changes
     sooner = 0
     for i in range(60):
-        state, obs, W = _random_crowd(rng, robust, i % 3)
-        got, ref, base = robust.clearances(state, W, obs), _numpy_clearances(robust, state, W, obs, True), \
-            plain.clearances(state, W, obs)
-        assert np.array_equal(got[7], ref[7]) and np.array_equal(got[8], ref[8]) and np.array_equal(got[8], got[7])
-        for x, y in zip(got[:7], base[:7]):
+        state, obs, W = _random_crowd(rng, other, i % 3)
+        got, ref, base = other.clearances(state, W, obs), \
+            _numpy_clearances(other, state, W, obs, setting == "robust_drive_in"), plain.clearances(state, W, obs)
+        assert np.array_equal(got[7], ref[7]) and np.array_equal(got[8], ref[8])
+        assert np.array_equal(base[8], base[7])  # off, the ninth is the eighth again
+        for x, y in zip(got[:k], base[:k]):
             assert np.array_equal(x, y)
-        assert np.all(got[7] <= base[7])
-        sooner += int((got[7] < base[7]).sum())
-    assert sooner > 20
-
-
-def test_the_uncertain_drive_in_as_a_tie_break_is_the_whole_array_one():
-    """``robust_drive_ties``: the ninth answer is the drive-in counted against the inflated discs
-    too (the whole-array form above), the first eight are the plain check's, bit for bit; off,
-    the ninth is the eighth again. Among random crowds, some sequences must differ in the two
-    counts, or nothing is compared."""
-    T, H = 0.5, 12
-    rng = np.random.default_rng(13)
-    plain, ties = SafetyFilter(ROBOT, T, H, search=True), SafetyFilter(ROBOT, T, H, search=True,
-                                                                      robust_drive_ties=True)
-    sooner = 0
-    for i in range(60):
-        state, obs, W = _random_crowd(rng, ties, i % 3)
-        got, ref, base = ties.clearances(state, W, obs), _numpy_clearances(ties, state, W, obs), \
-            plain.clearances(state, W, obs)
-        assert np.array_equal(got[8], ref[8]) and np.array_equal(got[7], ref[7])
-        assert np.array_equal(base[8], base[7])
-        for x, y in zip(got[:8], base[:8]):
-            assert np.array_equal(x, y)
-        assert np.all(got[8] <= got[7])
-        sooner += int((got[8] < got[7]).sum())
+        assert np.all(got[k] <= base[7])
+        sooner += int((got[k] < base[7]).sum())
     assert sooner > 20
 
 

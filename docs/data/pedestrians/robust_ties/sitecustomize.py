@@ -1,40 +1,33 @@
-"""Experiment switch (use with PYTHONPATH=<this folder>, run.sh): GPCNAV_EXP_TIES=1 gives the GPC's
-check robust_drive_ties (rule.md). Since it was adopted (the registry's GPC check),
-GPCNAV_EXP_TIES=0 gives the GPC the check it had before. GPCNAV_EXP_NN_TIES=1 gives the deployed
-network's check (--controller nn) robust_drive_ties (nn_rule.md)."""
+"""Experiment switches (use with PYTHONPATH=<this folder>, run.sh): GPCNAV_EXP_TIES=1 gives the GPC's
+check robust_drive_ties (rule.md); since it was adopted (the registry's GPC check), GPCNAV_EXP_TIES=0
+gives the GPC the check it had before. GPCNAV_EXP_NN_TIES=1 gives the deployed network's check
+(--controller nn) robust_drive_ties (nn_rule.md); since it was adopted, GPCNAV_EXP_NN_TIES=0 takes it
+away."""
 import os
 import sys
 
-if os.environ.get("GPCNAV_EXP_TIES") == "1":
+
+def _switch(name: str, check: str, on: bool, what: str) -> None:
+    """The registry's controller ``name`` with its check (``check``: the function making its
+    settings) given ``robust_drive_ties=on``."""
     from dataclasses import replace
     from gpcnav import controllers as C
-    _orig_gpc = C._gpc_check
+    orig = getattr(C, check)
 
-    def _gpc_check(*a, **kw):
-        return replace(_orig_gpc(*a, **kw), robust_drive_ties=True)
+    def settings(*a, **kw):
+        return replace(orig(*a, **kw), robust_drive_ties=on)
 
-    C.REGISTRY["gpc"] = C.Kind(C.REGISTRY["gpc"].default_shield, _gpc_check)
-    print("GPCNAV_EXP_TIES=1: the GPC's check breaks ties by the drive-in into the uncertain discs", file=sys.stderr)
+    C.REGISTRY[name] = C.Kind(C.REGISTRY[name].default_shield, settings)
+    print(what, file=sys.stderr)
 
-if os.environ.get("GPCNAV_EXP_TIES") == "0":
-    from dataclasses import replace
-    from gpcnav import controllers as C
-    _orig_gpc0 = C._gpc_check
 
-    def _gpc_check_before(*a, **kw):
-        return replace(_orig_gpc0(*a, **kw), robust_drive_ties=False)
-
-    C.REGISTRY["gpc"] = C.Kind(C.REGISTRY["gpc"].default_shield, _gpc_check_before)
-    print("GPCNAV_EXP_TIES=0: the GPC's check as before 2026-11-30's adoption", file=sys.stderr)
-
-if os.environ.get("GPCNAV_EXP_NN_TIES") == "1":
-    from dataclasses import replace
-    from gpcnav import controllers as C
-    _orig_nn = C._nn_check
-
-    def _nn_check(*a, **kw):
-        return replace(_orig_nn(*a, **kw), robust_drive_ties=True)
-
-    C.REGISTRY["nn"] = C.Kind(C.REGISTRY["nn"].default_shield, _nn_check)
-    print("GPCNAV_EXP_NN_TIES=1: the deployed network's check breaks ties by the drive-in into the uncertain discs",
-          file=sys.stderr)
+_FORMS = {("GPCNAV_EXP_TIES", "1"): ("gpc", "_gpc_check", True, "the GPC's check breaks ties by the drive-in into "
+                                     "the uncertain discs"),
+          ("GPCNAV_EXP_TIES", "0"): ("gpc", "_gpc_check", False, "the GPC's check as before 2026-11-30's adoption"),
+          ("GPCNAV_EXP_NN_TIES", "1"): ("nn", "_nn_check", True, "the deployed network's check breaks ties by the "
+                                        "drive-in into the uncertain discs"),
+          ("GPCNAV_EXP_NN_TIES", "0"): ("nn", "_nn_check", False, "the deployed network's check as before 2026-11-30's "
+                                        "adoption")}
+for (var, value), (name, check, on, what) in _FORMS.items():
+    if os.environ.get(var) == value:
+        _switch(name, check, on, f"{var}={value}: {what}")

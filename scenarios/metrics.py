@@ -171,8 +171,8 @@ def episode_metrics(log: RunLog) -> EpisodeMetrics:
     k = log.at_samples()  # the tracking error at the samples, not at a contact
     err = np.hypot(st[k, 0] - ref[k, 0], st[k, 1] - ref[k, 1])
     # CrowdNav's danger, as the contract counts it: the samples at which some mover is within 0.2 m
-    # (NaN where an interval ended at a contact or at duration_s, not at a sample: not counted)
-    mover = np.asarray(log.mover_sample_clearance_m, dtype=float)
+    # (interval i ends at record i + 1: those that end at a sample, not at a contact or duration_s)
+    mover = np.asarray(log.mover_sample_clearance_m, dtype=float)[k[k > 0] - 1]
     danger = mover[mover < DANGER_CLEARANCE_M]
     return EpisodeMetrics(
         scenario=log.scenario.name,

@@ -42,10 +42,10 @@ class RunLog:
     """Per sample interval: the smallest disc-to-disc gap to any moving obstacle over the
     interval's collision-check instants up to a contact (inf without movers)."""
     mover_sample_clearance_m: list = field(default_factory=list)
-    """Per sample interval: the same gap at its end when that is the next sample; NaN when the
-    interval ends elsewhere (at a contact, or cut at ``duration_s``): what the danger rate counts
-    (CONTRACT.md: per sample; a contact is not a sample, as in CrowdNav, where a collision step
-    is not counted as danger)."""
+    """Per sample interval: the same gap at its end (the next sample, or a contact, or
+    ``duration_s``). The danger rate counts those of the intervals that end at a sample
+    (:meth:`at_samples`; CONTRACT.md: per sample; a contact is not a sample, as in CrowdNav,
+    where a collision step is not counted as danger)."""
     min_clearance_m: float = float("inf")
     outcome: str = "timed_out"
     end_time_s: float = 0.0
@@ -53,13 +53,15 @@ class RunLog:
     clipped_commands: int = 0
     events: dict = field(default_factory=dict)
     collision: dict | None = None
+    """What was hit and how, for a collided episode (:meth:`Episode._collision`)."""
 
     def at_samples(self) -> np.ndarray:
-        """The indices of the records at sample instants (a collided run's last record is at
-        the contact, a run cut at ``duration_s`` ends between samples)."""
+        """The indices of the records at sample instants: not a collided run's last record (the
+        contact, never a sample, even one that falls on a sample instant) nor a run's end cut
+        at ``duration_s`` between samples."""
         t = np.asarray(self.t, dtype=float) / self.sample_time_s
-        return np.flatnonzero(np.abs(t - np.round(t)) < 1e-9)
-    """What was hit and how, for a collided episode (:meth:`Episode._collision`)."""
+        k = np.flatnonzero(np.abs(t - np.round(t)) < 1e-9)
+        return k[k < len(self.t) - 1] if self.collision is not None else k
 
 
 class _Sensor:
@@ -231,9 +233,7 @@ class Episode:
         if upto.size:
             log.min_clearance_m = min(log.min_clearance_m, float(upto.min()))
         log.mover_clearance_m.append(float(upto[:, :self._n_moving].min()) if self._n_moving else math.inf)
-        at_sample = not hit and abs(L - T) <= 1e-12  # the interval ends at the next sample
-        log.mover_sample_clearance_m.append(math.nan if not at_sample else
-                                            float(upto[-1, :self._n_moving].min()) if self._n_moving else math.inf)
+        log.mover_sample_clearance_m.append(float(upto[-1, :self._n_moving].min()) if self._n_moving else math.inf)
         if hit:  # what was hit and how, from the interval's start
             log.collision = self._collision(first, int(np.argmin(gaps[first])), lim, t, L)
         tau = L * (first + 1) / SUBSTEPS

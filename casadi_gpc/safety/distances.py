@@ -279,7 +279,8 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
                     (k_drives < N and k_rdrives < N) or c + 1 >= commit):
                 break
         kept[m], contact[m], fixed[m], drives[m] = k_kept, k_contact, k_fixed, k_drives
-        rdrives[m] = k_rdrives if robust_ties else k_drives
+        if robust_ties:
+            rdrives[m] = k_rdrives
     if not robust_ties:
         rdrives[:] = drives  # (for a sequence never below, both are N)
     return cmin, now, chord, which, kept, contact, fixed, drives, rdrives

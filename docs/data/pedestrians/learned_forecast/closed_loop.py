@@ -2,10 +2,15 @@
 learned forecast in place of its EKF's for every walker measured at the last 9 samples (the
 others keep the EKF's), as tools/oracle_forecasts.py swaps in the truth.
 
-    python closed_loop.py MODEL.onnx SUITE SEED MOVERS EPISODES(A-B) [BEHAVIOUR] [--ekf] [--ekf-means] [--cov=learned|ekf|max|fixedS]
+    python closed_loop.py MODEL.onnx SUITE SEED MOVERS EPISODES(A-B) [BEHAVIOUR] [--ekf] [--ekf-means] [--union]
+        [--cov=learned|ekf|max|fixedS]
     python closed_loop.py MODEL.onnx files 'GLOB' 0 EPISODES(A-B) [--ekf]   (scenario files, sorted)
 
 ``--ekf-means``: keep the EKF's means and swap only the covariances (with ``--cov=fixedS``).
+
+``--union``: keep the EKF's forecast of each such walker and add the learned one beside it, as a
+second mover (its id + ``UNION_ID``): the planner and its check avoid both hypotheses (with
+``--cov=ekf``, the learned means with the EKF's covariances).
 
 ``--cov``: the learned forecast's own deviations (default), the EKF's covariances with the
 learned means (``ekf``), the EKF's widened to the learned where that is wider (``max``), or
@@ -33,6 +38,9 @@ from data import H, PAST, SECTORS, features  # noqa: E402
 from nn_export.runtime.wall_scan import wall_segment_rows  # noqa: E402
 
 
+UNION_ID = 10_000_000
+
+
 class LearnedForecast:
     """The walkers' measured positions of the last PAST + 1 samples and the learned forecast."""
 
@@ -41,6 +49,7 @@ class LearnedForecast:
         opts.intra_op_num_threads = opts.inter_op_num_threads = 1
         self.sess = ort.InferenceSession(path, opts, providers=["CPUExecutionProvider"])
         self.T, self.cov, self.means = sample_time_s, cov, "learned"
+        self.union = False
         self.reads_walls = self.sess.get_inputs()[0].shape[1] == 2 * PAST + 40 + SECTORS
         self.reset()
 
@@ -102,7 +111,10 @@ class LearnedForecast:
                     ekf = np.asarray(f.covs_m2)
                     lam = np.linalg.eigvalsh(ekf)[:, -1]
                     covs = ekf + np.maximum(var - lam, 0.0)[:, None, None] * np.eye(2)[None]
-                out[n] = ObstacleForecast(f.obstacle_id, f.radius_m, means, covs)
+                if self.union:  # both hypotheses: the filter's and the learned one, as two movers
+                    out.append(ObstacleForecast(f.obstacle_id + UNION_ID, f.radius_m, means, covs))
+                else:
+                    out[n] = ObstacleForecast(f.obstacle_id, f.radius_m, means, covs)
         return out
 
 
@@ -138,6 +150,7 @@ def main():
         if "--ekf" not in rest:
             cov = next((r.split("=", 1)[1] for r in rest if r.startswith("--cov=")), "learned")
             gpc.forecaster = LearnedForecast(model, cfg.sample_time_s, cov)
+            gpc.forecaster.union = "--union" in rest
             if "--ekf-means" in rest:
                 gpc.forecaster.means = "ekf"
         log = simulate(sc, Shield(gpc, sc.robot, check_settings("gpc", gpc, cfg, "on"), planner_config=cfg), "gpc-lp")

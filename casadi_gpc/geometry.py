@@ -4,10 +4,12 @@ point to a wall or a path, and whether a straight move crosses a wall. The robot
 these."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "segment_rows", "walls_reach_m",
-           "a_wall_within"]
+           "a_wall_within", "segments_near", "wall_scan"]
 
 
 def nearest_on_segments(points, a, b) -> np.ndarray:
@@ -60,3 +62,74 @@ def a_wall_within(walls, xy, reach_m: float) -> bool:
     s = segment_rows(walls)
     return bool(len(s)) and bool((distance_to_segments_m(np.asarray(xy, dtype=float), s[:, :2], s[:, 2:])
                                   <= reach_m).any())
+
+
+def segments_near(rows: np.ndarray, x: float, y: float, reach_m: float) -> np.ndarray:
+    """The rows of ``rows`` (:func:`segment_rows`) that come within ``reach_m`` of the
+    point ``(x, y)``."""
+    if not len(rows):
+        return rows
+    a, d = rows[:, :2] - (x, y), rows[:, 2:] - rows[:, :2]
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-18)
+    t = np.clip(-np.einsum("ij,ij->i", a, d) / dd, 0.0, 1.0)
+    gap = np.hypot(a[:, 0] + t * d[:, 0], a[:, 1] + t * d[:, 1])
+    return rows[gap <= reach_m]
+
+
+_EDGES: dict = {}
+
+
+def _edges(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The unit vectors of every sector's first and second edge, ``(n, 2)`` each."""
+    if n not in _EDGES:
+        centre = np.arange(n) * (2.0 * math.pi / n)
+        half = math.pi / n
+        _EDGES[n] = (np.column_stack([np.cos(centre - half), np.sin(centre - half)]),
+                     np.column_stack([np.cos(centre + half), np.sin(centre + half)]))
+    return _EDGES[n]
+
+
+def wall_scan(rows: np.ndarray, x: float, y: float, heading: float, n: int, range_m: float) -> list[float]:
+    """A range sensor's scan of the wall segments ``rows`` (``(ax, ay, bx, by)``,
+    :func:`segment_rows`, in the world frame) from ``(x, y)`` facing ``heading`` (rad), reduced
+    by its minimum over each of ``n`` equal sectors: ``n`` distances (m), sector ``k`` centred
+    on the direction ``k * 2 pi / n`` in that frame (0 straight ahead, counter-clockwise), each
+    the distance to the nearest point of any segment inside the sector, capped at ``range_m``.
+
+    Computed exactly from the segments: the points of a segment ``a + t (b - a)`` that lie in a
+    sector (a convex wedge narrower than a half-plane) form one interval of ``t``, bounded by
+    the two linear conditions that the point is left of the sector's first edge and right of
+    its second; the distance to the centre is convex in ``t``, so its minimum over the interval
+    is at the foot of the perpendicular clamped into it (tested against a dense sampling). The
+    networks' scan (:mod:`nn_export.runtime.wall_scan`) and the walkers' learned forecast
+    (:mod:`casadi_gpc.estimation.walls_forecast`) read it."""
+    if n < 3:
+        raise ValueError(f"a wall scan needs at least 3 sectors, got {n}")
+    rows = segments_near(np.asarray(rows, dtype=float).reshape(-1, 4), x, y, range_m)
+    if not len(rows):
+        return [float(range_m)] * n
+    c, s = math.cos(heading), math.sin(heading)
+    ax, ay = rows[:, 0] - x, rows[:, 1] - y
+    bx, by = rows[:, 2] - x, rows[:, 3] - y
+    # the segments in the robot's frame: a + t d
+    a = np.column_stack([c * ax + s * ay, -s * ax + c * ay])[:, None, :]          # (m, 1, 2)
+    b = np.column_stack([c * bx + s * by, -s * bx + c * by])[:, None, :]
+    d = b - a
+    u0, u1 = _edges(n)                                                            # (n, 2)
+    lo = np.zeros((len(rows), n))
+    hi = np.ones((len(rows), n))
+    empty = np.zeros((len(rows), n), dtype=bool)
+    # left of the first edge: cross(u0, a + t d) >= 0; right of the second: cross(a + t d, u1) >= 0
+    for g0, g1 in ((u0[:, 0] * a[..., 1] - u0[:, 1] * a[..., 0], u0[:, 0] * d[..., 1] - u0[:, 1] * d[..., 0]),
+                   (a[..., 0] * u1[:, 1] - a[..., 1] * u1[:, 0], d[..., 0] * u1[:, 1] - d[..., 1] * u1[:, 0])):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = -g0 / g1
+        lo = np.where(g1 > 0, np.maximum(lo, bound), lo)
+        hi = np.where(g1 < 0, np.minimum(hi, bound), hi)
+        empty |= (g1 == 0) & (g0 < 0)
+    dd = np.maximum((d * d).sum(-1), 1e-18)                                       # (m, 1)
+    foot = -(a * d).sum(-1) / dd
+    t = np.clip(foot, lo, hi)
+    dist = np.hypot(a[..., 0] + t * d[..., 0], a[..., 1] + t * d[..., 1])
+    dist[empty | (lo > hi)] = np.inf
+    return np.minimum(dist.min(axis=0), range_m).tolist()

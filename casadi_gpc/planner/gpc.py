@@ -15,6 +15,7 @@ from ..geometry import walls_reach_m
 from ..problem.cost import GPCProblem, to_world
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
+from ..estimation.walls_forecast import WallsForecast
 from .guesses import TIE_ORDER
 from .lanes import SolveLanes
 from .multistart import MultiStart, Plan
@@ -87,6 +88,9 @@ class GPCController(MultiStart):
         self._use(self._tiers[0])
         self.solver_name = self.backend.name
         self._forecast_function = ForecastFunction(self.config.sample_time_s, self.config.horizon)
+        self.walls_forecast = WallsForecast.for_config(self.config)
+        """The learned forecast of walkers near walls, or None (not asked for, or another sample
+        time or horizon than it was trained at)."""
         self.horizon = self.config.horizon
         unknown = sorted(set(self.config.guesses) - set(TIE_ORDER))
         if unknown:
@@ -127,10 +131,12 @@ class GPCController(MultiStart):
         """The robot's predicted positions at steps 1..H of the last plan (for relevance)."""
         if hasattr(self, "candidates"):
             self.candidates.reset()
+        if getattr(self, "walls_forecast", None) is not None:
+            self.walls_forecast.reset()
         self.counters = {"solves": 0, "failed_solves": 0, "fallbacks": 0, "multistart": 0,
                          "missed_measurements": 0, "outliers": 0, "over_budget": 0, "budget_skips": 0,
                          "injected_failures": 0, "backup_solves": 0, "backup_successes": 0,
-                         "unestimated_tracks": 0, "left_out": 0, "full_multistarts": 0}
+                         "unestimated_tracks": 0, "left_out": 0, "full_multistarts": 0, "walls_forecasts": 0}
         # the obstacle filters count their events (missed, outliers, unestimated) here too
         self.bank = TrackBank(self.config.sample_time_s, self.ekf_settings, self.counters,
                               straight=self.config.forecast == "straight")
@@ -142,8 +148,12 @@ class GPCController(MultiStart):
 
     # --- estimation --------------------------------------------------------------------
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
-        """Fuse this sample's measurements and predict every track over the horizon."""
-        return self.bank.forecasts(self.bank.step(obs.moving), self.config.horizon, self._forecast_function)
+        """Fuse this sample's measurements and predict every track over the horizon; near
+        walls, with each walker's learned forecast beside (``PlannerConfig.walls_forecast``)."""
+        forecasts = self.bank.forecasts(self.bank.step(obs.moving), self.config.horizon, self._forecast_function)
+        if self.walls_forecast is not None:
+            forecasts = self.walls_forecast.add(obs, forecasts, self.counters)
+        return forecasts
 
     def desired_poses(self, obs: Observation) -> np.ndarray:
         """Advance the reference clock; the desired poses at steps 0..H, shape (H + 1, 3)

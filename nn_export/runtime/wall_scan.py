@@ -9,12 +9,8 @@ from the robot's centre to the nearest point of any wall segment inside the sect
 over each sector, computed exactly from the map: a door post between two ray directions is
 still seen, at its true distance, in the sector that holds it.
 
-Exactness: the points of a segment ``a + t (b - a)``, ``t`` in [0, 1], that lie in a sector
-(a convex wedge narrower than a half-plane) form one interval of ``t``, bounded by the two
-linear conditions that the point is left of the sector's first edge and right of its second.
-The distance to the centre is convex in ``t``, so its minimum over the interval is at the foot
-of the perpendicular from the centre clamped into it. Tested against a dense sampling of the
-segments.
+Computed exactly from the map by :func:`casadi_gpc.geometry.wall_scan` (the one definition; the
+walkers' learned forecast reads the same scan).
 
 Mirror symmetry: reflecting the world about the robot's heading maps the direction of sector
 ``k`` to that of sector ``(n - k) mod n``, so the mirror map of the features is a permutation
@@ -27,6 +23,8 @@ import math
 import numpy as np
 
 from casadi_gpc.geometry import segment_rows as wall_segment_rows  # the walls' segments as (ax, ay, bx, by) rows
+from casadi_gpc.geometry import segments_near
+from casadi_gpc.geometry import wall_scan as _scan
 
 __all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "DISC_SIDES", "wall_segment_rows", "static_wall_rows", "scan_rows",
            "segments_near", "wall_scan", "sector_mirror"]
@@ -73,66 +71,13 @@ def scan_rows(wall_rows: np.ndarray, statics, disc_rows: np.ndarray | None = Non
     return np.concatenate((wall_rows, static_wall_rows(statics) if disc_rows is None else disc_rows)), ()
 
 
-def segments_near(rows: np.ndarray, x: float, y: float, reach_m: float) -> np.ndarray:
-    """The rows of ``rows`` (:func:`wall_segment_rows`) that come within ``reach_m`` of the
-    point ``(x, y)``."""
-    if not len(rows):
-        return rows
-    a, d = rows[:, :2] - (x, y), rows[:, 2:] - rows[:, :2]
-    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-18)
-    t = np.clip(-np.einsum("ij,ij->i", a, d) / dd, 0.0, 1.0)
-    gap = np.hypot(a[:, 0] + t * d[:, 0], a[:, 1] + t * d[:, 1])
-    return rows[gap <= reach_m]
-
-
-_EDGES: dict = {}
-
-
-def _edges(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """The unit vectors of every sector's first and second edge, ``(n, 2)`` each."""
-    if n not in _EDGES:
-        centre = np.arange(n) * (2.0 * math.pi / n)
-        half = math.pi / n
-        _EDGES[n] = (np.column_stack([np.cos(centre - half), np.sin(centre - half)]),
-                     np.column_stack([np.cos(centre + half), np.sin(centre + half)]))
-    return _EDGES[n]
-
-
 def wall_scan(rows: np.ndarray, x: float, y: float, heading: float, n: int = WALL_SECTORS,
               range_m: float = WALL_SCAN_RANGE_M) -> list[float]:
     """The scan of the module docstring for the robot at ``(x, y)`` facing ``heading`` (rad):
-    ``n`` distances (m), sector 0 first. ``rows``: wall segments ``(ax, ay, bx, by)``
-    (:func:`wall_segment_rows`), in the world frame."""
-    if n < 3:
-        raise ValueError(f"a wall scan needs at least 3 sectors, got {n}")
-    rows = segments_near(np.asarray(rows, dtype=float).reshape(-1, 4), x, y, range_m)
-    if not len(rows):
-        return [float(range_m)] * n
-    c, s = math.cos(heading), math.sin(heading)
-    ax, ay = rows[:, 0] - x, rows[:, 1] - y
-    bx, by = rows[:, 2] - x, rows[:, 3] - y
-    # the segments in the robot's frame: a + t d
-    a = np.column_stack([c * ax + s * ay, -s * ax + c * ay])[:, None, :]          # (m, 1, 2)
-    b = np.column_stack([c * bx + s * by, -s * bx + c * by])[:, None, :]
-    d = b - a
-    u0, u1 = _edges(n)                                                            # (n, 2)
-    lo = np.zeros((len(rows), n))
-    hi = np.ones((len(rows), n))
-    empty = np.zeros((len(rows), n), dtype=bool)
-    # left of the first edge: cross(u0, a + t d) >= 0; right of the second: cross(a + t d, u1) >= 0
-    for g0, g1 in ((u0[:, 0] * a[..., 1] - u0[:, 1] * a[..., 0], u0[:, 0] * d[..., 1] - u0[:, 1] * d[..., 0]),
-                   (a[..., 0] * u1[:, 1] - a[..., 1] * u1[:, 0], d[..., 0] * u1[:, 1] - d[..., 1] * u1[:, 0])):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bound = -g0 / g1
-        lo = np.where(g1 > 0, np.maximum(lo, bound), lo)
-        hi = np.where(g1 < 0, np.minimum(hi, bound), hi)
-        empty |= (g1 == 0) & (g0 < 0)
-    dd = np.maximum((d * d).sum(-1), 1e-18)                                       # (m, 1)
-    foot = -(a * d).sum(-1) / dd
-    t = np.clip(foot, lo, hi)
-    dist = np.hypot(a[..., 0] + t * d[..., 0], a[..., 1] + t * d[..., 1])
-    dist[empty | (lo > hi)] = np.inf
-    return np.minimum(dist.min(axis=0), range_m).tolist()
+    ``n`` distances (m), sector 0 first (:func:`casadi_gpc.geometry.wall_scan`, the one
+    definition, with the networks' sectors and range). ``rows``: wall segments ``(ax, ay, bx,
+    by)`` (:func:`wall_segment_rows`), in the world frame."""
+    return _scan(rows, x, y, heading, n, range_m)
 
 
 def sector_mirror(n: int) -> np.ndarray:

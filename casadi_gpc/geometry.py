@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 __all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "segment_rows", "walls_reach_m",
-           "a_wall_within", "segments_near", "wall_scan"]
+           "a_wall_within", "segments_near", "wall_scan", "wall_scans"]
 
 
 def nearest_on_segments(points, a, b) -> np.ndarray:
@@ -108,17 +108,29 @@ def wall_scan(rows: np.ndarray, x: float, y: float, heading: float, n: int, rang
     rows = segments_near(np.asarray(rows, dtype=float).reshape(-1, 4), x, y, range_m)
     if not len(rows):
         return [float(range_m)] * n
-    c, s = math.cos(heading), math.sin(heading)
-    ax, ay = rows[:, 0] - x, rows[:, 1] - y
-    bx, by = rows[:, 2] - x, rows[:, 3] - y
-    # the segments in the robot's frame: a + t d
-    a = np.column_stack([c * ax + s * ay, -s * ax + c * ay])[:, None, :]          # (m, 1, 2)
-    b = np.column_stack([c * bx + s * by, -s * bx + c * by])[:, None, :]
+    return wall_scans(rows, np.array([x], dtype=float), np.array([y], dtype=float),
+                      np.array([math.cos(heading)]), np.array([math.sin(heading)]), n, range_m)[0].tolist()
+
+
+def wall_scans(rows: np.ndarray, x: np.ndarray, y: np.ndarray, cos_h: np.ndarray, sin_h: np.ndarray, n: int,
+               range_m: float) -> np.ndarray:
+    """:func:`wall_scan` from ``p`` points at once, ``(p, n)``: the points ``(x, y)`` and their
+    headings' cosines and sines (``(p,)`` each). The same numbers as one point at a time (the
+    same operations element by element; a segment out of range lowers no sector below the cap,
+    so none is left out here)."""
+    rows = np.asarray(rows, dtype=float).reshape(-1, 4)
+    if not len(rows):
+        return np.full((len(x), n), float(range_m))
+    c, s = cos_h[:, None], sin_h[:, None]                                         # (p, 1)
+    ax, ay = rows[:, 0] - x[:, None], rows[:, 1] - y[:, None]                     # (p, m)
+    bx, by = rows[:, 2] - x[:, None], rows[:, 3] - y[:, None]
+    # the segments in each point's frame: a + t d
+    a = np.stack([c * ax + s * ay, -s * ax + c * ay], axis=-1)[:, :, None, :]    # (p, m, 1, 2)
+    b = np.stack([c * bx + s * by, -s * bx + c * by], axis=-1)[:, :, None, :]
     d = b - a
     u0, u1 = _edges(n)                                                            # (n, 2)
-    lo = np.zeros((len(rows), n))
-    hi = np.ones((len(rows), n))
-    empty = np.zeros((len(rows), n), dtype=bool)
+    shape = (len(x), len(rows), n)
+    lo, hi, empty = np.zeros(shape), np.ones(shape), np.zeros(shape, dtype=bool)
     # left of the first edge: cross(u0, a + t d) >= 0; right of the second: cross(a + t d, u1) >= 0
     for g0, g1 in ((u0[:, 0] * a[..., 1] - u0[:, 1] * a[..., 0], u0[:, 0] * d[..., 1] - u0[:, 1] * d[..., 0]),
                    (a[..., 0] * u1[:, 1] - a[..., 1] * u1[:, 0], d[..., 0] * u1[:, 1] - d[..., 1] * u1[:, 0])):
@@ -127,9 +139,9 @@ def wall_scan(rows: np.ndarray, x: float, y: float, heading: float, n: int, rang
         lo = np.where(g1 > 0, np.maximum(lo, bound), lo)
         hi = np.where(g1 < 0, np.minimum(hi, bound), hi)
         empty |= (g1 == 0) & (g0 < 0)
-    dd = np.maximum((d * d).sum(-1), 1e-18)                                       # (m, 1)
+    dd = np.maximum((d * d).sum(-1), 1e-18)                                       # (p, m, 1)
     foot = -(a * d).sum(-1) / dd
     t = np.clip(foot, lo, hi)
     dist = np.hypot(a[..., 0] + t * d[..., 0], a[..., 1] + t * d[..., 1])
     dist[empty | (lo > hi)] = np.inf
-    return np.minimum(dist.min(axis=0), range_m).tolist()
+    return np.minimum(dist.min(axis=1), range_m)

@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..geometry import segment_rows, wall_scan
+from ..geometry import segment_rows, wall_scans
 from ..types import ObstacleForecast
 
-__all__ = ["WallsForecast", "UNION_ID", "walker_features", "MODEL_PATH"]
+__all__ = ["WallsForecast", "UNION_ID", "walker_features", "MODEL_PATH", "N_INPUTS"]
 
 MODEL_PATH = Path(__file__).resolve().parents[1] / "models" / "walls-forecast.onnx"
 """The shipped network."""
@@ -47,44 +47,56 @@ UNION_ID = 10_000_000
 """Added to a walker's id for its second, learned, forecast."""
 
 
-def _frame(past: np.ndarray) -> tuple[float, float]:
-    """cos, sin of a walker's frame from its measured positions (oldest first, now last): x
-    along its displacement over the last 2 s, the world's x where it moved less than 5 cm."""
-    d = past[-1] - past[-5]
-    n = float(np.hypot(*d))
-    return (1.0, 0.0) if n < 0.05 else (d[0] / n, d[1] / n)
-
-
-def walker_features(meas: np.ndarray, k: int, j: int, wall_rows, sample_time_s: float = SAMPLE_TIME_S):
-    """The network's input for walker ``j`` at sample ``k`` from the measurements ``meas``
-    (``(samples, walkers, 2)``, NaN where not measured), in the walker's frame (origin at its
-    measured position now): its ``PAST`` previous positions (``2 PAST``), the nearest other
-    walkers measured now and at the sample before within ``NEAR_M`` (present, position,
-    velocity over the last interval: 5 each, nearest first, zeros for none) and the walls' scan
-    from it (``wall_rows``: segments ``(ax, ay, bx, by)``); with the frame's ``(cos, sin)``.
-    None without ``PAST + 1`` measured positions."""
-    past = meas[k - PAST:k + 1, j]
-    if k < PAST or not np.isfinite(past).all():
-        return None
-    c, s = _frame(past)
-    R = np.array([[c, s], [-s, c]])
+def walker_features(meas: np.ndarray, cols, wall_rows, sample_time_s: float = SAMPLE_TIME_S):
+    """The network's inputs for the walkers ``cols`` (columns of ``meas``) at the last sample of
+    the measurements ``meas`` (``(PAST + 1, walkers, 2)``, oldest first, NaN where not
+    measured), each in its own frame: origin at its measured position now, x along its
+    displacement over the last 2 s (the world's x where it moved less than 5 cm). Per walker: its
+    ``PAST`` previous positions (``2 PAST``), the nearest other walkers measured now and at the
+    sample before within ``NEAR_M`` (present, position, velocity over the last interval: 5
+    each, nearest first, zeros for none) and the walls' scan from it (``wall_rows``: segments
+    ``(ax, ay, bx, by)``). Returns ``(X, cos, sin)``: ``(m, N_INPUTS)`` and the frames, for the
+    walkers of ``cols`` measured at every one of the ``PAST + 1`` samples (``m`` of them, in
+    their order), and those columns."""
+    cols = [j for j in cols if np.isfinite(meas[:, j]).all()]
+    m = len(cols)
+    if not m:
+        return np.zeros((0, N_INPUTS)), np.zeros(0), np.zeros(0), cols
+    past = meas[:, cols]                                                      # (PAST + 1, m, 2)
     now = past[-1]
-    own = ((past[:-1] - now) @ R.T).ravel()
-    others = []
-    here, before = meas[k], meas[k - 1]
-    for i in range(meas.shape[1]):
-        if i == j or not (np.isfinite(here[i]).all() and np.isfinite(before[i]).all()):
-            continue
-        rel = here[i] - now
-        d = float(np.hypot(*rel))
-        if d <= NEAR_M:
-            others.append((d, rel @ R.T, (here[i] - before[i]) / sample_time_s @ R.T))
-    others.sort(key=lambda o: o[0])
-    nb = np.zeros(5 * NEIGHBOURS)
-    for n, (_, p, v) in enumerate(others[:NEIGHBOURS]):
-        nb[5 * n:5 * n + 5] = (1.0, *p, *v)
-    scan = wall_scan(wall_rows, float(now[0]), float(now[1]), math.atan2(s, c), SECTORS, SCAN_M)
-    return np.concatenate([own, nb, scan]), c, s
+    d = now - past[-5]
+    norm = np.hypot(d[:, 0], d[:, 1])
+    still = norm < 0.05
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.where(still, 1.0, d[:, 0] / norm)
+        s = np.where(still, 0.0, d[:, 1] / norm)
+    X = np.zeros((m, N_INPUTS))
+    rel = past[:-1] - now                                                     # (PAST, m, 2)
+    X[:, 0:2 * PAST:2] = (rel[..., 0] * c + rel[..., 1] * s).T
+    X[:, 1:2 * PAST:2] = (-rel[..., 0] * s + rel[..., 1] * c).T
+    here, before = meas[-1], meas[-2]
+    seen = np.isfinite(here).all(1) & np.isfinite(before).all(1)
+    vel = (here - before) / sample_time_s
+    # every walker's nearest others, stably by distance (ties in column order), at once
+    dx, dy = here[None, :, 0] - now[:, None, 0], here[None, :, 1] - now[:, None, 1]      # (m, walkers)
+    dist = np.hypot(dx, dy)
+    near = seen[None, :] & (dist <= NEAR_M)
+    near[np.arange(m), cols] = False
+    order = np.argsort(np.where(near, dist, np.inf), axis=1, kind="stable")[:, :NEIGHBOURS]
+    chosen = np.take_along_axis(near, order, axis=1)                                       # (m, k)
+    px, py = np.take_along_axis(dx, order, axis=1), np.take_along_axis(dy, order, axis=1)
+    vx, vy = vel[order, 0], vel[order, 1]
+    cc, ss = c[:, None], s[:, None]
+    block = np.stack([np.ones_like(px), px * cc + py * ss, -px * ss + py * cc, vx * cc + vy * ss,
+                      -vx * ss + vy * cc], axis=-1)
+    block[~chosen] = 0.0
+    X[:, 2 * PAST:2 * PAST + 5 * order.shape[1]] = block.reshape(m, -1)
+    # the heading as the scan takes it (its cosine and sine again, as one point's scan makes them)
+    heads = [math.atan2(sr, cr) for cr, sr in zip(c.tolist(), s.tolist())]
+    X[:, 2 * PAST + 5 * NEIGHBOURS:] = wall_scans(wall_rows, now[:, 0].copy(), now[:, 1].copy(),
+                                                  np.array([math.cos(h) for h in heads]),
+                                                  np.array([math.sin(h) for h in heads]), SECTORS, SCAN_M)
+    return X, c, s, cols
 
 
 class WallsForecast:
@@ -150,24 +162,19 @@ class WallsForecast:
                 if s >= k - PAST:  # a walker not measured now keeps older rows
                     meas[s - (k - PAST), c] = p
         col = {i: c for c, i in enumerate(ids)}
-        rows, where = [], []
-        for n, f in enumerate(forecasts):
-            c = col.get(f.obstacle_id)
-            ft = None if c is None else walker_features(meas, PAST, c, self._wall_rows)
-            if ft is not None:
-                rows.append(ft)
-                where.append(n)
-        if not rows:
+        where = [n for n, f in enumerate(forecasts) if f.obstacle_id in col]
+        X, cos, sin, cols = walker_features(meas, [col[forecasts[n].obstacle_id] for n in where], self._wall_rows)
+        if not cols:
             return forecasts
-        X = np.array([r[0] for r in rows], dtype=np.float32)
-        Y = self.session.run(None, {self._input: X})[0].astype(float)
+        kept = set(cols)
+        where = [n for n in where if col[forecasts[n].obstacle_id] in kept]
+        Y = self.session.run(None, {self._input: X.astype(np.float32)})[0].astype(float)
         out = list(forecasts)
-        for (_, c, s), n, y in zip(rows, where, Y):
+        for n, j, c, s, y in zip(where, cols, cos.tolist(), sin.tolist(), Y):
             f = forecasts[n]
             R = np.array([[c, -s], [s, c]])
-            now = meas[PAST, col[f.obstacle_id]]
-            means = now + y[:2 * HORIZON].reshape(HORIZON, 2) @ R.T
+            means = meas[PAST, j] + y[:2 * HORIZON].reshape(HORIZON, 2) @ R.T
             out.append(ObstacleForecast(f.obstacle_id + UNION_ID, f.radius_m, means, np.asarray(f.covs_m2)))
         if counters is not None:
-            counters["walls_forecasts"] = counters.get("walls_forecasts", 0) + len(rows)
+            counters["walls_forecasts"] = counters.get("walls_forecasts", 0) + len(cols)
         return out

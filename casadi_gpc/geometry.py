@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 __all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "segment_rows", "walls_reach_m",
            "a_wall_within", "segments_near", "wall_scan", "wall_scans"]
@@ -116,32 +117,55 @@ def wall_scans(rows: np.ndarray, x: np.ndarray, y: np.ndarray, cos_h: np.ndarray
                range_m: float) -> np.ndarray:
     """:func:`wall_scan` from ``p`` points at once, ``(p, n)``: the points ``(x, y)`` and their
     headings' cosines and sines (``(p,)`` each). The same numbers as one point at a time (the
-    same operations element by element; a segment out of range lowers no sector below the cap,
-    so none is left out here)."""
-    rows = np.asarray(rows, dtype=float).reshape(-1, 4)
-    if not len(rows):
-        return np.full((len(x), n), float(range_m))
-    c, s = cos_h[:, None], sin_h[:, None]                                         # (p, 1)
-    ax, ay = rows[:, 0] - x[:, None], rows[:, 1] - y[:, None]                     # (p, m)
-    bx, by = rows[:, 2] - x[:, None], rows[:, 3] - y[:, None]
-    # the segments in each point's frame: a + t d
-    a = np.stack([c * ax + s * ay, -s * ax + c * ay], axis=-1)[:, :, None, :]    # (p, m, 1, 2)
-    b = np.stack([c * bx + s * by, -s * bx + c * by], axis=-1)[:, :, None, :]
-    d = b - a
-    u0, u1 = _edges(n)                                                            # (n, 2)
-    shape = (len(x), len(rows), n)
-    lo, hi, empty = np.zeros(shape), np.ones(shape), np.zeros(shape, dtype=bool)
-    # left of the first edge: cross(u0, a + t d) >= 0; right of the second: cross(a + t d, u1) >= 0
-    for g0, g1 in ((u0[:, 0] * a[..., 1] - u0[:, 1] * a[..., 0], u0[:, 0] * d[..., 1] - u0[:, 1] * d[..., 0]),
-                   (a[..., 0] * u1[:, 1] - a[..., 1] * u1[:, 0], d[..., 0] * u1[:, 1] - d[..., 1] * u1[:, 0])):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bound = -g0 / g1
-        lo = np.where(g1 > 0, np.maximum(lo, bound), lo)
-        hi = np.where(g1 < 0, np.minimum(hi, bound), hi)
-        empty |= (g1 == 0) & (g0 < 0)
-    dd = np.maximum((d * d).sum(-1), 1e-18)                                       # (p, m, 1)
-    foot = -(a * d).sum(-1) / dd
-    t = np.clip(foot, lo, hi)
-    dist = np.hypot(a[..., 0] + t * d[..., 0], a[..., 1] + t * d[..., 1])
-    dist[empty | (lo > hi)] = np.inf
-    return np.minimum(dist.min(axis=1), range_m)
+    same operations on the same floats, compiled; a segment out of range lowers no sector below
+    the cap, so none is left out here)."""
+    rows = np.ascontiguousarray(rows, dtype=float).reshape(-1, 4)
+    u0, u1 = _edges(n)
+    out = np.empty((len(x), n))
+    _scan_kernel(rows, np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(y, dtype=float),
+                 np.ascontiguousarray(cos_h, dtype=float), np.ascontiguousarray(sin_h, dtype=float),
+                 np.ascontiguousarray(u0), np.ascontiguousarray(u1), float(range_m), out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _scan_kernel(rows, x, y, cos_h, sin_h, u0, u1, range_m, out):  # pragma: no cover - compiled
+    """The scan of every point (:func:`wall_scans`), element by element in the order numpy's
+    array form took them (division by zero as IEEE: ``error_model="numpy"``)."""
+    for p in range(x.shape[0]):
+        c, s = cos_h[p], sin_h[p]
+        for k in range(u0.shape[0]):
+            out[p, k] = np.inf
+        for m in range(rows.shape[0]):
+            ax0, ay0 = rows[m, 0] - x[p], rows[m, 1] - y[p]
+            bx0, by0 = rows[m, 2] - x[p], rows[m, 3] - y[p]
+            a0, a1 = c * ax0 + s * ay0, -s * ax0 + c * ay0
+            b0, b1 = c * bx0 + s * by0, -s * bx0 + c * by0
+            d0, d1 = b0 - a0, b1 - a1
+            dd = max(d0 * d0 + d1 * d1, 1e-18)
+            foot = -(a0 * d0 + a1 * d1) / dd
+            for k in range(u0.shape[0]):
+                lo, hi, empty = 0.0, 1.0, False
+                # left of the first edge: cross(u0, a + t d) >= 0; right of the second: cross(a + t d, u1) >= 0
+                for e in range(2):
+                    if e == 0:
+                        g0 = u0[k, 0] * a1 - u0[k, 1] * a0
+                        g1 = u0[k, 0] * d1 - u0[k, 1] * d0
+                    else:
+                        g0 = a0 * u1[k, 1] - a1 * u1[k, 0]
+                        g1 = d0 * u1[k, 1] - d1 * u1[k, 0]
+                    bound = -g0 / g1
+                    if g1 > 0:
+                        lo = max(lo, bound)
+                    if g1 < 0:
+                        hi = min(hi, bound)
+                    if g1 == 0 and g0 < 0:
+                        empty = True
+                if empty or lo > hi:
+                    continue
+                t = min(max(foot, lo), hi)
+                dist = np.hypot(a0 + t * d0, a1 + t * d1)
+                if dist < out[p, k]:
+                    out[p, k] = dist
+        for k in range(u0.shape[0]):
+            out[p, k] = min(out[p, k], range_m)

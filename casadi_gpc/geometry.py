@@ -128,7 +128,9 @@ def wall_scans(rows: np.ndarray, x: np.ndarray, y: np.ndarray, cos_h: np.ndarray
     return out
 
 
-@njit(cache=True, error_model="numpy")
+# compiled at import (a signature), never inside a decision
+@njit("void(float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1], "
+      "float64, float64[:, ::1])", cache=True, error_model="numpy")
 def _scan_kernel(rows, x, y, cos_h, sin_h, u0, u1, range_m, out):  # pragma: no cover - compiled
     """The scan of every point (:func:`wall_scans`), element by element in the order numpy's
     array form took them (division by zero as IEEE: ``error_model="numpy"``)."""

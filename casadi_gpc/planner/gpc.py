@@ -151,7 +151,7 @@ class GPCController(MultiStart):
         """Fuse this sample's measurements and predict every track over the horizon; near
         walls, with each walker's learned forecast beside (``PlannerConfig.walls_forecast``)."""
         forecasts = self.bank.forecasts(self.bank.step(obs.moving), self.config.horizon, self._forecast_function)
-        if self.walls_forecast is not None:
+        if obs.walls and self.walls_forecast is not None:
             forecasts = self.walls_forecast.add(obs, forecasts, self.counters)
         return forecasts
 

@@ -29,6 +29,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from ..geometry import segment_rows, wall_scans
 from ..types import ObstacleForecast
@@ -58,39 +59,15 @@ def walker_features(meas: np.ndarray, cols, wall_rows, sample_time_s: float = SA
     ``(ax, ay, bx, by)``). Returns ``(X, cos, sin)``: ``(m, N_INPUTS)`` and the frames, for the
     walkers of ``cols`` measured at every one of the ``PAST + 1`` samples (``m`` of them, in
     their order), and those columns."""
-    cols = [j for j in cols if np.isfinite(meas[:, j]).all()]
+    cols = [j for j, ok in zip(cols, np.isfinite(meas[:, cols]).all(axis=(0, 2)).tolist()) if ok]
     m = len(cols)
     if not m:
         return np.zeros((0, N_INPUTS)), np.zeros(0), np.zeros(0), cols
-    past = meas[:, cols]                                                      # (PAST + 1, m, 2)
+    past = np.ascontiguousarray(meas[:, cols])                                # (PAST + 1, m, 2)
+    X, c, s = np.zeros((m, N_INPUTS)), np.empty(m), np.empty(m)
+    _features_kernel(past, np.ascontiguousarray(meas[-1]), np.ascontiguousarray(meas[-2]),
+                     np.array(cols, dtype=np.int64), float(sample_time_s), NEAR_M, X, c, s)
     now = past[-1]
-    d = now - past[-5]
-    norm = np.hypot(d[:, 0], d[:, 1])
-    still = norm < 0.05
-    with np.errstate(divide="ignore", invalid="ignore"):
-        c = np.where(still, 1.0, d[:, 0] / norm)
-        s = np.where(still, 0.0, d[:, 1] / norm)
-    X = np.zeros((m, N_INPUTS))
-    rel = past[:-1] - now                                                     # (PAST, m, 2)
-    X[:, 0:2 * PAST:2] = (rel[..., 0] * c + rel[..., 1] * s).T
-    X[:, 1:2 * PAST:2] = (-rel[..., 0] * s + rel[..., 1] * c).T
-    here, before = meas[-1], meas[-2]
-    seen = np.isfinite(here).all(1) & np.isfinite(before).all(1)
-    vel = (here - before) / sample_time_s
-    # every walker's nearest others, stably by distance (ties in column order), at once
-    dx, dy = here[None, :, 0] - now[:, None, 0], here[None, :, 1] - now[:, None, 1]      # (m, walkers)
-    dist = np.hypot(dx, dy)
-    near = seen[None, :] & (dist <= NEAR_M)
-    near[np.arange(m), cols] = False
-    order = np.argsort(np.where(near, dist, np.inf), axis=1, kind="stable")[:, :NEIGHBOURS]
-    chosen = np.take_along_axis(near, order, axis=1)                                       # (m, k)
-    px, py = np.take_along_axis(dx, order, axis=1), np.take_along_axis(dy, order, axis=1)
-    vx, vy = vel[order, 0], vel[order, 1]
-    cc, ss = c[:, None], s[:, None]
-    block = np.stack([np.ones_like(px), px * cc + py * ss, -px * ss + py * cc, vx * cc + vy * ss,
-                      -vx * ss + vy * cc], axis=-1)
-    block[~chosen] = 0.0
-    X[:, 2 * PAST:2 * PAST + 5 * order.shape[1]] = block.reshape(m, -1)
     # the heading as the scan takes it (its cosine and sine again, as one point's scan makes them)
     heads = [math.atan2(sr, cr) for cr, sr in zip(c.tolist(), s.tolist())]
     X[:, 2 * PAST + 5 * NEIGHBOURS:] = wall_scans(wall_rows, now[:, 0].copy(), now[:, 1].copy(),
@@ -131,8 +108,43 @@ class WallsForecast:
         return WallsForecast()
 
     def reset(self) -> None:
-        self._history: dict[int, dict[int, tuple[float, float]]] = {}  # id -> {sample: (x, y)}
+        # the measured positions of the last PAST + 1 samples, oldest row first, a column per walker
+        self._buf = np.full((PAST + 1, 16, 2), np.nan)
+        self._col: dict[int, int] = {}  # walker id -> its column
+        self._seen: dict[int, int] = {}  # walker id -> the last sample it was measured at
+        self._free: list[int] = []
+        self._k: int | None = None
         self._walls_key, self._wall_rows = None, None
+
+    def _keep(self, obs) -> int:
+        """Move the buffer on to this sample and write its measurements; the sample's index."""
+        k = int(round(obs.t_s / SAMPLE_TIME_S))
+        buf = self._buf
+        shift = 0 if self._k is None else k - self._k
+        if shift < 0 or shift > PAST:  # started again, or nothing left of the window
+            buf[:] = np.nan
+        elif shift:
+            buf[:-shift] = buf[shift:]
+            buf[-shift:] = np.nan
+        self._k = k
+        col, seen = self._col, self._seen
+        for m in obs.moving:
+            p = m.position_m
+            if p is not None and math.isfinite(p[0]) and math.isfinite(p[1]):
+                c = col.get(m.obstacle_id)
+                if c is None:
+                    if not self._free:  # room for twice as many
+                        self._free = list(range(buf.shape[1], 2 * buf.shape[1]))[::-1]
+                        self._buf = buf = np.concatenate((buf, np.full_like(buf, np.nan)), axis=1)
+                    c = col[m.obstacle_id] = self._free.pop()
+                buf[-1, c] = (float(p[0]), float(p[1]))
+                seen[m.obstacle_id] = k
+        for i in [i for i, s in seen.items() if s < k - PAST]:  # long gone: its column free again
+            c = col.pop(i)
+            del seen[i]
+            buf[:, c] = np.nan
+            self._free.append(c)
+        return k
 
     def add(self, obs, forecasts: list, counters: dict | None = None) -> list:
         """``forecasts`` (the filter's, one per tracked walker) with the learned one of each
@@ -140,27 +152,13 @@ class WallsForecast:
         same radius and the filter's covariances; the measurements of ``obs`` kept. Where the
         map of ``obs`` has no walls, ``forecasts`` as they are. Counted in ``counters``
         (``walls_forecasts``: the second movers added)."""
-        k = int(round(obs.t_s / SAMPLE_TIME_S))
-        hist = self._history
-        for m in obs.moving:
-            p = m.position_m
-            if p is not None and all(np.isfinite(p)):
-                h = hist.setdefault(m.obstacle_id, {})
-                h[k] = (float(p[0]), float(p[1]))
-                for old in [s for s in h if s < k - PAST]:
-                    del h[old]
-        for i in [i for i, h in hist.items() if max(h) < k - PAST]:  # long gone
-            del hist[i]
+        self._keep(obs)
         if not obs.walls or not forecasts:
             return forecasts
         if obs.walls is not self._walls_key:  # the map's segments, made again only when it changes
             self._walls_key, self._wall_rows = obs.walls, segment_rows(obs.walls)
-        ids = sorted(hist)
-        meas = np.full((PAST + 1, len(ids), 2), np.nan)
-        for c, i in enumerate(ids):
-            for s, p in hist[i].items():
-                if s >= k - PAST:  # a walker not measured now keeps older rows
-                    meas[s - (k - PAST), c] = p
+        ids = sorted(self._col)  # the walkers in the order of their ids (the neighbours' ties)
+        meas = self._buf[:, [self._col[i] for i in ids]]
         col = {i: c for c, i in enumerate(ids)}
         where = [n for n, f in enumerate(forecasts) if f.obstacle_id in col]
         X, cos, sin, cols = walker_features(meas, [col[forecasts[n].obstacle_id] for n in where], self._wall_rows)
@@ -178,3 +176,51 @@ class WallsForecast:
         if counters is not None:
             counters["walls_forecasts"] = counters.get("walls_forecasts", 0) + len(cols)
         return out
+
+
+@njit("void(float64[:, :, ::1], float64[:, ::1], float64[:, ::1], int64[::1], float64, float64, float64[:, ::1], "
+      "float64[::1], float64[::1])", cache=True)
+def _features_kernel(past, here, before, cols, T, near_m, X, c_out, s_out):  # pragma: no cover - compiled
+    """:func:`walker_features` but the scan, walker by walker: the frame, the past positions in it,
+    and the nearest others (stably by distance, ties in column order), each number as the
+    prototype's numpy made it."""
+    P = past.shape[0] - 1
+    K = (X.shape[1] - 2 * P) // 5
+    for r in range(past.shape[1]):
+        j = cols[r]
+        n0, n1 = past[P, r, 0], past[P, r, 1]
+        d0, d1 = n0 - past[P - 4, r, 0], n1 - past[P - 4, r, 1]
+        norm = np.hypot(d0, d1)
+        if norm < 0.05:
+            c, s = 1.0, 0.0
+        else:
+            c, s = d0 / norm, d1 / norm
+        c_out[r], s_out[r] = c, s
+        for q in range(P):
+            rx, ry = past[q, r, 0] - n0, past[q, r, 1] - n1
+            X[r, 2 * q] = rx * c + ry * s
+            X[r, 2 * q + 1] = -rx * s + ry * c
+        # the others measured now and at the sample before, within reach
+        taken = np.zeros(here.shape[0], dtype=np.bool_)
+        dist = np.full(here.shape[0], np.inf)
+        for i in range(here.shape[0]):
+            if i == j or not (np.isfinite(here[i, 0]) and np.isfinite(here[i, 1]) and np.isfinite(before[i, 0])
+                              and np.isfinite(before[i, 1])):
+                continue
+            e = np.hypot(here[i, 0] - n0, here[i, 1] - n1)
+            if e <= near_m:
+                dist[i] = e
+        for q in range(K):
+            best = -1
+            for i in range(here.shape[0]):
+                if not taken[i] and dist[i] < np.inf and (best < 0 or dist[i] < dist[best]):
+                    best = i
+            if best < 0:
+                break
+            taken[best] = True
+            px, py = here[best, 0] - n0, here[best, 1] - n1
+            vx, vy = (here[best, 0] - before[best, 0]) / T, (here[best, 1] - before[best, 1]) / T
+            o = 2 * P + 5 * q
+            X[r, o] = 1.0
+            X[r, o + 1], X[r, o + 2] = px * c + py * s, -px * s + py * c
+            X[r, o + 3], X[r, o + 4] = vx * c + vy * s, -vx * s + vy * c

@@ -145,3 +145,12 @@ def test_a_bad_model_file_is_refused_in_one_line(tmp_path):
     with pytest.raises(ValueError) as e:
         WallsForecast(bad)
     assert "x.onnx" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_a_new_episode_without_reset_starts_the_history_again():
+    wf = WallsForecast()
+    own = _filters([7])
+    for k in range(PAST + 1):
+        out = wf.add(_Obs(0.5 * k, [ObstacleMeasurement(7, (1.0 + 0.3 * k, 1.0), 0.25)]), own)
+    assert len(out) == 2
+    assert wf.add(_Obs(0.0, [ObstacleMeasurement(7, (1.0, 1.0), 0.25)]), own) == own  # time went back

@@ -154,3 +154,18 @@ def test_a_new_episode_without_reset_starts_the_history_again():
         out = wf.add(_Obs(0.5 * k, [ObstacleMeasurement(7, (1.0 + 0.3 * k, 1.0), 0.25)]), own)
     assert len(out) == 2
     assert wf.add(_Obs(0.0, [ObstacleMeasurement(7, (1.0, 1.0), 0.25)]), own) == own  # time went back
+
+
+def test_the_gpc_hands_its_check_the_second_forecast_in_a_building_only():
+    from gpcnav.commands.common import for_run
+    from gpcnav.controllers import ControllerSpec, make
+    from scenarios import Suite
+    from scenarios.simulator import simulate
+
+    counts = {}
+    for suite in ("corridor", "circle-crossing"):
+        sc = Suite(suite, 1, 1, 5, "orca").scenario(0)
+        cfg = for_run(preset("improved"), [sc])
+        log = simulate(sc, make(ControllerSpec("gpc"), cfg, sc.robot), "gpc")
+        counts[suite] = log.events.get("walls_forecasts", 0)
+    assert counts["corridor"] > 0 and counts["circle-crossing"] == 0

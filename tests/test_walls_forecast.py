@@ -169,3 +169,7 @@ def test_the_gpc_hands_its_check_the_second_forecast_in_a_building_only():
         log = simulate(sc, make(ControllerSpec("gpc"), cfg, sc.robot), "gpc")
         counts[suite] = log.events.get("walls_forecasts", 0)
     assert counts["corridor"] > 0 and counts["circle-crossing"] == 0
+
+
+def test_one_session_a_process_however_many_planners():
+    assert WallsForecast().session is WallsForecast().session

@@ -77,25 +77,38 @@ def walker_features(meas: np.ndarray, cols, wall_rows, sample_time_s: float = SA
     return X, c, s, cols
 
 
+_SESSIONS: dict[str, tuple] = {}
+"""The loaded networks by file (one onnxruntime session a process, however many planners)."""
+
+
+def _session(path: Path | str) -> tuple:
+    """The onnxruntime session of the network in ``path`` and its input's name, loaded and checked
+    once a process; a missing, corrupt or misshapen file a ``ValueError`` in one line."""
+    key = str(Path(path).resolve())
+    if key not in _SESSIONS:
+        import onnxruntime as ort
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = opts.inter_op_num_threads = 1
+        opts.log_severity_level = 3
+        try:
+            session = ort.InferenceSession(key, opts, providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own classes for a missing or corrupt file
+            raise ValueError(f"{path}: not a readable walker forecast ({str(exc).splitlines()[0]})") from None
+        inp, out = session.get_inputs()[0], session.get_outputs()[0]
+        if inp.shape[1:] != [N_INPUTS] or out.shape[1:] != [3 * HORIZON]:
+            raise ValueError(f"{path}: a walker forecast takes {N_INPUTS} inputs and gives {3 * HORIZON} outputs "
+                             f"(this one {inp.shape[1:]} and {out.shape[1:]})")
+        _SESSIONS[key] = (session, inp.name)
+    return _SESSIONS[key]
+
+
 class WallsForecast:
     """The walkers' measured positions of the last ``PAST + 1`` samples, and their learned
     forecasts added beside the filter's (module docstring). :meth:`reset` at an episode's
     start; :meth:`add` once per sample in a scene with walls."""
 
     def __init__(self, path: Path | str = MODEL_PATH):
-        import onnxruntime as ort
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = opts.inter_op_num_threads = 1
-        opts.log_severity_level = 3
-        try:
-            self.session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
-        except Exception as exc:  # onnxruntime raises its own classes for a missing or corrupt file
-            raise ValueError(f"{path}: not a readable walker forecast ({str(exc).splitlines()[0]})") from None
-        inp, out = self.session.get_inputs()[0], self.session.get_outputs()[0]
-        if inp.shape[1:] != [N_INPUTS] or out.shape[1:] != [3 * HORIZON]:
-            raise ValueError(f"{path}: a walker forecast takes {N_INPUTS} inputs and gives {3 * HORIZON} outputs "
-                             f"(this one {inp.shape[1:]} and {out.shape[1:]})")
-        self._input = inp.name
+        self.session, self._input = _session(path)
         self.reset()
 
     @staticmethod

@@ -173,3 +173,13 @@ def test_the_gpc_hands_its_check_the_second_forecast_in_a_building_only():
 
 def test_one_session_a_process_however_many_planners():
     assert WallsForecast().session is WallsForecast().session
+
+
+def test_the_buffer_grows_for_a_crowd_and_frees_the_columns_of_walkers_long_gone():
+    wf = WallsForecast()
+    for k in range(3):  # 40 walkers, more than the buffer's first 16 columns
+        wf.add(_Obs(0.5 * k, [ObstacleMeasurement(i, (0.2 * i, 1.0), 0.25) for i in range(40)]), [])
+    assert len(wf._col) == 40 and wf._buf.shape[1] >= 40
+    for k in range(3, 3 + PAST + 1):  # then only walker 0, long enough for the others to be forgotten
+        wf.add(_Obs(0.5 * k, [ObstacleMeasurement(0, (0.0, 1.0), 0.25)]), [])
+    assert list(wf._col) == [0] and np.isnan(np.delete(wf._buf, wf._col[0], axis=1)).all()

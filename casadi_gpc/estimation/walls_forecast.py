@@ -126,7 +126,7 @@ class WallsForecast:
         self._buf = np.full((PAST + 1, 16, 2), np.nan)
         self._col: dict[int, int] = {}  # walker id -> its column
         self._seen: dict[int, int] = {}  # walker id -> the last sample it was measured at
-        self._free: list[int] = []
+        self._free: list[int] = list(range(16))[::-1]  # the buffer's free columns, the lowest last
         self._k: int | None = None
         self._walls_key, self._wall_rows = None, None
 

@@ -60,6 +60,7 @@ def test_address_without_ray_backend_is_refused(tmp_path):
     assert r.returncode == 2 and "--address needs --backend ray" in r.stderr
 
 
+@pytest.mark.slow  # about 20 s: the default suite stays under 10 minutes on two cores
 def test_evaluate_on_ray_killed_partway_resumes_to_the_uninterrupted_document(tmp_path, local_ray):
     """The finished episodes are kept by the driver as they come back from the cluster: a
     driver killed with kill -9 and started again reuses them, on Ray as on local workers."""

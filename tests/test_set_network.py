@@ -179,6 +179,7 @@ def test_the_set_architecture_is_refused_without_a_set_layout():
         WheelSpeedMLP(architecture="deep").fit(X, X[:, :2])
 
 
+@pytest.mark.slow  # about 20 s: the default suite stays under 10 minutes on two cores
 def test_command_line_set_data_from_a_crowd_then_the_set_network(tmp_path):
     """``gpcnav dataset --layout set``, an on-policy round on a crowd suite (its walkers fill
     several slots), ``gpcnav train --architecture set`` and ``export --passes 1``; the set

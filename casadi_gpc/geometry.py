@@ -1,5 +1,6 @@
-"""Points and line segments in the plane, once for everyone (numpy only): the distance from a
-point to a wall or a path, and whether a straight move crosses a wall. The robot's side
+"""Points and line segments in the plane, once for everyone (numpy; the wall scan compiled with
+numba): the distance from a point to a wall or a path, whether a straight move crosses a wall,
+and the walls as a range sensor sees them. The robot's side
 (the planner's wall slots and guesses) and the world (walls, sensors, path measures) both use
 these."""
 from __future__ import annotations

@@ -1,14 +1,12 @@
 """The walkers' learned forecast near walls (casadi_gpc/estimation/walls_forecast.py): its
-features against the prototype's, walker by walker (the code that made the network's training
+features against the prototype's walker-by-walker form (the one that made the network's training
 data), the batched wall scan against one point at a time, the union it hands the
 planner (the filter's forecasts untouched, one second mover per walker seen at 9 samples, the
 filter's covariances), nothing added without walls, the presets and the sample times it
 answers at, and a bad model file refused in one line."""
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,14 +20,34 @@ from casadi_gpc.types import ObstacleForecast, ObstacleMeasurement
 CORRIDOR = (((-10.0, 0.0), (20.0, 0.0)), ((-10.0, 2.5), (20.0, 2.5)))
 
 
-def _prototype():
-    """The prototype's module that made the network's training data
-    (docs/data/pedestrians/learned_forecast/data.py): its ``features`` is the reference."""
-    path = Path(__file__).resolve().parents[1] / "docs" / "data" / "pedestrians" / "learned_forecast" / "data.py"
-    spec = importlib.util.spec_from_file_location("learned_forecast_data", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def _reference_features(meas, k, j, wall_rows, T=0.5):
+    """The features of walker ``j`` at sample ``k`` written out walker by walker, as the prototype
+    that made the shipped network's training data wrote them (docs/data/pedestrians/
+    learned_forecast/data.py before 2026-11-30, which now calls the planner's own): an
+    independent form to hold the compiled one to."""
+    past = meas[k - PAST:k + 1, j]
+    if k < PAST or not np.isfinite(past).all():
+        return None
+    d = past[-1] - past[-5]
+    n = float(np.hypot(*d))
+    c, s = (1.0, 0.0) if n < 0.05 else (d[0] / n, d[1] / n)
+    R = np.array([[c, s], [-s, c]])
+    now = past[-1]
+    own = ((past[:-1] - now) @ R.T).ravel()
+    others = []
+    here, before = meas[k], meas[k - 1]
+    for i in range(meas.shape[1]):
+        if i != j and np.isfinite(here[i]).all() and np.isfinite(before[i]).all():
+            rel = here[i] - now
+            dist = float(np.hypot(*rel))
+            if dist <= 6.0:
+                others.append((dist, rel @ R.T, (here[i] - before[i]) / T @ R.T))
+    others.sort(key=lambda o: o[0])
+    nb = np.zeros(40)
+    for q, (_, p, v) in enumerate(others[:8]):
+        nb[5 * q:5 * q + 5] = (1.0, *p, *v)
+    scan = wall_scan(wall_rows, float(now[0]), float(now[1]), math.atan2(s, c), 16, 4.0)
+    return np.concatenate([own, nb, scan]), c, s
 
 
 def _crowd(rng, walkers=14, missing=0.05):
@@ -47,7 +65,7 @@ def _crowd(rng, walkers=14, missing=0.05):
 
 
 def test_the_features_are_the_prototypes():
-    reference = _prototype().features
+    reference = _reference_features
     rng = np.random.default_rng(3)
     rows = segment_rows(CORRIDOR + (((5.0, 0.0), (5.0, 1.0)),))
     compared = differ = 0

@@ -71,7 +71,7 @@ def walker_features(meas: np.ndarray, cols, wall_rows, sample_time_s: float = SA
     now = past[-1]
     # the heading as the scan takes it (its cosine and sine again, as one point's scan makes them)
     heads = [math.atan2(sr, cr) for cr, sr in zip(c.tolist(), s.tolist())]
-    X[:, 2 * PAST + 5 * NEIGHBOURS:] = wall_scans(wall_rows, now[:, 0].copy(), now[:, 1].copy(),
+    X[:, 2 * PAST + 5 * NEIGHBOURS:] = wall_scans(wall_rows, now[:, 0], now[:, 1],
                                                   np.array([math.cos(h) for h in heads]),
                                                   np.array([math.sin(h) for h in heads]), SECTORS, SCAN_M)
     return X, c, s, cols

@@ -131,7 +131,7 @@ class GPCController(MultiStart):
         """The robot's predicted positions at steps 1..H of the last plan (for relevance)."""
         if hasattr(self, "candidates"):
             self.candidates.reset()
-        if getattr(self, "walls_forecast", None) is not None:
+        if self.walls_forecast is not None:
             self.walls_forecast.reset()
         self.counters = {"solves": 0, "failed_solves": 0, "fallbacks": 0, "multistart": 0,
                          "missed_measurements": 0, "outliers": 0, "over_budget": 0, "budget_skips": 0,

@@ -18,57 +18,34 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-import math
-
 import numpy as np
 
-from nn_export.runtime.wall_scan import wall_scan, wall_segment_rows
+from casadi_gpc.estimation.walls_forecast import HORIZON as H, NEIGHBOURS as K, PAST, SAMPLE_TIME_S as T, SECTORS
+from casadi_gpc.estimation.walls_forecast import walker_features
+from nn_export.runtime.wall_scan import wall_segment_rows
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[4] / "tools"))
 from oracle_forecasts import true_positions  # noqa: E402
 from scenarios import Suite  # noqa: E402
 
-T, PAST, H, K, NEAR_M = 0.5, 8, 12, 8, 6.0
-SECTORS, SCAN_M = 16, 4.0
+NO_WALLS = np.zeros((0, 4))
 SUITES = [("square-crossing", 10, "orca"), ("square-crossing", 20, "orca"), ("square-crossing", 30, "orca"),
           ("square-crossing", 20, "social_force"), ("circle-crossing", 10, "orca"), ("circle-crossing", 5, "orca")]
-
-
-def frame(meas_past: np.ndarray) -> tuple[float, float]:
-    """cos, sin of the walker's frame from its measured positions (oldest first, now last)."""
-    d = meas_past[-1] - meas_past[-5]
-    n = float(np.hypot(*d))
-    return (1.0, 0.0) if n < 0.05 else (d[0] / n, d[1] / n)
 
 
 def features(meas: np.ndarray, k: int, j: int, wall_rows=None) -> tuple[np.ndarray, float, float] | None:
     """The input of walker ``j`` at sample ``k`` from the measurements ``meas`` (samples,
     walkers, 2; NaN where absent), and its frame (cos, sin); None without 8 past positions.
-    ``wall_rows``: the scene's wall segments (``wall_segment_rows``), scanned from the walker."""
-    past = meas[k - PAST:k + 1, j]
-    if k < PAST or not np.isfinite(past).all():
+    ``wall_rows``: the scene's wall segments (``wall_segment_rows``), scanned from the walker;
+    without them, no scan. The planner's own features
+    (:func:`casadi_gpc.estimation.walls_forecast.walker_features`, the one definition; until
+    2026-11-30 written out here walker by walker, the same numbers within 1e-12)."""
+    if k < PAST:
         return None
-    c, s = frame(past)
-    R = np.array([[c, s], [-s, c]])
-    now = past[-1]
-    own = ((past[:-1] - now) @ R.T).ravel()
-    others = []
-    here, before = meas[k], meas[k - 1]
-    for i in range(meas.shape[1]):
-        if i == j or not (np.isfinite(here[i]).all() and np.isfinite(before[i]).all()):
-            continue
-        rel = here[i] - now
-        d = float(np.hypot(*rel))
-        if d <= NEAR_M:
-            others.append((d, rel @ R.T, (here[i] - before[i]) / T @ R.T))
-    others.sort(key=lambda o: o[0])
-    nb = np.zeros(5 * K)
-    for n, (_, p, v) in enumerate(others[:K]):
-        nb[5 * n:5 * n + 5] = (1.0, *p, *v)
-    if wall_rows is None:
-        return np.concatenate([own, nb]), c, s
-    scan = wall_scan(wall_rows, float(now[0]), float(now[1]), math.atan2(s, c), SECTORS, SCAN_M)
-    return np.concatenate([own, nb, scan]), c, s
+    X, c, s, kept = walker_features(meas[k - PAST:k + 1], [j], wall_rows if wall_rows is not None else NO_WALLS, T)
+    if not kept:
+        return None
+    return (X[0] if wall_rows is not None else X[0, :2 * PAST + 5 * K]), float(c[0]), float(s[0])
 
 
 def episode(job):

@@ -46,13 +46,20 @@ from .errors import UsageError
 
 __all__ = ["BUILTIN", "PEERS", "REGISTRY", "SHIELD_MODES", "DEFAULT_SHIELD", "Kind", "ControllerSpec", "make",
            "make_controller", "check", "check_settings", "shield_mode", "load_user_class", "describe", "spec_from_args",
-           "parse_controller_list"]
+           "parse_controller_list", "reads_planner_settings", "PLANNER_READERS"]
 
 PEERS = ("orca", "hrvo", "social_force", "mppi")
 BASELINES = ("stand", "blind")
 """A robot that stands still and one that drives its reference blind (:mod:`gpcnav.peers.baselines`):
 beside every result on recorded people."""
 BUILTIN = ("gpc", "nn") + PEERS + BASELINES
+
+PLANNER_READERS = ("gpc", "mppi")
+"""The controllers made from the planner's settings (``--set``, ``--sample-time``, ``--horizon``,
+``--solver``): the GPC, and MPPI with the GPC's cost and forecast. The network runs at the
+settings it was trained at (its model file's), the navground peers, the baselines and a user's
+class take none; behind the check with the GPC on standby (``--shield-fallback gpc``), every
+controller's standby planner does (:func:`reads_planner_settings`)."""
 
 SHIELD_MODES = ("off", "on", "gpc")
 """``off``: the bare controller; ``on``: behind the check layer, which falls back on the
@@ -337,6 +344,12 @@ def make_controller(kind: str, config, robot, model=None, shield: str | None = N
     """:func:`make` from loose arguments (``shield``: a mode of :data:`SHIELD_MODES`, or
     ``brake``, the older name of ``on``; None: the controller's default)."""
     return make(ControllerSpec(kind, model, shield, passes), config, robot)
+
+
+def reads_planner_settings(spec: ControllerSpec) -> bool:
+    """Whether the controller ``spec`` names reads the planner's settings (:data:`PLANNER_READERS`,
+    or any controller behind the check with the GPC on standby)."""
+    return spec.name in PLANNER_READERS or spec.mode == "gpc"
 
 
 def check(spec: ControllerSpec, config, robot) -> None:

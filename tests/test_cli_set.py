@@ -104,6 +104,47 @@ def test_the_command_line_sets_records_and_refuses(tmp_path):
     assert runs["wide"]["trajectory"]["y"] != runs["plain"]["trajectory"]["y"]  # the setting reached the planner
 
 
+def test_settings_a_controller_does_not_read_are_refused_or_recorded_as_unused(tmp_path):
+    """A planner setting given to a controller that does not read it (the network, which runs
+    at its model's settings behind the planner-free check; a navground peer; a baseline) did
+    nothing: alone, it is refused in one line before any work; in a comparison beside one that
+    reads it, that controller's document records it as ``planner_changes_unused``, not as a
+    change it was run with."""
+    from gpcnav.commands.common import refuse_unread_changes
+    from gpcnav.controllers import ControllerSpec, reads_planner_settings
+    assert reads_planner_settings(ControllerSpec("gpc")) and reads_planner_settings(ControllerSpec("mppi"))
+    assert not any(reads_planner_settings(ControllerSpec(n)) for n in ("nn", "orca", "hrvo", "social_force", "stand",
+                                                                       "blind", "my.module:Policy"))
+    # the GPC on standby behind the check reads them, for any controller
+    assert reads_planner_settings(ControllerSpec("nn", shield="gpc"))
+    assert reads_planner_settings(ControllerSpec("orca", shield="gpc"))
+    wide = IMPROVED.with_overrides(clearance_margin_m=0.3)
+    assert refuse_unread_changes([ControllerSpec("nn")], IMPROVED) == []  # nothing changed: nothing to say
+    assert refuse_unread_changes([ControllerSpec("gpc"), ControllerSpec("nn")], wide) == [ControllerSpec("nn")]
+    with pytest.raises(UsageError, match="clearance_margin_m: .*none of nn, stand reads"):
+        refuse_unread_changes([ControllerSpec("nn"), ControllerSpec("stand")], wide)
+    scenario = PAPER_DIR / "fig7_1_head_on.toml"
+    for argv, what in ((["simulate", scenario, "--controller", "nn", "--set", "clearance_margin_m=0.3"],
+                        "clearance_margin_m"),
+                       (["evaluate", "--suite", "random", "--count", "1", "--controller", "orca", "--sample-time", "0.25"],
+                        "sample_time_s"),
+                       (["evaluate", "--suite", "random", "--count", "1", "--controller", "nn", "--horizon", "8"],
+                        "horizon")):
+        out = tmp_path / "refused.json"
+        proc = _gpcnav(*argv, "--out", out)
+        assert proc.returncode == 2, proc.stderr
+        assert len(proc.stderr.strip().splitlines()) == 1 and what in proc.stderr and "does not read" in proc.stderr
+        assert not out.exists()
+    out = tmp_path / "C.json"
+    proc = _gpcnav("compare", "--suite", "random", "--count", "1", "--seed", "1", "--controllers", "gpc,stand",
+                   "--set", "clearance_margin_m=0.3", "--workers", "1", "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    assert "stand does not read the planner settings given (clearance_margin_m)" in proc.stderr
+    gpc, stand = json.loads(out.read_text())["controllers"]
+    assert gpc["planner_changes"] == {"clearance_margin_m": 0.3} and "planner_changes_unused" not in gpc
+    assert stand["planner_changes_unused"] == {"clearance_margin_m": 0.3} and "planner_changes" not in stand
+
+
 def test_settings_recorded_before_they_existed_are_taken_at_their_default():
     """A dataset's manifest written before a setting existed still matches the settings of
     today's preset (``gpcnav train``, a DAgger round), and a real change still shows."""

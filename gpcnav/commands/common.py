@@ -206,11 +206,32 @@ def planner_changes(config) -> dict:
     return {k: v for k, v in now.items() if k not in RUN_ADAPTED + SPEED_ONLY and v != was.get(k)}
 
 
-def recorded_changes(config) -> dict:
+def recorded_changes(config, reads: bool = True) -> dict:
     """``{"planner_changes": ...}`` for a document where the run changed the preset's
-    settings (:func:`planner_changes`), else nothing."""
+    settings (:func:`planner_changes`), else nothing; for a controller that does not read
+    them (``reads`` False: :func:`gpcnav.controllers.reads_planner_settings`),
+    ``{"planner_changes_unused": ...}``: the document says they were given and had no effect."""
     changes = planner_changes(config)
-    return {"planner_changes": changes} if changes else {}
+    return {"planner_changes" if reads else "planner_changes_unused": changes} if changes else {}
+
+
+def refuse_unread_changes(specs, config) -> list:
+    """The controllers of ``specs`` that do not read the planner's settings the run changed
+    (:func:`planner_changes`): an empty list when nothing was changed or every one reads them.
+    When none of them does, a one-line :class:`UsageError` (exit 2): the changes would do
+    nothing, and a document recording them would say they had been tested."""
+    from ..controllers import reads_planner_settings
+    changes = planner_changes(config)
+    if not changes:
+        return []
+    unread = [s for s in specs if not reads_planner_settings(s)]
+    if len(unread) == len(specs):
+        who = (f"--controller {specs[0].label} does not read" if len(specs) == 1
+               else f"none of {', '.join(s.label for s in specs)} reads")
+        raise UsageError(f"{', '.join(sorted(changes))}: planner settings (--set, --sample-time, --horizon, --solver), "
+                         f"which {who} (a network runs at its model's settings, a peer at its own); "
+                         f"drop them, or put the planner on standby with --shield-fallback gpc")
+    return unread
 
 
 def add_suite_arguments(p: argparse.ArgumentParser) -> None:

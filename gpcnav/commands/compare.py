@@ -13,7 +13,7 @@ from pathlib import Path
 from ..controllers import check_scenarios, parse_controller_list, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, connected, for_pool,
-                     for_run, planner_config, same_file)
+                     for_run, planner_changes, planner_config, refuse_unread_changes, same_file)
 from .evaluate import (add_pool_arguments, add_resume_arguments, close_store, controller_extra, eval_doc, log_to_stderr,
                        open_store, pool_from_args, run_episodes, scenarios_from_args)
 
@@ -63,6 +63,10 @@ def run(args) -> int:
     robot = scenarios[0].robot
     for spec in specs:
         check_scenarios(spec, config, scenarios)
+    for spec in refuse_unread_changes(specs, config):  # run with the others, their documents say so
+        print(f"gpcnav compare: {spec.label} does not read the planner settings given "
+              f"({', '.join(sorted(planner_changes(config)))}); its document records them as planner_changes_unused",
+              file=sys.stderr)
     with connected(pool):
         extras = [controller_extra(spec, config, robot) for spec in specs]
         store, keys = open_store(args, specs, config, extras, scenarios)

@@ -4,8 +4,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..controllers import ControllerSpec, check, describe, make, spec_from_args
-from .common import add_controller_arguments, check_output_files, check_seed, planner_config, for_pool, for_run
+from ..controllers import ControllerSpec, check, describe, make, reads_planner_settings, spec_from_args
+from .common import (add_controller_arguments, check_output_files, check_seed, planner_config, for_pool, for_run,
+                     recorded_changes, refuse_unread_changes)
 
 
 def add_arguments(p):
@@ -26,10 +27,9 @@ def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=Non
         spec = ControllerSpec(spec, model, shield, passes)
     controller = make(spec, config, scenario.robot)
     log = simulate(scenario, controller, spec.label)
-    from .common import recorded_changes
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
              "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode,  # docs/faults.md
-             **recorded_changes(config), "solve_lanes": config.solve_lanes}
+             **recorded_changes(config, reads_planner_settings(spec)), "solve_lanes": config.solve_lanes}
     inner = getattr(controller, "policy", controller)  # the controller behind a Shield
     model_info = getattr(inner, "model_info", None)
     if model_info:
@@ -54,6 +54,7 @@ def run(args) -> int:
     config = for_pool(for_run(planner_config(args), [scenario]), WorkerPool(1))  # one process: lanes up to the cores
     spec = spec_from_args(args)
     check(spec, config, scenario.robot)
+    refuse_unread_changes([spec], config)
     doc = run_one(scenario, spec, config)
     if args.out:
         write_json(args.out, doc)

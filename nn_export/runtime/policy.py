@@ -176,6 +176,10 @@ class OnnxPolicy:
         it. Adopted by a rule on unseen cases (docs/buildings.md, "A pillar in a building":
         with a pillar in the three wall suites, 90 / 8 / 82 -> 105 / 4 / 71 reached / collided
         / timed out). A check layer judges against the discs themselves either way.
+    compiled_set_networks : bool
+        The crowd and walls networks' one-command pass compiled (numba) where it answers as
+        onnxruntime does on probe rows at load (:mod:`nn_export.runtime.compiled_set`; default
+        True; ``model_info``'s ``crowd_model`` and ``walls_model`` say which ran, ``executor``).
 
     This is the bare network: deployed, it runs behind the safety check layer,
     ``casadi_gpc.safety.Shield(OnnxPolicy())`` (numpy and numba), which checks every
@@ -191,7 +195,7 @@ class OnnxPolicy:
     def __init__(self, model=None, preset: str | None = None, robot: RobotParams | None = None,
                  two_pass: bool | None = None, safety_distance_m: float | None = None,
                  ekf_settings: EKFSettings | None = None, crowd_model=SHIPPED, walls_model=SHIPPED,
-                 check_forecast: str | None = None, statics_as_walls: bool = True):
+                 check_forecast: str | None = None, statics_as_walls: bool = True, compiled_set_networks: bool = True):
         t0 = time.perf_counter()
         self.robot = robot or RobotParams()
         path = Path(model) if model is not None else shipped_model_path(preset or DEFAULT_PRESET)
@@ -244,14 +248,14 @@ class OnnxPolicy:
             shipped = shipped_crowd_model_path(self.config.name)
             crowd_model = shipped if is_shipped and not self.layout.is_set and shipped.is_file() else None
         self._crowd = None if crowd_model is None else CrowdNetwork(Path(crowd_model), self.config.name, self.robot,
-                                                                      self.layout)
+                                                                      self.layout, compiled_set_networks)
         if self._crowd is not None:
             self.model_info["crowd_model"] = self._crowd.info
         if isinstance(walls_model, str) and walls_model == SHIPPED:
             shipped = shipped_walls_model_path(self.config.name)
             walls_model = shipped if is_shipped and not self.layout.wall_sectors and shipped.is_file() else None
         self._walls = None if walls_model is None else WallsNetwork(Path(walls_model), self.config.name, self.robot,
-                                                                      self.layout)
+                                                                      self.layout, compiled_set_networks)
         self._walls_decision = _decision_maker("one pass: walls network")
         self.statics_as_walls = bool(statics_as_walls)
         self._static_key, self._static_rows = None, None  # the static discs as wall pieces, made once per set

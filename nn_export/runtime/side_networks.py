@@ -13,8 +13,9 @@ import numpy as np
 
 from casadi_gpc.robot import RobotParams
 
+from .compiled_set import compile_set_network
 from .layouts import FeatureLayout
-from .model_file import _bind, _load_session, _validate, read_model_metadata
+from .model_file import INPUT_NAME, _bind, _load_session, _validate, read_model_metadata
 from .wall_scan import segments_near
 
 __all__ = ["CrowdNetwork", "WallsNetwork"]
@@ -28,7 +29,7 @@ class CrowdNetwork:
 
     role = "crowd"
 
-    def __init__(self, path: Path, preset: str, robot: RobotParams, main: FeatureLayout):
+    def __init__(self, path: Path, preset: str, robot: RobotParams, main: FeatureLayout, compiled: bool = True):
         self.session, data = _load_session(path)
         meta = read_model_metadata(self.session, path)
         self.layout, _, self.steps = _validate(path, self.session, meta, preset, robot)
@@ -42,9 +43,15 @@ class CrowdNetwork:
         self.main_slots = (main.k_moving, main.k_static, main.range_m)
         self._x, self._y, self._write, self._binding, self._run = _bind(self.session, self.layout.size, path,
                                                                         2 * self.steps)
+        # its one-command pass compiled where that answers as onnxruntime does (compiled_set)
+        if not compiled or self.steps > 1:
+            self._compiled, executor = None, "onnxruntime" + (" (a plan network)" if self.steps > 1 else "")
+        else:
+            self._compiled, executor = compile_set_network(
+                data, self.layout.size, lambda X: self.session.run(None, {INPUT_NAME: X})[0])
         self.info = {"path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
                      "feature_layout": self.layout.name, "n_features": self.layout.size,
-                     "validation_rmse_mps": float(meta["validation_rmse_mps"])}
+                     "validation_rmse_mps": float(meta["validation_rmse_mps"]), "executor": executor}
 
     def needed(self, x: float, y: float, tracks, statics) -> bool:
         """Whether the main layout would drop an obstacle in range of the robot at ``(x, y)``."""
@@ -64,6 +71,8 @@ class CrowdNetwork:
 
     def answer(self, values: list[float]) -> tuple[float, float]:
         self._write(*values)
+        if self._compiled is not None:
+            return self._compiled.answer(self._x[0])
         self._run()
         vr, vl = self._y[0, :2].tolist()
         return vr, vl

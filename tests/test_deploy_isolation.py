@@ -46,6 +46,9 @@ SCRIPT = BLOCKER + textwrap.dedent("""
             assert abs(d.v_right_mps) <= 0.8 and abs(d.v_left_mps) <= 0.8
             decisions.append((d.v_right_mps, d.v_left_mps))
         print(preset, decisions[-1])
+    # the crowd network's compiled pass reads its weights without the onnx package
+    info = OnnxPolicy(preset="improved", compiled_set_networks=True).model_info
+    assert info["crowd_model"]["executor"].startswith("compiled"), info["crowd_model"]["executor"]
     for mod in ("torch", "casadi", "onnx", "scipy", "matplotlib"):
         assert mod not in sys.modules, mod
     print("OK")

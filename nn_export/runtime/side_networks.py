@@ -29,7 +29,7 @@ class CrowdNetwork:
 
     role = "crowd"
 
-    def __init__(self, path: Path, preset: str, robot: RobotParams, main: FeatureLayout, compiled: bool = True):
+    def __init__(self, path: Path, preset: str, robot: RobotParams, main: FeatureLayout, compiled: bool = False):
         self.session, data = _load_session(path)
         meta = read_model_metadata(self.session, path)
         self.layout, _, self.steps = _validate(path, self.session, meta, preset, robot)

@@ -123,18 +123,16 @@ def test_settings_a_controller_does_not_read_are_refused_or_recorded_as_unused(t
     assert refuse_unread_changes([ControllerSpec("gpc"), ControllerSpec("nn")], wide) == [ControllerSpec("nn")]
     with pytest.raises(UsageError, match="clearance_margin_m: .*none of nn, stand reads"):
         refuse_unread_changes([ControllerSpec("nn"), ControllerSpec("stand")], wide)
-    scenario = PAPER_DIR / "fig7_1_head_on.toml"
-    for argv, what in ((["simulate", scenario, "--controller", "nn", "--set", "clearance_margin_m=0.3"],
-                        "clearance_margin_m"),
-                       (["evaluate", "--suite", "random", "--count", "1", "--controller", "orca", "--sample-time", "0.25"],
-                        "sample_time_s"),
-                       (["evaluate", "--suite", "random", "--count", "1", "--controller", "nn", "--horizon", "8"],
-                        "horizon")):
-        out = tmp_path / "refused.json"
-        proc = _gpcnav(*argv, "--out", out)
-        assert proc.returncode == 2, proc.stderr
-        assert len(proc.stderr.strip().splitlines()) == 1 and what in proc.stderr and "does not read" in proc.stderr
-        assert not out.exists()
+    with pytest.raises(UsageError, match="sample_time_s: .*which --controller orca does not read"):
+        refuse_unread_changes([ControllerSpec("orca")], IMPROVED.with_overrides(sample_time_s=0.25))
+    out = tmp_path / "refused.json"  # the command line: one line, exit 2, nothing written
+    proc = _gpcnav("evaluate", "--suite", "random", "--count", "1", "--controller", "nn", "--horizon", "8", "--out", out)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().splitlines() == [
+        "gpcnav evaluate: error: horizon: planner settings (--set, --sample-time, --horizon, --solver), which "
+        "--controller nn does not read (a network runs at its model's settings, a peer at its own); drop them, or "
+        "put the planner on standby with --shield-fallback gpc"]
+    assert not out.exists()
     out = tmp_path / "C.json"
     proc = _gpcnav("compare", "--suite", "random", "--count", "1", "--seed", "1", "--controllers", "gpc,stand",
                    "--set", "clearance_margin_m=0.3", "--workers", "1", "--out", out)

@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 __all__ = [
     "RobotParams",
@@ -127,6 +128,11 @@ def robot_step_float(x: float, y: float, heading: float, v_right: float, v_left:
         chord = speed * dt * (math.sin(half) / half)
     mid = heading + half
     return x + chord * math.cos(mid), y + chord * math.sin(mid), heading + 2.0 * half
+
+
+robot_step_compiled = njit(cache=True)(robot_step_float)
+"""The robot model's float form compiled (numba), for compiled loops (the check's roll-outs, the
+planner's test of a guess against the walls): the same operations, so the same numbers."""
 
 
 def followed_wheel(v_now: float, v_asked: float, dv_max: float, v_max: float) -> float:

@@ -12,7 +12,7 @@ casadi = pytest.importorskip("casadi")
 
 from casadi_gpc.config import WALL_SLOTS, preset  # noqa: E402
 from conftest import straight_line_toml  # noqa: E402
-from casadi_gpc.planner.guesses import meets_walls  # noqa: E402
+from casadi_gpc.planner.guesses import meets_walls, meets_walls_reference  # noqa: E402
 from casadi_gpc.problem.cost import ParameterLayout, build_problem  # noqa: E402
 from casadi_gpc.problem.selection import select_walls  # noqa: E402
 from casadi_gpc.robot import RobotParams  # noqa: E402
@@ -80,6 +80,26 @@ def test_a_guess_through_a_wall_or_onto_one_is_known():
     along = [(0.0, 0.3, 5.0, 0.3)]
     assert not meets_walls(CFG, robot, x0, straight, along)
     assert meets_walls(CFG, robot, x0, np.tile([0.02, 0.0], CFG.horizon), along)  # turning left into it
+
+
+def test_the_compiled_test_of_a_guess_answers_as_numpy_s_geometry():
+    """:func:`meets_walls` (one compiled call) against :func:`meets_walls_reference` (the robot
+    model's float form and numpy's segment geometry) on random states, guesses and walls: walls
+    crossing the path, along it at the robot's radius, segments of no length."""
+    robot, rng = RobotParams(), np.random.default_rng(5)
+    met = 0
+    for trial in range(3000):
+        x0 = np.concatenate([rng.uniform(-3, 3, 2), rng.uniform(-4, 4, 1), rng.uniform(-0.8, 0.8, 2)])
+        u = rng.normal(0.0, 0.15, 2 * CFG.horizon)
+        seg = rng.uniform(-4, 4, (int(rng.integers(1, 6)), 4))
+        if trial % 7 == 0:
+            seg[:, 2:] = seg[:, :2]
+        if trial % 11 == 0:
+            seg[0, 1] = seg[0, 3] = x0[1] + rng.choice([0.35, 0.5, 1.0])
+        want = meets_walls_reference(CFG, robot, x0, u, seg)
+        assert meets_walls(CFG, robot, x0, u, seg) == want, trial
+        met += want
+    assert 300 < met < 2700  # both answers are exercised
 
 
 def test_the_planner_keeps_off_a_wall_it_is_driven_at():

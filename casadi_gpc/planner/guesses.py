@@ -13,11 +13,13 @@ import math
 
 import numpy as np
 
+from numba import njit
+
 from ..geometry import distance_to_segments_m, segments_cross
-from ..robot import robot_step_float
+from ..robot import robot_step_compiled, robot_step_float
 
 __all__ = ["TIE_ORDER", "SIDEWAYS", "NARROWER", "wheels_to_increments", "swerve_guesses", "detour_guesses",
-           "brake_guess", "initial_guesses", "meets_walls", "plan_meets_walls", "fitted_guesses"]
+           "brake_guess", "initial_guesses", "meets_walls", "meets_walls_reference", "plan_meets_walls", "fitted_guesses"]
 
 TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake")
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
@@ -125,6 +127,18 @@ def meets_walls(config, robot, x0, u0, segments) -> bool:
     if not len(segments):
         return False
     x, y, th, vr, vl = (float(v) for v in x0)
+    return bool(_meets_walls(x, y, th, vr, vl, np.ascontiguousarray(u0, dtype=float).reshape(-1), int(config.horizon),
+                             float(config.sample_time_s), float(robot.wheel_base_m),
+                             np.ascontiguousarray(segments, dtype=float).reshape(-1, 4), float(robot.radius_m)))
+
+
+def meets_walls_reference(config, robot, x0, u0, segments) -> bool:
+    """:func:`meets_walls` with numpy's geometry (:func:`~casadi_gpc.geometry.segments_cross`,
+    :func:`~casadi_gpc.geometry.distance_to_segments_m`) and the robot model's float form: what
+    the compiled form is tested against, answer for answer."""
+    if not len(segments):
+        return False
+    x, y, th, vr, vl = (float(v) for v in x0)
     pts = [(x, y)]
     for k in range(config.horizon):
         vr, vl = vr + float(u0[2 * k]), vl + float(u0[2 * k + 1])
@@ -136,6 +150,50 @@ def meets_walls(config, robot, x0, u0, segments) -> bool:
         return True
     d = distance_to_segments_m(np.asarray(pts), a, b)          # (H + 1, m)
     return bool((d[1:] < np.minimum(robot.radius_m, d[0]) - 1e-9).any())
+
+
+@njit("boolean(float64, float64, float64, float64, float64, float64[::1], int64, float64, float64, float64[:, ::1], "
+      "float64)", cache=True)
+def _meets_walls(x, y, th, vr, vl, u, H, T, W, seg, radius):  # pragma: no cover - compiled
+    """:func:`meets_walls_reference` in one compiled call: the same roll-out (the robot model's
+    float form compiled), the same orientation tests and distances, operation for operation."""
+    px, py = np.empty(H + 1), np.empty(H + 1)
+    px[0], py[0] = x, y
+    for k in range(H):
+        vr, vl = vr + u[2 * k], vl + u[2 * k + 1]
+        x, y, th = robot_step_compiled(x, y, th, vr, vl, T, W)
+        px[k + 1], py[k + 1] = x, y
+    m = seg.shape[0]
+    for i in range(H):  # the chords against the segments (geometry.segments_cross)
+        p0, p1, q0, q1 = px[i], py[i], px[i + 1], py[i + 1]
+        for j in range(m):
+            a0, a1, b0, b1 = seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3]
+            abp = (b0 - a0) * (p1 - a1) - (b1 - a1) * (p0 - a0)
+            abq = (b0 - a0) * (q1 - a1) - (b1 - a1) * (q0 - a0)
+            pqa = (q0 - p0) * (a1 - p1) - (q1 - p1) * (a0 - p0)
+            pqb = (q0 - p0) * (b1 - p1) - (q1 - p1) * (b0 - p0)
+            if abp * abq <= 0 and pqa * pqb <= 0:
+                return True
+    for j in range(m):  # the samples' distances (geometry.distance_to_segments_m)
+        a0, a1 = seg[j, 0], seg[j, 1]
+        ab0, ab1 = seg[j, 2] - a0, seg[j, 3] - a1
+        den = ab0 * ab0 + ab1 * ab1
+        if not den >= 1e-18 and den == den:  # np.maximum(den, 1e-18), NaN kept
+            den = 1e-18
+        limit = 0.0
+        for i in range(H + 1):
+            t = ((px[i] - a0) * ab0 + (py[i] - a1) * ab1) / den
+            if t < 0.0:  # np.clip(t, 0, 1), NaN kept
+                t = 0.0
+            elif t > 1.0:
+                t = 1.0
+            d0, d1 = px[i] - (a0 + t * ab0), py[i] - (a1 + t * ab1)
+            d = math.sqrt(d0 * d0 + d1 * d1)
+            if i == 0:
+                limit = (radius if radius < d or radius != radius else d) - 1e-9  # np.minimum(radius, d), NaN kept
+            elif d < limit:
+                return True
+    return False
 
 
 def plan_meets_walls(config, robot, x0, plan, segments) -> bool:

@@ -18,9 +18,7 @@ import math
 import numpy as np
 from numba import njit, types, vectorize
 
-from ..robot import robot_step_float
-
-_robot_step = njit(cache=True)(robot_step_float)  # the robot model's float form, compiled
+from ..robot import robot_step_compiled as _robot_step  # the robot model's float form, compiled
 
 __all__ = ["rollouts", "segment_distance", "point_segment_distance", "chord_segment_distance", "closest_on_segment",
            "chord_clearances", "path_segment_distances", "screen_obstacles", "reach_bound", "chord_bound", "escape_bounds", "approach"]

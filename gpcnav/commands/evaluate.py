@@ -11,8 +11,8 @@ from pathlib import Path
 
 from ..controllers import ControllerSpec, check_scenarios, reads_planner_settings, spec_from_args
 from ..errors import UsageError
-from .common import (refuse_unread_changes, add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
-                     connected, planner_config, progress, recorded_changes, suite_from_args,
+from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
+                     connected, planner_config, progress, recorded_changes, refuse_unread_changes, suite_from_args,
                      for_pool, for_run, usable_cores)
 
 _WORKER = {}
@@ -238,7 +238,8 @@ def eval_doc(spec: ControllerSpec, result, config, suite, seed, extra: dict | No
     return eval_document(spec.label, metrics, times, {
         "preset": config.name, "sample_time_s": sample_time_s, "suite": suite.name if suite else None,
         "seed": seed if suite else None, **({"suite_spec": suite.describe()} if suite else {}),
-        "events": events, **recorded_changes(config, reads_planner_settings(spec)), "solve_lanes": config.solve_lanes, **(extra or {}),
+        "events": events, **recorded_changes(config, reads_planner_settings(spec)), "solve_lanes": config.solve_lanes,
+        **(extra or {}),
     })
 
 

@@ -13,7 +13,6 @@ import numpy as np
 
 from casadi_gpc.robot import RobotParams
 
-from .compiled_set import compile_set_network
 from .layouts import FeatureLayout
 from .model_file import INPUT_NAME, _bind, _load_session, _validate, read_model_metadata
 from .wall_scan import segments_near
@@ -46,7 +45,8 @@ class CrowdNetwork:
         # its one-command pass compiled where that answers as onnxruntime does (compiled_set)
         if not compiled or self.steps > 1:
             self._compiled, executor = None, "onnxruntime" + (" (a plan network)" if self.steps > 1 else "")
-        else:
+        else:  # (imported here: compiling it at import would cost every policy that does not ask for it)
+            from .compiled_set import compile_set_network
             self._compiled, executor = compile_set_network(
                 data, self.layout.size, lambda X: self.session.run(None, {INPUT_NAME: X})[0])
         self.info = {"path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),

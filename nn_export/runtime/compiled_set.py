@@ -2,11 +2,11 @@
 gives the same wheel speeds (numpy, numba and protobuf: onnxruntime's own dependency).
 
 The crowd and walls networks (``set`` and ``set-walls`` layouts, :mod:`nn_export.training.set_net`)
-are a graph of 58 small operations. Warm, onnxruntime runs it in about 19 us and a compiled loop
-in 16 (docs/nn-deploy.md); in the closed loop, where the simulator's and the check's work pushes
-the network's code and weights out of the processor's caches between decisions, onnxruntime's
-call took about 100 us of a 350 us decision, and the compiled loop, a few kilobytes of code,
-about half of that: the decision 341-351 -> 290-320 us median (the bench's scene, 10 crossings,
+are a graph of 58 small operations. Warm, onnxruntime runs it faster than this loop (21 against
+29 us, ``docs/data/deploy/compiled_forward/numba_net.py``); in the closed loop, where the
+simulator's and the check's work pushes the network's code and weights out of the processor's
+caches between decisions, onnxruntime's call took about 100 us of a 350 us decision, and the
+compiled loop, a few kilobytes of code, about half of that: the decision 341-351 -> 290-320 us median (the bench's scene, 10 crossings,
 three rounds alternated; docs/nn-deploy.md, "The set networks compiled").
 
 An option (``OnnxPolicy(compiled_set_networks=True)``), not the default: its answers differ from
@@ -119,10 +119,12 @@ class CompiledSetNet:
         return float(self.out[0]), float(self.out[1])
 
 
-def _weights(nodes, tensors, n_in: int) -> tuple[tuple, bool]:
+def _weights(nodes, tensors, n_in: int, slots: tuple[int, int, int]) -> tuple[tuple, bool]:
     """The set network's weights, each found through the node that uses it (the graph
     :class:`~nn_export.training.set_net.SetNet` exports, wrapped with its relative output and
-    clip); a ``ValueError`` naming what does not fit."""
+    clip), for ``n_in`` inputs whose obstacle slots are ``slots`` (the layout's
+    :attr:`~nn_export.runtime.layouts.FeatureLayout.set_slots`); a ``ValueError`` naming what
+    does not fit."""
     ops = [n[0] for n in nodes]
 
     def operand(op: str, k: int, shape_len: int) -> np.ndarray:
@@ -145,11 +147,7 @@ def _weights(nodes, tensors, n_in: int) -> tuple[tuple, bool]:
         if a.get("transB") is None or a["transB"].i != 1 or ("transA" in a and a["transA"].i != 0) or \
                 any(k in a and abs(a[k].f - 1.0) > 0 for k in ("alpha", "beta")):
             raise ValueError("a Gemm of another form")
-    layers = []
-    for g in gemms:
-        W = np.ascontiguousarray(tensors[g[1][1]], dtype=np.float32)
-        b = np.ascontiguousarray(tensors[g[1][2]], dtype=np.float32)
-        layers.append((W, b))
+    layers = [tuple(np.ascontiguousarray(tensors[name], dtype=np.float32) for name in g[1][1:3]) for g in gemms]
     mean, scale = operand("Sub", 0, 1), operand("Div", 0, 1)
     W_slot, W_wheels, W_enc, W_mix, sel = (operand("MatMul", k, 2) for k in range(5))
     adds = [n for n in nodes if n[0] == "Add" and any(i in tensors for i in n[1])]
@@ -162,36 +160,38 @@ def _weights(nodes, tensors, n_in: int) -> tuple[tuple, bool]:
     clip = [n for n in nodes if n[0] == "Clip"][0]
     lo, hi = (float(tensors[i]) for i in clip[1][1:3])
     E = W_enc.shape[0]
-    width = W_slot.shape[0] + 1
-    if W_slot.shape[1] != E or W_wheels.shape != (2, E) or W_enc.shape != (E, E) or len(b_slot) != E or \
+    start, n_slots, width = (int(v) for v in slots)
+    if W_slot.shape != (width - 1, E) or start + n_slots * width > n_in:
+        raise ValueError("the slots do not fit the input")
+    if W_wheels.shape != (2, E) or W_enc.shape != (E, E) or len(b_slot) != E or \
             len(b_enc) != E or mean.shape != (n_in,) or scale.shape != (n_in,) or sel.shape != (n_in, 2) or \
             W_mix.shape != (2, 2) or y_mean.shape != (2,) or y_scale.shape != (2,):
         raise ValueError("weights of unexpected shapes")
-    n_ego = layers[0][0].shape[1] - 2 * E
-    n_slots = (n_in - n_ego) // width
-    if n_slots < 1 or n_ego + n_slots * width != n_in or layers[-1][0].shape[0] != 2:
-        raise ValueError("the slots do not fit the input")
+    if layers[0][0].shape[1] != n_in - n_slots * width + 2 * E or layers[-1][0].shape[0] != 2:
+        raise ValueError("the head does not fit the input")
     (W1, b1), *mid, (Wo, bo) = layers
     W2, b2 = mid[0] if mid else (np.zeros((0, 0), np.float32), np.zeros(0, np.float32))
     head = (W1, b1, W2, b2, Wo, bo, len(mid))
-    return (mean, scale, 2, n_slots, width, W_slot, b_slot, W_wheels, W_enc, b_enc, *head, y_scale, y_mean, W_mix,
+    return (mean, scale, start, n_slots, width, W_slot, b_slot, W_wheels, W_enc, b_enc, *head, y_scale, y_mean, W_mix,
             sel, np.float32(lo), np.float32(hi)), acts[0] == "Tanh"
 
 
-def compile_set_network(data: bytes, n_in: int, reference) -> tuple[CompiledSetNet | None, str]:
-    """The compiled pass of the set network in the ONNX file ``data`` (``n_in`` inputs) and a
-    word on it: ``compiled`` when it answers like ``reference`` (onnxruntime's answer to a batch
+def compile_set_network(data: bytes, n_in: int, slots: tuple[int, int, int],
+                        reference) -> tuple[CompiledSetNet | None, str]:
+    """The compiled pass of the set network in the ONNX file ``data`` (``n_in`` inputs, its
+    obstacle slots ``slots``: ``(first input, slots, inputs per slot)``, the layout's
+    ``set_slots``) and a word on it: ``compiled`` when it answers like ``reference`` (onnxruntime's answer to a batch
     of float32 rows, ``(m, n_in) -> (m, 2)``) on :data:`PROBES` probe rows within
     :data:`TOLERANCE_MPS`; else None and why."""
     try:
         nodes, tensors = read_onnx_tensors(data)
-        weights, tanh = _weights(nodes, tensors, n_in)
+        weights, tanh = _weights(nodes, tensors, n_in, slots)
     except (ValueError, KeyError, IndexError, TypeError) as exc:
         return None, f"onnxruntime (the graph is not the set network's: {exc})"
     net = CompiledSetNet(weights, tanh)
     rng = np.random.default_rng(0)
     X = (rng.normal(0.0, 1.0, (PROBES, n_in)) * rng.choice([0.1, 1.0, 4.0], (PROBES, n_in))).astype(np.float32)
-    start, n_slots, width = weights[2], weights[3], weights[4]
+    start, n_slots, width = slots
     present = rng.random((PROBES, n_slots)) < rng.random((PROBES, 1))
     X[:, start:start + n_slots * width:width] = present
     X[:, :2] = np.clip(X[:, :2], -0.8, 0.8)

@@ -48,7 +48,7 @@ class CrowdNetwork:
         else:  # (imported here: compiling it at import would cost every policy that does not ask for it)
             from .compiled_set import compile_set_network
             self._compiled, executor = compile_set_network(
-                data, self.layout.size, lambda X: self.session.run(None, {INPUT_NAME: X})[0])
+                data, self.layout.size, self.layout.set_slots, lambda X: self.session.run(None, {INPUT_NAME: X})[0])
         self.info = {"path": str(path), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest(),
                      "feature_layout": self.layout.name, "n_features": self.layout.size,
                      "validation_rmse_mps": float(meta["validation_rmse_mps"]), "executor": executor}

@@ -328,3 +328,47 @@ def test_a_scene_with_more_movers_than_the_slots_and_walls_is_benched_on_the_nlp
         assert any(n.startswith("NLP 0: ") for n in r["notes"]) and any(n.startswith("NLP 1: ") for n in r["notes"])
     ipopt = next(r for r in solvers if r["name"] == "ipopt-warm")
     assert ipopt["vs_reference"]["as_good_rate"] == ipopt["success_rate"]  # the reference against itself
+
+
+def test_the_crowd_decisions_are_pooled_over_episodes_run_one_after_the_other():
+    """``crowd_decisions``: the GPC and the deployed network on the same scenes, each scene's
+    runs one after the other; the pooled decisions are every run's (the same runs alone give
+    the same decisions and outcomes: the closed loops do not depend on the time taken), the
+    stats are those of the pooled samples, and the ratios are the GPC's over the network's."""
+    from collections import Counter
+
+    from gpcnav.benchmarks.decisions import crowd_decisions
+    from gpcnav.commands.bench import pooled_summary
+    from gpcnav.controllers import ControllerSpec, make
+    from casadi_gpc.config import preset
+    from scenarios import Suite
+    from scenarios.simulator import simulate
+    cfg = preset("improved")
+    scenes = [Suite("circle-crossing", 2, 1, 3, "orca").scenario(i) for i in range(2)]
+    scenes = [replace(sc, duration_s=8.0) for sc in scenes]
+    nn = ControllerSpec("nn")
+    doc = crowd_decisions(scenes, cfg, lambda sc: make(nn, cfg, sc.robot))
+    assert doc["episodes"] == 2 and doc["scenarios"] == [sc.name for sc in scenes]
+    for name, spec in (("gpc", ControllerSpec("gpc")), ("nn", nn)):
+        alone = [simulate(sc, make(spec, cfg, sc.robot), name) for sc in scenes]
+        row = doc[name]
+        assert row["decisions"] == sum(len(log.decisions) for log in alone) == len(row["time_samples_s"]) == 32
+        assert row["outcomes"] == dict(Counter(log.outcome for log in alone))
+        assert row["interventions"] == sum(int(log.events.get("interventions", 0)) for log in alone)
+        t = np.asarray(row["time_samples_s"])
+        assert row["time_s"]["median"] == pytest.approx(np.median(t)) and row["time_s"]["max"] == t.max()
+        assert row["time_s"]["p99"] == np.percentile(t, 99)
+    assert "parts_s" in doc["nn"] and "parts_s" not in doc["gpc"]  # the GPC's decisions do not say their parts
+    for k in ("median", "p99", "max"):
+        assert doc["gpc_over_nn"][k] == pytest.approx(doc["gpc"]["time_s"][k] / doc["nn"]["time_s"][k])
+    lines = pooled_summary({"suite": {"name": "circle-crossing", "movers": 3, "behaviour": "orca", "seed": 1,
+                                      "episodes": 2}, **doc})
+    assert lines[0].startswith("over the first 2 crossings") and "median" in lines[-1] and "p99" in lines[-1]
+    only_nn = crowd_decisions(scenes[:1], None, lambda sc: make(nn, cfg, sc.robot))
+    assert "gpc" not in only_nn and "gpc_over_nn" not in only_nn and only_nn["nn"]["decisions"] == 16
+
+
+def test_cli_refuses_a_negative_crowd_episodes_in_one_line():
+    proc = _gpcnav("--crowd-episodes", "-1", "--solvers", "ipopt-warm")
+    assert proc.returncode == 2 and "--crowd-episodes" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1

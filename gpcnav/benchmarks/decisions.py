@@ -25,7 +25,8 @@ from scenarios.metrics import time_stats
 from casadi_gpc.robot import RobotParams
 from scenarios.simulator import simulate
 
-__all__ = ["SAME_COST_RELATIVE", "decision_time_stats", "deployed_against_gpc", "RecordedTick", "record_ticks", "compare_candidates", "decision_run"]
+__all__ = ["SAME_COST_RELATIVE", "decision_time_stats", "deployed_against_gpc", "RecordedTick", "record_ticks",
+           "compare_candidates", "decision_run", "crowd_decisions"]
 
 SAME_COST_RELATIVE = 1e-6
 """A chosen cost within this relative distance of the full multi-start's (or lower) is as good."""
@@ -155,4 +156,45 @@ def deployed_against_gpc(gpc_rows, network_rows) -> list[dict]:
             continue
         out.append({"scenario": n["scenario"], "network": n["controller"], "movers": n["movers"],
                     **{f"speedup_{k}": g["time_s"][k] / max(n["time_s"][k], 1e-12) for k in ("median", "p99", "max")}})
+    return out
+
+
+def crowd_decisions(scenarios, config: PlannerConfig | None, make_network=None) -> dict:
+    """The decisions of the GPC behind its check (``config``; None: not run) and of the
+    deployed network (``make_network(scenario)``: a new policy; None: not run) over the same
+    ``scenarios``, the two run one after the other on each scene (so that the machine's swings
+    fall on both), pooled: a 99th percentile needs a few hundred decisions, which one crossing
+    (about 45) does not give. Per controller: the pooled decision times
+    (:func:`decision_time_stats`), outcomes, and for the network the parts of its decisions
+    (:func:`decision_parts`) and the check's interventions; and the GPC's times over the
+    network's at the median, p99 and max where both ran."""
+    from collections import Counter
+
+    from ..controllers import ControllerSpec, make
+    runs = {}
+    if config is not None:
+        runs["gpc"] = lambda sc: make(ControllerSpec("gpc"), config, sc.robot)
+    if make_network is not None:
+        runs["nn"] = make_network
+    pooled = {k: {"times": [], "decisions": [], "outcomes": Counter(), "interventions": 0} for k in runs}
+    for sc in scenarios:
+        for name, new in runs.items():
+            log = simulate(sc, new(sc), name)
+            acc = pooled[name]
+            acc["times"] += list(log.compute_time_s)
+            acc["decisions"] += list(log.decisions)
+            acc["outcomes"][log.outcome] += 1
+            acc["interventions"] += int(log.events.get("interventions", 0))
+    out = {"scenarios": [sc.name for sc in scenarios], "episodes": len(scenarios)}
+    for name, acc in pooled.items():
+        row = {"decisions": len(acc["times"]), "time_s": decision_time_stats(acc["times"]),
+               "outcomes": dict(sorted(acc["outcomes"].items())), "interventions": acc["interventions"],
+               "time_samples_s": [float(t) for t in acc["times"]]}
+        parts = decision_parts(acc["decisions"], acc["times"])
+        if parts is not None:
+            row["parts_s"], row["parts_p99_s"] = parts, decision_parts(acc["decisions"], acc["times"], 99)
+        out[name] = row
+    if "gpc" in out and "nn" in out:
+        g, n = out["gpc"]["time_s"], out["nn"]["time_s"]
+        out["gpc_over_nn"] = {k: g[k] / max(n[k], 1e-12) for k in ("median", "p99", "max")}
     return out

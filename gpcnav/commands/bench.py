@@ -45,6 +45,10 @@ def add_arguments(p):
     p.add_argument("--crowd-movers", type=int, default=10, metavar="N",
                    help="the planner's decision is also measured on a crowd scene: circle-crossing, N orca "
                         "movers, seed 1, its first episode (default 10; 0: none)")
+    p.add_argument("--crowd-episodes", type=int, default=10, metavar="K",
+                   help="the GPC's and the deployed network's decisions are also pooled over the crowd scene's "
+                        "first K episodes, the two run one after the other on each (a p99 of one crossing, "
+                        "about 45 decisions, is its largest but one; default 10; 0: not pooled)")
     add_preset_arguments(p)
 
 
@@ -104,6 +108,54 @@ def network_decisions(args, doc, config, scenarios) -> None:
     doc["deployed_vs_gpc"] = deployed_against_gpc(doc.get("decisions", []), doc["network_decisions"])
 
 
+def pooled_crowd(args, doc, config, say) -> None:
+    """The crowd scene's first ``--crowd-episodes`` episodes, the GPC (unless ``--no-gpc-rows``)
+    and the deployed network (unless ``--no-nn-rows``) on each, pooled
+    (:func:`gpcnav.benchmarks.decisions.crowd_decisions`): ``doc["crowd_decisions"]``."""
+    if not args.crowd_movers or not args.crowd_episodes or (args.no_gpc_rows and args.no_nn_rows):
+        return
+    from gpcnav.benchmarks.decisions import crowd_decisions
+    from scenarios import Suite
+
+    from ..controllers import ControllerSpec, make
+    suite = Suite("circle-crossing", args.crowd_episodes, 1, args.crowd_movers, "orca")
+    spec = ControllerSpec("nn", model=args.model)
+    say(f"the GPC's and the deployed network's decisions over {args.crowd_episodes} crossings of {args.crowd_movers} "
+        f"walkers")
+    doc["crowd_decisions"] = {
+        "suite": {"name": "circle-crossing", "movers": args.crowd_movers, "behaviour": "orca", "seed": 1,
+                  "episodes": args.crowd_episodes},
+        **crowd_decisions([suite.scenario(i) for i in range(args.crowd_episodes)],
+                          None if args.no_gpc_rows else config,
+                          None if args.no_nn_rows else (lambda sc: make(spec, config, sc.robot)))}
+
+
+def pooled_summary(pooled: dict) -> list[str]:
+    """The lines ``gpcnav bench`` prints of ``doc["crowd_decisions"]``."""
+    s = pooled["suite"]
+    lines = [f"over the first {s['episodes']} crossings of circle-crossing, {s['movers']} {s['behaviour']} walkers, "
+             f"seed {s['seed']} (the two run one after the other on each):"]
+    for name, what, unit, scale in (("gpc", "the GPC behind its check", "ms", 1e3),
+                                    ("nn", "the deployable decision", "us", 1e6)):
+        row = pooled.get(name)
+        if row is None:
+            continue
+        t = row["time_s"]
+        outcomes = ", ".join(f"{v} {k}" for k, v in row["outcomes"].items())
+        lines.append(f"  {what}: {row['decisions']} decisions, median {t['median'] * scale:.{3 if unit == 'ms' else 0}f} "
+                     f"{unit} (p99 {t['p99'] * scale:.{2 if unit == 'ms' else 0}f}, max "
+                     f"{t['max'] * scale:.{2 if unit == 'ms' else 0}f}); {outcomes}; "
+                     f"{row['interventions']} interventions")
+        if row.get("parts_s"):
+            lines.append("    its parts (medians / p99s): " + ", ".join(
+                f"{k} {row['parts_s'][k] * 1e6:.0f} / {row['parts_p99_s'][k] * 1e6:.0f} us" for k in row["parts_s"]))
+    r = pooled.get("gpc_over_nn")
+    if r:
+        lines.append(f"  the GPC's decision over the deployable one: median {r['median']:.1f}x, p99 {r['p99']:.1f}x, "
+                     f"max {r['max']:.1f}x")
+    return lines
+
+
 def parse_solvers(text: str) -> list[str]:
     from casadi_gpc.solvers import canonical_name
     names = [s.strip() for s in text.split(",") if s.strip()]
@@ -137,6 +189,8 @@ def run(args) -> int:
 
     if args.crowd_movers < 0:
         raise UsageError(f"--crowd-movers must be 0 or more, got {args.crowd_movers}")
+    if args.crowd_episodes < 0:
+        raise UsageError(f"--crowd-episodes must be 0 or more, got {args.crowd_episodes}")
     crowd = [] if not args.crowd_movers else [Suite("circle-crossing", 1, 1, args.crowd_movers, "orca").scenario(0)]
     # the planner as evaluate runs these scenes: wall slots where one has walls, the crowd NLP
     # where one has more movers than the preset's slots
@@ -147,6 +201,7 @@ def run(args) -> int:
                     decision_scenarios=crowd)
     network_rows(args, doc)
     network_decisions(args, doc, config, crowd)
+    pooled_crowd(args, doc, config, say)
     if args.out:
         write_json(args.out, doc)
     if args.plot:
@@ -191,6 +246,8 @@ def run(args) -> int:
     for r in doc.get("deployed_vs_gpc", []):
         print(f"the GPC's decision over the deployable one on {r['scenario']}, this run: median "
               f"{r['speedup_median']:.1f}x, p99 {r['speedup_p99']:.1f}x, max {r['speedup_max']:.1f}x")
+    if "crowd_decisions" in doc:
+        print("\n".join(pooled_summary(doc["crowd_decisions"])))
     print(f"chosen: {ch['name']}  median {ch['median_time_s'] * 1e3:.3f} ms  "
           f"{ch['speedup_vs_reference']:.1f}x faster than {doc['reference']}  success {ch['success_rate']:.1%}  "
           f"as good as {doc['reference']} on {ch['as_good_as_reference_rate']:.1%} of the problems"

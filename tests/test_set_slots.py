@@ -71,11 +71,48 @@ def test_the_compiled_slots_are_the_features_value_for_value(seed):
         assert [type(v) for v in a[2:]] == [float] * (len(a) - 2)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_in_a_crowd_larger_than_the_slots_the_nearest_fill_them_as_the_features_sort_them(seed):
+    """More tracks than the 12 moving slots, or more static discs than the 6 static ones (13 to
+    45 tracks, as in the UCY students recordings; 0 to 10 discs): the compiled slots sort them
+    nearest first as feature_values_from does (by the least distance over the track's place now
+    and its forecast; both kinds sorted when either overflows), at the decision (step 0) and
+    moved along the forecasts (steps 1 to H - 1, the roll-out's): every value and the report,
+    dropped obstacles counted, equal to the last bit."""
+    from nn_export.runtime.rollout import _Ahead
+    rng = np.random.default_rng(100 + seed)
+    dropped = 0  # cases where obstacles in range were left out (the sort decides which)
+    for _ in range(12):
+        n = int(rng.choice([int(rng.integers(13, 46)), int(rng.integers(6, 13))]))
+        tracks = _crowd(rng, n, seen_once=(0, 5), spread=float(rng.uniform(4, 16)))
+        k = int(rng.integers(0, 11)) if n > LAYOUT.k_moving else int(rng.integers(LAYOUT.k_static + 1, 11))
+        statics = tuple(StaticObstacle((float(a), float(b)), float(r)) for a, b, r in  # one kind overflows at least
+                        zip(rng.uniform(-14, 14, k), rng.uniform(-14, 14, k), rng.uniform(0.1, 0.5, k)))
+        robot = RobotState(*rng.uniform(-3, 3, 2), float(rng.uniform(-4, 4)), *rng.uniform(-0.8, 0.8, 2))
+        path, s0 = _reference(rng)
+        rows = reference_rows(path, s0, T, H)
+        slots = CrowdSlots.make(LAYOUT, tracks, statics)
+        assert slots is not None and slots.ordered
+        ra, rb = {}, {}
+        assert _values(slots, robot, rows, ra) == feature_values_from(LAYOUT, robot, rows, T, tracks, statics, rb)
+        assert ra == rb
+        dropped += bool(ra.get("dropped_moving") or ra.get("dropped_static"))
+        paths = [(t, t.means_m.tolist()) for t in tracks]
+        for j in range(1, H):
+            ahead = [_Ahead(t, m[j - 1], j) for t, m in paths]
+            x, y, th = rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-4, 4)
+            a = slots.values(x, y, th, 0.2, 0.3, rows, T, None, j)
+            b = feature_values_from(LAYOUT, RobotState(x, y, th, 0.2, 0.3), rows, T, ahead, statics)
+            assert a == b
+    assert dropped >= 3
+
+
 def test_where_the_compiled_slots_do_not_answer():
-    """More tracks than slots (the nearest are sorted out), tracks without a shared batch,
-    another layout: CrowdSlots.make says None, and the policy takes the plain-float features."""
+    """Tracks without a shared batch, another layout: CrowdSlots.make says None, and the policy
+    takes the plain-float features. More tracks than slots are sorted (the test above)."""
     rng = np.random.default_rng(1)
-    assert CrowdSlots.make(LAYOUT, _crowd(rng, 13), ()) is None
+    assert CrowdSlots.make(LAYOUT, _crowd(rng, 13), ()).ordered
+    assert not CrowdSlots.make(LAYOUT, _crowd(rng, 12), ()).ordered
     few = _crowd(rng, 3)  # below MANY_TRACKS: each track its own forecast, no batch
     assert CrowdSlots.make(LAYOUT, few, ()) is None
     assert CrowdSlots.make(layout_for("multi", H), _crowd(rng, 8), ()) is None
@@ -92,7 +129,7 @@ def test_the_roll_out_with_the_compiled_slots_is_the_plain_float_roll_out(seed):
     rng = np.random.default_rng(10 + seed)
     w = rng.normal(0, 0.05, LAYOUT.size)
     for _ in range(10):
-        tracks = _crowd(rng, int(rng.integers(6, 13)), seen_once=(1,), spread=6.0)
+        tracks = _crowd(rng, int(rng.integers(6, 30)), seen_once=(1,), spread=6.0)  # beyond the 12 slots too
         statics = (StaticObstacle((float(rng.uniform(-5, 5)), float(rng.uniform(-5, 5))), 0.3),)
         robot = RobotState(*rng.uniform(-2, 2, 2), float(rng.uniform(-4, 4)), *rng.uniform(-0.5, 0.5, 2))
         path, s0 = _reference(rng)
@@ -110,3 +147,41 @@ def test_the_roll_out_with_the_compiled_slots_is_the_plain_float_roll_out(seed):
         b = roll_out(LAYOUT, lambda v: answer(v, False), robot, cmd, tracks, statics, rows, T, RobotParams())
         assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
         assert seen[True] == seen[False] and len(seen[True]) == H - 1
+
+
+def test_the_deployed_policy_in_a_crowd_larger_than_its_slots_decides_as_with_the_plain_features(monkeypatch):
+    """``--controller nn`` among 20 walkers (more than the crowd network's 12 moving slots): the
+    decision's features and its roll-outs from the compiled slots, closed loop, against the same
+    run with the compiled slots switched off (every feature in plain floats): the same commands,
+    reasons and feature report at every decision, and the compiled slots did answer."""
+    from dataclasses import replace
+
+    import nn_export.runtime.policy as policy_module
+    from casadi_gpc.config import preset
+    from gpcnav.controllers import ControllerSpec, make
+    from scenarios import Suite
+    from scenarios.simulator import simulate
+    cfg = preset("improved")
+    sc = replace(Suite("circle-crossing", 1, 2, 20, "orca").scenario(0), duration_s=14.0)
+
+    def run():
+        pol = make(ControllerSpec("nn"), cfg, sc.robot)
+        log = simulate(sc, pol, "nn")
+        return [(d.v_right_mps, d.v_left_mps, d.reason) for d in log.decisions], pol.policy
+
+    made = []
+    real = CrowdSlots.make
+
+    def counted(*a, **k):
+        out = real(*a, **k)
+        made.append(out is not None and out.ordered)
+        return out
+
+    monkeypatch.setattr(policy_module.CrowdSlots, "make", staticmethod(counted))
+    compiled, pol_a = run()
+    assert sum(made) >= 5  # the crowd was larger than the slots, and the sorted slots answered
+    monkeypatch.setattr(policy_module.CrowdSlots, "make", staticmethod(lambda *a, **k: None))
+    plain, pol_b = run()
+    assert compiled == plain and len(compiled) == 28
+    assert pol_a.counters["feature_report"] == pol_b.counters["feature_report"]
+    assert pol_a.counters["feature_report"].get("dropped_moving", 0) > 0

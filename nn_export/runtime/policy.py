@@ -280,6 +280,7 @@ class OnnxPolicy:
         self._counters = {"decisions": 0, "second_pass": 0, "crowd_network": 0, "walls_network": 0,
                           "feature_report": {}}
         self._last = None
+        self._last_slots = None  # the last decision's CrowdSlots, where it made them (its roll-out reads them)
 
     @property
     def counters(self) -> dict:
@@ -391,7 +392,7 @@ class OnnxPolicy:
         handed = straight_estimates(tracks) if self._straight_check else tracks
         counters = self._counters
         counters["decisions"] += 1
-        self._last = None  # what rollout() needs, for a one-command decision
+        self._last = self._last_slots = None  # what rollout() needs, for a one-command decision
         crowd, walls = self._crowd, self._walls
         wall_rows = self._map_rows(obs.walls) if obs.walls else None
         x, y = obs.robot.x_m, obs.robot.y_m
@@ -407,8 +408,17 @@ class OnnxPolicy:
                 batch.arrays  # the forecasts made together, as the features and a check read them
             t1 = clock()
             counters[net.role + "_network"] += 1
-            values = feature_values_from(net.layout, obs.robot, ref_rows, self.sample_time_s, tracks, statics,
-                                         counters["feature_report"], rows)
+            lay, slots = net.layout, None
+            if rows is None and (len(tracks) > lay.k_moving or len(statics) > lay.k_static):
+                # more than its slots hold: the nearest sorted out in one compiled call (the same values)
+                slots = self._last_slots = CrowdSlots.make(lay, tracks, statics)
+            if slots is not None:
+                r = obs.robot
+                values = slots.values(r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps, ref_rows,
+                                      self.sample_time_s, counters["feature_report"])
+            else:
+                values = feature_values_from(lay, obs.robot, ref_rows, self.sample_time_s, tracks, statics,
+                                             counters["feature_report"], rows)
             if net.steps > 1:
                 dec = _plan_decision(net.plan(values), f"one pass: {net.role} network plan", handed)
             else:
@@ -446,9 +456,12 @@ class OnnxPolicy:
         layout, answer, obs, tracks, statics, vr, vl, s_m, wall_rows = last
         rows = reference_rows(obs.reference, s_m, self.sample_time_s, 2 * self.horizon - 1)
         # a crowd's features at each step from the compiled slots, where they answer (the same
-        # values; not a layout that reads walls; the decision's own features stay in plain floats:
-        # one call, where making the arrays costs more)
-        slots = CrowdSlots.make(layout, tracks, statics) if wall_rows is None else None
+        # values; not a layout that reads walls): the decision's own where it made them (a crowd
+        # larger than the slots), else made now (the decision's features stayed in plain floats:
+        # one call, where making the arrays costs more than it saves)
+        slots = self._last_slots
+        if slots is None or slots.layout is not layout:
+            slots = CrowdSlots.make(layout, tracks, statics) if wall_rows is None else None
         return roll_out(layout, answer, obs.robot, (vr, vl), tracks, statics, rows, self.sample_time_s, self.robot,
                         wall_rows, slots)
 

@@ -8,14 +8,19 @@ some 30 us a step among ten walkers (``_Ahead`` objects, twelve moving and six s
 of nine values, the reference windows made again). Here the slots of all the tracks are
 written by one compiled call from arrays made once a roll-out (:class:`CrowdSlots`); the
 wheel speeds and the reference block are :mod:`~nn_export.runtime.features`' own functions.
-The decision's own features (one call) stay in plain floats: making the arrays and the
-compiled call's first use in a decision cost more there, with the caches cold between
-decisions (measured in the simulator's loop).
+The decision's own features (one call) stay in plain floats where the slots hold every
+obstacle: making the arrays and the compiled call's first use in a decision cost more there,
+with the caches cold between decisions (measured in the simulator's loop); in a crowd larger
+than the slots the decision's features come from here too (:class:`~nn_export.runtime.policy.OnnxPolicy`),
+and its roll-out reads the same arrays.
 
-It answers only where no ordering is needed and the uncertainty inputs are the tracks' shared
-forecast batch's (a crowd's estimates, :func:`nn_export.runtime.situation.track_estimates`):
-at most ``k_moving`` tracks and ``k_static`` static obstacles; anything else
+It answers where the uncertainty inputs are the tracks' shared forecast batch's (a crowd's
+estimates, :func:`nn_export.runtime.situation.track_estimates`); anything else
 (:meth:`CrowdSlots.make` answers None) takes :func:`~nn_export.runtime.features.feature_values_from`.
+With more tracks than ``k_moving`` or more static obstacles than ``k_static`` (a dense crowd:
+the UCY ``students`` recordings hold 30 to 50 people) the nearest fill the slots, sorted as
+the features sort them (:func:`nearest_first`); in plain floats that sort, with its ``_Ahead``
+objects, was half the check's time in such a crowd.
 """
 from __future__ import annotations
 
@@ -27,31 +32,69 @@ from numba import njit, types
 from .features import _bump, _position_stds, _reference_values, _window_tails
 from .layouts import SET_ELEMENT, FeatureLayout
 
-__all__ = ["CrowdSlots", "set_slots"]
+__all__ = ["CrowdSlots", "set_slots", "nearest_first"]
 
 
 _MEANS = types.Array(types.float64, 3, "C", readonly=True)  # a forecast batch's (read-only)
 
 
+@njit(types.int64[::1](types.float64[:, ::1], _MEANS, types.int64, types.float64, types.float64, types.float64[:, ::1]),
+      cache=True)
+def nearest_first(X, means, j, rx, ry, statics):  # pragma: no cover (compiled)
+    """The tracks' order, then the statics' (one array, the statics' indices after the
+    tracks'), nearest first as :func:`~nn_export.runtime.features.order_by_distance` sorts
+    them: a track by the least distance from ``(rx, ry)`` to where it is and to its forecast
+    from then on (``j`` steps along ``means``: its positions at steps ``j..H``), a static disc
+    by the distance to its centre; a stable sort, as Python's ``sorted`` (ties keep the order
+    given). The distances are libm's ``hypot``, which differs from Python's ``math.hypot`` in
+    the last bit of some 0.6 % of pairs (measured): two obstacles would be ordered otherwise
+    only if their distances were within that bit of each other."""
+    n, ns = X.shape[0], statics.shape[0]
+    keys = np.empty(n)
+    for i in range(n):
+        if j > 0:
+            d = math.hypot(means[i, j - 1, 0] - rx, means[i, j - 1, 1] - ry)
+        else:
+            d = math.hypot(X[i, 0] - rx, X[i, 1] - ry)
+        for c in range(max(j - 1, 0), means.shape[1]):
+            d = min(d, math.hypot(means[i, c, 0] - rx, means[i, c, 1] - ry))
+        keys[i] = d
+    skeys = np.empty(ns)
+    for i in range(ns):
+        skeys[i] = math.hypot(statics[i, 0] - rx, statics[i, 1] - ry)
+    out = np.empty(n + ns, np.int64)
+    out[:n] = np.argsort(keys, kind="mergesort") if n > 1 else np.arange(n)
+    out[n:] = np.argsort(skeys, kind="mergesort") if ns > 1 else np.arange(ns)
+    return out
+
+
 @njit(types.UniTuple(types.int64, 2)(types.float64[::1], types.float64, types.float64, types.float64, types.float64,
                                      types.float64, types.float64[:, ::1], types.boolean[::1], types.float64[::1],
                                      types.float64[::1], _MEANS, types.int64, types.float64[:, ::1], types.int64,
-                                     types.int64, types.float64), cache=True)
+                                     types.int64, types.float64, types.boolean), cache=True)
 def set_slots(out, rx, ry, heading, c, s, X, init, radius, std, means, j, statics, k_moving, k_static,
-              rng):  # pragma: no cover (compiled)
+              rng, ordered):  # pragma: no cover (compiled)
     """Write the ``set`` layout's obstacle slots (``9 (k_moving + k_static)`` values) into
-    ``out`` for the robot at ``(rx, ry, heading)`` (``c, s`` its cosine and sine), in the
-    order given (no ordering: at most ``k_moving`` tracks and ``k_static`` statics): the
+    ``out`` for the robot at ``(rx, ry, heading)`` (``c, s`` its cosine and sine): the
     tracks ``X`` (``(n, 5)`` EKF states), ``init`` (seen twice or more), ``radius``, ``std``
     (``pos_std_m``), each moved ``j`` steps along its forecast ``means`` (``(n, H, 2)``) when
     ``j > 0`` (its heading on by ``j`` turn increments: the roll-out's ``_Ahead``), and the
     static discs ``statics`` (``(ns, 3)``: x, y, radius); those within ``rng`` of the robot
-    fill the slots, empty slots are zeros. The same operations as ``_moving_values`` and
-    ``_static_values`` in :mod:`~nn_export.runtime.features`. Returns how many tracks and
-    statics were in range."""
+    fill the slots, empty slots are zeros. In the order given, or with ``ordered`` nearest
+    first (:func:`nearest_first`; what the features do when more obstacles than slots are
+    given). The same operations as ``_moving_values`` and ``_static_values`` in
+    :mod:`~nn_export.runtime.features`. Returns how many tracks and statics were in range."""
     out[:] = 0.0
     n_m = 0
-    for i in range(X.shape[0]):
+    n, ns = X.shape[0], statics.shape[0]
+    if ordered:
+        order = nearest_first(X, means, j, rx, ry, statics)
+    else:
+        order = np.empty(n + ns, np.int64)
+        order[:n] = np.arange(n)
+        order[n:] = np.arange(ns)
+    for k in range(n):
+        i = order[k]
         x, y, v, th, dth = X[i, 0], X[i, 1], X[i, 2], X[i, 3], X[i, 4]
         if j > 0:
             x, y, th = means[i, j - 1, 0], means[i, j - 1, 1], th + j * dth
@@ -68,7 +111,8 @@ def set_slots(out, rx, ry, heading, c, s, X, init, radius, std, means, j, static
             out[o + 5], out[o + 6], out[o + 7], out[o + 8] = dth, radius[i], std[i], 1.0
         n_m += 1
     n_s = 0
-    for i in range(statics.shape[0]):
+    for k in range(ns):
+        i = order[n + k]
         px, py = statics[i, 0], statics[i, 1]
         if not math.hypot(px - rx, py - ry) <= rng:
             continue
@@ -88,14 +132,15 @@ class CrowdSlots:
     """A decision's tracks and static obstacles as the arrays :func:`set_slots` reads, made
     once (:meth:`make`) and read for each step of its roll-out (:meth:`values`)."""
 
-    __slots__ = ("layout", "n_tracks", "n_statics", "X", "init", "radius", "std", "means", "statics", "_out")
+    __slots__ = ("layout", "n_tracks", "n_statics", "X", "init", "radius", "std", "means", "statics", "_out",
+                 "ordered")
 
     @classmethod
     def make(cls, layout: FeatureLayout, tracks, statics) -> "CrowdSlots | None":
         """The arrays of ``tracks`` (a crowd's estimates, rows of one forecast batch in its
         order) and ``statics`` for ``layout``; None where :func:`set_slots` does not answer
-        (another layout, more obstacles than slots, tracks without a shared batch)."""
-        if not layout.is_set or len(tracks) > layout.k_moving or len(statics) > layout.k_static:
+        (another layout, tracks without a shared batch)."""
+        if not layout.is_set:
             return None
         if layout.size != 2 + len(SET_ELEMENT) * (layout.k_moving + layout.k_static) + layout.horizon + 4:
             return None  # a layout with inputs of another kind
@@ -107,6 +152,8 @@ class CrowdSlots:
                 return None
         self = cls.__new__(cls)
         self.layout, self.n_tracks, self.n_statics = layout, len(tracks), len(statics)
+        # more than the slots hold: the nearest first, as the features sort them (both kinds, as they do)
+        self.ordered = len(tracks) > layout.k_moving or len(statics) > layout.k_static
         if tracks:
             self.X = np.array([t.state_values for t in tracks], dtype=float)
             self.init = np.array([t.initialised for t in tracks], dtype=bool)
@@ -140,13 +187,18 @@ class CrowdSlots:
         layout = self.layout
         rx, ry, heading = float(x), float(y), float(heading)
         c, s = math.cos(heading), math.sin(heading)
+        ordered = self.ordered
         n_m, n_s = set_slots(self._out, rx, ry, heading, c, s, self.X, self.init, self.radius, self.std,
-                             self.means if step else _NO_MEANS, step, self.statics, layout.k_moving,
-                             layout.k_static, layout.range_m)
+                             self.means if step or ordered else _NO_MEANS, step, self.statics, layout.k_moving,
+                             layout.k_static, layout.range_m, ordered)
         if report is not None and (self.n_tracks or self.n_statics):
             out = (self.n_tracks - n_m) + (self.n_statics - n_s)
             if out:
                 _bump(report, "out_of_range", out)
+            if n_m > layout.k_moving:
+                _bump(report, "dropped_moving", n_m - layout.k_moving)
+            if n_s > layout.k_static:
+                _bump(report, "dropped_static", n_s - layout.k_static)
         f = [v_right, v_left]
         f += self._out.tolist()
         if window is None:

@@ -149,11 +149,14 @@ def test_the_roll_out_with_the_compiled_slots_is_the_plain_float_roll_out(seed):
         assert seen[True] == seen[False] and len(seen[True]) == H - 1
 
 
-def test_the_deployed_policy_in_a_crowd_larger_than_its_slots_decides_as_with_the_plain_features(monkeypatch):
-    """``--controller nn`` among 20 walkers (more than the crowd network's 12 moving slots): the
-    decision's features and its roll-outs from the compiled slots, closed loop, against the same
-    run with the compiled slots switched off (every feature in plain floats): the same commands,
-    reasons and feature report at every decision, and the compiled slots did answer."""
+@pytest.mark.parametrize("suite,movers,steps", [("circle-crossing", 20, 28), ("corridor", 16, 28)])
+def test_the_deployed_policy_in_a_crowd_larger_than_its_slots_decides_as_with_the_plain_features(
+        monkeypatch, suite, movers, steps):
+    """``--controller nn`` among 20 walkers, and among 16 in the corridor (the walls network, with
+    its wall scan): more than the networks' 12 moving slots. The decision's features and its
+    roll-outs from the compiled slots, closed loop, against the same run with the compiled slots
+    switched off (every feature in plain floats): the same commands, reasons and feature report
+    at every decision, and the compiled slots did answer."""
     from dataclasses import replace
 
     import nn_export.runtime.policy as policy_module
@@ -162,7 +165,7 @@ def test_the_deployed_policy_in_a_crowd_larger_than_its_slots_decides_as_with_th
     from scenarios import Suite
     from scenarios.simulator import simulate
     cfg = preset("improved")
-    sc = replace(Suite("circle-crossing", 1, 2, 20, "orca").scenario(0), duration_s=14.0)
+    sc = replace(Suite(suite, 1, 2, movers, "orca").scenario(0), duration_s=14.0)
 
     def run():
         pol = make(ControllerSpec("nn"), cfg, sc.robot)
@@ -182,6 +185,45 @@ def test_the_deployed_policy_in_a_crowd_larger_than_its_slots_decides_as_with_th
     assert sum(made) >= 5  # the crowd was larger than the slots, and the sorted slots answered
     monkeypatch.setattr(policy_module.CrowdSlots, "make", staticmethod(lambda *a, **k: None))
     plain, pol_b = run()
-    assert compiled == plain and len(compiled) == 28
+    assert compiled == plain and len(compiled) == steps
     assert pol_a.counters["feature_report"] == pol_b.counters["feature_report"]
     assert pol_a.counters["feature_report"].get("dropped_moving", 0) > 0
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_compiled_slots_of_the_walls_layout_add_its_scan_as_the_features_do(seed):
+    """The walls network's layout (set-walls: the slots, then the reference, then the wall
+    scan): crowds within and beyond the slots, with and without wall segments, at the decision
+    and along the roll-out's steps; every value equal to feature_values_from's with the same
+    wall rows, and the roll-out through the compiled slots the plain-float roll-out."""
+    from nn_export.runtime.rollout import _Ahead
+    walls_layout = layout_for("set-walls", H)
+    rng = np.random.default_rng(200 + seed)
+    w = rng.normal(0, 0.05, walls_layout.size)
+    for case in range(10):
+        tracks = _crowd(rng, int(rng.integers(6, 30)), seen_once=(2,), spread=float(rng.uniform(3, 10)))
+        statics = tuple(StaticObstacle((float(a), float(b)), 0.3) for a, b in rng.uniform(-6, 6, (int(rng.integers(0, 8)), 2)))
+        k = int(rng.integers(0, 6)) if case % 3 else 0
+        rows_w = np.column_stack([rng.uniform(-6, 6, (k, 2)), rng.uniform(-6, 6, (k, 2))]) if k else np.zeros((0, 4))
+        slots = CrowdSlots.make(walls_layout, tracks, statics, rows_w)
+        assert slots is not None
+        robot = RobotState(*rng.uniform(-3, 3, 2), float(rng.uniform(-4, 4)), *rng.uniform(-0.8, 0.8, 2))
+        path, s0 = _reference(rng)
+        rows = reference_rows(path, s0, T, 2 * H - 1)
+        ra, rb = {}, {}
+        a = slots.values(robot.x_m, robot.y_m, robot.heading_rad, robot.v_right_mps, robot.v_left_mps, rows, T, ra)
+        assert a == feature_values_from(walls_layout, robot, rows, T, tracks, statics, rb, rows_w) and ra == rb
+        assert len(a) == walls_layout.size
+        paths = [(t, t.means_m.tolist()) for t in tracks]
+        j = int(rng.integers(1, H))
+        ahead = [_Ahead(t, m[j - 1], j) for t, m in paths]
+        assert slots.values(0.3, -0.2, 1.1, 0.2, 0.1, rows, T, None, j) == feature_values_from(
+            walls_layout, RobotState(0.3, -0.2, 1.1, 0.2, 0.1), rows, T, ahead, statics, None, rows_w)
+
+        def answer(values):
+            u = float(np.tanh(np.dot(w, values)))
+            return 0.3 + 0.2 * u, 0.3 - 0.2 * math.sin(u)
+
+        one = roll_out(walls_layout, answer, robot, (0.31, 0.27), tracks, statics, rows, T, RobotParams(), rows_w, slots)
+        two = roll_out(walls_layout, answer, robot, (0.31, 0.27), tracks, statics, rows, T, RobotParams(), rows_w)
+        assert np.array_equal(one[0], two[0]) and np.array_equal(one[1], two[1])

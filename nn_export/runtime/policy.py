@@ -409,9 +409,9 @@ class OnnxPolicy:
             t1 = clock()
             counters[net.role + "_network"] += 1
             lay, slots = net.layout, None
-            if rows is None and (len(tracks) > lay.k_moving or len(statics) > lay.k_static):
+            if len(tracks) > lay.k_moving or len(statics) > lay.k_static:
                 # more than its slots hold: the nearest sorted out in one compiled call (the same values)
-                slots = self._last_slots = CrowdSlots.make(lay, tracks, statics)
+                slots = self._last_slots = CrowdSlots.make(lay, tracks, statics, rows)
             if slots is not None:
                 r = obs.robot
                 values = slots.values(r.x_m, r.y_m, r.heading_rad, r.v_right_mps, r.v_left_mps, ref_rows,
@@ -456,12 +456,12 @@ class OnnxPolicy:
         layout, answer, obs, tracks, statics, vr, vl, s_m, wall_rows = last
         rows = reference_rows(obs.reference, s_m, self.sample_time_s, 2 * self.horizon - 1)
         # a crowd's features at each step from the compiled slots, where they answer (the same
-        # values; not a layout that reads walls): the decision's own where it made them (a crowd
-        # larger than the slots), else made now (the decision's features stayed in plain floats:
-        # one call, where making the arrays costs more than it saves)
+        # values): the decision's own where it made them (a crowd larger than the slots), else made
+        # now (the decision's features stayed in plain floats: one call, where making the arrays
+        # costs more than it saves)
         slots = self._last_slots
         if slots is None or slots.layout is not layout:
-            slots = CrowdSlots.make(layout, tracks, statics) if wall_rows is None else None
+            slots = CrowdSlots.make(layout, tracks, statics, wall_rows)
         return roll_out(layout, answer, obs.robot, (vr, vl), tracks, statics, rows, self.sample_time_s, self.robot,
                         wall_rows, slots)
 

@@ -55,7 +55,7 @@ def roll_out(layout: FeatureLayout, answer, robot: RobotState, command: tuple[fl
     the H steps); ``wall_rows``: the map's wall segments, for a layout that reads walls (the
     scan from each predicted pose). ``slots``: the decision's
     :class:`~nn_export.runtime.set_slots.CrowdSlots` of these tracks and statics, when it has
-    them (a ``set`` layout, no walls): the features of each step from its compiled slots (the
+    them (a ``set`` layout, with or without its wall scan): the features of each step from its compiled slots (the
     same values), the reference windows' tails made once."""
     H, T = layout.horizon, float(sample_time_s)
     if len(reference_rows) < 2 * H:

@@ -31,6 +31,7 @@ from numba import njit, types
 
 from .features import _bump, _position_stds, _reference_values, _window_tails
 from .layouts import SET_ELEMENT, FeatureLayout
+from .wall_scan import wall_scan
 
 __all__ = ["CrowdSlots", "set_slots", "nearest_first"]
 
@@ -133,16 +134,19 @@ class CrowdSlots:
     once (:meth:`make`) and read for each step of its roll-out (:meth:`values`)."""
 
     __slots__ = ("layout", "n_tracks", "n_statics", "X", "init", "radius", "std", "means", "statics", "_out",
-                 "ordered")
+                 "ordered", "wall_rows")
 
     @classmethod
-    def make(cls, layout: FeatureLayout, tracks, statics) -> "CrowdSlots | None":
+    def make(cls, layout: FeatureLayout, tracks, statics, wall_rows=None) -> "CrowdSlots | None":
         """The arrays of ``tracks`` (a crowd's estimates, rows of one forecast batch in its
-        order) and ``statics`` for ``layout``; None where :func:`set_slots` does not answer
-        (another layout, tracks without a shared batch)."""
+        order) and ``statics`` for ``layout``, and ``wall_rows`` (the map's wall segments, as
+        :func:`~nn_export.runtime.features.feature_values_from` takes them) for a layout that
+        scans walls; None where :func:`set_slots` does not answer (another layout, tracks
+        without a shared batch)."""
         if not layout.is_set:
             return None
-        if layout.size != 2 + len(SET_ELEMENT) * (layout.k_moving + layout.k_static) + layout.horizon + 4:
+        if layout.size != 2 + len(SET_ELEMENT) * (layout.k_moving + layout.k_static) + layout.horizon + 4 + \
+                layout.wall_sectors:
             return None  # a layout with inputs of another kind
         batch = getattr(tracks[0], "batch_", None) if tracks else None
         if tracks and (batch is None or len(batch) != len(tracks)):
@@ -174,13 +178,14 @@ class CrowdSlots:
         self.statics = np.array([(st.position_m[0], st.position_m[1], st.radius_m) for st in statics],
                                 dtype=float).reshape(-1, 3)
         self._out = np.empty(len(SET_ELEMENT) * (layout.k_moving + layout.k_static))
+        self.wall_rows = wall_rows if layout.wall_sectors and wall_rows is not None and len(wall_rows) else None
         return self
 
     def values(self, x: float, y: float, heading: float, v_right: float, v_left: float, ref_rows: list,
                sample_time_s: float, report: dict | None = None, step: int = 0,
                window: tuple | None = None) -> list[float]:
         """:func:`~nn_export.runtime.features.feature_values_from` ``(layout, RobotState(x, y,
-        heading, v_right, v_left), ref_rows, sample_time_s, tracks, statics, report)``; with
+        heading, v_right, v_left), ref_rows, sample_time_s, tracks, statics, report, wall_rows)``; with
         ``step`` j > 0, of the tracks moved j steps along their forecasts (the roll-out's).
         ``window``: the reference window's tail (:func:`~nn_export.runtime.features._window_tails`
         of ``ref_rows``) when the caller has it."""
@@ -205,4 +210,7 @@ class CrowdSlots:
             n = layout.horizon + 1
             window = _window_tails(layout, ref_rows if len(ref_rows) == n else ref_rows[:n], sample_time_s)[0]
         f += _reference_values(rx, ry, heading, ref_rows[1], window, report, c, s)
+        if layout.wall_sectors:  # the scan from here, as the features take it
+            f += [layout.wall_range_m] * layout.wall_sectors if self.wall_rows is None else \
+                wall_scan(self.wall_rows, rx, ry, heading, layout.wall_sectors, layout.wall_range_m)
         return f

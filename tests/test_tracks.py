@@ -196,6 +196,32 @@ def test_import_tracks_writes_the_protocols_cases_as_scenario_files(tmp_path, ca
     assert "cases written" in capsys.readouterr().out
 
 
+def test_a_case_keeps_everyone_whose_track_overlaps_it(tmp_path):
+    """A case's start is the recording's start plus whole seconds: on ``crowds_zara02``
+    (rows at 0.4 s from 0.4 s) it lands 4e-15 s before a row, the row was kept beside the
+    cut's interpolated one, the two rounded to the same time and the person was dropped from
+    the case: 7 of the 13 people of its third case, people in the scene at the start among
+    them (769 people in 70 of the recording's 243 cases)."""
+    from scenarios.pedestrian_cases import DURATION_S, case_scenario, cases
+    from scenarios.recordings import RECORDINGS_DIR, read_recording
+    rows = [r for r in gzip.decompress((RECORDINGS_DIR / "crowds_zara02.txt.gz").read_bytes()).decode().splitlines()
+            if r.split() and float(r.split()[0]) / 25 <= 45.0]
+    f = tmp_path / "crowds_zara02.txt"
+    f.write_text("\n".join(rows) + "\n")
+    rec = read_recording(f)
+    found = cases(rec)
+    assert len(found) >= 3
+    for case in found:
+        t0, t1 = case.start_s, case.start_s + DURATION_S
+        overlapping = [tr for tr in rec.tracks if tr[-1, 0] > t0 and tr[0, 0] < t1]
+        sc = case_scenario(rec, case)
+        assert len(sc.moving) == len(overlapping), case.name
+        for m in sc.moving:
+            assert np.all(np.diff(m.times_s) > 0)
+        at_start = [tr for tr in overlapping if tr[0, 0] <= t0 + 1e-9]
+        assert sum(m.start_s == 0.0 for m in sc.moving) == len(at_start), case.name
+
+
 def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
     cases = {"three columns": "0 1 2.0\n", "text": "0 1 a 2\n", "non-finite": "0 1 nan 2\n",
              "twice at a frame": "0 1 1 1\n0 1 2 2\n", "empty": "\n",

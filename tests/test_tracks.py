@@ -89,6 +89,39 @@ def test_a_replayed_track_is_the_recording_and_exists_only_between_its_rows():
     assert present[0] == 2 and present[-1] == 10          # t = 1.0 s to 5.0 s, samples of 0.5 s
 
 
+def test_a_long_recordings_absent_people_cost_nothing_and_read_as_before():
+    """A world of many replayed tracks, a few in the scene at a time (a whole recording's
+    people, 0.04 s rows): the positions are each track's ``recorded_at`` where it exists and
+    NaN elsewhere, as mover by mover, and only the tracks that exist at one of the times asked
+    are interpolated (every track was, 60 ms a sample with the 415 people of students001)."""
+    from scenarios.model import TrackSpec
+    from scenarios.movers import MoverWorld
+    rng = np.random.default_rng(3)
+    movers = []
+    for k in range(300):
+        start = round(float(rng.uniform(0.0, 150.0)), 2)
+        t = start + 0.04 * np.arange(int(rng.integers(2, 400)))
+        xy = rng.normal(0.0, 5.0, 2) + np.cumsum(rng.normal(0.0, 0.05, (len(t), 2)), axis=0)
+        movers.append(TrackSpec(0.25, tuple(map(tuple, np.column_stack([t, xy]).tolist()))))
+    world = MoverWorld(movers)
+    ts = np.concatenate([np.linspace(0.0, 170.0, 401), [movers[0].start_s, movers[0].end_s]])
+    got = world.positions(ts)
+    for j, m in enumerate(movers):
+        want = np.where(m.exists_at(ts)[:, None], m.recorded_at(ts), np.nan)
+        assert np.array_equal(got[:, j], want, equal_nan=True), j
+        assert np.array_equal(world.exists(ts[5]), [bool(mm.exists_at(ts[5])) for mm in movers])
+    asked = []
+    original = TrackSpec.recorded_at
+    try:
+        TrackSpec.recorded_at = lambda self, t: asked.append(self) or original(self, t)
+        t = 75.0 + 0.025 * np.arange(1, 21)                # one sample interval's collision instants
+        world.positions(t)
+    finally:
+        TrackSpec.recorded_at = original
+    present = [m for m in movers if m.exists_at(t).any()]
+    assert 0 < len(asked) == len(present) < 60
+
+
 def test_the_sensor_lists_only_movers_within_range():
     movers = ("[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 3.0, 2.0], [12.0, 3.0, 2.0]]\n"
               "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 9.0, 0.0], [12.0, 9.0, 0.0]]\n")

@@ -96,8 +96,16 @@ def _busiest_point(rec: Recording) -> np.ndarray:
 
 
 def _flow_axis(rec: Recording) -> np.ndarray:
-    v = np.concatenate([np.diff(tr[:, 1:], axis=0) / np.diff(tr[:, 0])[:, None] for tr in rec.tracks])
-    w, vecs = np.linalg.eigh(v.T @ v)
+    # (with an absurd --seconds-per-frame, rows 1e-299 s apart, the speeds overflow: numpy's
+    # warnings made the one-line refusal five lines; such speeds are left out)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        v = np.concatenate([np.diff(tr[:, 1:], axis=0) / np.diff(tr[:, 0])[:, None] for tr in rec.tracks])
+        v = v[np.all(np.isfinite(v), axis=1)]
+        m = v.T @ v
+        if not np.all(np.isfinite(m)):  # the same axis, from speeds scaled down
+            v = v / np.abs(v).max()
+            m = v.T @ v
+    w, vecs = np.linalg.eigh(m)
     axis = vecs[:, int(np.argmax(w))]
     return axis if axis[0] > 0 or (axis[0] == 0 and axis[1] > 0) else -axis  # a fixed sign: reproducible
 

@@ -258,7 +258,8 @@ def test_a_case_keeps_everyone_whose_track_overlaps_it(tmp_path):
 def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
     cases = {"three columns": "0 1 2.0\n", "text": "0 1 a 2\n", "non-finite": "0 1 nan 2\n",
              "twice at a frame": "0 1 1 1\n0 1 2 2\n", "empty": "\n",
-             "too large": "0 1 1e300 1.0\n10 1 -1e300 2.0\n"}  # numpy overflow warnings came before the line
+             "too large": "0 1 1e300 1.0\n10 1 -1e300 2.0\n",  # numpy overflow warnings came before the line
+             "one row a person": "0 1 1 1\n0 2 2 2\n10 3 3 3\n", "five columns": "0 1 1 1 1\n10 1 2 2 2\n"}
     for name, text in cases.items():
         f = tmp_path / f"{name.replace(' ', '_')}.txt"
         f.write_text(text)
@@ -268,6 +269,16 @@ def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
     assert main(["import-tracks", str(_excerpt(tmp_path)), "--out", str(tmp_path / "o"),
                  "--seconds-per-frame", "-1"]) == 2
+    capsys.readouterr()
+    # frames 1e-300 s long: the speeds overflowed and numpy's warnings made the refusal five lines
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                          # (pytest keeps warnings off stderr)
+        assert main(["import-tracks", str(_excerpt(tmp_path)), "--out", str(tmp_path / "o"),
+                     "--seconds-per-frame", "1e-300"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "no case" in err, err
+    assert not (tmp_path / "o").exists()
 
 
 def test_import_tracks_names_cases_that_every_command_reads(tmp_path, capsys):

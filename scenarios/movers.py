@@ -105,7 +105,8 @@ class MoverWorld:
         self._robot_radius = float(robot_radius_m)
         self._statics = tuple(statics)
         self.steps = 0
-        """Grid steps the walkers have taken."""
+        """Grid steps the walkers have taken (``counters["walker_steps"]``: the walkers' own
+        decisions, summed over the steps)."""
         self.counters = {"walker_steps": 0, "arrived": 0, "entered_beside_robot": 0}
         if self._walkers:
             from navground import core
@@ -277,6 +278,7 @@ class MoverWorld:
             within = np.hypot(pos_all[None, :, 0] - now[:, None, 0],
                               pos_all[None, :, 1] - now[:, None, 1]) <= PERCEPTION_RANGE_M
         within[np.arange(len(self._walkers)), self._walkers] = False
+        stepped = 0
         for i, (j, b, env) in enumerate(zip(self._walkers, self._behaviours, self._envs)):
             if self._arrived[i] or not present[j]:
                 continue
@@ -307,12 +309,15 @@ class MoverWorld:
             if math.hypot(*v) * CROWD_TIME_STEP_S > d > 0:
                 v = to_goal / CROWD_TIME_STEP_S
             vel[i] = v
+            stepped += 1
         self._vel = vel
         following = now + vel * CROWD_TIME_STEP_S
         self._enter(following, now, t + CROWD_TIME_STEP_S, robot)
         self._grid.append(following)
         self.steps += 1
-        self.counters["walker_steps"] += len(self._walkers) - len(standing)
+        # the walkers that decided (a track walker outside its window does not: counted, the 415
+        # people of a recording made 56 000 steps of an episode's 8 000)
+        self.counters["walker_steps"] += stepped
 
 
 def _within(t, start, end):

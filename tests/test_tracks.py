@@ -122,6 +122,21 @@ def test_a_long_recordings_absent_people_cost_nothing_and_read_as_before():
     assert 0 < len(asked) == len(present) < 60
 
 
+def test_walker_steps_count_the_walkers_in_the_scene():
+    """``movers.walker_steps`` counted every track walker at every grid step, in the scene
+    or not (a recording's 415 people: seven times the steps taken)."""
+    from scenarios.model import TrackSpec, WalkerSpec
+    from scenarios.movers import MoverWorld
+    world = MoverWorld([TrackSpec(0.25, ((0.0, 5.0, 0.0), (10.0, 6.0, 0.0)), "orca"),
+                        TrackSpec(0.25, ((2.0, 5.0, 3.0), (3.0, 6.0, 3.0)), "orca"),
+                        TrackSpec(0.25, ((20.0, 5.0, 3.0), (30.0, 6.0, 3.0)), "orca"),
+                        WalkerSpec((0.0, -3.0), 0.25, "orca", (0.0, -8.0), 0.5)])
+    world.advance(5.0)
+    # 50 grid steps: the first walker decides in each, the second in the 10 from its entry at
+    # 2.0 s to its last, at 2.9 s (it leaves at 3.0 s), the third never, the goal walker in all
+    assert world.steps == 50 and world.counters["walker_steps"] == 50 + 10 + 0 + 50
+
+
 def test_the_sensor_lists_only_movers_within_range():
     movers = ("[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 3.0, 2.0], [12.0, 3.0, 2.0]]\n"
               "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 9.0, 0.0], [12.0, 9.0, 0.0]]\n")

@@ -371,7 +371,8 @@ def check_scenarios(spec: ControllerSpec, config, scenarios) -> None:
     """:func:`check` for the robot of every scenario of a run, each distinct robot once,
     before any work: a network trained for another robot than one of the files' is refused in
     one line that names that file (it was found only when its episode came, after minutes of
-    other work)."""
+    other work; the first file's robot was refused without its name, which of forty files
+    left to guess)."""
     seen = []
     for sc in scenarios:
         if sc.robot in seen:
@@ -380,8 +381,8 @@ def check_scenarios(spec: ControllerSpec, config, scenarios) -> None:
         try:
             check(spec, config, sc.robot)
         except UsageError as exc:
-            if len(seen) == 1:
-                raise
+            if len(seen) == 1 and not (sc.source and len(scenarios) > 1):
+                raise  # one file, or a suite's one robot: nothing to tell apart
             raise UsageError(f"{exc} (the robot of {sc.source or sc.name})") from None
 
 

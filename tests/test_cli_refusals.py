@@ -178,6 +178,22 @@ def test_a_network_for_another_robot_than_one_file_s_is_refused_before_any_episo
     assert time.monotonic() - t0 < 30 and sorted(p.name for p in tmp_path.iterdir()) == ["other.toml"]
 
 
+def test_the_first_of_several_files_whose_robot_the_network_refuses_is_named(tmp_path):
+    """The first file's robot was refused without the file's name (the second's with it)."""
+    from gpcnav.errors import UsageError
+    from casadi_gpc.config import preset
+    from gpcnav.controllers import ControllerSpec, check_scenarios
+    from scenarios import load_scenario
+    other = tmp_path / "other.toml"
+    other.write_text(SCENE.read_text().replace("[robot]\n", "[robot]\nradius_m = 0.3\n", 1))
+    spec, config = ControllerSpec("nn"), preset("improved")
+    with pytest.raises(UsageError, match=r"another robot.*\(the robot of .*other\.toml\)$"):
+        check_scenarios(spec, config, [load_scenario(other), load_scenario(SCENE)])
+    with pytest.raises(UsageError, match=r"another robot") as one:
+        check_scenarios(spec, config, [load_scenario(other)])
+    assert "the robot of" not in str(one.value)            # one file: its own command names it
+
+
 
 @pytest.mark.parametrize("command", ["simulate", "evaluate", "compare"])
 def test_an_output_that_is_the_scenario_file_is_refused_and_the_file_kept(command, tmp_path):

@@ -306,6 +306,31 @@ def test_every_setting_that_decides_an_episode_is_in_its_key(tmp_path):
     assert run_key(ControllerSpec("nn", model), cfg, {}) != before
 
 
+def test_a_tracks_rows_are_keyed_as_the_long_way_keys_them():
+    """A track's rows are plain lists of numbers in the key, taken in one go (one by one, a
+    file of 0.04 s tracks took a second a key); the data the same as element by element,
+    numpy numbers and mixed rows included, and one changed number another key."""
+    import numpy as np
+
+    from gpcnav.commands.episode_store import _digest, canonical
+    from scenarios.model import TrackSpec
+
+    def slow(obj):
+        if isinstance(obj, (list, tuple)):
+            return [slow(v) for v in obj]
+        return canonical(obj)
+
+    rows = ((0.0, 1.5, -2.0), (0.04, 1, 2.0), (0.08, np.float64(1.25), 3.0), [0.12, None, "x"], ((1.0, 2.0),), ())
+    assert canonical(rows) == slow(rows)
+    assert json.dumps(canonical(rows)) == json.dumps(slow(rows))
+    assert canonical((np.float64(0.5), 1.0)) == [0.5, 1.0] and type(canonical((np.float64(0.5),))[0]) is float
+    track = tuple((0.04 * k, 0.01 * k, 1.0) for k in range(2000))
+    a = TrackSpec(0.25, track)
+    b = TrackSpec(0.25, track[:1000] + ((track[1000][0], 10.01, 1.0),) + track[1001:])
+    assert canonical(a)["track"] == [list(r) for r in track]
+    assert _digest(a) != _digest(b) and _digest(a) == _digest(TrackSpec(0.25, tuple(map(list, track))))
+
+
 def test_a_user_controllers_helper_module_is_in_its_key(tmp_path, monkeypatch):
     """A user's ``MODULE:CLASS`` that imports a helper beside it: editing the helper gives other
     keys (an edited helper's episodes were mixed with the old ones in a resumed run: found by an

@@ -89,6 +89,54 @@ def test_a_replayed_track_is_the_recording_and_exists_only_between_its_rows():
     assert present[0] == 2 and present[-1] == 10          # t = 1.0 s to 5.0 s, samples of 0.5 s
 
 
+def test_a_long_recordings_absent_people_cost_nothing_and_read_as_before():
+    """A world of many replayed tracks, a few in the scene at a time (a whole recording's
+    people, 0.04 s rows): the positions are each track's ``recorded_at`` where it exists and
+    NaN elsewhere, as mover by mover, and only the tracks that exist at one of the times asked
+    are interpolated (every track was, 60 ms a sample with the 415 people of students001)."""
+    from scenarios.model import TrackSpec
+    from scenarios.movers import MoverWorld
+    rng = np.random.default_rng(3)
+    movers = []
+    for k in range(300):
+        start = round(float(rng.uniform(0.0, 150.0)), 2)
+        t = start + 0.04 * np.arange(int(rng.integers(2, 400)))
+        xy = rng.normal(0.0, 5.0, 2) + np.cumsum(rng.normal(0.0, 0.05, (len(t), 2)), axis=0)
+        movers.append(TrackSpec(0.25, tuple(map(tuple, np.column_stack([t, xy]).tolist()))))
+    world = MoverWorld(movers)
+    ts = np.concatenate([np.linspace(0.0, 170.0, 401), [movers[0].start_s, movers[0].end_s]])
+    got = world.positions(ts)
+    for j, m in enumerate(movers):
+        want = np.where(m.exists_at(ts)[:, None], m.recorded_at(ts), np.nan)
+        assert np.array_equal(got[:, j], want, equal_nan=True), j
+        assert np.array_equal(world.exists(ts[5]), [bool(mm.exists_at(ts[5])) for mm in movers])
+    asked = []
+    original = TrackSpec.recorded_at
+    try:
+        TrackSpec.recorded_at = lambda self, t: asked.append(self) or original(self, t)
+        t = 75.0 + 0.025 * np.arange(1, 21)                # one sample interval's collision instants
+        world.positions(t)
+    finally:
+        TrackSpec.recorded_at = original
+    present = [m for m in movers if m.exists_at(t).any()]
+    assert 0 < len(asked) == len(present) < 60
+
+
+def test_walker_steps_count_the_walkers_in_the_scene():
+    """``movers.walker_steps`` counted every track walker at every grid step, in the scene
+    or not (a recording's 415 people: seven times the steps taken)."""
+    from scenarios.model import TrackSpec, WalkerSpec
+    from scenarios.movers import MoverWorld
+    world = MoverWorld([TrackSpec(0.25, ((0.0, 5.0, 0.0), (10.0, 6.0, 0.0)), "orca"),
+                        TrackSpec(0.25, ((2.0, 5.0, 3.0), (3.0, 6.0, 3.0)), "orca"),
+                        TrackSpec(0.25, ((20.0, 5.0, 3.0), (30.0, 6.0, 3.0)), "orca"),
+                        WalkerSpec((0.0, -3.0), 0.25, "orca", (0.0, -8.0), 0.5)])
+    world.advance(5.0)
+    # 50 grid steps: the first walker decides in each, the second in the 10 from its entry at
+    # 2.0 s to its last, at 2.9 s (it leaves at 3.0 s), the third never, the goal walker in all
+    assert world.steps == 50 and world.counters["walker_steps"] == 50 + 10 + 0 + 50
+
+
 def test_the_sensor_lists_only_movers_within_range():
     movers = ("[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 3.0, 2.0], [12.0, 3.0, 2.0]]\n"
               "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 9.0, 0.0], [12.0, 9.0, 0.0]]\n")
@@ -196,10 +244,37 @@ def test_import_tracks_writes_the_protocols_cases_as_scenario_files(tmp_path, ca
     assert "cases written" in capsys.readouterr().out
 
 
+def test_a_case_keeps_everyone_whose_track_overlaps_it(tmp_path):
+    """A case's start is the recording's start plus whole seconds: on ``crowds_zara02``
+    (rows at 0.4 s from 0.4 s) it lands 4e-15 s before a row, the row was kept beside the
+    cut's interpolated one, the two rounded to the same time and the person was dropped from
+    the case: 7 of the 13 people of its third case, people in the scene at the start among
+    them (769 people in 70 of the recording's 243 cases)."""
+    from scenarios.pedestrian_cases import DURATION_S, case_scenario, cases
+    from scenarios.recordings import RECORDINGS_DIR, read_recording
+    rows = [r for r in gzip.decompress((RECORDINGS_DIR / "crowds_zara02.txt.gz").read_bytes()).decode().splitlines()
+            if r.split() and float(r.split()[0]) / 25 <= 45.0]
+    f = tmp_path / "crowds_zara02.txt"
+    f.write_text("\n".join(rows) + "\n")
+    rec = read_recording(f)
+    found = cases(rec)
+    assert len(found) >= 3
+    for case in found:
+        t0, t1 = case.start_s, case.start_s + DURATION_S
+        overlapping = [tr for tr in rec.tracks if tr[-1, 0] > t0 and tr[0, 0] < t1]
+        sc = case_scenario(rec, case)
+        assert len(sc.moving) == len(overlapping), case.name
+        for m in sc.moving:
+            assert np.all(np.diff(m.times_s) > 0)
+        at_start = [tr for tr in overlapping if tr[0, 0] <= t0 + 1e-9]
+        assert sum(m.start_s == 0.0 for m in sc.moving) == len(at_start), case.name
+
+
 def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
     cases = {"three columns": "0 1 2.0\n", "text": "0 1 a 2\n", "non-finite": "0 1 nan 2\n",
              "twice at a frame": "0 1 1 1\n0 1 2 2\n", "empty": "\n",
-             "too large": "0 1 1e300 1.0\n10 1 -1e300 2.0\n"}  # numpy overflow warnings came before the line
+             "too large": "0 1 1e300 1.0\n10 1 -1e300 2.0\n",  # numpy overflow warnings came before the line
+             "one row a person": "0 1 1 1\n0 2 2 2\n10 3 3 3\n", "five columns": "0 1 1 1 1\n10 1 2 2 2\n"}
     for name, text in cases.items():
         f = tmp_path / f"{name.replace(' ', '_')}.txt"
         f.write_text(text)
@@ -209,6 +284,16 @@ def test_import_tracks_refuses_bad_recordings_in_one_line(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
     assert main(["import-tracks", str(_excerpt(tmp_path)), "--out", str(tmp_path / "o"),
                  "--seconds-per-frame", "-1"]) == 2
+    capsys.readouterr()
+    # frames 1e-300 s long: the speeds overflowed and numpy's warnings made the refusal five lines
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                          # (pytest keeps warnings off stderr)
+        assert main(["import-tracks", str(_excerpt(tmp_path)), "--out", str(tmp_path / "o"),
+                     "--seconds-per-frame", "1e-300"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "no case" in err, err
+    assert not (tmp_path / "o").exists()
 
 
 def test_import_tracks_names_cases_that_every_command_reads(tmp_path, capsys):

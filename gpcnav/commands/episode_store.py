@@ -62,6 +62,11 @@ def store_folder(out: Path | None) -> Path:
     return cache_dir() / "episodes"
 
 
+_PLAIN = frozenset((float, int, bool, str, type(None)))
+"""Types that :func:`canonical` gives back as they are (exactly these: a subclass, such as
+numpy's float64, goes the long way)."""
+
+
 def canonical(obj):
     """``obj`` as plain JSON data, the same in every process: dataclasses as their fields
     (with the class name), tuples as lists, arrays as lists, floats as they are (JSON keeps
@@ -70,6 +75,12 @@ def canonical(obj):
         return {"__class__": type(obj).__qualname__, **{f.name: canonical(getattr(obj, f.name)) for f in fields(obj)}}
     if isinstance(obj, dict):
         return {str(k): canonical(v) for k, v in sorted(obj.items(), key=lambda kv: str(kv[0]))}
+    if type(obj) in (list, tuple):
+        # rows of numbers (a track's 0.04 s rows, 10^5 of them: a second a scenario the long way)
+        if all(type(v) in _PLAIN for v in obj):
+            return list(obj)
+        rows = [list(v) if type(v) in (list, tuple) and all(type(x) in _PLAIN for x in v) else None for v in obj]
+        return [canonical(v) if r is None else r for v, r in zip(obj, rows)]
     if isinstance(obj, (list, tuple)):
         return [canonical(v) for v in obj]
     if isinstance(obj, np.ndarray):

@@ -151,7 +151,7 @@ def _cut(track: np.ndarray, t0: float, t1: float) -> np.ndarray | None:
     as the recording's start plus whole seconds lands a few 1e-15 s before a row (every case
     of ``crowds_zara02`` whose start is on a row), and that row, kept beside the cut's,
     rounded to the same time and the whole person was dropped from the case (until
-    2026-11-30 (branch hunt): 769 people in 70 of its 243 cases, among them people in the scene at the
+    2026-11-30: 769 people in 70 of its 243 cases, among them people in the scene at the
     start)."""
     t = track[:, 0]
     if t[-1] <= t0 or t[0] >= t1:

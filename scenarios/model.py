@@ -51,6 +51,12 @@ TRACK_BEHAVIOURS = ("replay", "orca", "social_force")
 walker that avoids the others (navground's ORCA or social force)."""
 
 
+def within_window(t, start, end):
+    """Whether times ``t`` fall in the windows ``[start, end]`` (a track's first to last row,
+    inclusive, 1e-9 s either side), broadcast: the one rule of when a track mover exists."""
+    return (t >= start - 1e-9) & (t <= end + 1e-9)
+
+
 @dataclass(frozen=True)
 class TrackSpec:
     """A mover that follows a recorded track (a pedestrian of a recording).
@@ -98,8 +104,7 @@ class TrackSpec:
 
     def exists_at(self, t_s):
         """Whether the mover is in the scene at time(s) ``t_s`` (first to last row, inclusive)."""
-        t = np.asarray(t_s, dtype=float)
-        return (t >= self.times_s[0] - 1e-9) & (t <= self.times_s[-1] + 1e-9)
+        return within_window(np.asarray(t_s, dtype=float), self.times_s[0], self.times_s[-1])
 
     def recorded_at(self, t_s) -> np.ndarray:
         """The recorded position at time(s) ``t_s``, linear between rows and held at the

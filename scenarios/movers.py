@@ -38,6 +38,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .model import within_window
+
 __all__ = ["CROWD_TIME_STEP_S", "ENTRY_CLEARANCE_M", "GOAL_TOLERANCE_M", "MOVER_SAFETY_MARGIN_M", "BEHAVIOURS",
            "MoverWorld"]
 
@@ -160,7 +162,7 @@ class MoverWorld:
         only between its first and last rows)."""
         e = np.ones(self.n, dtype=bool)
         if self._tracked:
-            e[self._tracked] = _within(float(t_s), self._track_start, self._track_end)
+            e[self._tracked] = within_window(float(t_s), self._track_start, self._track_end)
         return e
 
     def positions(self, t_s) -> np.ndarray:
@@ -175,7 +177,7 @@ class MoverWorld:
         if self._replay:
             # only the replayed tracks that exist at one of the times asked are interpolated (the
             # others are NaN below): a recording's people are in the scene a small part of it
-            alive = _within(ts[:, None], self._replay_start, self._replay_end)     # (len(ts), n_replay)
+            alive = within_window(ts[:, None], self._replay_start, self._replay_end)     # (len(ts), n_replay)
             for r in np.flatnonzero(alive.any(axis=0)).tolist():
                 out[:, self._replay[r], :] = self.movers[self._replay[r]].recorded_at(ts)
         if self._walkers:
@@ -190,7 +192,7 @@ class MoverWorld:
             nxt = np.stack([grid[min(i + 1, last)] for i in k.tolist()])
             out[:, self._walkers, :] = (1.0 - a) * now + a * nxt
         if self._tracked:
-            gone = ~_within(ts[:, None], self._track_start, self._track_end)      # (len(ts), n_tracked)
+            gone = ~within_window(ts[:, None], self._track_start, self._track_end)      # (len(ts), n_tracked)
             sub = out[:, self._tracked, :]
             sub[gone] = np.nan
             out[:, self._tracked, :] = sub
@@ -318,12 +320,6 @@ class MoverWorld:
         # the walkers that decided (a track walker outside its window does not: counted, the 415
         # people of a recording made 56 000 steps of an episode's 8 000)
         self.counters["walker_steps"] += stepped
-
-
-def _within(t, start, end):
-    """Whether times ``t`` fall in the windows ``[start, end]`` (inclusive, 1e-9 s either side:
-    :meth:`TrackSpec.exists_at <scenarios.model.TrackSpec.exists_at>`'s rule), broadcast."""
-    return (t >= start - 1e-9) & (t <= end + 1e-9)
 
 
 def _make_behaviour(mover):

@@ -372,3 +372,25 @@ def test_cli_refuses_a_negative_crowd_episodes_in_one_line():
     proc = _gpcnav("--crowd-episodes", "-1", "--solvers", "ipopt-warm")
     assert proc.returncode == 2 and "--crowd-episodes" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_the_bench_pools_the_crowd_scene_as_its_options_say():
+    """``pooled_crowd`` (what ``gpcnav bench`` adds to BENCH.json): the crowd scene's first
+    ``--crowd-episodes`` episodes with the controllers the row options leave in; nothing with
+    ``--crowd-episodes 0``, ``--crowd-movers 0`` or both row kinds left out."""
+    from types import SimpleNamespace
+
+    from casadi_gpc.config import preset
+    from gpcnav.commands.bench import pooled_crowd
+    cfg = preset("improved")
+    args = SimpleNamespace(crowd_movers=2, crowd_episodes=1, no_gpc_rows=True, no_nn_rows=False, model=None)
+    doc = {}
+    pooled_crowd(args, doc, cfg, lambda msg: None)
+    pooled = doc["crowd_decisions"]
+    assert pooled["suite"] == {"name": "circle-crossing", "movers": 2, "behaviour": "orca", "seed": 1, "episodes": 1}
+    assert pooled["scenarios"] == ["circle-crossing-orca-2-1-0000"] and "gpc" not in pooled
+    assert pooled["nn"]["decisions"] == len(pooled["nn"]["time_samples_s"]) > 10
+    for changes in ({"crowd_episodes": 0}, {"crowd_movers": 0}, {"no_gpc_rows": True, "no_nn_rows": True}):
+        doc = {}
+        pooled_crowd(SimpleNamespace(**{**vars(args), **changes}), doc, cfg, lambda msg: None)
+        assert doc == {}

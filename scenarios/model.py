@@ -51,6 +51,11 @@ TRACK_BEHAVIOURS = ("replay", "orca", "social_force")
 walker that avoids the others (navground's ORCA or social force)."""
 
 
+SPEED_SPAN_S = 0.01
+"""The shortest time over which a track's speed is taken (:attr:`TrackSpec.max_recorded_speed_mps`):
+below a video's frame (0.04 s at 25 fps, 0.017 s at 60)."""
+
+
 def within_window(t, start, end):
     """Whether times ``t`` fall in the windows ``[start, end]`` (a track's first to last row,
     inclusive, 1e-9 s either side), broadcast: the one rule of when a track mover exists."""
@@ -124,8 +129,19 @@ class TrackSpec:
 
     @property
     def max_recorded_speed_mps(self) -> float:
-        v = np.hypot(*np.diff(self.xy_m, axis=0).T) / np.diff(self.times_s)
-        return float(v.max()) if v.size else 0.0
+        """The fastest speed between rows, each row taken to the first row at least
+        :data:`SPEED_SPAN_S` after it (the next, wherever rows are that far apart: every
+        recording and suite gpcnav ships has them 0.2 s or more apart). Rows microseconds
+        apart, which a file may hold, would otherwise make a walker's top speed thousands of
+        m/s (:data:`scenarios.movers.TRACK_SPEED_FACTOR` times this)."""
+        t, xy = self.times_s, self.xy_m
+        n = len(t)
+        if n < 2:
+            return 0.0
+        i = np.arange(n - 1)
+        j = np.minimum(np.maximum(np.searchsorted(t, t[:-1] + SPEED_SPAN_S, side="left"), i + 1), n - 1)
+        d = xy[j] - xy[i]
+        return float((np.hypot(d[:, 0], d[:, 1]) / (t[j] - t[i])).max())
 
 
 @dataclass(frozen=True)

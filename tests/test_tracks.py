@@ -411,3 +411,20 @@ def test_a_walker_whose_recording_starts_on_the_robots_centre_enters_on_the_side
     ep.world.advance(1.0, lambda t: (0.0, 0.0, 0.0, 0.0))
     assert ep.world.positions(1.0)[0] == pytest.approx([0.0, -(sc.robot.radius_m + 0.25 + ENTRY_CLEARANCE_M)])
     assert ep.world.counters["entered_beside_robot"] == 1
+
+
+def test_a_tracks_top_speed_is_taken_over_spans_of_a_frame_or_more():
+    """The speed a track walker's cap is made from: between consecutive rows wherever they are
+    10 ms or more apart (the same number as before, to the bit: the shipped cases' rows are
+    0.2 s or more apart); rows microseconds apart (a file may hold them) are taken together
+    with the next, so a person walking at 1.2 m/s is not read as walking at thousands of m/s."""
+    from scenarios.model import TrackSpec
+    rows = [(0.0, 0.0, 0.0), (0.4, 0.48, 0.0), (0.8, 0.96, 0.1), (1.2, 1.3, 0.1)]
+    t = TrackSpec(0.25, tuple(rows), "orca", False)
+    old = np.hypot(*np.diff(t.xy_m, axis=0).T) / np.diff(t.times_s)
+    assert t.max_recorded_speed_mps == float(old.max())
+    odd = TrackSpec(0.25, ((0.0, 0.0, 0.0), (1e-6, 1e-3, 0.0), (0.4, 0.48, 0.0), (0.8, 0.96, 0.0)), "orca", False)
+    assert math.isclose(odd.max_recorded_speed_mps, 1.2, rel_tol=1e-9)  # 0 -> 0.4 s, 1e-6 -> 0.4 s, 0.4 -> 0.8 s
+    assert np.max(np.hypot(*np.diff(odd.xy_m, axis=0).T) / np.diff(odd.times_s)) > 900  # row to row: 1 000 m/s
+    fine = TrackSpec(0.25, tuple((0.04 * k, 0.048 * k, 0.0) for k in range(31)), "orca", False)
+    assert math.isclose(fine.max_recorded_speed_mps, 1.2, rel_tol=1e-9)

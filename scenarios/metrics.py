@@ -10,7 +10,7 @@ from casadi_gpc.geometry import distance_to_segments_m
 
 from .simulator import RunLog
 
-__all__ = ["EpisodeMetrics", "episode_metrics", "path_deviation_m", "same_instant_deviation_m", "passing_sides",
+__all__ = ["EpisodeMetrics", "robot_approaching", "episode_metrics", "path_deviation_m", "same_instant_deviation_m", "passing_sides",
            "run_document", "eval_document", "time_stats", "longest_stop_s", "clopper_pearson_upper", "path_length_m",
            "DANGER_CLEARANCE_M", "intervention_count"]
 
@@ -127,6 +127,14 @@ def longest_stop_s(log: RunLog) -> float:
     return float(best)
 
 
+def robot_approaching(collision: dict | None) -> bool:
+    """Whether a collision (RUN.json's ``collision``; None: none) was the robot's own doing: it
+    drove towards an obstacle that had been in the scene for :data:`GHOST_TIME_S` or more,
+    faster than :data:`APPROACH_SPEED_MPS`."""
+    c = collision
+    return bool(c) and c["robot_speed_towards_mps"] > APPROACH_SPEED_MPS and c["obstacle_age_s"] >= GHOST_TIME_S
+
+
 @dataclass(frozen=True)
 class EpisodeMetrics:
     scenario: str
@@ -151,10 +159,8 @@ class EpisodeMetrics:
 
     @property
     def robot_approaching(self) -> bool:
-        """A collision of the robot's own doing: it drove towards an obstacle that had been
-        in the scene for :data:`GHOST_TIME_S` or more, faster than :data:`APPROACH_SPEED_MPS`."""
-        c = self.collision
-        return bool(c) and c["robot_speed_towards_mps"] > APPROACH_SPEED_MPS and c["obstacle_age_s"] >= GHOST_TIME_S
+        """A collision of the robot's own doing (:func:`robot_approaching`)."""
+        return robot_approaching(self.collision)
 
     @property
     def reached_goal(self) -> bool:

@@ -108,6 +108,13 @@ def network_decisions(args, doc, config, scenarios) -> None:
     doc["deployed_vs_gpc"] = deployed_against_gpc(doc.get("decisions", []), doc["network_decisions"])
 
 
+def crowd_suite(movers: int, episodes: int):
+    """The bench's crowd scene: circle-crossing with ``movers`` ORCA walkers, seed 1, its first
+    ``episodes`` episodes (the first alone has the decision rows)."""
+    from scenarios import Suite
+    return Suite("circle-crossing", episodes, 1, movers, "orca")
+
+
 def pooled_crowd(args, doc, config, say) -> None:
     """The crowd scene's first ``--crowd-episodes`` episodes, the GPC (unless ``--no-gpc-rows``)
     and the deployed network (unless ``--no-nn-rows``) on each, pooled
@@ -115,10 +122,9 @@ def pooled_crowd(args, doc, config, say) -> None:
     if not args.crowd_movers or not args.crowd_episodes or (args.no_gpc_rows and args.no_nn_rows):
         return
     from gpcnav.benchmarks.decisions import crowd_decisions
-    from scenarios import Suite
 
     from ..controllers import ControllerSpec, make
-    suite = Suite("circle-crossing", args.crowd_episodes, 1, args.crowd_movers, "orca")
+    suite = crowd_suite(args.crowd_movers, args.crowd_episodes)
     spec = ControllerSpec("nn", model=args.model)
     say(f"the GPC's and the deployed network's decisions over {args.crowd_episodes} crossings of {args.crowd_movers} "
         f"walkers")
@@ -135,17 +141,15 @@ def pooled_summary(pooled: dict) -> list[str]:
     s = pooled["suite"]
     lines = [f"over the first {s['episodes']} crossings of circle-crossing, {s['movers']} {s['behaviour']} walkers, "
              f"seed {s['seed']} (the two run one after the other on each):"]
-    for name, what, unit, scale in (("gpc", "the GPC behind its check", "ms", 1e3),
-                                    ("nn", "the deployable decision", "us", 1e6)):
+    for name, what, unit, scale, digits in (("gpc", "the GPC behind its check", "ms", 1e3, 2),
+                                            ("nn", "the deployable decision", "us", 1e6, 0)):
         row = pooled.get(name)
         if row is None:
             continue
-        t = row["time_s"]
+        t = {k: f"{row['time_s'][k] * scale:.{digits}f}" for k in ("median", "p99", "max")}
         outcomes = ", ".join(f"{v} {k}" for k, v in row["outcomes"].items())
-        lines.append(f"  {what}: {row['decisions']} decisions, median {t['median'] * scale:.{3 if unit == 'ms' else 0}f} "
-                     f"{unit} (p99 {t['p99'] * scale:.{2 if unit == 'ms' else 0}f}, max "
-                     f"{t['max'] * scale:.{2 if unit == 'ms' else 0}f}); {outcomes}; "
-                     f"{row['interventions']} interventions")
+        lines.append(f"  {what}: {row['decisions']} decisions, median {t['median']} {unit} (p99 {t['p99']}, max "
+                     f"{t['max']}); {outcomes}; {row['interventions']} interventions")
         if row.get("parts_s"):
             lines.append("    its parts (medians / p99s): " + ", ".join(
                 f"{k} {row['parts_s'][k] * 1e6:.0f} / {row['parts_p99_s'][k] * 1e6:.0f} us" for k in row["parts_s"]))
@@ -173,7 +177,7 @@ def run(args) -> int:
                          "Python cannot import")
     from gpcnav.benchmarks.bench_report import bench_figure, format_table
     from gpcnav.benchmarks.solvers import run_bench
-    from scenarios import PAPER_DIR, Suite, load_scenario
+    from scenarios import PAPER_DIR, load_scenario
 
     from casadi_gpc.io import save_figure, write_json
     solvers = parse_solvers(args.solvers)
@@ -191,7 +195,7 @@ def run(args) -> int:
         raise UsageError(f"--crowd-movers must be 0 or more, got {args.crowd_movers}")
     if args.crowd_episodes < 0:
         raise UsageError(f"--crowd-episodes must be 0 or more, got {args.crowd_episodes}")
-    crowd = [] if not args.crowd_movers else [Suite("circle-crossing", 1, 1, args.crowd_movers, "orca").scenario(0)]
+    crowd = [] if not args.crowd_movers else [crowd_suite(args.crowd_movers, 1).scenario(0)]
     # the planner as evaluate runs these scenes: wall slots where one has walls, the crowd NLP
     # where one has more movers than the preset's slots
     config = for_run(config, [scenario, *crowd])

@@ -409,7 +409,7 @@ class OnnxPolicy:
             t1 = clock()
             counters[net.role + "_network"] += 1
             lay, slots = net.layout, None
-            if len(tracks) > lay.k_moving or len(statics) > lay.k_static:
+            if CrowdSlots.overflows(lay, tracks, statics):
                 # more than its slots hold: the nearest sorted out in one compiled call (the same values)
                 slots = self._last_slots = CrowdSlots.make(lay, tracks, statics, rows)
             if slots is not None:

@@ -136,6 +136,12 @@ class CrowdSlots:
     __slots__ = ("layout", "n_tracks", "n_statics", "X", "init", "radius", "std", "means", "statics", "_out",
                  "ordered", "wall_rows")
 
+    @staticmethod
+    def overflows(layout: FeatureLayout, tracks, statics) -> bool:
+        """Whether ``layout``'s slots cannot hold them all: then the nearest fill them, sorted
+        as the features sort them (both kinds, as they do)."""
+        return len(tracks) > layout.k_moving or len(statics) > layout.k_static
+
     @classmethod
     def make(cls, layout: FeatureLayout, tracks, statics, wall_rows=None) -> "CrowdSlots | None":
         """The arrays of ``tracks`` (a crowd's estimates, rows of one forecast batch in its
@@ -156,8 +162,7 @@ class CrowdSlots:
                 return None
         self = cls.__new__(cls)
         self.layout, self.n_tracks, self.n_statics = layout, len(tracks), len(statics)
-        # more than the slots hold: the nearest first, as the features sort them (both kinds, as they do)
-        self.ordered = len(tracks) > layout.k_moving or len(statics) > layout.k_static
+        self.ordered = cls.overflows(layout, tracks, statics)
         if tracks:
             self.X = np.array([t.state_values for t in tracks], dtype=float)
             self.init = np.array([t.initialised for t in tracks], dtype=bool)

@@ -16,10 +16,9 @@ def cell(eps, approaching=None):
 
 
 def approaching(eps):
-    """scenarios.metrics' rule (EpisodeMetrics.robot_approaching), from the episodes' collisions."""
-    from scenarios.metrics import APPROACH_SPEED_MPS, GHOST_TIME_S
-    return sum(bool(c) and c["robot_speed_towards_mps"] > APPROACH_SPEED_MPS and c["obstacle_age_s"] >= GHOST_TIME_S
-               for c in (e.get("collision") for e in eps))
+    """scenarios.metrics' rule, from the episodes' collisions."""
+    from scenarios.metrics import robot_approaching
+    return sum(robot_approaching(e.get("collision")) for e in eps)
 
 
 for mode in ("replay", "reactive"):

@@ -369,6 +369,7 @@ def test_two_workers_speed_labelling_up_as_the_machine_allows(tmp_path):
     assert best["efficiency"] >= 0.75, blocks
 
 
+@pytest.mark.slow  # kept out of the default suite for its time (CI: under 10 minutes)
 def test_cli_dagger_round_with_a_trained_network(reference_dataset, tmp_path):
     """The whole loop through the command line: train a tiny network on the dataset, export
     it, and let ``gpcnav dataset --dagger`` append what the GPC says in the states it visits."""
@@ -446,6 +447,7 @@ def test_dagger_round_on_scenario_files(reference_dataset, tmp_path):
     assert part["samples"] == len(shard["labels"]) == 2 * sum(steps)  # each situation and its mirror image
 
 
+@pytest.mark.slow  # kept out of the default suite for its time (CI: under 10 minutes)
 def test_train_on_some_parts_only(reference_dataset, tmp_path):
     """gpcnav train --parts: the model is fitted on the named parts only (its provenance says
     which and how many samples); an unknown part is refused with one line, exit 2."""

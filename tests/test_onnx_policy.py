@@ -284,6 +284,7 @@ def test_default_policy_is_the_improved_preset():
 
 
 # --- a small model retrained from scratch through the command line ------------------------
+@pytest.mark.slow  # kept out of the default suite for its time (CI: under 10 minutes)
 def test_retrain_a_small_model_from_scratch(tmp_path):
     """dataset -> train -> export -> OnnxPolicy, all through ``gpcnav``, on a tiny dataset:
     the exported network must reproduce the torch model, fit its training labels well below

@@ -175,6 +175,7 @@ def test_plan_networks_are_refused_where_they_cannot_run(plan_model, tmp_path):
         OnnxPolicy(tmp_path / "liar.onnx", preset="improved")
 
 
+@pytest.mark.slow  # kept out of the default suite for its time (CI: under 10 minutes)
 def test_the_plan_target_reads_the_datasets_plans(plan_model, tmp_path):
     """``load_dataset(..., target="plan")``: the (n, 2 H) rows of the plans, whose first
     step is the label, also of a DAgger round a plan network drove; an odd number of outputs

@@ -114,6 +114,7 @@ def test_evaluate_60_crowd_episodes_killed_partway_resumes_to_the_uninterrupted_
     _resume_evaluate(tmp_path, count=60, workers=os.cpu_count() or 1, kill_at=20)
 
 
+@pytest.mark.slow  # kept out of the default suite for its time (CI: under 10 minutes)
 def test_compare_of_two_controllers_killed_partway_resumes_to_the_uninterrupted_document(tmp_path):
     argv = ["compare", *CROWD, *NO_CLOCK, "--count", "6", "--controllers", "gpc,orca", "--workers", "2"]
     whole = _cli(tmp_path, *argv, "--out", "W.json")
@@ -133,6 +134,7 @@ def test_compare_of_two_controllers_killed_partway_resumes_to_the_uninterrupted_
     assert not (tmp_path / "C.json.episodes").exists()
 
 
+@pytest.mark.slow  # kept out of the default suite for its time (CI: under 10 minutes)
 def test_a_changed_setting_reuses_nothing_and_the_same_command_everything(tmp_path):
     base = ["evaluate", "--suite", "circle-crossing", "--movers", "4", "--count", "3", "--controller", "orca",
             "--workers", "1", "--out", "E.json", "--keep-episodes"]

@@ -53,9 +53,9 @@ def test_only_an_nlp_with_walls_and_a_near_margin_takes_the_margin_as_parameters
     assert layout_of(CFG.with_overrides(**NEAR)).blocks == plain.blocks  # no walls: the same NLP
     assert layout_of(SHIPPED).blocks == plain.blocks
     near = layout_of(CFG.with_overrides(**NEAR).for_walls(True))
-    assert list(near.blocks)[-1] == "margin" and near.size == walled.size + 2
+    assert list(near.blocks)[-2:] == ["margin", "robot_r"] and near.size == walled.size + 2  # the radius stays last
     assert near.margin == (CFG.clearance_margin_m, CFG.uncertainty_sigmas)
-    assert all(near.slices()[k] == walled.slices()[k] for k in walled.blocks)  # the rest where it was
+    assert all(near.slices()[k] == walled.slices()[k] for k in walled.blocks if k != "robot_r")  # the rest where it was
     np.testing.assert_array_equal(near.unpack(near.pack(np.zeros(5), np.zeros((CFG.horizon, 3))))["margin"],
                                   [0.15, 2.0])
     with pytest.raises(ValueError, match="no margin parameters"):

@@ -82,6 +82,10 @@ class ParameterLayout:
     it to the robot (blocks ``mov_cov``, the forecasts' covariances, and ``dir``, 1 at the
     ticks that do, 0 where the worst deviation ``mov_sigma`` is used:
     :attr:`casadi_gpc.config.PlannerConfig.walls_directional_sigma`)."""
+    robot_radius_m: float = RobotParams.radius_m
+    """The robot's radius an unset :meth:`pack` writes (block ``robot_r``, the parameters' last):
+    the NLP takes it as a parameter, so one compiled NLP serves robots of every size (a constant
+    of the cost made a new NLP, 100-115 s of compiling a solver, for each size a user tried)."""
 
     @property
     def blocks(self) -> dict[str, tuple[int, ...]]:
@@ -105,6 +109,7 @@ class ParameterLayout:
             "sta_r": (S,),
             "sta_on": (S,),
             **extra,
+            "robot_r": (1,),             # the robot's radius (m)
         }
 
     @cached_property
@@ -211,6 +216,7 @@ class ParameterLayout:
             p[sl["wall_ab"]] = np.tile([FAR_AWAY_M, FAR_AWAY_M, FAR_AWAY_M + 1.0, FAR_AWAY_M], self.max_walls)
         if self.margin is not None:
             p[sl["margin"]] = self.margin
+        p[sl["robot_r"]] = self.robot_radius_m
         return p
 
     def unpack(self, p: np.ndarray) -> dict[str, np.ndarray]:
@@ -289,7 +295,7 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
     margin_m, sigmas = margin_terms(config, P)
     for ox, oy, r_o, on, p_unc, sigma, xi in obstacles:
         centre = ca.sqrt((x - ox) ** 2 + (y - oy) ** 2 + 1e-12)
-        d = centre - robot.radius_m - r_o
+        d = centre - P["robot_r"] - r_o
         d_eff = _smooth_positive(d, config.clearance_softening_m)
         if config.influence_m is None:
             obst += on * xi / (p_unc * d_eff ** 2)
@@ -327,13 +333,15 @@ def margin_terms(config: PlannerConfig, P: dict) -> tuple:
     return config.clearance_margin_m, config.uncertainty_sigmas
 
 
-def layout_of(config: PlannerConfig) -> ParameterLayout:
-    """The parameter layout of ``config``'s NLP: the margin as parameters where the NLP has
-    wall slots and a margin near walls."""
+def layout_of(config: PlannerConfig, robot: RobotParams | None = None) -> ParameterLayout:
+    """The parameter layout of ``config``'s NLP for ``robot`` (None: the contract's): the margin
+    as parameters where the NLP has wall slots and a margin near walls; the robot's radius
+    always."""
     margin = ((config.clearance_margin_m, config.uncertainty_sigmas)
               if config.max_walls and config.walls_margin_m is not None else None)
     return ParameterLayout(config.horizon, config.max_moving, config.max_static, config.max_walls, margin,
-                           margin is not None and config.walls_directional_sigma)
+                           margin is not None and config.walls_directional_sigma,
+                           (robot or RobotParams()).radius_m)
 
 
 def beyond_horizon_cost(config: PlannerConfig, robot: RobotParams, P: dict, x, y):
@@ -353,7 +361,7 @@ def beyond_horizon_cost(config: PlannerConfig, robot: RobotParams, P: dict, x, y
         vx, vy = (px - P["mov_xy"][k0]) / T, (py - P["mov_xy"][k0 + 1]) / T
         m = margin_m + sigmas * P["mov_sigma"][j * H + H - 1]
         for s in config.beyond_horizon_s:
-            d = ca.sqrt((x - px - vx * s) ** 2 + (y - py - vy * s) ** 2 + 1e-12) - robot.radius_m - P["mov_r"][j]
+            d = ca.sqrt((x - px - vx * s) ** 2 + (y - py - vy * s) ** 2 + 1e-12) - P["robot_r"] - P["mov_r"][j]
             violation = ca.fmax(m - d, 0.0) if e is None else _smooth_positive(m - d, e)
             pen += P["mov_on"][j] * config.clearance_penalty * violation ** 2
     return pen
@@ -377,7 +385,7 @@ def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GP
     """Build the NLP of ``config`` for ``robot`` (CasADi SX, single shooting)."""
     robot = robot or RobotParams()
     H, T = config.horizon, config.sample_time_s
-    layout = layout_of(config)
+    layout = layout_of(config, robot)
     u = ca.SX.sym("u", 2 * H)
     p = ca.SX.sym("p", layout.size)
     P = parameter_blocks(layout, p)

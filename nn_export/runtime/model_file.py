@@ -5,8 +5,8 @@ A model file is checked when it is loaded, never at the first decision: it must 
 readable ONNX graph written by :mod:`nn_export.training.export` (format key), with one float
 input of the size its feature layout says and one output of (batch, 2) (a command) or, for a
 plan network (metadata ``output`` = ``plan``), (batch, 2 H), a feature layout name and
-version this code computes, and a preset, horizon, sample time and robot equal to the ones it
-is asked to run with. Anything else is a one-line ``ValueError`` (``FileNotFoundError`` for a
+version this code computes, a preset, horizon and sample time equal to the ones it is asked
+to run with, and the robot it was trained for or a smaller one (:func:`serves_robot`). Anything else is a one-line ``ValueError`` (``FileNotFoundError`` for a
 missing file).
 """
 from __future__ import annotations
@@ -25,12 +25,29 @@ from casadi_gpc.robot import RobotParams
 
 from .layouts import FeatureLayout, layout_from_dict
 
-__all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "read_model_metadata", "float32_bound"]
+__all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "read_model_metadata", "float32_bound", "serves_robot"]
 
 POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.training.export (kept equal by a test)
 INPUT_NAME, OUTPUT_NAME = "features", "wheel_speeds_mps"
 _REQUIRED = ("format", "feature_layout", "feature_layout_version", "feature_names", "n_features", "preset", "horizon",
              "sample_time_s", "robot", "output_clip_mps", "dataset", "validation_rmse_mps")
+
+
+def serves_robot(model_robot: dict, robot: RobotParams) -> bool:
+    """Whether a network trained for ``model_robot`` (its metadata's ``robot``) drives ``robot``:
+    the same robot, or one that differs only in being smaller. The network's inputs never
+    read the robot's radius (it learnt the trained robot's clearances), so a smaller robot
+    driven by it keeps the larger robot's distances, and the check layer judges its commands
+    with the robot's own radius (docs/nn-deploy.md, "Robots of other sizes"). Its wheels, their
+    limits and their base must be the trained ones: the network's outputs are those wheels'
+    speeds."""
+    mine = robot.to_dict()
+    if model_robot == mine:
+        return True
+    rest = {k: v for k, v in model_robot.items() if k != "radius_m"}
+    same_wheels = rest == {k: v for k, v in mine.items() if k != "radius_m"}
+    radius = model_robot.get("radius_m")
+    return same_wheels and isinstance(radius, (int, float)) and 0 < robot.radius_m <= radius
 
 
 def float32_bound(limit_mps: float) -> float:
@@ -163,10 +180,12 @@ def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str
     if cfg.horizon != horizon or layout.horizon != horizon or not math.isclose(cfg.sample_time_s, sample_time_s):
         raise ValueError(f"{path}: model made for H={horizon}, T={sample_time_s} s but preset {name!r} has "
                          f"H={cfg.horizon}, T={cfg.sample_time_s} s")
-    if model_robot != robot.to_dict():
+    if not serves_robot(model_robot, robot):
         diff = sorted(k for k in set(model_robot) | set(robot.to_dict()) if model_robot.get(k) != robot.to_dict().get(k))
+        larger = diff == ["radius_m"]
         raise ValueError(f"{path}: model trained for another robot ({', '.join(diff)} differ: "
-                         f"{ {k: model_robot.get(k) for k in diff} } vs { {k: robot.to_dict().get(k) for k in diff} })")
+                         f"{ {k: model_robot.get(k) for k in diff} } vs { {k: robot.to_dict().get(k) for k in diff} }"
+                         f"{'; it drives robots up to its own radius' if larger else ''})")
     if not math.isclose(clip, robot.max_wheel_speed_mps):
         raise ValueError(f"{path}: output clip {clip} m/s differs from the wheel limit {robot.max_wheel_speed_mps}")
     return layout, cfg, steps

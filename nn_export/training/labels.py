@@ -247,7 +247,7 @@ class Labeller:
         self.robot = robot or RobotParams()
         self.fit_slots = bool(fit_slots)
         self.full_slots = (config.max_moving, config.max_static)
-        self.layout = layout_of(config)
+        self.layout = layout_of(config, self.robot)
         self._walls: list = []
         """The wall segments in the slots of the situation being labelled."""
         """The full NLP's parameter layout (:meth:`parameters`)."""

@@ -185,7 +185,7 @@ def test_the_first_of_several_files_whose_robot_the_network_refuses_is_named(tmp
     from gpcnav.controllers import ControllerSpec, check_scenarios
     from scenarios import load_scenario
     other = tmp_path / "other.toml"
-    other.write_text(SCENE.read_text().replace("[robot]\n", "[robot]\nradius_m = 0.3\n", 1))
+    other.write_text(SCENE.read_text().replace("[robot]\n", "[robot]\nradius_m = 0.4\n", 1))
     spec, config = ControllerSpec("nn"), preset("improved")
     with pytest.raises(UsageError, match=r"another robot.*\(the robot of .*other\.toml\)$"):
         check_scenarios(spec, config, [load_scenario(other), load_scenario(SCENE)])

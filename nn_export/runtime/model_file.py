@@ -38,7 +38,7 @@ def serves_robot(model_robot: dict, robot: RobotParams) -> bool:
     the same robot, or one that differs only in being smaller. The network's inputs never
     read the robot's radius (it learnt the trained robot's clearances), so a smaller robot
     driven by it keeps the larger robot's distances, and the check layer judges its commands
-    with the robot's own radius (docs/nn-deploy.md, "Robots of other sizes"). Its wheels, their
+    with the robot's own radius (docs/model.md, "Robots of other sizes"). Its wheels, their
     limits and their base must be the trained ones: the network's outputs are those wheels'
     speeds."""
     mine = robot.to_dict()

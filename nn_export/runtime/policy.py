@@ -135,9 +135,8 @@ class OnnxPolicy:
         The planner preset the model must have been trained for (None: the model's own
         preset, or the default preset when ``model`` is None as well).
     robot : RobotParams, optional
-        The robot it drives: the robot the model was trained for, or one that differs only in
-        being smaller (it keeps the trained robot's distances; the check layer judges with the
-        robot's own radius: :func:`~nn_export.runtime.model_file.serves_robot`).
+        The robot it drives: the one the model was trained for, or one only smaller (it keeps
+        the trained robot's distances: :func:`~nn_export.runtime.model_file.serves_robot`).
     two_pass : bool or None
         The paper's two-pass scheme (True) or one plain pass with the obstacles and the real
         reference (False); None (default): what the model file says (metadata

@@ -6,8 +6,8 @@ readable ONNX graph written by :mod:`nn_export.training.export` (format key), wi
 input of the size its feature layout says and one output of (batch, 2) (a command) or, for a
 plan network (metadata ``output`` = ``plan``), (batch, 2 H), a feature layout name and
 version this code computes, a preset, horizon and sample time equal to the ones it is asked
-to run with, and the robot it was trained for or a smaller one (:func:`serves_robot`). Anything else is a one-line ``ValueError`` (``FileNotFoundError`` for a
-missing file).
+to run with, and the robot it was trained for or a smaller one (:func:`serves_robot`).
+Anything else is a one-line ``ValueError`` (``FileNotFoundError`` for a missing file).
 """
 from __future__ import annotations
 

@@ -46,6 +46,8 @@ def test_one_nlp_serves_every_robot_size(name):
     a, b = build_problem(PRESETS[name], SHIPPED), build_problem(PRESETS[name], SMALL)
     assert _library_key("fatrop", a.nlp, "gcc", {}) == _library_key("fatrop", b.nlp, "gcc", {})
     assert a.layout.size == b.layout.size and a.layout.slices()["robot_r"].stop == a.layout.size
+    assert a.code_key == b.code_key  # a second size in one process loads the first's library
+    assert build_problem(PRESETS[name], replace(SMALL, wheel_base_m=0.45)).code_key != a.code_key
     x0, ref = np.zeros(5), np.zeros((a.config.horizon, 3))
     assert a.layout.pack(x0, ref)[-1] == 0.35 and b.layout.pack(x0, ref)[-1] == 0.22
 

@@ -247,6 +247,14 @@ class GPCProblem:
     def n_u(self) -> int:
         return 2 * self.config.horizon
 
+    @property
+    def code_key(self) -> tuple:
+        """What the NLP's generated code depends on besides a solver's own options
+        (:func:`~casadi_gpc.solvers.compiling.known_library`): the settings and the robot but its
+        radius, a parameter (robots of every size share the code)."""
+        r = self.robot
+        return self.config, r.wheel_base_m, r.max_wheel_speed_mps, r.max_wheel_accel_mps2
+
 
 def _smooth_positive(d, eps):
     return 0.5 * (d + ca.sqrt(d * d + eps * eps))

@@ -65,7 +65,7 @@ def _stagewise(problem: GPCProblem):
 
 def _library_what(name: str, problem: GPCProblem) -> tuple:
     """What fatrop's generated code depends on (:func:`~casadi_gpc.solvers.compiling.known_library`)."""
-    return ("fatrop", name, problem.config, problem.robot)
+    return ("fatrop", name, *problem.code_key)
 
 
 def start_fatrop_library(problem: GPCProblem, name: str = "fatrop") -> Compile | None:

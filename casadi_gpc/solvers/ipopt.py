@@ -41,7 +41,7 @@ def _library_what(problem: GPCProblem) -> tuple:
     """What IPOPT's generated code depends on (:func:`~casadi_gpc.solvers.compiling.known_library`):
     the NLP only, not the options, so a second backend of the same problem in this process
     loads the library the first found."""
-    return ("ipopt", problem.config, problem.robot)
+    return ("ipopt", *problem.code_key)
 
 
 def start_ipopt_library(problem: GPCProblem) -> Compile | None:

@@ -195,7 +195,7 @@ class SqpBackend(CasadiBackend):
         scale = ca.SX.sym("scale")  # the objective's scale, appended to the parameters
         p_ext = ca.vertcat(nlp["p"], scale)
         scaled = {"x": nlp["x"], "p": p_ext, "f": scale * nlp["f"], "g": nlp["g"]}
-        what = ("sqpmethod", name, qpsol, problem.config, problem.robot)  # all the generated code depends on
+        what = ("sqpmethod", name, qpsol, *problem.code_key)  # all the generated code depends on
         known = known_library(what) if compiled else None
         if known is not None:  # this process built it before: no symbolic NLP, no code to hash
             self._from_library(tag, opts, known)

@@ -272,7 +272,7 @@ def effort_cost(config: PlannerConfig, dvr, dvl):
     return config.lambda1 * (dvr ** 2 + dvl ** 2)
 
 
-def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y, th, vr, vl):
+def state_cost(config: PlannerConfig, P: dict, i: int, x, y, th, vr, vl):
     """``(tracking, turning, obstacles, margin)`` of the state after step ``i`` (0-based).
 
     Together with :func:`effort_cost` this is the whole stage cost; it is used by the
@@ -299,7 +299,7 @@ def state_cost(config: PlannerConfig, robot: RobotParams, P: dict, i: int, x, y,
         t = ca.fmin(ca.fmax(((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy + 1e-12), 0.0), 1.0)
         obstacles.append((ax + t * dx, ay + t * dy, 0.0, P["wall_on"][j], 1.0, 0.0, config.xi_static))
     if i == H - 1:
-        margin_pen += beyond_horizon_cost(config, robot, P, x, y)
+        margin_pen += beyond_horizon_cost(config, P, x, y)
     margin_m, sigmas = margin_terms(config, P)
     for ox, oy, r_o, on, p_unc, sigma, xi in obstacles:
         centre = ca.sqrt((x - ox) ** 2 + (y - oy) ** 2 + 1e-12)
@@ -352,7 +352,7 @@ def layout_of(config: PlannerConfig, robot: RobotParams | None = None) -> Parame
                            (robot or RobotParams()).radius_m)
 
 
-def beyond_horizon_cost(config: PlannerConfig, robot: RobotParams, P: dict, x, y):
+def beyond_horizon_cost(config: PlannerConfig, P: dict, x, y):
     """The margin's penalty at :attr:`PlannerConfig.beyond_horizon_s` after the horizon's end,
     the robot standing at ``(x, y)`` (the plan's last position) and each mover carried on
     straight from its forecast's last position at the velocity of its last step (0 where
@@ -406,7 +406,7 @@ def build_problem(config: PlannerConfig, robot: RobotParams | None = None) -> GP
         effort += effort_cost(config, u[2 * i], u[2 * i + 1])
         poses.append(ca.horzcat(x, y, th))
         wheels.append(ca.horzcat(vr, vl))
-        terms = state_cost(config, robot, P, i, x, y, th, vr, vl)
+        terms = state_cost(config, P, i, x, y, th, vr, vl)
         tracking, turning = tracking + terms[0], turning + terms[1]
         obst, margin_pen = obst + terms[2], margin_pen + terms[3]
     J = tracking + effort + turning + obst + margin_pen

@@ -46,7 +46,7 @@ def _stagewise(problem: GPCProblem):
         for k in range(H + 1):
             w.append(X[k])
             if k > 0:
-                J += sum(state_cost(cfg, robot, P, k - 1, *(X[k][i] for i in range(5))))
+                J += sum(state_cost(cfg, P, k - 1, *(X[k][i] for i in range(5))))
             if k < H:
                 w.append(U[k])
                 J += effort_cost(cfg, U[k][0], U[k][1])

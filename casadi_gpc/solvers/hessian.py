@@ -41,7 +41,7 @@ def cost_hessian(problem: GPCProblem) -> ca.Function:
     hess = ca.SX(2 * H, 2 * H)
     weights = []
     for i, s in enumerate(states):
-        B, g = ca.hessian(sum(state_cost(cfg, robot, P, i, *(z[k] for k in range(5)))), z)
+        B, g = ca.hessian(sum(state_cost(cfg, P, i, *(z[k] for k in range(5)))), z)
         g_i, B_i = ca.Function(f"stage{i}", [z, p], [g, B])(s, p)
         J = ca.jacobian(s, u)
         hess += ca.tril(ca.mtimes([J.T, B_i, J]))

@@ -117,6 +117,11 @@ def test_the_shipped_network_drives_a_smaller_robot_and_refuses_a_larger_one():
     with pytest.raises(ValueError, match="another robot .*wheel_base_m") as info:
         OnnxPolicy(robot=replace(SMALL, wheel_base_m=0.45))
     assert "up to its own radius" not in str(info.value)
+    # the smaller disc, which it drives, is not named among what refuses it (it was: "radius_m,
+    # wheel_base_m differ"); a larger disc beside other wheels is
+    assert "radius_m" not in str(info.value)
+    with pytest.raises(ValueError, match=r"another robot \(radius_m, wheel_base_m differ"):
+        OnnxPolicy(robot=replace(SHIPPED, radius_m=0.45, wheel_base_m=0.45))
 
 
 def test_a_smaller_robot_behind_the_planner_free_check_crosses_a_crowd_with_its_own_radius():

@@ -92,3 +92,16 @@ def test_a_corridor_seed_whose_robot_starts_overlapping_is_named_not_written(tmp
     assert gap < 0
     paths, skipped = tool.export_corridor(tmp_path, count=2, seed=33)
     assert skipped == [34] and [p.name for p in paths] == ["navground-corridor-6-00033.toml"]
+
+
+def test_a_corridor_no_wider_than_the_robot_is_refused_before_any_file(tmp_path, capsys):
+    """--width 0.5 wrote every file (exit 0) with the 0.7 m robot touching a wall, and gpcnav
+    refused each of them; now refused in the tool before anything is written."""
+    with pytest.raises(ValueError, match="wider than the robot's disc"):
+        tool.export_corridor(tmp_path / "a", count=1, seed=1, width_m=0.5)
+    with pytest.raises(SystemExit) as exit_:
+        tool.main(["--scene", "corridor", "--out", str(tmp_path / "b"), "--count", "1", "--width", "0.7"])
+    assert exit_.value.code == 2 and "wider than the robot's disc" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+    paths, _ = tool.export_corridor(tmp_path / "c", count=1, seed=1, width_m=1.0)
+    load_scenario(paths[0])  # a corridor wider than the robot loads

@@ -200,7 +200,12 @@ def export_corridor(out: Path, count: int, seed: int, agents: int = 6, length_m:
     returns the files written and the seeds not written: navground spaces its agents apart
     but not always across the lattice's seam (seed 34 of the defaults starts agent 0 0.14 m
     into another's image), and a scenario file refuses a robot that starts overlapping a
-    walker; such a seed is left out and named, not repaired."""
+    walker; such a seed is left out and named, not repaired. A corridor no wider than the
+    robot's disc is refused (ValueError) before any file is written: every file's robot would
+    start touching a wall, which a scenario file refuses (they were all written, and none loaded)."""
+    if not width_m > 2 * robot_radius_m:
+        raise ValueError(f"--width {width_m:g} m: the corridor must be wider than the robot's disc "
+                         f"({2 * robot_radius_m:g} m across); each file's robot would start touching a wall")
     out.mkdir(parents=True, exist_ok=True)
     paths, skipped = [], []
     for i in range(count):
@@ -217,6 +222,10 @@ def export_corridor(out: Path, count: int, seed: int, agents: int = 6, length_m:
         path.write_text(to_toml(table), encoding="utf-8")
         paths.append(path)
     return paths, skipped
+
+
+ROBOT_RADIUS_M = 0.35
+"""The robot's radius in the files (the contract's robot; the files carry no [robot] override)."""
 
 
 def main(argv=None) -> int:
@@ -246,8 +255,12 @@ def main(argv=None) -> int:
     if not all(math.isfinite(v) and v > 0 for v in (a.length, a.width, a.radius, a.agent_radius, a.speed,
                                                      a.time_factor)):
         p.error("--length, --width, --radius, --agent-radius, --speed and --time-factor must be finite and positive")
+    if a.scene == "corridor" and not a.width > 2 * ROBOT_RADIUS_M:
+        p.error(f"--width {a.width:g} m: the corridor must be wider than the robot's disc ({2 * ROBOT_RADIUS_M:g} m "
+                f"across); each file's robot would start touching a wall")
     if a.scene == "corridor":
-        paths, skipped = export_corridor(a.out, a.count, a.seed, agents, a.length, a.width, a.agent_radius, 0.35,
+        paths, skipped = export_corridor(a.out, a.count, a.seed, agents, a.length, a.width, a.agent_radius,
+                                         ROBOT_RADIUS_M,
                                          a.speed, a.behaviour, not a.blind_walkers, a.time_factor)
         if skipped:
             print(f"{len(skipped)} seeds not written, navground's start has agent 0 overlapping a walker: "

@@ -112,18 +112,34 @@ def antipodal_table(world, name: str, seed: int, behaviour: str = "orca", sees_r
     return table
 
 
+def robot_overlaps(table: dict, robot_radius_m: float) -> bool:
+    """Whether the robot of a scenario ``table`` starts overlapping one of its walkers (a file
+    gpcnav refuses)."""
+    rx, ry = table["robot"]["position"]
+    return any(math.hypot(m["position"][0] - rx, m["position"][1] - ry) <= robot_radius_m + m["radius_m"]
+               for m in table["moving_obstacles"])
+
+
 def export(out: Path, count: int, seed: int, agents: int = 7, radius_m: float = 4.0, agent_radius_m: float = 0.3,
            speed_mps: float = 0.4, position_noise_m: float = 0.1, behaviour: str = "orca", sees_robot: bool = True,
-           time_factor: float = 3.0) -> list[Path]:
-    """Write ``count`` scenario files (navground seeds ``seed`` .. ``seed + count - 1``)."""
+           time_factor: float = 3.0, skipped: list | None = None) -> list[Path]:
+    """Write ``count`` scenario files (navground seeds ``seed`` .. ``seed + count - 1``). A
+    seed whose robot (0.35 m, larger than navground's agent 0) starts overlapping a walker is
+    left out, and appended to ``skipped``: a scenario file refuses it (before 2026-11-30 it was
+    written, and gpcnav refused it; ``--agents 20 --radius 1``)."""
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     for i in range(count):
         s = seed + i
         world = antipodal_world(agents, radius_m, agent_radius_m, speed_mps, position_noise_m, s)
         name = f"navground-antipodal-{agents}-{s:05d}"
+        table = antipodal_table(world, name, s, behaviour, sees_robot, time_factor)
+        if robot_overlaps(table, ROBOT_RADIUS_M):
+            if skipped is not None:
+                skipped.append(s)
+            continue
         path = out / f"{name}.toml"
-        path.write_text(to_toml(antipodal_table(world, name, s, behaviour, sees_robot, time_factor)), encoding="utf-8")
+        path.write_text(to_toml(table), encoding="utf-8")
         paths.append(path)
     return paths
 
@@ -213,9 +229,7 @@ def export_corridor(out: Path, count: int, seed: int, agents: int = 6, length_m:
         world = corridor_world(agents, length_m, width_m, agent_radius_m, robot_radius_m, speed_mps, s)
         name = f"navground-corridor-{agents}-{s:05d}"
         table = corridor_table(world, name, s, length_m, behaviour, sees_robot, time_factor)
-        (rx, ry), rr = table["robot"]["position"], float(world.agents[0].radius)
-        if any(math.hypot(m["position"][0] - rx, m["position"][1] - ry) <= rr + m["radius_m"]
-               for m in table["moving_obstacles"]):
+        if robot_overlaps(table, float(world.agents[0].radius)):
             skipped.append(s)
             continue
         path = out / f"{name}.toml"
@@ -262,12 +276,13 @@ def main(argv=None) -> int:
         paths, skipped = export_corridor(a.out, a.count, a.seed, agents, a.length, a.width, a.agent_radius,
                                          ROBOT_RADIUS_M,
                                          a.speed, a.behaviour, not a.blind_walkers, a.time_factor)
-        if skipped:
-            print(f"{len(skipped)} seeds not written, navground's start has agent 0 overlapping a walker: "
-                  f"{', '.join(map(str, skipped))}", file=sys.stderr)
     else:
+        skipped = []
         paths = export(a.out, a.count, a.seed, agents, a.radius, a.agent_radius, a.speed, a.position_noise,
-                       a.behaviour, not a.blind_walkers, a.time_factor)
+                       a.behaviour, not a.blind_walkers, a.time_factor, skipped)
+    if skipped:
+        print(f"{len(skipped)} seeds not written, navground's start has agent 0 (the robot) overlapping a walker: "
+              f"{', '.join(map(str, skipped))}", file=sys.stderr)
     print(f"{len(paths)} scenario files in {a.out}", file=sys.stderr)
     return 0
 

@@ -86,6 +86,8 @@ def _stop(signum, frame):
     :func:`main` has caught one, and what finishes meanwhile is not kept."""
     from casadi_gpc.io import request_stop
     request_stop()
+    if _STOPPED.is_set():  # main() is saying so already: another signal (``timeout`` sends SIGTERM to the
+        return             # process and then to its group; our own resend) would break off its one line
     if not _TERMINATING.is_set():
         _TERMINATING.set()
         threading.Thread(target=_repeat, args=(signum,), daemon=True).start()
@@ -97,8 +99,10 @@ def _repeat(signum):
         os.kill(os.getpid(), signum)
 
 
-def _stopped(args, terminated: bool) -> int:
-    _STOPPED.set()
+def _stopped(args, exc: BaseException) -> int:
+    """The stop's one line and exit status (``exc``: the exception it came as)."""
+    _STOPPED.set()  # first: a signal from now on is not raised (_stop)
+    terminated = _terminated(exc)
     resumes = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
     if args.command == "dataset" and getattr(args, "dagger", None) is not None:
         resumes = "; an on-policy round is kept only whole: the same command runs it again"
@@ -118,28 +122,34 @@ def main(argv=None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = {sig: signal.signal(sig, _stop) for sig in _SIGNALS}
     try:
-        return int(args._run(args) or 0)
-    except (UsageError, ScenarioError, ProtocolError) as exc:
-        if stop_requested():
-            return _stopped(args, _terminated(exc))
-        print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt as exc:
-        return _stopped(args, _terminated(exc))
-    except OSError as exc:
-        if stop_requested():
-            return _stopped(args, _terminated(exc))
-        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        try:
+            return int(args._run(args) or 0)
+        except (UsageError, ScenarioError, ProtocolError) as exc:
+            if stop_requested():
+                return _stopped(args, exc)
+            print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt as exc:
+            return _stopped(args, exc)
+        except OSError as exc:
+            if stop_requested():
+                return _stopped(args, exc)
+            if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+                raise
+            # a full disk: what finished before is kept (every file is written whole or not at all)
+            print(f"gpcnav {args.command}: error: {exc.strerror}: {exc.filename or 'a file'}", file=sys.stderr)
+            return 1
+        except Exception as exc:
+            # a stop raised inside a library's call back into Python comes out as its error (numpy's,
+            # CasADi's SystemError "returned a result with an exception set"): a stop all the same
+            if stop_requested():
+                return _stopped(args, exc)
             raise
-        # a full disk: what finished before is kept (every file is written whole or not at all)
-        print(f"gpcnav {args.command}: error: {exc.strerror}: {exc.filename or 'a file'}", file=sys.stderr)
-        return 1
-    except Exception as exc:
-        # a stop raised inside a library's call back into Python comes out as its error (numpy's,
-        # CasADi's SystemError "returned a result with an exception set"): a stop all the same
-        if stop_requested():
-            return _stopped(args, _terminated(exc))
-        raise
+    except KeyboardInterrupt as exc:
+        # a second signal that landed while the first was being handled, before _stopped() (a
+        # `timeout` sends SIGTERM twice, to the process and to its group: a traceback of two
+        # Terminated until 2026-11-30); the chain of exceptions holds the first
+        return _stopped(args, exc)
     finally:
         _STOPPED.set()
         clear_stop()

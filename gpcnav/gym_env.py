@@ -51,6 +51,7 @@ The observation vector and the reward are :class:`ObservationLayout` and
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -66,6 +67,7 @@ from casadi_gpc.types import ControlDecision, Observation
 from nn_export.runtime.features import wrap_pi
 
 from . import ENV_ID, register_envs
+from .errors import UsageError
 
 __all__ = ["ENV_ID", "DEFAULT_SUITE", "NavigationEnv", "ObservationLayout", "RewardSettings", "register_envs"]
 
@@ -207,8 +209,9 @@ class NavigationEnv(Env):
         else:
             from scenarios import Suite
             from scenarios.suites import check_suite_options
-            if count is not None and count < 1:
-                raise ValueError(f"count must be at least 1, got {count}")
+            if count is not None and (isinstance(count, bool) or not isinstance(count, numbers.Integral)
+                                      or count < 1):  # (2.5 was taken: the draws' set was [0, 2.5))
+                raise ValueError(f"count must be a whole number of episodes, at least 1, got {count!r}")
             check_suite_options(suite, movers, behaviour)
             self.suite = Suite(suite, count or 1, suite_seed, 5 if movers is None else movers, behaviour)
         self.count = count
@@ -227,6 +230,14 @@ class NavigationEnv(Env):
         """The controller whose answers go into ``info["expert_action"]`` this episode (None
         without ``expert``): made for the episode's robot, and with the preset's wall slots
         where its scenario has walls."""
+        if expert is not None and self._file_scenario is not None:
+            # the file's robot, refused now (a network trained for another robot) rather than at the first reset
+            from .controllers import ControllerSpec, check
+            try:
+                check(ControllerSpec(str(expert)), self.config.for_walls(bool(self._file_scenario.walls)),
+                      self._file_scenario.robot)
+            except UsageError as exc:
+                raise ValueError(f"expert {expert!r} on {scenario!s}: {exc}") from None
 
     # --- episodes ----------------------------------------------------------------------
     def _check_duration(self, scenario) -> None:
@@ -239,6 +250,9 @@ class NavigationEnv(Env):
 
     def _next_scenario(self, options: dict | None):
         if self._file_scenario is not None:
+            if (options or {}).get("index") is not None:  # (it was taken and ignored)
+                source = self._file_scenario.source or self._file_scenario.name
+                raise ValueError(f"options index: episodes of a suite; scenario={source} runs its one episode")
             return self._file_scenario.with_seed(int(self.np_random.integers(0, 2 ** 31 - 1)))
         index = (options or {}).get("index")
         if index is None:

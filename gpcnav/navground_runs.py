@@ -5,7 +5,7 @@ target, collided, ended stuck, and their efficacy.
 (one group ``run_<i>`` per run, with the world's YAML as an attribute); this reads it with
 h5py (``pip install h5py``; navground's own reader needs it too)::
 
-    python -m gpcnav.navground_runs experiment_.../data.h5
+    python -m gpcnav.navground_runs experiment_.../data.h5    # several: one table each
 
 What each figure is, per agent and run (an "agent-run"):
 
@@ -140,22 +140,29 @@ def markdown(summaries: list[BehaviourSummary]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m gpcnav.navground_runs", description=__doc__.split("\n\n")[0])
-    parser.add_argument("data", type=Path, help="navground's recorded data.h5")
+    parser.add_argument("data", type=Path, nargs="+",
+                        help="navground's recorded data.h5 (several: one table each, under its name)")
     args = parser.parse_args(argv)
-    try:
-        summaries = summarise(args.data)
-    except (OSError, KeyError, ValueError) as exc:  # not there, not HDF5, not navground's layout
-        what = str(exc)
-        missing = [r for r, words in RECORDS.items() if any(w in what for w in words)] if args.data.is_file() else []
-        hint = f"; record it in the experiment: {', '.join(f'{r}: true' for r in missing)}" if missing else ""
-        print(f"{parser.prog}: error: {args.data}: cannot read navground's recorded runs ({what}){hint}",
-              file=sys.stderr)
-        return 2
-    if not summaries:
-        print(f"{parser.prog}: error: {args.data}: no run recorded (an experiment that stopped before its first run)",
-              file=sys.stderr)
-        return 2
-    print(markdown(summaries))
+    tables = []
+    for data in args.data:  # each read before anything is printed (experiment_*/data.h5 matched several
+        try:                # folders after a second run, and was refused as unrecognized arguments)
+            summaries = summarise(data)
+        except (OSError, KeyError, ValueError) as exc:  # not there, not HDF5, not navground's layout
+            what = str(exc)
+            missing = [r for r, words in RECORDS.items() if any(w in what for w in words)] if data.is_file() else []
+            hint = f"; record it in the experiment: {', '.join(f'{r}: true' for r in missing)}" if missing else ""
+            print(f"{parser.prog}: error: {data}: cannot read navground's recorded runs ({what}){hint}",
+                  file=sys.stderr)
+            return 2
+        if not summaries:
+            print(f"{parser.prog}: error: {data}: no run recorded (an experiment that stopped before its first run)",
+                  file=sys.stderr)
+            return 2
+        tables.append(markdown(summaries))
+    if len(tables) == 1:
+        print(tables[0])
+    else:
+        print("\n\n".join(f"{data}:\n\n{table}" for data, table in zip(args.data, tables)))
     return 0
 
 

@@ -447,6 +447,28 @@ def test_dagger_round_on_scenario_files(reference_dataset, tmp_path):
     assert part["samples"] == len(shard["labels"]) == 2 * sum(steps)  # each situation and its mirror image
 
 
+def test_dagger_files_of_another_robot_are_refused(reference_dataset, tmp_path):
+    """A ``--dagger-files`` file whose ``[robot]`` is not the dataset's robot (its wheel base,
+    a larger disc) is refused in one line naming it and the fields, exit 2, nothing appended:
+    its episode moved that robot while the GPC labelled (and the network drove) the dataset's
+    (it ran, exit 0, until 2026-11-30)."""
+    from scenarios import PAPER_DIR
+    src, _ = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    before = read_manifest(out)
+    text = (PAPER_DIR / "fig7_2_crossing.toml").read_text()
+    other = tmp_path / "other_robot.toml"
+    other.write_text(text.replace("[robot]\n", "[robot]\nwheel_base_m = 0.3\nradius_m = 0.5\n", 1))
+    argv = [sys.executable, "-m", "gpcnav", "dataset", "--out", str(out), "--dagger", "gpc", "--preset", "paper",
+            "--workers", "1", "--dagger-files", str(PAPER_DIR / "fig7_1_head_on.toml"), str(other)]
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "other_robot.toml" in lines[0], proc.stderr
+    assert "wheel_base_m 0.3 vs 0.5" in lines[0] and "radius_m 0.5 vs 0.35" in lines[0]
+    assert read_manifest(out) == before
+
+
 @pytest.mark.slow  # kept out of the default suite for its time (CI: under 10 minutes)
 def test_train_on_some_parts_only(reference_dataset, tmp_path):
     """gpcnav train --parts: the model is fitted on the named parts only (its provenance says

@@ -201,3 +201,34 @@ def test_a_negative_episode_index_is_refused():
     env.reset(seed=0, options={"index": 1})
     with pytest.raises(ValueError, match="an episode of the suite is 0 or more"):
         env.reset(seed=0, options={"index": -1})
+
+
+@pytest.mark.parametrize("count", [2.5, True, "3"])
+def test_a_count_that_is_no_whole_number_is_refused_when_made(count):
+    """count=2.5 was taken (each reset drew from [0, 2.5)); it is a number of episodes."""
+    with pytest.raises(ValueError, match="count must be a whole number of episodes"):
+        NavigationEnv(suite="circle-crossing", movers=3, count=count)
+    assert NavigationEnv(suite="circle-crossing", movers=3, count=np.int64(2)).count == 2
+
+
+def test_an_episode_index_given_to_a_file_is_refused():
+    """options index picks a suite's episode; a file's one episode ran whatever index was given."""
+    env = NavigationEnv(scenario=PAPER_DIR / "fig7_2_crossing.toml")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="options index: episodes of a suite"):
+        env.reset(seed=0, options={"index": 3})
+    env.reset(seed=0, options={})
+
+
+def test_an_expert_network_that_cannot_drive_the_file_s_robot_is_refused_when_made(tmp_path):
+    """expert="nn" on a file whose robot is larger than the network's 0.35 m: a ValueError
+    naming the file when the environment is made (it was a UsageError at the first reset);
+    a smaller robot it drives."""
+    text = (PAPER_DIR / "fig7_2_crossing.toml").read_text()
+    big, small = tmp_path / "big.toml", tmp_path / "small.toml"
+    big.write_text(text.replace("[robot]\n", "[robot]\nradius_m = 0.4\n", 1))
+    small.write_text(text.replace("[robot]\n", "[robot]\nradius_m = 0.25\n", 1))
+    with pytest.raises(ValueError, match=r"expert 'nn' on .*big\.toml: .*another robot"):
+        NavigationEnv(scenario=big, expert="nn")
+    env = NavigationEnv(scenario=small, expert="nn")
+    assert "expert_action" in env.reset(seed=0)[1]

@@ -92,3 +92,29 @@ def test_a_corridor_seed_whose_robot_starts_overlapping_is_named_not_written(tmp
     assert gap < 0
     paths, skipped = tool.export_corridor(tmp_path, count=2, seed=33)
     assert skipped == [34] and [p.name for p in paths] == ["navground-corridor-6-00033.toml"]
+
+
+def test_a_corridor_no_wider_than_the_robot_is_refused_before_any_file(tmp_path, capsys):
+    """--width 0.5 wrote every file (exit 0) with the 0.7 m robot touching a wall, and gpcnav
+    refused each of them; now refused in the tool before anything is written."""
+    with pytest.raises(ValueError, match="wider than the robot's disc"):
+        tool.export_corridor(tmp_path / "a", count=1, seed=1, width_m=0.5)
+    with pytest.raises(SystemExit) as exit_:
+        tool.main(["--scene", "corridor", "--out", str(tmp_path / "b"), "--count", "1", "--width", "0.7"])
+    assert exit_.value.code == 2 and "wider than the robot's disc" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+    paths, _ = tool.export_corridor(tmp_path / "c", count=1, seed=1, width_m=1.0)
+    load_scenario(paths[0])  # a corridor wider than the robot loads
+
+
+def test_an_antipodal_seed_whose_robot_starts_overlapping_is_named_not_written(tmp_path, capsys):
+    """20 agents on a 1 m circle: the 0.35 m robot overlaps a walker at the start; the file
+    was written and gpcnav refused it. Now left out and named, as the corridor's."""
+    skipped = []
+    assert tool.export(tmp_path / "a", count=2, seed=1, agents=20, radius_m=1.0, skipped=skipped) == []
+    assert skipped == [1, 2]
+    assert tool.main(["--out", str(tmp_path / "b"), "--count", "2", "--seed", "1", "--agents", "20",
+                      "--radius", "1"]) == 0
+    err = capsys.readouterr().err
+    assert "2 seeds not written" in err and "0 scenario files" in err
+    assert list((tmp_path / "b").glob("*.toml")) == []

@@ -280,3 +280,25 @@ def test_recorded_runs_without_a_record_they_need_say_which(tmp_path, capsys):
     assert main([str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "record_world: true" in err
+
+
+def test_the_runs_summary_reads_several_experiments_one_table_each(tmp_path, capsys):
+    """`python -m gpcnav.navground_runs experiment_*/data.h5` (docs/navground.md) after a second
+    experiment in the same folder matched two files, and was refused as unrecognized arguments;
+    now one table each under its file's name, and a bad one of them is still one line, exit 2."""
+    pytest.importorskip("h5py")
+    from gpcnav.navground_runs import main
+    text = EXAMPLE.read_text().replace("type: GPC,", "type: GPCNetwork,")
+    paths = []
+    for k in range(2):
+        experiment = sim.load_experiment(text)
+        (tmp_path / f"e{k}").mkdir()
+        experiment.save_directory = str(tmp_path / f"e{k}")
+        experiment.run(number_of_runs=1)
+        paths.append(str(experiment.path))
+    assert main(paths) == 0
+    out = capsys.readouterr().out
+    assert out.count("| GPCNetwork | 2 |") == 2 and all(f"{p}:" in out for p in paths)
+    assert main([*paths, str(tmp_path / "missing.h5")]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.strip().count("\n") == 0 and "missing.h5" in captured.err

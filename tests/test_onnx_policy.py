@@ -418,3 +418,23 @@ def test_bench_network_rows_time_the_calls_the_policy_makes(paper_model):
         assert r["max_abs_diff_to_onnxruntime_mps"] <= 1e-6
     assert by_name["onnxruntime"]["back_to_back_time_s"]["count"] == 4 * 3
     assert network_summary(rows).startswith("network: the onnxruntime call inside the policy's decisions")
+
+
+def test_bench_network_rows_beside_walls_are_said_not_timed_as_zero():
+    """Beside walls every decision of the shipped policy goes to its walls network, so the
+    main network's call rows time nothing: forward_rows makes no rows (they were rows of
+    0.000 ms over no call, `gpcnav bench` of a corridor file) and unmeasured_reason says why."""
+    from nn_export.training.bench_rows import ObservationRecorder, forward_rows, unmeasured_reason
+    from scenarios import Suite
+    from scenarios.simulator import simulate
+    scenario = Suite("corridor", 1, 901).scenario(0)
+    robot = replace(scenario.robot, radius_m=0.25)
+    scenario = replace(scenario, robot=robot)
+    rec = ObservationRecorder(OnnxPolicy(robot=robot))
+    simulate(scenario, rec)
+    observations = rec.observations[:12]
+    assert len(observations) == 12
+    path = rec.policy.model_info["path"]
+    assert forward_rows(path, observations, rounds=1, robot=robot) == []
+    reason = unmeasured_reason(path, observations, robot)
+    assert "not measured" in reason and "the walls network 12" in reason

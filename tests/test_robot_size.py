@@ -119,6 +119,11 @@ def test_the_shipped_network_drives_a_smaller_robot_and_refuses_a_larger_one():
     with pytest.raises(ValueError, match="another robot .*wheel_base_m") as info:
         OnnxPolicy(robot=replace(SMALL, wheel_base_m=0.45))
     assert "up to its own radius" not in str(info.value)
+    # the smaller disc, which it drives, is not named among what refuses it (it was: "radius_m,
+    # wheel_base_m differ"); a larger disc beside other wheels is
+    assert "radius_m" not in str(info.value)
+    with pytest.raises(ValueError, match=r"another robot \(radius_m, wheel_base_m differ"):
+        OnnxPolicy(robot=replace(SHIPPED, radius_m=0.45, wheel_base_m=0.45))
 
 
 def test_a_smaller_robot_behind_the_planner_free_check_crosses_a_crowd_with_its_own_radius():
@@ -137,3 +142,27 @@ def test_a_smaller_robot_behind_the_planner_free_check_crosses_a_crowd_with_its_
         log = simulate(small, make(ControllerSpec("nn"), cfg, small.robot), "nn")
         assert log.outcome == "reached_goal", (i, log.outcome)
         assert log.min_clearance_m > 0.0
+
+
+def test_make_files_refuses_a_radius_the_loader_refuses_and_writes_nothing(tmp_path):
+    """docs/data/robot_size/make_files.py wrote every file of a radius gpcnav then refused (a
+    negative one, a corridor robot touching the walls); now one line, exit 2, no file."""
+    import subprocess
+    import sys
+
+    from conftest import REPO
+    from scenarios import load_scenario
+    script = REPO / "docs" / "data" / "robot_size" / "make_files.py"
+
+    def make(radius, out):
+        return subprocess.run([sys.executable, str(script), "corridor", "2", "901", "-", "-", radius, str(out)],
+                              capture_output=True, text=True, timeout=120, cwd=REPO)
+
+    for radius in ("-1", "1.3"):
+        proc = make(radius, tmp_path / radius)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+        assert "corridor-orca-5-901-0000" in proc.stderr and not (tmp_path / radius).exists()
+    proc = make("0.25", tmp_path / "ok")
+    assert proc.returncode == 0, proc.stderr
+    files = sorted((tmp_path / "ok").glob("*.toml"))
+    assert len(files) == 2 and all(load_scenario(f).robot.radius_m == 0.25 for f in files)

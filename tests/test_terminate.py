@@ -189,3 +189,52 @@ def test_a_stopped_on_policy_round_and_a_full_disk_say_so_in_one_line(tmp_path, 
     monkeypatch.setattr(module, "run", full)
     assert cli.main(argv) == 1
     assert capsys.readouterr().err.strip() == f"gpcnav dataset: error: No space left on device: {tmp_path / 'E.json'}"
+
+
+
+def test_a_signal_that_comes_again_while_the_stop_is_handled_is_still_one_line(monkeypatch, capsys):
+    """`timeout` sends SIGTERM to the command and then to its process group: the second landed
+    while main() was handling the first (measured: `timeout 60 gpcnav evaluate --suite ucy
+    --count 100000`), and the command ended in a traceback of two Terminated where one line
+    was promised. Here the second comes, deterministically, while the first is handled."""
+    from gpcnav import cli
+    from gpcnav.commands import simulate
+
+    def stopped_run(args):
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5.0)  # (the handler raises Terminated here)
+        raise AssertionError("not stopped")
+
+    original = cli._terminated
+
+    def again_while_handled(exc):
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(1000):  # bytecodes: where the handler of the second signal runs
+            pass
+        return original(exc)
+
+    monkeypatch.setattr(simulate, "run", stopped_run)
+    monkeypatch.setattr(cli, "_terminated", again_while_handled)
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        code = cli.main(["simulate", str(REPO / "scenarios" / "paper" / "fig7_1_head_on.toml"), "--controller",
+                         "stand"])
+    finally:
+        for sig, handler in previous.items():  # (main() leaves them ignored after a stop)
+            signal.signal(sig, handler)
+    assert code == 143
+    assert capsys.readouterr().err.strip().splitlines() == ["gpcnav simulate: terminated"]
+
+
+def test_timeout_s_two_sigterms_stop_a_command_in_one_line(tmp_path):
+    """The same through `timeout` itself, the run stopped while it makes a large UCY suite's
+    scenarios, before any episode."""
+    import shutil
+    exe = shutil.which("timeout") or pytest.skip("no timeout command")
+    argv = ["evaluate", "--suite", "ucy", "--count", "100000", "--seed", "1", "--controller", "stand",
+            "--workers", "1", "--out", "E.json"]
+    proc = subprocess.run([exe, "--preserve-status", "6", sys.executable, "-m", "gpcnav", *argv], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert proc.returncode == 143, proc.stderr
+    assert proc.stderr.strip().splitlines() == [
+        "gpcnav evaluate: terminated; what finished is kept: the same command resumes"]

@@ -112,18 +112,34 @@ def antipodal_table(world, name: str, seed: int, behaviour: str = "orca", sees_r
     return table
 
 
+def robot_overlaps(table: dict, robot_radius_m: float) -> bool:
+    """Whether the robot of a scenario ``table`` starts overlapping one of its walkers (a file
+    gpcnav refuses)."""
+    rx, ry = table["robot"]["position"]
+    return any(math.hypot(m["position"][0] - rx, m["position"][1] - ry) <= robot_radius_m + m["radius_m"]
+               for m in table["moving_obstacles"])
+
+
 def export(out: Path, count: int, seed: int, agents: int = 7, radius_m: float = 4.0, agent_radius_m: float = 0.3,
            speed_mps: float = 0.4, position_noise_m: float = 0.1, behaviour: str = "orca", sees_robot: bool = True,
-           time_factor: float = 3.0) -> list[Path]:
-    """Write ``count`` scenario files (navground seeds ``seed`` .. ``seed + count - 1``)."""
+           time_factor: float = 3.0, skipped: list | None = None) -> list[Path]:
+    """Write ``count`` scenario files (navground seeds ``seed`` .. ``seed + count - 1``). A
+    seed whose robot (0.35 m, larger than navground's agent 0) starts overlapping a walker is
+    left out, and appended to ``skipped``: a scenario file refuses it (before 2026-11-30 it was
+    written, and gpcnav refused it; ``--agents 20 --radius 1``)."""
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     for i in range(count):
         s = seed + i
         world = antipodal_world(agents, radius_m, agent_radius_m, speed_mps, position_noise_m, s)
         name = f"navground-antipodal-{agents}-{s:05d}"
+        table = antipodal_table(world, name, s, behaviour, sees_robot, time_factor)
+        if robot_overlaps(table, ROBOT_RADIUS_M):
+            if skipped is not None:
+                skipped.append(s)
+            continue
         path = out / f"{name}.toml"
-        path.write_text(to_toml(antipodal_table(world, name, s, behaviour, sees_robot, time_factor)), encoding="utf-8")
+        path.write_text(to_toml(table), encoding="utf-8")
         paths.append(path)
     return paths
 
@@ -200,7 +216,12 @@ def export_corridor(out: Path, count: int, seed: int, agents: int = 6, length_m:
     returns the files written and the seeds not written: navground spaces its agents apart
     but not always across the lattice's seam (seed 34 of the defaults starts agent 0 0.14 m
     into another's image), and a scenario file refuses a robot that starts overlapping a
-    walker; such a seed is left out and named, not repaired."""
+    walker; such a seed is left out and named, not repaired. A corridor no wider than the
+    robot's disc is refused (ValueError) before any file is written: every file's robot would
+    start touching a wall, which a scenario file refuses (they were all written, and none loaded)."""
+    if not width_m > 2 * robot_radius_m:
+        raise ValueError(f"--width {width_m:g} m: the corridor must be wider than the robot's disc "
+                         f"({2 * robot_radius_m:g} m across); each file's robot would start touching a wall")
     out.mkdir(parents=True, exist_ok=True)
     paths, skipped = [], []
     for i in range(count):
@@ -208,15 +229,17 @@ def export_corridor(out: Path, count: int, seed: int, agents: int = 6, length_m:
         world = corridor_world(agents, length_m, width_m, agent_radius_m, robot_radius_m, speed_mps, s)
         name = f"navground-corridor-{agents}-{s:05d}"
         table = corridor_table(world, name, s, length_m, behaviour, sees_robot, time_factor)
-        (rx, ry), rr = table["robot"]["position"], float(world.agents[0].radius)
-        if any(math.hypot(m["position"][0] - rx, m["position"][1] - ry) <= rr + m["radius_m"]
-               for m in table["moving_obstacles"]):
+        if robot_overlaps(table, float(world.agents[0].radius)):
             skipped.append(s)
             continue
         path = out / f"{name}.toml"
         path.write_text(to_toml(table), encoding="utf-8")
         paths.append(path)
     return paths, skipped
+
+
+ROBOT_RADIUS_M = 0.35
+"""The robot's radius in the files (the contract's robot; the files carry no [robot] override)."""
 
 
 def main(argv=None) -> int:
@@ -246,15 +269,20 @@ def main(argv=None) -> int:
     if not all(math.isfinite(v) and v > 0 for v in (a.length, a.width, a.radius, a.agent_radius, a.speed,
                                                      a.time_factor)):
         p.error("--length, --width, --radius, --agent-radius, --speed and --time-factor must be finite and positive")
+    if a.scene == "corridor" and not a.width > 2 * ROBOT_RADIUS_M:
+        p.error(f"--width {a.width:g} m: the corridor must be wider than the robot's disc ({2 * ROBOT_RADIUS_M:g} m "
+                f"across); each file's robot would start touching a wall")
     if a.scene == "corridor":
-        paths, skipped = export_corridor(a.out, a.count, a.seed, agents, a.length, a.width, a.agent_radius, 0.35,
+        paths, skipped = export_corridor(a.out, a.count, a.seed, agents, a.length, a.width, a.agent_radius,
+                                         ROBOT_RADIUS_M,
                                          a.speed, a.behaviour, not a.blind_walkers, a.time_factor)
-        if skipped:
-            print(f"{len(skipped)} seeds not written, navground's start has agent 0 overlapping a walker: "
-                  f"{', '.join(map(str, skipped))}", file=sys.stderr)
     else:
+        skipped = []
         paths = export(a.out, a.count, a.seed, agents, a.radius, a.agent_radius, a.speed, a.position_noise,
-                       a.behaviour, not a.blind_walkers, a.time_factor)
+                       a.behaviour, not a.blind_walkers, a.time_factor, skipped)
+    if skipped:
+        print(f"{len(skipped)} seeds not written, navground's start has agent 0 (the robot) overlapping a walker: "
+              f"{', '.join(map(str, skipped))}", file=sys.stderr)
     print(f"{len(paths)} scenario files in {a.out}", file=sys.stderr)
     return 0
 

@@ -86,8 +86,11 @@ def network_rows(args, doc) -> None:
     recorder = getattr(args, "_nn_recorder", None)
     if recorder is None or not recorder.observations:
         return
-    from nn_export.training.bench_rows import forward_rows, network_speedups
-    rows = forward_rows(recorder.policy.model_info["path"], recorder.observations)
+    from nn_export.training.bench_rows import forward_rows, network_speedups, unmeasured_reason
+    path, robot = recorder.policy.model_info["path"], recorder.policy.robot
+    rows = forward_rows(path, recorder.observations, robot=robot)
+    if not rows:  # every decision by a side network (walls, crowd): said, not rows of 0 ms
+        doc["network_rows_not_measured"] = unmeasured_reason(path, recorder.observations, robot)
     doc["results"] += rows
     doc["speedup"].update(network_speedups(doc["results"], doc["chosen"]["name"], doc["reference"]))
     doc["network"] = recorder.policy.model_info
@@ -223,6 +226,8 @@ def run(args) -> int:
     if any(r["name"] == "onnxruntime" for r in doc["results"]):
         from nn_export.training.bench_rows import network_summary
         print(network_summary(doc["results"]))
+    elif doc.get("network_rows_not_measured"):
+        print(doc["network_rows_not_measured"])
     for d in doc["decisions"]:
         t, cv = d["time_s"], d["candidates_vs_multistart"]
         print(f"decision on {d['scenario']} ({d['movers']} movers, closed loop, behind the check layer): median "

@@ -245,7 +245,7 @@ def _dagger(args) -> int:
         raise UsageError(f"--movers must not be negative, got {args.movers}")
     movers = 5 if args.movers is None else args.movers
     if args.dagger_files:
-        scenarios = _dagger_files(args.dagger_files, suite_seed, args.start_offset)
+        scenarios = _dagger_files(args.dagger_files, suite_seed, args.start_offset, robot)
         suite, episodes = "files", len(scenarios)
     else:
         episodes = 100 if args.episodes is None else args.episodes
@@ -321,12 +321,24 @@ def _check_solver_for(config, layout, solver: str) -> None:
     _check_solver(DatasetSpec(1, config, layout, solver=solver))
 
 
-def _dagger_files(paths, suite_seed: int, start_offset_m: float) -> list:
+def _dagger_files(paths, suite_seed: int, start_offset_m: float, robot=None) -> list:
     """The round's episodes from scenario files (each read and checked before any work; a bad
     one is a one-line error naming it), their starts moved as :func:`_dagger_scenarios` moves
-    a suite's."""
+    a suite's. A file whose ``[robot]`` is not ``robot``, the one the dataset is labelled for
+    and its driver made for, is refused in one line naming it: its episode would move another
+    robot than the one the labels plan (before 2026-11-30 it was driven and labelled, silently)."""
     from scenarios import load_scenario
-    return _offset([load_scenario(p) for p in paths], suite_seed, start_offset_m)
+    scenarios = [load_scenario(p) for p in paths]
+    if robot is not None:
+        mine = robot.to_dict()
+        for path, sc in zip(paths, scenarios):
+            theirs = sc.robot.to_dict()
+            differ = [k for k in mine if theirs[k] != mine[k]]
+            if differ:
+                raise UsageError(f"{path}: its robot is not the one the dataset is labelled for ("
+                                 + ", ".join(f"{k} {theirs[k]:g} vs {mine[k]:g}" for k in differ)
+                                 + "): a round drives and labels that robot only; drop the file's [robot] overrides")
+    return _offset(scenarios, suite_seed, start_offset_m)
 
 
 def _behaviour(suite: str, behaviour: str | None) -> str:

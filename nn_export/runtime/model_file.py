@@ -182,6 +182,10 @@ def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str
                          f"H={cfg.horizon}, T={cfg.sample_time_s} s")
     if not serves_robot(model_robot, robot):
         diff = sorted(k for k in set(model_robot) | set(robot.to_dict()) if model_robot.get(k) != robot.to_dict().get(k))
+        trained_r = model_robot.get("radius_m")
+        if ("radius_m" in diff and len(diff) > 1 and isinstance(trained_r, (int, float))
+                and robot.radius_m <= trained_r):
+            diff.remove("radius_m")  # a smaller disc it drives: the wheels are what refuse it, not named beside them
         larger = diff == ["radius_m"]
         raise ValueError(f"{path}: model trained for another robot ({', '.join(diff)} differ: "
                          f"{ {k: model_robot.get(k) for k in diff} } vs { {k: robot.to_dict().get(k) for k in diff} }"

@@ -37,7 +37,7 @@ from casadi_gpc.safety import Shield
 from ..runtime.policy import OnnxPolicy
 
 __all__ = ["policy_entries", "ObservationRecorder", "network_inputs", "graph_forward", "forward_rows",
-           "network_speedups", "network_summary"]
+           "unmeasured_reason", "network_speedups", "network_summary"]
 
 
 class ObservationRecorder:
@@ -184,17 +184,23 @@ ROUNDS = 5
 """Replays of the recorded observations per network row."""
 
 
-def forward_rows(model_path, observations, rounds: int = ROUNDS) -> list[dict]:
+def forward_rows(model_path, observations, rounds: int = ROUNDS, robot=None) -> list[dict]:
     """Rows ``onnxruntime``, ``nn-numpy`` and ``nn-torch``: every network call of an
-    :class:`OnnxPolicy` (the model's own number of passes) deciding on ``observations``,
-    timed inside its decisions (module docstring), ``rounds`` replays each; with each row's
-    largest output difference from onnxruntime on the network inputs of a replay, and for
-    onnxruntime the same call timed back to back (``back_to_back_time_s``), for comparison."""
+    :class:`OnnxPolicy` (the model's own number of passes, for ``robot``: the model's own
+    without) deciding on ``observations``, timed inside its decisions (module docstring),
+    ``rounds`` replays each; with each row's largest output difference from onnxruntime on
+    the network inputs of a replay, and for onnxruntime the same call timed back to back
+    (``back_to_back_time_s``), for comparison.
+
+    No rows (``[]``) where the replay never called the model's own network: every decision
+    went to a side network (the walls network beside walls, the crowd network), whose calls
+    these rows do not time (:func:`unmeasured_reason` says so). They were rows of 0.000 ms
+    over no call before 2026-11-30 (``gpcnav bench`` of any corridor file)."""
     import onnx
     from scenarios.metrics import time_stats
     model_path = Path(model_path)
     proto = onnx.load(model_path)
-    policy = OnnxPolicy(model_path)
+    policy = OnnxPolicy(model_path) if robot is None else OnnxPolicy(model_path, robot=robot)
     X = network_inputs(policy, observations)
     ref = policy.network(X)
     x_in, y_out = policy._x, policy._y  # the bound buffers the policy packs and reads
@@ -224,6 +230,8 @@ def forward_rows(model_path, observations, rounds: int = ROUNDS) -> list[dict]:
             for obs in observations:
                 policy.decide(obs)
     policy._run = ort_run
+    if not times["onnxruntime"]:
+        return []
     warm = []
     for x in X:
         x_in[0] = x
@@ -240,6 +248,20 @@ def forward_rows(model_path, observations, rounds: int = ROUNDS) -> list[dict]:
     if skipped:
         rows[0]["skipped_rows"] = skipped
     return rows
+
+
+def unmeasured_reason(model_path, observations, robot=None) -> str:
+    """Why :func:`forward_rows` made no rows on ``observations``: the side networks that
+    took the decisions, counted over one replay."""
+    policy = OnnxPolicy(model_path) if robot is None else OnnxPolicy(model_path, robot=robot)
+    policy.reset()
+    for obs in observations:
+        policy.decide(obs)
+    counters = policy.counters
+    side = [f"the {role} network {counters[role + '_network']}" for role in ("walls", "crowd")
+            if counters.get(role + "_network")]
+    return (f"network call rows (onnxruntime, nn-numpy, nn-torch) not measured: none of the {len(observations)} "
+            f"decisions called the model's own network ({', '.join(side) or 'a side network'} of them)")
 
 
 def network_speedups(rows: list[dict], chosen: str, reference: str) -> dict:

@@ -191,7 +191,6 @@ def test_a_stopped_on_policy_round_and_a_full_disk_say_so_in_one_line(tmp_path, 
     assert capsys.readouterr().err.strip() == f"gpcnav dataset: error: No space left on device: {tmp_path / 'E.json'}"
 
 
-
 def test_a_signal_that_comes_again_while_the_stop_is_handled_is_still_one_line(monkeypatch, capsys):
     """`timeout` sends SIGTERM to the command and then to its process group: the second landed
     while main() was handling the first (measured: `timeout 60 gpcnav evaluate --suite ucy
@@ -224,17 +223,3 @@ def test_a_signal_that_comes_again_while_the_stop_is_handled_is_still_one_line(m
             signal.signal(sig, handler)
     assert code == 143
     assert capsys.readouterr().err.strip().splitlines() == ["gpcnav simulate: terminated"]
-
-
-def test_timeout_s_two_sigterms_stop_a_command_in_one_line(tmp_path):
-    """The same through `timeout` itself, the run stopped while it makes a large UCY suite's
-    scenarios, before any episode."""
-    import shutil
-    exe = shutil.which("timeout") or pytest.skip("no timeout command")
-    argv = ["evaluate", "--suite", "ucy", "--count", "100000", "--seed", "1", "--controller", "stand",
-            "--workers", "1", "--out", "E.json"]
-    proc = subprocess.run([exe, "--preserve-status", "6", sys.executable, "-m", "gpcnav", *argv], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(REPO)})
-    assert proc.returncode == 143, proc.stderr
-    assert proc.stderr.strip().splitlines() == [
-        "gpcnav evaluate: terminated; what finished is kept: the same command resumes"]

@@ -194,8 +194,10 @@ def test_a_second_backend_of_the_same_settings_reuses_the_library_this_process_b
     problem = build_problem(SMALL)
     x0 = np.array([0.0, 0.0, 0.0, 0.2, 0.2])
     p = problem.layout.pack(x0, np.array([[0.4, 0.0, 0.0], [0.8, 0.1, 0.0]]))
-    for name, what in (("sqpmethod-daqp", ("sqpmethod", "sqpmethod-daqp", "daqp", SMALL, problem.robot)),
-                       ("fatrop", ("fatrop", "fatrop", SMALL, problem.robot))):
+    key = problem.code_key  # the settings and the robot's wheel limits (its radius is a parameter)
+    assert key[0] == SMALL
+    for name, what in (("sqpmethod-daqp", ("sqpmethod", "sqpmethod-daqp", "daqp", *key)),
+                       ("fatrop", ("fatrop", "fatrop", *key))):
         assert known_library(what) is None
         first = make_backend(name, problem)
         lib = known_library(what)
@@ -208,7 +210,7 @@ def test_a_second_backend_of_the_same_settings_reuses_the_library_this_process_b
         assert a.success and b.success
         np.testing.assert_array_equal(a.u, b.u)
         assert a.cost == b.cost
-        assert known_library((*what[:-2], replace(SMALL, lambda1=SMALL.lambda1 * 2), problem.robot)) is None
+        assert known_library((*what[:-len(key)], replace(SMALL, lambda1=SMALL.lambda1 * 2), *key[1:])) is None
     monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path / "elsewhere"))
     assert known_library(what) is None
 

@@ -50,6 +50,7 @@ def test_only_the_sensor_seed_changes_whatever_the_file_holds(tmp_path):
             assert "seed = 123456   # the noise's" in text and text.count("seed =") == 1
 
 
+@pytest.mark.slow  # kept out of the default suite for its time (CI: under 10 minutes)
 def test_two_runs_differ_in_their_noise_and_the_summary_counts_them(tmp_path):
     files = [_variants(tmp_path)["seeded"], _variants(tmp_path)["none"]]
     done = subprocess.run([sys.executable, str(TOOL), *map(str, files), "--out", str(tmp_path / "rep"), "--repeats",

@@ -238,6 +238,19 @@ class NavigationEnv(Env):
                       self._file_scenario.robot)
             except UsageError as exc:
                 raise ValueError(f"expert {expert!r} on {scenario!s}: {exc}") from None
+        if expert is not None:  # an expert of another sample time, refused now rather than at the first reset
+            self._check_expert_step(str(expert), example.robot)
+
+    def _check_expert_step(self, name: str, robot) -> None:
+        """Refuse an expert that decides at another sample time than the environment steps: the
+        planner's readers (``gpc``, ``mppi``) decide at the preset's, read without building them;
+        the others (the peers, the baselines, the network, a user's class) are made to ask."""
+        from .controllers import PLANNER_READERS, ControllerSpec, make
+        step = self.config.sample_time_s if name in PLANNER_READERS else \
+            make(ControllerSpec(name), self.config, robot).sample_time_s
+        if not math.isclose(step, self.sample_time_s):
+            raise ValueError(f"expert {name!r} decides every {step} s, the environment steps every "
+                             f"{self.sample_time_s} s")
 
     # --- episodes ----------------------------------------------------------------------
     def _check_duration(self, scenario) -> None:

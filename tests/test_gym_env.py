@@ -232,3 +232,16 @@ def test_an_expert_network_that_cannot_drive_the_file_s_robot_is_refused_when_ma
         NavigationEnv(scenario=big, expert="nn")
     env = NavigationEnv(scenario=small, expert="nn")
     assert "expert_action" in env.reset(seed=0)[1]
+
+
+@pytest.mark.parametrize("expert", ["gpc", "stand"])
+def test_an_expert_of_another_sample_time_is_refused_when_made(expert):
+    """An expert deciding every 0.5 s in an environment stepping every 0.25 s, and navground's
+    ORCA (every 0.1 s) in one stepping every 0.5 s: a ValueError when the environment is made
+    (it was raised at the first reset); an expert at the environment's own step is made."""
+    with pytest.raises(ValueError, match=rf"expert '{expert}' decides every 0.5 s, the environment steps every 0.25 s"):
+        NavigationEnv(suite="circle-crossing", expert=expert, sample_time_s=0.25)
+    NavigationEnv(suite="circle-crossing", expert=expert)
+    with pytest.raises(ValueError, match=r"expert 'orca' decides every 0.1 s, the environment steps every 0.5 s"):
+        NavigationEnv(suite="circle-crossing", expert="orca")
+    NavigationEnv(suite="circle-crossing", expert="orca", sample_time_s=0.1)

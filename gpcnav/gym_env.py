@@ -230,24 +230,24 @@ class NavigationEnv(Env):
         """The controller whose answers go into ``info["expert_action"]`` this episode (None
         without ``expert``): made for the episode's robot, and with the preset's wall slots
         where its scenario has walls."""
-        if expert is not None and self._file_scenario is not None:
-            # the file's robot, refused now (a network trained for another robot) rather than at the first reset
-            from .controllers import ControllerSpec, check
-            try:
-                check(ControllerSpec(str(expert)), self.config.for_walls(bool(self._file_scenario.walls)),
-                      self._file_scenario.robot)
-            except UsageError as exc:
-                raise ValueError(f"expert {expert!r} on {scenario!s}: {exc}") from None
-        if expert is not None:  # an expert of another sample time, refused now rather than at the first reset
-            self._check_expert_step(str(expert), example.robot)
+        if expert is not None:
+            self._check_expert(str(expert), example)
 
-    def _check_expert_step(self, name: str, robot) -> None:
-        """Refuse an expert that decides at another sample time than the environment steps: the
-        planner's readers (``gpc``, ``mppi``) decide at the preset's, read without building them;
-        the others (the peers, the baselines, the network, a user's class) are made to ask."""
+    def _check_expert(self, name: str, scenario) -> None:
+        """Refuse now, rather than at the first reset, an expert that cannot drive ``scenario``'s
+        robot (the network and a robot larger than it was trained for, or other wheels) or that
+        decides at another sample time than the environment steps. The planner's readers
+        (``gpc``, ``mppi``) drive any robot at the preset's step: read without building them; the
+        others (the peers, the baselines, the network, a user's class) are made once to ask."""
         from .controllers import PLANNER_READERS, ControllerSpec, make
-        step = self.config.sample_time_s if name in PLANNER_READERS else \
-            make(ControllerSpec(name), self.config, robot).sample_time_s
+        if name in PLANNER_READERS:
+            step = self.config.sample_time_s
+        else:
+            try:
+                step = make(ControllerSpec(name), self.config.for_walls(bool(scenario.walls)),
+                            scenario.robot).sample_time_s
+            except (UsageError, ValueError) as exc:
+                raise ValueError(f"expert {name!r} on {scenario.source or scenario.name}: {exc}") from None
         if not math.isclose(step, self.sample_time_s):
             raise ValueError(f"expert {name!r} decides every {step} s, the environment steps every "
                              f"{self.sample_time_s} s")

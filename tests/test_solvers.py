@@ -194,7 +194,7 @@ def test_a_second_backend_of_the_same_settings_reuses_the_library_this_process_b
     problem = build_problem(SMALL)
     x0 = np.array([0.0, 0.0, 0.0, 0.2, 0.2])
     p = problem.layout.pack(x0, np.array([[0.4, 0.0, 0.0], [0.8, 0.1, 0.0]]))
-    key = problem.code_key  # the settings and the robot's wheel limits (its radius is a parameter)
+    key = problem.code_key  # the settings and the robot's wheels (its radius is a parameter)
     assert key[0] == SMALL
     for name, what in (("sqpmethod-daqp", ("sqpmethod", "sqpmethod-daqp", "daqp", *key)),
                        ("fatrop", ("fatrop", "fatrop", *key))):

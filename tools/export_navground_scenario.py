@@ -112,6 +112,10 @@ def antipodal_table(world, name: str, seed: int, behaviour: str = "orca", sees_r
     return table
 
 
+ROBOT_RADIUS_M = 0.35
+"""The robot's radius in the files (the contract's robot; the files carry no [robot] override)."""
+
+
 def robot_overlaps(table: dict, robot_radius_m: float) -> bool:
     """Whether the robot of a scenario ``table`` starts overlapping one of its walkers (a file
     gpcnav refuses)."""
@@ -238,10 +242,6 @@ def export_corridor(out: Path, count: int, seed: int, agents: int = 6, length_m:
     return paths, skipped
 
 
-ROBOT_RADIUS_M = 0.35
-"""The robot's radius in the files (the contract's robot; the files carry no [robot] override)."""
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scene", choices=("antipodal", "corridor"), default="antipodal", help="navground's scene")
@@ -269,13 +269,12 @@ def main(argv=None) -> int:
     if not all(math.isfinite(v) and v > 0 for v in (a.length, a.width, a.radius, a.agent_radius, a.speed,
                                                      a.time_factor)):
         p.error("--length, --width, --radius, --agent-radius, --speed and --time-factor must be finite and positive")
-    if a.scene == "corridor" and not a.width > 2 * ROBOT_RADIUS_M:
-        p.error(f"--width {a.width:g} m: the corridor must be wider than the robot's disc ({2 * ROBOT_RADIUS_M:g} m "
-                f"across); each file's robot would start touching a wall")
     if a.scene == "corridor":
-        paths, skipped = export_corridor(a.out, a.count, a.seed, agents, a.length, a.width, a.agent_radius,
-                                         ROBOT_RADIUS_M,
-                                         a.speed, a.behaviour, not a.blind_walkers, a.time_factor)
+        try:  # (a corridor no wider than the robot is refused before any file is written)
+            paths, skipped = export_corridor(a.out, a.count, a.seed, agents, a.length, a.width, a.agent_radius,
+                                             ROBOT_RADIUS_M, a.speed, a.behaviour, not a.blind_walkers, a.time_factor)
+        except ValueError as exc:
+            p.error(str(exc))
     else:
         skipped = []
         paths = export(a.out, a.count, a.seed, agents, a.radius, a.agent_radius, a.speed, a.position_noise,

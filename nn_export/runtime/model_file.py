@@ -41,13 +41,18 @@ def serves_robot(model_robot: dict, robot: RobotParams) -> bool:
     with the robot's own radius (docs/model.md, "Robots of other sizes"). Its wheels, their
     limits and their base must be the trained ones: the network's outputs are those wheels'
     speeds."""
-    mine = robot.to_dict()
-    if model_robot == mine:
-        return True
-    rest = {k: v for k, v in model_robot.items() if k != "radius_m"}
-    same_wheels = rest == {k: v for k, v in mine.items() if k != "radius_m"}
+    return _wheels(model_robot) == _wheels(robot.to_dict()) and _drives_disc(model_robot, robot)
+
+
+def _wheels(robot: dict) -> dict:
+    return {k: v for k, v in robot.items() if k != "radius_m"}
+
+
+def _drives_disc(model_robot: dict, robot: RobotParams) -> bool:
+    """Whether ``robot``'s disc is no larger than the trained robot's (the radius rule of
+    :func:`serves_robot`)."""
     radius = model_robot.get("radius_m")
-    return same_wheels and isinstance(radius, (int, float)) and 0 < robot.radius_m <= radius
+    return isinstance(radius, (int, float)) and 0 < robot.radius_m <= radius
 
 
 def float32_bound(limit_mps: float) -> float:
@@ -181,14 +186,13 @@ def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str
         raise ValueError(f"{path}: model made for H={horizon}, T={sample_time_s} s but preset {name!r} has "
                          f"H={cfg.horizon}, T={cfg.sample_time_s} s")
     if not serves_robot(model_robot, robot):
-        diff = sorted(k for k in set(model_robot) | set(robot.to_dict()) if model_robot.get(k) != robot.to_dict().get(k))
-        trained_r = model_robot.get("radius_m")
-        if ("radius_m" in diff and len(diff) > 1 and isinstance(trained_r, (int, float))
-                and robot.radius_m <= trained_r):
-            diff.remove("radius_m")  # a smaller disc it drives: the wheels are what refuse it, not named beside them
+        mine, drives_disc = robot.to_dict(), _drives_disc(model_robot, robot)
+        # a smaller disc it drives: only what refuses the robot is named (the wheels, or a larger disc)
+        diff = sorted(k for k in set(model_robot) | set(mine)
+                      if model_robot.get(k) != mine.get(k) and not (k == "radius_m" and drives_disc))
         larger = diff == ["radius_m"]
         raise ValueError(f"{path}: model trained for another robot ({', '.join(diff)} differ: "
-                         f"{ {k: model_robot.get(k) for k in diff} } vs { {k: robot.to_dict().get(k) for k in diff} }"
+                         f"{ {k: model_robot.get(k) for k in diff} } vs { {k: mine.get(k) for k in diff} }"
                          f"{'; it drives robots up to its own radius' if larger else ''})")
     if not math.isclose(clip, robot.max_wheel_speed_mps):
         raise ValueError(f"{path}: output clip {clip} m/s differs from the wheel limit {robot.max_wheel_speed_mps}")

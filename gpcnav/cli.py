@@ -11,7 +11,7 @@ import signal
 import sys
 import threading
 
-from .errors import UsageError
+from .errors import ControllerError, UsageError
 
 # subcommand name -> module under gpcnav.commands with add_arguments(parser) and run(args)
 COMMANDS = {
@@ -124,10 +124,12 @@ def main(argv=None) -> int:
     try:
         try:
             return int(args._run(args) or 0)
-        except (UsageError, ScenarioError, ProtocolError) as exc:
+        except (UsageError, ScenarioError, ProtocolError, ControllerError) as exc:
             if stop_requested():
                 return _stopped(args, exc)
-            print(f"gpcnav {args.command}: error: {exc}", file=sys.stderr)
+            kept = "; what finished before is kept" if isinstance(exc, ControllerError) and args.command in RESUMABLE \
+                else ""
+            print(f"gpcnav {args.command}: error: {exc}{kept}", file=sys.stderr)
             return 2
         except KeyboardInterrupt as exc:
             return _stopped(args, exc)

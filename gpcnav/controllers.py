@@ -42,11 +42,11 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, is_dataclass
 from pathlib import Path
 
-from .errors import UsageError
+from .errors import ControllerError, UsageError
 
 __all__ = ["BUILTIN", "PEERS", "REGISTRY", "SHIELD_MODES", "DEFAULT_SHIELD", "Kind", "ControllerSpec", "make",
            "make_controller", "check", "check_settings", "shield_mode", "load_user_class", "describe", "spec_from_args",
-           "parse_controller_list", "reads_planner_settings", "PLANNER_READERS"]
+           "parse_controller_list", "reads_planner_settings", "PLANNER_READERS", "UserController"]
 
 PEERS = ("orca", "hrvo", "social_force", "mppi")
 BASELINES = ("stand", "blind")
@@ -276,7 +276,37 @@ def _make_user(text: str):
     except Exception as exc:  # noqa: BLE001
         raise UsageError(f"--controller {text}: cannot be made with no arguments ({_one_line(exc)})") from None
     _check_protocol(text, controller)
-    return controller
+    return UserController(text, controller)
+
+
+class UserController:
+    """A user's class (``MODULE:CLASS``) as the commands run it: its ``reset()`` and
+    ``decide()`` called as they are, an exception of theirs a :class:`ControllerError` of one
+    line (the class, the instant, the error; the traceback kept as its cause), every other
+    attribute the class's own. ``wrapped``: the user's object."""
+
+    def __init__(self, text: str, wrapped):
+        self.text, self.wrapped = text, wrapped
+
+    def __getattr__(self, name):  # (not the proxy's own, nor a special name: a copy or pickle made before __init__)
+        if name in ("text", "wrapped") or name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.wrapped, name)
+
+    def reset(self) -> None:
+        try:
+            self.wrapped.reset()
+        except Exception as exc:  # noqa: BLE001  (the user's code: any error of theirs)
+            raise ControllerError(f"--controller {self.text}: reset() raised {_one_line(exc)}") from exc
+
+    def decide(self, observation):
+        from casadi_gpc.types import checked_decision
+        try:
+            decision = self.wrapped.decide(observation)
+        except Exception as exc:  # noqa: BLE001
+            raise ControllerError(f"--controller {self.text}: decide() raised at t = {float(observation.t_s):g} s: "
+                                  f"{_one_line(exc)}") from exc
+        return checked_decision(decision, self.wrapped)  # named as the user's class
 
 
 def _make_peer(name: str, config, robot):
@@ -390,6 +420,7 @@ def describe(controller) -> dict:
     """What a document records of a controller: its class, sample time and settings (the
     peers' settings dataclasses, the GPC's solver, the network's model)."""
     inner = getattr(controller, "policy", controller)
+    inner = inner.wrapped if isinstance(inner, UserController) else inner
     out = {"class": f"{type(inner).__module__}.{type(inner).__qualname__}",
            "sample_time_s": float(controller.sample_time_s)}
     settings = getattr(inner, "settings", None)

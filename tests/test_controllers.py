@@ -51,6 +51,17 @@ USER_MODULE = textwrap.dedent('''
     class ReturnsTuple(MyPolicy):
         def decide(self, observation):
             return (0.1, 0.1)
+
+    class RaisesOnALongLine(MyPolicy):
+        """Raises at 2 s on a reference longer than 4 m (the files' ``line_m``)."""
+        def decide(self, observation):
+            if observation.t_s >= 2.0 and observation.reference.end_pose[0] > 4.5:
+                raise RuntimeError("sensor\\nglitch")
+            return super().decide(observation)
+
+    class RaisesInReset(MyPolicy):
+        def reset(self):
+            raise KeyError("calibration")
 ''')
 
 
@@ -165,6 +176,50 @@ def test_a_decide_that_does_not_return_a_control_decision_exits_2_with_one_line(
     assert r.returncode == 2, r.stderr
     assert r.stderr.strip() == (f"gpcnav {argv[0]}: error: mymod.ReturnsTuple.decide() returned a tuple, not a "
                                 f"casadi_gpc.ControlDecision (the Policy protocol)")
+
+
+@pytest.mark.parametrize("argv, where", [
+    (["simulate", "long.toml", "--controller", "mymod:RaisesOnALongLine"], ""),
+    (["simulate", "long.toml", "--controller", "mymod:RaisesOnALongLine", "--shield"], ""),
+    (["evaluate", "empty.toml", "long.toml", "--controller", "mymod:RaisesOnALongLine", "--workers", "1", "--out",
+      "e.json"], " (in long.toml); what finished before is kept"),
+    (["compare", "empty.toml", "long.toml", "--controllers", "stand,mymod:RaisesOnALongLine", "--workers", "1", "--out",
+      "c.json"], " (in long.toml); what finished before is kept"),
+])
+def test_a_user_s_controller_that_raises_exits_2_with_one_line_and_keeps_finished_episodes(outside, argv, where):
+    """A user's decide() raising ended the command in a traceback (exit 1); now one line naming
+    the class, the instant and the error, and the episodes finished before it are kept."""
+    (outside / "long.toml").write_text(straight_line_toml("long_line", duration_s=20.0, line_m=6.0), encoding="utf-8")
+    r = _cli(outside, *argv, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip() == (f"gpcnav {argv[0]}: error: --controller mymod:RaisesOnALongLine: decide() raised at "
+                                f"t = 2 s: RuntimeError: sensor glitch{where}")
+    if argv[0] != "simulate":
+        stored = [json.loads(p.read_text()) for p in (outside / f"{argv[-1]}.episodes").glob("*.json")]
+        # the short line's episode (and the robot standing still on both) finished and kept
+        expected = {("empty_line", "mymod:RaisesOnALongLine")} | (
+            {("empty_line", "stand"), ("long_line", "stand")} if argv[0] == "compare" else set())
+        assert {(d["scenario"], d["controller"]) for d in stored} == expected
+
+
+def test_a_user_s_reset_that_raises_exits_2_with_one_line(outside):
+    r = _cli(outside, "simulate", "empty.toml", "--controller", "mymod:RaisesInReset", timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip() == ("gpcnav simulate: error: --controller mymod:RaisesInReset: reset() raised "
+                                "KeyError: 'calibration'")
+
+
+def test_a_user_s_class_is_described_and_answers_as_itself(outside, monkeypatch):
+    """The commands' guard around a user's class forwards its attributes and names the class
+    itself in the documents."""
+    from gpcnav.controllers import UserController, describe
+    monkeypatch.syspath_prepend(str(outside))
+    made = make(ControllerSpec("mymod:MyPolicy"), CONFIG, RobotParams())
+    assert isinstance(made, UserController) and type(made.wrapped).__name__ == "MyPolicy"
+    made.reset()
+    assert made.decisions == 0 and made.sample_time_s == 0.5
+    assert describe(made)["class"] == "mymod.MyPolicy"
+    assert describe(make(ControllerSpec("mymod:MyPolicy", shield="on"), CONFIG, RobotParams()))["class"] == "mymod.MyPolicy"
 
 
 def test_the_readme_s_example_policy_runs_bare_and_behind_the_shield(tmp_path):

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from ..controllers import ControllerSpec, check_scenarios, reads_planner_settings, spec_from_args
-from ..errors import UsageError
+from ..errors import ControllerError, UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
                      connected, planner_config, progress, recorded_changes, refuse_unread_changes, suite_from_args,
                      for_pool, for_run, usable_cores)
@@ -73,7 +73,10 @@ def _episode(index, job):
     key = (spec, config, scenario.robot)
     if key not in _WORKER:
         _WORKER[key] = controllers.make(spec, config, scenario.robot)
-    log = simulate(scenario, _WORKER[key], spec.label)
+    try:
+        log = simulate(scenario, _WORKER[key], spec.label)
+    except ControllerError as exc:  # a user's class raised: which episode, in its one line
+        raise ControllerError(f"{exc} (in {scenario.source or scenario.name})") from None
     return index, (episode_metrics(log), log.compute_time_s, dict(log.events))
 
 

@@ -155,9 +155,13 @@ class GPCBehavior(core.Behavior, name="GPC"):
         for a world with line obstacles."""
         from casadi_gpc.config import preset
         from .controllers import make
+        from .errors import UsageError
         self._robot = self.robot_params()
         self._with_walls = bool(with_walls)
-        self._controller = make(self.controller_spec(), preset(self._preset).for_walls(self._with_walls), self._robot)
+        try:
+            self._controller = make(self.controller_spec(), preset(self._preset).for_walls(self._with_walls), self._robot)
+        except UsageError as exc:  # (a model for another robot: the agent's radius, its wheels), as the others are said
+            raise ValueError(f"navground behaviour {self._type}: {exc}") from None
         self._reset_target()
         return self._controller
 

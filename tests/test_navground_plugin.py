@@ -161,6 +161,22 @@ def test_kinematics_the_robot_cannot_be_driven_with_are_refused():
         (0.5, 0.35, 0.8, 0.8)
 
 
+def test_a_network_agent_larger_than_the_model_s_robot_is_refused_as_the_behaviour_s_error(tmp_path):
+    """It came out of navground's run as gpcnav's UsageError; a smaller agent is driven (its
+    model serves robots up to its own radius)."""
+    k = core.Kinematics.make_type("2WDiff")
+    k.wheel_axis, k.max_speed = 0.5, 0.8
+    k.set("max_backward_speed", 0.8)
+    b = core.Behavior.make_type("GPCNetwork")
+    b.kinematics, b.radius = k, 0.45
+    with pytest.raises(ValueError, match=r"^navground behaviour GPCNetwork: .*improved.onnx: model trained for another "
+                                         r"robot \(radius_m differ"):
+        b.prepare()
+    b.radius = 0.3
+    b.prepare()
+    assert b.robot_params().radius_m == pytest.approx(0.3)
+
+
 # --- imports, entry points --------------------------------------------------------------
 def test_importing_the_plugin_and_making_its_types_loads_no_solver_and_no_network():
     code = BLOCKER.replace('"scipy")', '"scipy", "onnxruntime")') + (

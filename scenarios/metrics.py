@@ -156,6 +156,9 @@ class EpisodeMetrics:
     interventions: int = 0
     collision: dict | None = None
     """What was hit and how (RUN.json's ``collision``), for a collided episode."""
+    robot_radius_m: float | None = None
+    """The radius of the episode's robot (a file's ``[robot] radius_m``: an evaluation may hold
+    robots of several sizes)."""
 
     @property
     def robot_approaching(self) -> bool:
@@ -196,6 +199,7 @@ def episode_metrics(log: RunLog) -> EpisodeMetrics:
         danger_clearance_sum_m=float(danger.sum()),
         interventions=intervention_count(log.events),
         collision=getattr(log, "collision", None),
+        robot_radius_m=float(log.scenario.robot.radius_m),
     )
 
 

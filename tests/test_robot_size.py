@@ -166,3 +166,19 @@ def test_make_files_refuses_a_radius_the_loader_refuses_and_writes_nothing(tmp_p
     assert proc.returncode == 0, proc.stderr
     files = sorted((tmp_path / "ok").glob("*.toml"))
     assert len(files) == 2 and all(load_scenario(f).robot.radius_m == 0.25 for f in files)
+
+
+def test_an_evaluation_records_each_episode_s_robot_radius(tmp_path):
+    """An evaluation of files with robots of two sizes said nothing of either (RUN.json did)."""
+    import json
+
+    from conftest import straight_line_toml
+    from gpcnav.cli import main
+    text = straight_line_toml("line", duration_s=15.0)
+    (tmp_path / "big.toml").write_text(text, encoding="utf-8")
+    (tmp_path / "small.toml").write_text(text.replace("[robot]\n", "[robot]\nradius_m = 0.22\n", 1), encoding="utf-8")
+    out = tmp_path / "EVAL.json"
+    assert main(["evaluate", str(tmp_path / "big.toml"), str(tmp_path / "small.toml"), "--controller", "blind",
+                 "--workers", "1", "--out", str(out)]) == 0
+    detail = json.loads(out.read_text())["episodes_detail"]
+    assert [d["robot_radius_m"] for d in detail] == [0.35, 0.22]

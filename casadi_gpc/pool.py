@@ -9,8 +9,10 @@ refuse an absent cluster before it makes a folder or builds a solver.
 
 Tasks are ``fn(*args)`` calls whose results come back to the calling process, which writes
 every file itself: workers only compute, so a killed run leaves nothing half-written (and,
-on Linux, local workers die with their parent). Results are yielded as they finish, in any
-order; a task that needs its place carries its index. At most ``2 workers`` tasks are in
+on Linux, local workers die with their parent). A local worker that dies on its own (killed:
+out of memory, a signal) costs the tasks then in flight one more run each in new workers, said in
+one line, up to :data:`WORKER_RESTARTS` times a batch; then :class:`WorkersDied`. Results are
+yielded as they finish, in any order; a task that needs its place carries its index. At most ``2 workers`` tasks are in
 flight, so a long queue costs no memory. The standard library only (Ray if asked for).
 """
 from __future__ import annotations
@@ -19,10 +21,12 @@ import contextlib
 import os
 import signal
 import socket
+import sys
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
-__all__ = ["WorkerPool", "BACKENDS", "ClusterUnavailable", "CONNECT_TIMEOUT_S", "check_reachable"]
+__all__ = ["WorkerPool", "BACKENDS", "ClusterUnavailable", "WorkersDied", "CONNECT_TIMEOUT_S", "check_reachable",
+           "WORKER_RESTARTS"]
 
 BACKENDS = ("local", "ray")
 
@@ -34,6 +38,17 @@ refused (s). A cluster on a network answers in milliseconds; Ray itself retries 
 class ClusterUnavailable(RuntimeError):
     """The Ray cluster of ``--address`` cannot be reached (or Ray cannot start); the message
     is one line."""
+
+
+class WorkersDied(RuntimeError):
+    """Local worker processes died abruptly (killed: out of memory, a signal; a crash in compiled
+    code) more than :data:`WORKER_RESTARTS` times in one batch; the message is one line."""
+
+
+WORKER_RESTARTS = 2
+"""How many times a batch of local tasks goes on in new worker processes after one died abruptly
+(Ray retries a task as often: ``max_retries``). The tasks then in flight run again from the start:
+a task computes and returns, so running it again gives what it would have given."""
 
 
 @dataclass(frozen=True)
@@ -150,25 +165,84 @@ def _run_local(fn, tasks: list, workers: int):
         return (fn(*t) for t in tasks)
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+    from concurrent.futures.process import BrokenProcessPool
+    from .io import stop_requested
+
+    def new_pool(method: str):
+        ctx = mp.get_context(method) if method in mp.get_all_start_methods() else None
+        return ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+
+    pool = new_pool("fork")
     queue = list(tasks)
-    pending = {pool.submit(fn, *queue.pop(0)) for _ in range(min(2 * workers, len(queue)))}
+    pending = {}  # future -> its task
+    for _ in range(min(2 * workers, len(queue))):
+        task = queue.pop(0)
+        pending[pool.submit(fn, *task)] = task
 
     def results():
-        nonlocal pending
+        nonlocal pool
+        restarts = 0
         try:
             while queue or pending:
-                while queue and len(pending) < 2 * workers:
-                    pending.add(pool.submit(fn, *queue.pop(0)))
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    yield fut.result()
-                del done
+                broken = None  # the pool's BrokenProcessPool, once one of its workers died
+                while queue and len(pending) < 2 * workers and not broken:
+                    try:
+                        fut = pool.submit(fn, *queue[0])
+                    except BrokenProcessPool as exc:  # it broke since the last wait
+                        broken = exc
+                    else:
+                        pending[fut] = queue.pop(0)
+                if not broken:
+                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        if isinstance(fut.exception(), BrokenProcessPool):
+                            broken = fut.exception()
+                            continue
+                        result = fut.result()  # (a task's own error is raised here, as it was)
+                        del pending[fut]
+                        yield result
+                    del done
+                if broken:
+                    if stop_requested():  # our own stop ended the workers (SIGTERM to the group): said as a stop
+                        raise broken
+                    workers_then = list((getattr(pool, "_processes", None) or {}).values())
+                    pool.shutdown(wait=True, cancel_futures=True)
+                    how = _deaths(workers_then)
+                    restarts += 1
+                    lost = list(pending.values())
+                    n = f"{len(lost)} task{'s' if len(lost) != 1 else ''}"
+                    if restarts > WORKER_RESTARTS:
+                        raise WorkersDied(f"worker processes died {restarts} times ({how}); the last time {n} "
+                                          f"were in flight")
+                    print(f"worker pool: a worker process died ({how}); the {n} then in flight run again in new "
+                          "workers", file=sys.stderr)
+                    # started afresh (spawn): a fork now would copy the caller's threads' locks
+                    pool = new_pool("spawn")
+                    queue[:0] = lost
+                    pending.clear()
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
 
     return results()
+
+
+def _deaths(processes) -> str:
+    """How a broken pool's worker ``processes`` ended (joined), in words (exit codes: -N a signal)."""
+    codes = sorted({p.exitcode for p in processes if p.exitcode not in (None, 0)})
+    if len(codes) > 1 and -signal.SIGTERM in codes:  # the others, which the pool itself stops once one died
+        codes.remove(-signal.SIGTERM)
+    if not codes:
+        return "ended abruptly"
+    words = []
+    for c in codes:
+        if c < 0:
+            try:
+                words.append(f"killed by {signal.Signals(-c).name}" + (": out of memory?" if -c == signal.SIGKILL else ""))
+            except ValueError:
+                words.append(f"killed by signal {-c}")
+        else:
+            words.append(f"exit status {c}")
+    return ", ".join(words)
 
 
 def _run_ray(fn, tasks: list, workers: int, address: str | None):

@@ -114,6 +114,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     from scenarios import ScenarioError
     from casadi_gpc.io import clear_stop, stop_requested
+    from casadi_gpc.pool import WorkersDied
     from casadi_gpc.types import ProtocolError
     _TERMINATING.clear()
     _STOPPED.clear()
@@ -133,6 +134,12 @@ def main(argv=None) -> int:
             return 2
         except KeyboardInterrupt as exc:
             return _stopped(args, exc)
+        except WorkersDied as exc:
+            if stop_requested():
+                return _stopped(args, exc)
+            kept = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
+            print(f"gpcnav {args.command}: error: {exc}{kept}", file=sys.stderr)
+            return 1
         except OSError as exc:
             if stop_requested():
                 return _stopped(args, exc)

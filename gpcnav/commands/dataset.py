@@ -43,6 +43,10 @@ def add_arguments(p):
                    help="feature layout: the paper's (one moving obstacle), multi (3 moving + 3 static), set "
                         "(12 moving + 6 static as one set, for the set network) or set-walls (set, and the walls "
                         "as a 24-sector scan; labelled by the planner with wall slots)")
+    p.add_argument("--robot", type=Path, default=None, metavar="SCENARIO.toml",
+                   help="label for the robot of this scenario file (its [robot]: wheel base, radius, wheel limits), "
+                        "for a network that drives it (default: the contract's robot, 0.5 m wheel base, 0.35 m, "
+                        "0.8 m/s, 0.8 m/s^2); a --dagger round labels for its dataset's robot")
     p.add_argument("--shard-size", type=int, default=1000, help="samples per shard (even; default 1000)")
     p.add_argument("--no-mirror", action="store_true", help="do not add the mirror image of each situation")
     p.add_argument("--mirror-check-every", type=int, default=25, metavar="K",
@@ -134,6 +138,8 @@ def run(args) -> int:
     if args.labels == "closed-loop" and args.tie_margin is not None:
         raise UsageError("--tie-margin applies to cold labels, not --labels closed-loop")
     if args.dagger is not None:
+        if args.robot is not None:
+            raise UsageError("--robot applies to a new dataset: a --dagger round labels for its dataset's robot")
         return _dagger(args)
     if args.samples is None:
         raise UsageError("--samples is required")
@@ -157,10 +163,11 @@ def run(args) -> int:
     config, layout = _layout_and_config(args)
     if args.scheme == "two-pass" and layout.name != "paper":
         raise UsageError("--scheme two-pass needs --layout paper (one moving obstacle)")
-    spec = DatasetSpec(samples=args.samples, config=config, layout=layout, seed=args.seed,
+    robot = _robot(args.robot)
+    spec = DatasetSpec(samples=args.samples, config=config, layout=layout, seed=args.seed, robot=robot,
                        solver=args.solver or label_solver(config), shard_size=args.shard_size,
                        mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
-                       scheme=args.scheme, tie_margin=args.tie_margin, **_sampler(args.scheme))
+                       scheme=args.scheme, tie_margin=args.tie_margin, sampler=_sampler(args.scheme, robot))
     with connected(WorkerPool(args.workers, args.backend, args.address)):  # an absent cluster: before any folder
         _check_solver(spec)
         try:
@@ -192,12 +199,24 @@ def run(args) -> int:
     return 0
 
 
-def _sampler(scheme: str) -> dict:
-    """The sampler's settings of a scheme (the two-pass scheme has its own)."""
+def _sampler(scheme: str, robot):
+    """The sampler's settings of a scheme (the two-pass scheme has its own) for ``robot``
+    (:meth:`~nn_export.training.sampler_settings.SamplerSettings.for_robot`)."""
     if scheme == "two-pass":
         from nn_export.training.two_pass import SETTINGS
-        return {"sampler": SETTINGS}
-    return {}
+        return SETTINGS.for_robot(robot)
+    from nn_export.training.sampler_settings import SamplerSettings
+    return SamplerSettings().for_robot(robot)
+
+
+def _robot(path: Path | None):
+    """The robot of the scenario file ``path`` (a bad file: its one-line ScenarioError), or the
+    contract's default robot."""
+    from casadi_gpc.robot import RobotParams
+    if path is None:
+        return RobotParams()
+    from scenarios import load_scenario
+    return load_scenario(path).robot
 
 
 def _check_solver(spec) -> None:
@@ -234,7 +253,13 @@ def _dagger(args) -> int:
         verb = "differ" if len(differ) > 1 else "differs"
         raise UsageError(f"{args.out} was labelled with other planner settings ({', '.join(differ)} {verb}): "
                          f"a round appended must be labelled as the rest")
-    robot = RobotParams()
+    try:
+        robot = RobotParams(**man["robot"]) if "robot" in man else RobotParams()
+    except TypeError:
+        raise UsageError(f"{args.out}/manifest.json: its robot {man['robot']!r} is not a robot's fields") from None
+    if robot != RobotParams() and not args.dagger_files:
+        raise UsageError(f"{args.out} was labelled for another robot than the suites drive ({robot.to_dict()}): "
+                         f"give --dagger-files, scenario files of that robot")
     factory = _driver(args, config, robot, by_gpc)
     solver = args.solver or label_solver(config)
     _check_solver_for(config, layout, solver)
@@ -337,7 +362,7 @@ def _dagger_files(paths, suite_seed: int, start_offset_m: float, robot=None) -> 
             if differ:
                 raise UsageError(f"{path}: its robot is not the one the dataset is labelled for ("
                                  + ", ".join(f"{k} {theirs[k]:g} vs {mine[k]:g}" for k in differ)
-                                 + "): a round drives and labels that robot only; drop the file's [robot] overrides")
+                                 + "): a round drives and labels that robot only")
     return _offset(scenarios, suite_seed, start_offset_m)
 
 

@@ -2,9 +2,12 @@
 gives the distributions) draws with, as one frozen dataclass: part of a dataset's ``spec_id``."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-__all__ = ["SamplerSettings"]
+__all__ = ["SamplerSettings", "DEFAULT_WHEEL_LIMIT_MPS"]
+
+DEFAULT_WHEEL_LIMIT_MPS = 0.8
+"""The wheel limit of the robot the settings were drawn up for (CONTRACT's default robot)."""
 
 
 @dataclass(frozen=True)
@@ -129,3 +132,15 @@ class SamplerSettings:
     """Obstacles closer than this to the robot's disc now are redrawn, m."""
     max_distance_m: float = 11.0
     """Obstacles farther than this from the robot are redrawn (inside the features' 12 m), m."""
+
+    def for_robot(self, robot) -> "SamplerSettings":
+        """These settings for ``robot``: the reference's and the roll-out's speeds the same
+        fractions of its wheel limit as of the default robot's (0.15-0.6 m/s of 0.8 m/s: a slower
+        robot is given references it can follow); everything else, the people's speeds included,
+        as it is. The default robot's wheel limit gives these very settings (a dataset's
+        ``spec_id`` unchanged)."""
+        k = robot.max_wheel_speed_mps / DEFAULT_WHEEL_LIMIT_MPS
+        if k == 1.0:
+            return self
+        return replace(self, ref_speed_mps=tuple(v * k for v in self.ref_speed_mps),
+                       rollout_speed_mps=tuple(v * k for v in self.rollout_speed_mps))

@@ -575,3 +575,19 @@ def test_train_says_when_its_dataset_is_unfinished(reference_dataset, tmp_path, 
     assert main(["train", str(out), "--out", str(tmp_path / "m1"), "--preset", "paper", "--epochs", "1"]) == 0
     err = capsys.readouterr().err
     assert f"gpcnav train: warning: {out} holds 60 of the 120 samples asked" in err
+
+
+def test_train_refuses_a_dataset_folder_given_twice(reference_dataset, tmp_path, capsys):
+    """``train d ./d`` trained on every sample twice, the copies of one situation with other
+    ids: some in training and some in validation, the validation error measured on samples
+    trained on."""
+    from gpcnav.cli import main
+    src, _ = reference_dataset
+    (tmp_path / "link").symlink_to(src)
+    for second in (src, Path(f"{src}/."), tmp_path / "link"):
+        assert main(["train", str(src), str(second), "--out", str(tmp_path / "m"), "--preset", "paper",
+                     "--epochs", "1"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [f"gpcnav train: error: {second}: the same dataset folder as {src}, given twice (its samples "
+                       f"would be both trained on and validated on)"]
+    assert not (tmp_path / "m").exists()

@@ -591,3 +591,19 @@ def test_train_refuses_a_dataset_folder_given_twice(reference_dataset, tmp_path,
         assert err == [f"gpcnav train: error: {second}: the same dataset folder as {src}, given twice (its samples "
                        f"would be both trained on and validated on)"]
     assert not (tmp_path / "m").exists()
+
+
+def test_train_on_a_damaged_shard_is_one_line(reference_dataset, tmp_path, capsys):
+    """A shard cut short (a copy interrupted, a damaged disk) was a BadZipFile traceback."""
+    from gpcnav.cli import main
+    src, man = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    shard = out / man["shards"][1]
+    for damaged in (shard.read_bytes()[:3000], shard.read_bytes()[:-40], b"not a shard"):
+        shard.write_bytes(damaged)
+        assert main(["train", str(out), "--out", str(tmp_path / "m"), "--preset", "paper", "--epochs", "1"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(f"gpcnav train: error: {out}: cannot read the dataset: "
+                                                   f"{shard.name}: not a readable shard ("), err
+        assert err[0].endswith("`gpcnav dataset` with the same arguments redoes a damaged shard")
+    assert not (tmp_path / "m").exists()

@@ -607,3 +607,27 @@ def test_train_on_a_damaged_shard_is_one_line(reference_dataset, tmp_path, capsy
                                                    f"{shard.name}: not a readable shard ("), err
         assert err[0].endswith("`gpcnav dataset` with the same arguments redoes a damaged shard")
     assert not (tmp_path / "m").exists()
+
+
+def test_dagger_episodes_with_walls_for_a_layout_without_walls_are_refused(reference_dataset, tmp_path, capsys):
+    """A round with walls (``--dagger-files`` with ``[[walls]]``, ``--dagger-suite corridor``)
+    on a dataset whose layout reads no walls stopped at its first situation with a ValueError
+    traceback ("a situation with walls needs a planner with wall slots")."""
+    from gpcnav.cli import main
+    from scenarios import PAPER_DIR
+    src, _ = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    before = read_manifest(out)
+    walled = tmp_path / "walled.toml"
+    walled.write_text((PAPER_DIR / "fig7_2_crossing.toml").read_text()
+                      + "\n[[walls]]\npoints = [[-1.0, 2.0], [12.0, 2.0]]\n")
+    base = ["dataset", "--out", str(out), "--dagger", "gpc", "--preset", "paper", "--workers", "1"]
+    for extra, where in (
+            (["--dagger-files", str(PAPER_DIR / "fig7_1_head_on.toml"), str(walled)], f"{walled}: has walls"),
+            (["--dagger-suite", "corridor", "--episodes", "1"], "--suite corridor: its episodes have walls")):
+        assert main(base + extra) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [f"gpcnav dataset: error: {where}, and the dataset's layout 'paper' does not read walls (its "
+                       f"labels are planned without them): a round with walls goes to a dataset of --layout "
+                       f"set-walls"], err
+    assert read_manifest(out) == before

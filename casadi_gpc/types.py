@@ -45,7 +45,10 @@ class Observation:
     Raises ``ValueError`` when the time or the robot's own state is not finite: no
     controller can answer that safely; and when an obstacle's size, or a static obstacle's
     place, is not a finite number (a radius not negative): no controller can keep clear of an
-    obstacle of no known size, and the planner's solves all failed on one, braking for good. A
+    obstacle of no known size, and the planner's solves all failed on one, braking for good; and
+    when two moving obstacles share an id (the filters are kept by id: the two were fused into one
+    phantom, its filter stepped twice a sample, a 3 m/s obstacle that sent the check layer into
+    reverse, and neither person was where it was forecast). A
     missing or non-finite obstacle *position measurement* is a sensor fault, not an error: the
     obstacle filters skip it and count it.
     """
@@ -70,6 +73,16 @@ class Observation:
             if not (m.radius_m >= 0 and math.isfinite(m.radius_m)):
                 raise ValueError(f"observation at t={self.t_s} s: moving obstacle {m.obstacle_id} has radius "
                                  f"{m.radius_m!r} (a finite number, not negative)")
+        if len(self.moving) > 1 and len({m.obstacle_id for m in self.moving}) < len(self.moving):
+            seen, twice = set(), None
+            for m in self.moving:
+                if m.obstacle_id in seen:
+                    twice = m.obstacle_id
+                    break
+                seen.add(m.obstacle_id)
+            raise ValueError(f"observation at t={self.t_s} s: moving obstacle id {twice!r} is listed twice (an id "
+                             f"is one obstacle's track: two people under one id were one phantom, stepped twice "
+                             f"a sample)")
         for j, st in enumerate(self.static):
             x, y = st.position_m
             if not (st.radius_m >= 0 and math.isfinite(st.radius_m) and math.isfinite(x) and math.isfinite(y)):

@@ -335,6 +335,13 @@ class NavigationEnv(Env):
             expert.reset()
         return self._observe()
 
+    def render(self):
+        """Nothing: the environment has no render mode (Gymnasium's convention for
+        ``render_mode=None``: no render is computed, None returned; the base class raised
+        ``NotImplementedError`` at ``env.render()``). ``gpcnav simulate SCENARIO --plot`` /
+        ``--animate`` draw an episode."""
+        return None
+
     def step(self, action):
         if self.episode is None or self.episode.done:
             raise RuntimeError("call reset() first: the episode has ended")

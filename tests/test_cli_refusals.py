@@ -242,3 +242,23 @@ def test_train_into_a_file_and_export_into_a_folder_are_refused_before_any_work(
                               cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)})
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and words in proc.stderr, proc.stderr
     assert (tmp_path / "afile").read_text() == "mine" and not list((tmp_path / "adir").iterdir())
+
+
+@pytest.mark.parametrize("argv", [["export", "no-model"], ["simulate", str(SCENE), "--controller", "blind"],
+                                  ["compare", str(SCENE), "--controllers", "blind,stand"]])
+def test_an_output_that_is_a_pipe_or_a_link_to_one_is_refused_and_kept(argv, tmp_path):
+    """Outputs are renamed over their path: ``--out /dev/full`` (as root) replaced the device
+    with the model file, exit 0; a link to a pipe (``/dev/stdout``) was replaced by a file."""
+    os.mkfifo(tmp_path / "pipe")
+    (tmp_path / "link").symlink_to(tmp_path / "pipe")
+    outs = ["pipe", "link"] if argv[0] != "compare" else ["pipe", "link", "c.json"]
+    if argv[0] == "compare":  # the table beside --out
+        os.symlink(tmp_path / "pipe", tmp_path / "c.md")
+    for out in outs:
+        proc = subprocess.run([sys.executable, "-m", "gpcnav", *argv, "--out", out], capture_output=True, text=True,
+                              timeout=120, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)})
+        assert proc.returncode == 2, proc.stderr[-2000:]
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and "is not a regular file" in lines[0], proc.stderr
+    assert (tmp_path / "pipe").is_fifo() and (tmp_path / "link").is_symlink()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["pipe", "link"] + (["c.md"] if argv[0] == "compare" else []))

@@ -575,3 +575,59 @@ def test_train_says_when_its_dataset_is_unfinished(reference_dataset, tmp_path, 
     assert main(["train", str(out), "--out", str(tmp_path / "m1"), "--preset", "paper", "--epochs", "1"]) == 0
     err = capsys.readouterr().err
     assert f"gpcnav train: warning: {out} holds 60 of the 120 samples asked" in err
+
+
+def test_train_refuses_a_dataset_folder_given_twice(reference_dataset, tmp_path, capsys):
+    """``train d ./d`` trained on every sample twice, the copies of one situation with other
+    ids: some in training and some in validation, the validation error measured on samples
+    trained on."""
+    from gpcnav.cli import main
+    src, _ = reference_dataset
+    (tmp_path / "link").symlink_to(src)
+    for second in (src, Path(f"{src}/."), tmp_path / "link"):
+        assert main(["train", str(src), str(second), "--out", str(tmp_path / "m"), "--preset", "paper",
+                     "--epochs", "1"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [f"gpcnav train: error: {second}: the same dataset folder as {src}, given twice (its samples "
+                       f"would be both trained on and validated on)"]
+    assert not (tmp_path / "m").exists()
+
+
+def test_train_on_a_damaged_shard_is_one_line(reference_dataset, tmp_path, capsys):
+    """A shard cut short (a copy interrupted, a damaged disk) was a BadZipFile traceback."""
+    from gpcnav.cli import main
+    src, man = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    shard = out / man["shards"][1]
+    for damaged in (shard.read_bytes()[:3000], shard.read_bytes()[:-40], b"not a shard"):
+        shard.write_bytes(damaged)
+        assert main(["train", str(out), "--out", str(tmp_path / "m"), "--preset", "paper", "--epochs", "1"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(f"gpcnav train: error: {out}: cannot read the dataset: "
+                                                   f"{shard.name}: not a readable shard ("), err
+        assert err[0].endswith("`gpcnav dataset` with the same arguments redoes a damaged shard")
+    assert not (tmp_path / "m").exists()
+
+
+def test_dagger_episodes_with_walls_for_a_layout_without_walls_are_refused(reference_dataset, tmp_path, capsys):
+    """A round with walls (``--dagger-files`` with ``[[walls]]``, ``--dagger-suite corridor``)
+    on a dataset whose layout reads no walls stopped at its first situation with a ValueError
+    traceback ("a situation with walls needs a planner with wall slots")."""
+    from gpcnav.cli import main
+    from scenarios import PAPER_DIR
+    src, _ = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    before = read_manifest(out)
+    walled = tmp_path / "walled.toml"
+    walled.write_text((PAPER_DIR / "fig7_2_crossing.toml").read_text()
+                      + "\n[[walls]]\npoints = [[-1.0, 2.0], [12.0, 2.0]]\n")
+    base = ["dataset", "--out", str(out), "--dagger", "gpc", "--preset", "paper", "--workers", "1"]
+    for extra, where in (
+            (["--dagger-files", str(PAPER_DIR / "fig7_1_head_on.toml"), str(walled)], f"{walled}: has walls"),
+            (["--dagger-suite", "corridor", "--episodes", "1"], "--suite corridor: its episodes have walls")):
+        assert main(base + extra) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [f"gpcnav dataset: error: {where}, and the dataset's layout 'paper' does not read walls (its "
+                       f"labels are planned without them): a round with walls goes to a dataset of --layout "
+                       f"set-walls"], err
+    assert read_manifest(out) == before

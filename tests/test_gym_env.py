@@ -196,6 +196,15 @@ def test_keywords_it_cannot_honour_are_refused_when_made(kwargs, words):
         NavigationEnv(**kwargs)
 
 
+def test_render_without_a_render_mode_returns_none():
+    """Gymnasium's convention for render_mode None; the base class raised NotImplementedError
+    through every wrapper of gymnasium.make."""
+    import gymnasium
+    env = gymnasium.make("gpcnav:gpcnav/Navigation-v0", suite="circle-crossing", movers=2)
+    env.reset(seed=0)
+    assert env.render() is None and env.unwrapped.render() is None
+
+
 def test_a_negative_episode_index_is_refused():
     env = NavigationEnv(suite="circle-crossing", movers=3, count=2)
     env.reset(seed=0, options={"index": 1})

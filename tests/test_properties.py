@@ -190,6 +190,22 @@ def test_observation_refuses_an_obstacle_of_no_known_size_or_place(which, bad):
     Observation(1.0, robot, ref, (ObstacleMeasurement(1, (math.nan, 0.0), 0.3),))  # a sensor fault: no error
 
 
+def test_observation_refuses_two_moving_obstacles_under_one_id():
+    """The filters are kept by id: two people under one id were fused into one phantom, its
+    filter stepped twice a sample (a 3 m/s obstacle: the check layer reversed at full speed
+    from two people standing 2 and 3 m away), neither forecast where it was."""
+    from casadi_gpc.types import ObstacleMeasurement
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(5.0),), 0.4)
+    robot = RobotState(0.0, 0.0, 0.0)
+    movers = (ObstacleMeasurement(0, (2.0, 0.0), 0.3), ObstacleMeasurement(1, (2.0, 0.0), 0.3),
+              ObstacleMeasurement(0, (3.0, 1.0), 0.3))
+    with pytest.raises(ValueError) as exc:
+        Observation(0.5, robot, ref, movers)
+    assert str(exc.value) == ("observation at t=0.5 s: moving obstacle id 0 is listed twice (an id is one obstacle's "
+                              "track: two people under one id were one phantom, stepped twice a sample)")
+    Observation(0.5, robot, ref, movers[:2])  # distinct ids, one place: two obstacles
+
+
 def test_wheel_speeds_reported_beyond_the_limits_are_held_to_them_and_counted():
     """A glitching encoder (5 m/s on a 0.8 m/s robot): the planner's every solve failed from a
     state its limits forbid and its brake commanded 4.6 m/s. Now the planner and the check layer

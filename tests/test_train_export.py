@@ -169,6 +169,24 @@ def test_export_refuses_a_model_without_provenance(fitted, tmp_path):
         export_onnx(tmp_path / "m", tmp_path / "m.onnx")
 
 
+@pytest.mark.parametrize("name, words", [("weights.npz", "weights.npz: not a readable weights file ("),
+                                         ("validation_features.npy", "validation_features.npy: not a readable array (")])
+def test_export_of_a_model_folder_with_a_damaged_file_is_one_line(fitted, tmp_path, capsys, name, words):
+    """A model folder whose weights or validation features were cut short (a copy
+    interrupted) was a BadZipFile or ValueError traceback in gpcnav export."""
+    from gpcnav.cli import main
+    m, X, _ = fitted
+    m.save(tmp_path / "m", PROV)
+    np.save(tmp_path / "m" / "validation_features.npy", X[m.validation_indices_])
+    path = tmp_path / "m" / name
+    path.write_bytes(path.read_bytes()[:100])
+    assert main(["export", str(tmp_path / "m"), "--out", str(tmp_path / "m.onnx")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"gpcnav export: error: {tmp_path / 'm'}: cannot load the trained "
+                                               f"model: {words}"), err
+    assert not (tmp_path / "m.onnx").exists()
+
+
 def test_deeper_network_roundtrip_and_export_parity(tmp_path):
     """layers=2: saved, loaded and exported with the same parity as the paper's one layer."""
     X, Y = _data()

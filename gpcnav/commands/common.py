@@ -349,6 +349,7 @@ def check_output_files(inputs=(), **paths) -> None:
         what = f"--{option.replace('_', '-')} {path}"
         if path.is_dir():
             raise UsageError(f"{what} is a folder, not a file")
+        check_regular_file(path, what)
         for i in ins:
             if same_file(path, i):
                 raise UsageError(f"{what} is the scenario file {i}: it would be overwritten")
@@ -361,6 +362,17 @@ def check_output_files(inputs=(), **paths) -> None:
         if option in ANIMATION_OPTIONS and path.suffix.lower() != ".gif":
             raise UsageError(f"{what}: an animation is written as a GIF; name it .gif")
         check_writable_folder(path.parent, f"{what}: its folder {path.parent}")
+
+
+def check_regular_file(path: Path, what: str) -> None:
+    """Refuse in one line an output that exists and is not a regular file, or is a link to
+    one that is not (a device, a pipe: ``/dev/null``, ``/dev/stdout``). Every output is
+    written whole, to a temporary file renamed over the path, so the rename replaced the
+    device or the link itself (``--out /dev/full`` as root replaced the device node with the
+    model file, exit 0)."""
+    if path.exists() and not path.is_file():
+        raise UsageError(f"{what} is not a regular file (a device, a pipe, or a link to one): outputs are written "
+                         f"whole to a temporary file renamed over the path, which would replace it")
 
 
 def check_figure_path(path: Path, what: str) -> None:

@@ -278,6 +278,7 @@ def _dagger(args) -> int:
             scenarios = _dagger_scenarios(suite, episodes, suite_seed, args.start_offset, movers, args.behaviour)
         except ValueError as exc:  # e.g. more walkers than the geometry can place
             raise UsageError(f"--suite {suite}: {exc}") from None
+    _check_walls_readable(scenarios, layout, args.dagger_files, suite)
     options = OnPolicyOptions(config, layout, solver, robot,
                               mirror=not args.no_mirror, mirror_check_every=args.mirror_check_every,
                               noise_mps=args.dagger_noise, id_base=(args.round + (500 if by_gpc else 0)) * PART_STRIDE,
@@ -306,6 +307,20 @@ def _dagger(args) -> int:
           f"episodes of {suite} ({', '.join(f'{k} {v}' for k, v in sorted(outcomes.items()))}); "
           f"dataset now {doc['samples']} samples")
     return 0
+
+
+def _check_walls_readable(scenarios, layout, files, suite: str) -> None:
+    """Refuse, before any work, episodes with walls for a dataset whose layout does not read
+    them: its labels are planned without wall slots, and the first situation with walls
+    stopped the round with a ValueError traceback (``--dagger-files`` with ``[[walls]]``,
+    ``--dagger-suite corridor``)."""
+    if layout.wall_sectors:
+        return
+    for k, sc in enumerate(scenarios):
+        if getattr(sc, "walls", ()):
+            where = f"{files[k]}: has walls" if files else f"--suite {suite}: its episodes have walls"
+            raise UsageError(f"{where}, and the dataset's layout {layout.name!r} does not read walls (its labels are "
+                             f"planned without them): a round with walls goes to a dataset of --layout set-walls")
 
 
 def _dagger_manifest(args) -> dict:

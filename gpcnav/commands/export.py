@@ -48,4 +48,8 @@ def _validation_features(model_dir: Path, model):
     """The validation split's features, saved beside the model by ``gpcnav train``."""
     import numpy as np
     path = model_dir / "validation_features.npy"
-    return np.load(path) if path.is_file() else None
+    try:
+        return np.load(path, allow_pickle=False) if path.is_file() else None
+    except (ValueError, EOFError, OSError) as exc:  # (cut short: a traceback)
+        raise UsageError(f"{model_dir}: cannot load the trained model: {path.name}: not a readable array "
+                         f"({exc})") from None

@@ -71,8 +71,26 @@ def _dataset_id(manifests) -> str:
     return h.hexdigest()[:16]
 
 
+def _check_distinct(datasets) -> None:
+    """Refuse a dataset folder given twice (``d`` and ``./d``, a link to it): each copy's
+    situations got their own ids, so copies of one situation fell on both sides of the
+    split and the validation error measured samples trained on."""
+    import os
+    seen = {}
+    for d in datasets:
+        try:
+            key = (os.stat(d).st_dev, os.stat(d).st_ino)
+        except OSError:
+            key = Path(d).resolve()
+        if key in seen:
+            raise UsageError(f"{d}: the same dataset folder as {seen[key]}, given twice (its samples would be "
+                             f"both trained on and validated on)")
+        seen[key] = d
+
+
 def run(args) -> int:
     import numpy as np
+    _check_distinct(args.datasets)
     try:
         from nn_export.training.train import WheelSpeedMLP
     except ImportError as exc:

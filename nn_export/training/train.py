@@ -22,6 +22,8 @@ from __future__ import annotations
 import json
 import math
 import time
+import zipfile
+import zlib
 from dataclasses import replace
 from pathlib import Path
 
@@ -437,8 +439,11 @@ class WheelSpeedMLP:
         if meta.get("format") != MODEL_FORMAT:
             raise ValueError(f"{meta_path}: format {meta.get('format')!r}, expected {MODEL_FORMAT!r}")
         self = cls(**meta["params"])
-        with np.load(model_dir / "weights.npz") as w:
-            arrays = {k: w[k] for k in w.files}
+        try:
+            with np.load(model_dir / "weights.npz", allow_pickle=False) as w:
+                arrays = {k: w[k] for k in w.files}
+        except (zipfile.BadZipFile, EOFError, zlib.error, ValueError) as exc:  # (a BadZipFile traceback in export)
+            raise ValueError(f"weights.npz: not a readable weights file ({exc or type(exc).__name__})") from None
         net = self._new_net(meta["n_features"], meta["n_outputs"], meta["feature_names"])
         if self.architecture == "set":
             net.load_state_dict({k: torch.from_numpy(v) for k, v in arrays.items()})

@@ -47,6 +47,8 @@ from __future__ import annotations
 
 import contextlib
 import json
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -76,13 +78,21 @@ def write_shard(path: Path, arrays: dict, spec_id: str, stats: dict) -> None:
 
 
 def read_shard(path, keys=None) -> dict:
-    """The arrays of one shard (all, or ``keys``), plus ``spec_id`` and ``stats``."""
-    with np.load(path, allow_pickle=False) as z:
-        # all: every key this code writes that the shard has (older shards lack decision_pass)
-        names = [k for k in ARRAY_KEYS if k in z.files] if keys is None else list(keys)
-        out = {k: z[k] for k in names}
-        out["spec_id"] = str(z["spec_id"])
-        out["stats"] = json.loads(str(z["stats_json"]))
+    """The arrays of one shard (all, or ``keys``), plus ``spec_id`` and ``stats``. A shard
+    that is not a readable archive (damaged on disk, cut short in a copy) is a ``ValueError``
+    naming it (and, for an off-policy shard, that the dataset's own command redoes it, tested):
+    zipfile's ``BadZipFile``, ``EOFError`` or zlib's error were a traceback in ``gpcnav train``."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            # all: every key this code writes that the shard has (older shards lack decision_pass)
+            names = [k for k in ARRAY_KEYS if k in z.files] if keys is None else list(keys)
+            out = {k: z[k] for k in names}
+            out["spec_id"] = str(z["spec_id"])
+            out["stats"] = json.loads(str(z["stats_json"]))
+    except (zipfile.BadZipFile, EOFError, zlib.error, ValueError) as exc:
+        name = Path(path).name
+        redo = "; `gpcnav dataset` with the same arguments redoes a damaged shard" if name.startswith("shard-") else ""
+        raise ValueError(f"{name}: not a readable shard ({exc or type(exc).__name__}){redo}") from None
     return out
 
 

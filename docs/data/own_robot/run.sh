@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# A network for another robot than the contract's (docs/cli.md, "A network for your robot"): the robot
+# of robot.toml (radius 0.2 m, wheels 0.5 m/s and 0.6 m/s^2, the 0.5 m wheel base), labelled, trained
+# and exported with gpcnav alone, then compared with the GPC and the baselines on suite episodes
+# made for that robot (make_files.py: the reference at half the suites' 0.4 m/s, the time limit doubled;
+# seed 60, never used). From the repository's root, the environment active; ~7 minutes on 2 cores.
+set -euo pipefail
+D=docs/data/own_robot
+gpcnav dataset --out out/own_robot/data --samples 40000 --robot $D/robot.toml --preset improved --workers 1
+gpcnav train out/own_robot/data --out out/own_robot/model --preset improved --layers 3 --hidden 64
+gpcnav export out/own_robot/model --out $D/m3.onnx --passes 1
+PYTHONPATH=. python $D/make_files.py encounters 40 60 - $D/robot.toml 0.5 out/own_robot/enc
+PYTHONPATH=. python $D/make_files.py circle-crossing 40 60 5 $D/robot.toml 0.5 out/own_robot/cc5
+gpcnav compare out/own_robot/enc/*.toml --controllers stand,blind,gpc,nn --model $D/m3.onnx --workers 2 \
+    --out $D/COMPARE-encounters.json
+gpcnav compare out/own_robot/cc5/*.toml --controllers stand,blind,gpc,nn --model $D/m3.onnx --workers 2 \
+    --out $D/COMPARE-cc5.json

@@ -12,13 +12,19 @@ import shutil
 import socket
 import tempfile
 import threading
+import zipfile
+import zlib
 from glob import escape as glob_escape
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_file", "abandoned", "sweep_abandoned", "writer_tag", "request_stop", "stop_requested", "clear_stop",
-           "json_default", "write_json", "write_text", "write_bytes", "save_figure", "cache_dir"]
+__all__ = ["UNREADABLE_NPZ", "atomic_file", "abandoned", "sweep_abandoned", "writer_tag", "request_stop",
+           "stop_requested", "clear_stop", "json_default", "write_json", "write_text", "write_bytes", "save_figure", "cache_dir"]
+
+UNREADABLE_NPZ = (zipfile.BadZipFile, EOFError, zlib.error, ValueError)
+"""What numpy's ``np.load`` raises on an ``.npz`` that is not a whole archive (cut short in a copy,
+damaged on disk): the readers of shards and weights say so in one line naming the file."""
 
 
 _STOP = threading.Event()

@@ -76,6 +76,7 @@ def outside(tmp_path):
     """A folder outside the project with the user's module and a scenario file in it."""
     (tmp_path / "mymod.py").write_text(USER_MODULE, encoding="utf-8")
     (tmp_path / "empty.toml").write_text(EMPTY, encoding="utf-8")
+    (tmp_path / "empty2.toml").write_text(EMPTY, encoding="utf-8")
     assert REPO not in tmp_path.parents
     return tmp_path
 
@@ -148,6 +149,8 @@ def test_a_user_class_from_outside_the_project_runs_in_simulate_and_evaluate(out
     assert r.returncode == 0, r.stderr
     ev = json.loads((outside / "eval.json").read_text())
     assert ev["controller"] == "mymod:MyPolicy" and ev["success_rate"] == 1.0 and ev["episodes"] == 2
+    # (one file twice: two episodes, and a line says so)
+    assert "gpcnav: note: empty.toml given more than once: each run counts" in r.stderr
 
 
 @pytest.mark.parametrize("name, message", [
@@ -167,7 +170,7 @@ def test_a_controller_that_cannot_be_loaded_exits_2_with_one_line(outside, name,
 @pytest.mark.parametrize("argv", [
     ["simulate", "empty.toml", "--controller", "mymod:ReturnsTuple"],
     ["simulate", "empty.toml", "--controller", "mymod:ReturnsTuple", "--shield"],
-    ["evaluate", "empty.toml", "empty.toml", "--controller", "mymod:ReturnsTuple", "--workers", "2", "--out", "e.json"],
+    ["evaluate", "empty.toml", "empty2.toml", "--controller", "mymod:ReturnsTuple", "--workers", "2", "--out", "e.json"],
     ["compare", "empty.toml", "--controllers", "stand,mymod:ReturnsTuple", "--workers", "1", "--out", "c.json"],
 ])  # --out: the finished episodes kept beside it, not in the shared cache (another run's would be reused)
 def test_a_decide_that_does_not_return_a_control_decision_exits_2_with_one_line(outside, argv):

@@ -609,6 +609,19 @@ def test_train_on_a_damaged_shard_is_one_line(reference_dataset, tmp_path, capsy
     assert not (tmp_path / "m").exists()
 
 
+def test_train_on_a_manifest_without_a_field_names_the_field(reference_dataset, tmp_path, capsys):
+    """It said only ``'feature_layout'`` (a KeyError's text)."""
+    from gpcnav.cli import main
+    src, _ = reference_dataset
+    out = _copy_dataset(src, tmp_path / "ds")
+    man = json.loads((out / "manifest.json").read_text())
+    del man["feature_layout"]
+    (out / "manifest.json").write_text(json.dumps(man))
+    assert main(["train", str(out), "--out", str(tmp_path / "m"), "--preset", "paper", "--epochs", "1"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"gpcnav train: error: {out}: cannot read the dataset: its manifest.json has no 'feature_layout'"]
+
+
 def test_dagger_episodes_with_walls_for_a_layout_without_walls_are_refused(reference_dataset, tmp_path, capsys):
     """A round with walls (``--dagger-files`` with ``[[walls]]``, ``--dagger-suite corridor``)
     on a dataset whose layout reads no walls stopped at its first situation with a ValueError

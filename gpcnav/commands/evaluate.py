@@ -212,9 +212,29 @@ def scenarios_from_args(args) -> tuple[list, object]:
             raise UsageError(f"--suite {suite.name}: {exc}") from None
     else:
         scenarios = [load_scenario(p) for p in args.scenarios]
+        _say_repeated_files(args.scenarios)
     if faults is not None:
         scenarios = [replace(s, faults=faults) for s in scenarios]
     return scenarios, suite
+
+
+def _say_repeated_files(paths) -> None:
+    """One line on stderr when a file is given more than once (``cases/*.toml cases/*.toml``): its
+    episode runs, and counts in the rates and their bounds, once for each time (a file's episode is the
+    same every time, its sensor noise seeded by the file)."""
+    seen, repeated = {}, []
+    for p in paths:
+        try:
+            key = Path(p).resolve()
+        except OSError:
+            key = Path(p)
+        if key in seen and key not in repeated:
+            repeated.append(key)
+        seen[key] = p
+    if repeated:
+        names = ", ".join(str(seen[k]) for k in repeated[:3]) + (f" and {len(repeated) - 3} more" if len(repeated) > 3 else "")
+        print(f"gpcnav: note: {names} given more than once: each run counts, in the rates and their bounds, as "
+              f"another episode", file=sys.stderr)
 
 
 def controller_extra(spec: ControllerSpec, config, robot) -> dict:

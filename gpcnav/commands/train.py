@@ -128,8 +128,11 @@ def run(args) -> int:
             raise UsageError(f"{d}: not a dataset folder (no manifest.json)")
         try:
             sets.append(load_dataset(d, parts, args.target))
-        except (ValueError, KeyError, OSError) as exc:
-            raise UsageError(f"{d}: cannot read the dataset: {exc}") from None
+        except KeyError as exc:  # a manifest without a field every dataset has
+            raise UsageError(f"{d}: cannot read the dataset: its manifest.json has no {exc.args[0]!r}") from None
+        except (ValueError, OSError) as exc:
+            text = str(exc)
+            raise UsageError(f"{d}: cannot read the dataset: {text.removeprefix(f'{d}: ')}") from None
     first = sets[0]
     cfg = cfg.for_walls(bool(first.layout.wall_sectors))  # a layout that reads walls was labelled with wall slots
     for d, s in zip(args.datasets, sets):

@@ -7,28 +7,27 @@ units and 2 outputs (right and left wheel speed, m/s). Inputs and outputs are st
 with statistics of the training split only; a seeded held-out split drives early stopping,
 and the best weights seen on it are kept.
 
-The training curve (the paper's Fig. 6) is recorded once per iteration (L-BFGS, the
-default) or epoch (Adam): the mean squared error
-of the right and left wheel speed, (m/s)^2, on the whole training split and on the
-validation split. The paper plots the summed squared error over its N patterns; the mean is
-that sum divided by N (both N are stored), so runs of different sizes compare.
+The training curve (the paper's Fig. 6) is recorded once per iteration (L-BFGS, the default) or
+epoch (Adam): the mean squared error of the right and left wheel speed, (m/s)^2, on the whole
+training split and on the validation split. The paper plots the summed squared error over its N
+patterns; the mean is that sum divided by N (both N are stored), so runs of different sizes compare.
 
-A fitted model is saved to a folder (``save``/``load``): ``weights.npz`` (plain arrays, no
-pickle), ``model.json`` (hyper-parameters, normalisation, feature layout, provenance,
-validation error), ``training_curve.json`` and ``training_curve.png``.
+A fitted model is saved to a folder (``save``/``load``): ``weights.npz`` (plain arrays, no pickle),
+``model.json`` (hyper-parameters, normalisation, feature layout, provenance, validation error),
+``training_curve.json`` and ``training_curve.png``.
 """
 from __future__ import annotations
 
 import json
 import math
 import time
-import zipfile
-import zlib
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import torch
+
+from casadi_gpc.io import UNREADABLE_NPZ
 
 from ..runtime.layouts import WHEEL_INPUTS
 from .curve import save_curve_figure
@@ -418,12 +417,10 @@ class WheelSpeedMLP:
             "format": MODEL_FORMAT, "params": self.get_params(), "n_features": self.n_features_in_,
             "n_outputs": self.n_outputs_, "feature_names": self.feature_names_, "label_names": self.label_names_,
             "train_mse": self.train_mse_, "validation_mse": self.validation_mse_,
-            "validation_rmse_mps": math.sqrt(self.validation_mse_),
-            "validation_max_abs_error_mps": self.validation_max_abs_error_,
-            "n_train": int(len(self.train_indices_)), "n_validation": int(len(self.validation_indices_)),
-            "best_epoch": self.best_epoch_, "stop_reason": self.stop_reason_,
-            "provenance": provenance or {},
-        })
+            "validation_rmse_mps": math.sqrt(self.validation_mse_), "validation_max_abs_error_mps":
+            self.validation_max_abs_error_, "n_train": int(len(self.train_indices_)),
+            "n_validation": int(len(self.validation_indices_)), "best_epoch": self.best_epoch_,
+            "stop_reason": self.stop_reason_, "provenance": provenance or {}})
         np.save(model_dir / "validation_indices.npy", self.validation_indices_)
         self.provenance_ = dict(provenance or {})
         return model_dir
@@ -442,15 +439,14 @@ class WheelSpeedMLP:
         try:
             with np.load(model_dir / "weights.npz", allow_pickle=False) as w:
                 arrays = {k: w[k] for k in w.files}
-        except (zipfile.BadZipFile, EOFError, zlib.error, ValueError) as exc:  # (a BadZipFile traceback in export)
+        except UNREADABLE_NPZ as exc:  # (a BadZipFile traceback in export)
             raise ValueError(f"weights.npz: not a readable weights file ({exc or type(exc).__name__})") from None
         net = self._new_net(meta["n_features"], meta["n_outputs"], meta["feature_names"])
         if self.architecture == "set":
             net.load_state_dict({k: torch.from_numpy(v) for k, v in arrays.items()})
         else:
             _load_mlp(net, arrays)
-        net.eval()
-        self.net_ = net
+        self.net_ = net.eval()
         self._loaded(meta, model_dir)
         return self
 

@@ -47,14 +47,12 @@ from __future__ import annotations
 
 import contextlib
 import json
-import zipfile
-import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from casadi_gpc.io import atomic_file, json_default
+from casadi_gpc.io import UNREADABLE_NPZ, atomic_file, json_default
 
 from ...runtime.layouts import FeatureLayout, layout_from_dict
 from .spec import ARRAY_KEYS, MIRROR_TOLERANCE_MPS, DatasetMismatch
@@ -89,7 +87,7 @@ def read_shard(path, keys=None) -> dict:
             out = {k: z[k] for k in names}
             out["spec_id"] = str(z["spec_id"])
             out["stats"] = json.loads(str(z["stats_json"]))
-    except (zipfile.BadZipFile, EOFError, zlib.error, ValueError) as exc:
+    except UNREADABLE_NPZ as exc:
         name = Path(path).name
         redo = "; `gpcnav dataset` with the same arguments redoes a damaged shard" if name.startswith("shard-") else ""
         raise ValueError(f"{name}: not a readable shard ({exc or type(exc).__name__}){redo}") from None

@@ -158,9 +158,10 @@ class GPCBehavior(core.Behavior, name="GPC"):
         from .errors import UsageError
         self._robot = self.robot_params()
         self._with_walls = bool(with_walls)
+        config = preset(self._preset).for_walls(self._with_walls)
         try:
-            self._controller = make(self.controller_spec(), preset(self._preset).for_walls(self._with_walls), self._robot)
-        except UsageError as exc:  # (a model for another robot: the agent's radius, its wheels), as the others are said
+            self._controller = make(self.controller_spec(), config, self._robot)
+        except UsageError as exc:  # (a model for another robot: the agent's size, its wheels), said as the others are
             raise ValueError(f"navground behaviour {self._type}: {exc}") from None
         self._reset_target()
         return self._controller

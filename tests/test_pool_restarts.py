@@ -88,6 +88,7 @@ def lines(tmp_path):
     return tmp_path
 
 
+@pytest.mark.slow  # (the pool's own test above and the one below keep the default suite's cover)
 def test_an_evaluation_whose_worker_is_killed_gives_the_document_of_one_that_was_not(lines):
     r = _evaluate(lines, "plain.json", KILL_LINE="100")
     assert r.returncode == 0, r.stderr

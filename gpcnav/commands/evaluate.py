@@ -232,7 +232,8 @@ def _say_repeated_files(paths) -> None:
             repeated.append(key)
         seen[key] = p
     if repeated:
-        names = ", ".join(str(seen[k]) for k in repeated[:3]) + (f" and {len(repeated) - 3} more" if len(repeated) > 3 else "")
+        more = f" and {len(repeated) - 3} more" if len(repeated) > 3 else ""
+        names = ", ".join(str(seen[k]) for k in repeated[:3]) + more
         print(f"gpcnav: note: {names} given more than once: each run counts, in the rates and their bounds, as "
               f"another episode", file=sys.stderr)
 

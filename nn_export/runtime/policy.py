@@ -1,30 +1,28 @@
 """The deployed controller: the ONNX network run with onnxruntime (numpy, onnxruntime and, for the
 obstacle forecasts and the check, numba only).
 
-:class:`OnnxPolicy` answers ``decide(observation) -> ControlDecision`` like the GPC
-controller, with the same obstacle EKF and reference clock (through
-:class:`nn_export.runtime.tracker.SituationTracker`) and the same feature definition as the
-dataset. It runs the paper's two-pass scheme (section 4):
+:class:`OnnxPolicy` answers ``decide(observation) -> ControlDecision`` like the GPC controller, with
+the same obstacle EKF and reference clock (:class:`nn_export.runtime.tracker.SituationTracker`) and
+the same features as the dataset; at a finished reference's end it holds the robot still
+(:mod:`nn_export.runtime.goal_hold`). It runs the paper's two-pass scheme (section 4):
 
-1. predict the robot's next H poses with the network as if there were no obstacle: the
-   network is rolled forward H steps with the robot model, each step's features computed
-   from the predicted state and the desired poses ahead of it;
-2. if that predicted path comes closer than ``safety_distance_m`` (clearance: centre
-   distance minus both radii) to a predicted obstacle position at the same step (moving)
-   or to a static obstacle, the predicted poses become the new desired trajectory and the
-   network is run once more, now with the obstacles; otherwise the first control of the
-   obstacle-free pass is applied.
+1. predict the robot's next H poses with the network as if there were no obstacle: the network is
+   rolled forward H steps with the robot model, each step's features computed from the predicted
+   state and the desired poses ahead of it;
+2. if that predicted path comes closer than ``safety_distance_m`` (clearance: centre distance
+   minus both radii) to a predicted obstacle position at the same step (moving) or to a static
+   obstacle, the predicted poses become the new desired trajectory and the network is run once
+   more, now with the obstacles; otherwise the first control of the obstacle-free pass is applied.
 
 ``two_pass=False`` is the plain variant: one call with the obstacles and the real reference.
 
-A plan network (``gpcnav train --target plan``) outputs the whole H-step sequence of wheel
-speeds: its first step is the command, and the decision carries the plan
-(``planned_wheels_mps``), which the check layer tests as a plan (:mod:`casadi_gpc.safety`,
-with the shifted previous plan as the safe candidate). It runs one pass.
+A plan network (``gpcnav train --target plan``) outputs the whole H-step sequence of wheel speeds:
+its first step is the command, and the decision carries the plan (``planned_wheels_mps``), which
+the check layer tests as a plan (:mod:`casadi_gpc.safety`, with the shifted previous plan as the
+safe candidate). It runs one pass.
 
-A model file is checked when it is loaded (:mod:`nn_export.runtime.model_file`), never at the
-first decision; anything wrong is a one-line ``ValueError`` (``FileNotFoundError`` for a
-missing file).
+A model file is checked when it is loaded (:mod:`nn_export.runtime.model_file`), never at the first
+decision; anything wrong is a one-line ``ValueError`` (``FileNotFoundError`` for a missing file).
 """
 from __future__ import annotations
 
@@ -45,6 +43,7 @@ from casadi_gpc.robot import RobotParams, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation
 
 from .features import RolloutFeatures, feature_values, feature_values_from
+from .goal_hold import goal_hold
 from .model_file import INPUT_NAME, OUTPUT_NAME, POLICY_FORMAT, _bind, _load_session, _validate, read_model_metadata
 from .rollout import roll_out
 from .set_slots import CrowdSlots
@@ -54,8 +53,7 @@ from .tracker import SituationTracker
 from .wall_scan import scan_rows, static_wall_rows, wall_segment_rows
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "shipped_walls_model_path",
-           "SHIPPED",
-           "read_model_metadata", "POLICY_FORMAT", "DEFAULT_SAFETY_DISTANCE_M"]
+           "SHIPPED", "read_model_metadata", "POLICY_FORMAT", "DEFAULT_SAFETY_DISTANCE_M"]
 
 MODELS_DIR = Path(__file__).parents[1] / "models"
 DEFAULT_SAFETY_DISTANCE_M = {"paper": 1.0, "improved": 1.0}
@@ -239,10 +237,8 @@ class OnnxPolicy:
             "preset": meta["preset"], "feature_layout": self.layout.name, "feature_layout_version": self.layout.version,
             "n_features": self.layout.size, "horizon": self.horizon, "sample_time_s": self.sample_time_s,
             "hidden": int(meta.get("hidden", 0)) or None, "layers": int(meta.get("layers", 1)),
-            "dataset": json.loads(meta["dataset"]),
-            "validation_rmse_mps": float(meta["validation_rmse_mps"]), "two_pass": self.two_pass,
-            "safety_distance_m": self.safety_distance_m,
-        }
+            "dataset": json.loads(meta["dataset"]), "validation_rmse_mps": float(meta["validation_rmse_mps"]),
+            "two_pass": self.two_pass, "safety_distance_m": self.safety_distance_m}
         # the shipped model by its bytes, wherever the file is (named with --model, or navground's
         # ``model``, it was left without its crowd and walls networks and froze at a pillar)
         shipped_main = shipped_model_path(self.config.name)
@@ -278,7 +274,7 @@ class OnnxPolicy:
     # --- state -----------------------------------------------------------------------
     def reset(self) -> None:
         self.tracker.reset()
-        self._counters = {"decisions": 0, "second_pass": 0, "crowd_network": 0, "walls_network": 0,
+        self._counters = {"decisions": 0, "second_pass": 0, "crowd_network": 0, "walls_network": 0, "goal_holds": 0,
                           "feature_report": {}}
         self._last = None
         self._last_slots = None  # the last decision's CrowdSlots, where it made them (its roll-out reads them)
@@ -441,6 +437,10 @@ class OnnxPolicy:
         else:
             t1 = clock()
             dec = self._two_passes(obs, tracks, ref_rows, handed)
+        held = goal_hold(dec, obs, self.tracker.clock.s_m, self.horizon)
+        if held is not None:
+            counters["goal_holds"] += 1
+            dec = held
         info = dec.info
         info["estimation_time_s"], info["network_time_s"] = t1 - t0, clock() - t1
         return dec

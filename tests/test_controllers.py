@@ -150,7 +150,7 @@ def test_a_user_class_from_outside_the_project_runs_in_simulate_and_evaluate(out
     ev = json.loads((outside / "eval.json").read_text())
     assert ev["controller"] == "mymod:MyPolicy" and ev["success_rate"] == 1.0 and ev["episodes"] == 2
     # (one file twice: two episodes, and a line says so)
-    assert "gpcnav: note: empty.toml given more than once: each run counts" in r.stderr
+    assert "gpcnav evaluate: empty.toml given more than once: each run counts" in r.stderr
 
 
 @pytest.mark.parametrize("name, message", [

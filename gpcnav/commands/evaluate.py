@@ -212,13 +212,13 @@ def scenarios_from_args(args) -> tuple[list, object]:
             raise UsageError(f"--suite {suite.name}: {exc}") from None
     else:
         scenarios = [load_scenario(p) for p in args.scenarios]
-        _say_repeated_files(args.scenarios)
+        _say_repeated_files(args.scenarios, args.command)
     if faults is not None:
         scenarios = [replace(s, faults=faults) for s in scenarios]
     return scenarios, suite
 
 
-def _say_repeated_files(paths) -> None:
+def _say_repeated_files(paths, command: str) -> None:
     """One line on stderr when a file is given more than once (``cases/*.toml cases/*.toml``): its
     episode runs, and counts in the rates and their bounds, once for each time (a file's episode is the
     same every time, its sensor noise seeded by the file)."""
@@ -234,7 +234,7 @@ def _say_repeated_files(paths) -> None:
     if repeated:
         more = f" and {len(repeated) - 3} more" if len(repeated) > 3 else ""
         names = ", ".join(str(seen[k]) for k in repeated[:3]) + more
-        print(f"gpcnav: note: {names} given more than once: each run counts, in the rates and their bounds, as "
+        print(f"gpcnav {command}: {names} given more than once: each run counts, in the rates and their bounds, as "
               f"another episode", file=sys.stderr)
 
 

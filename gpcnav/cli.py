@@ -27,8 +27,9 @@ COMMANDS = {
 }
 
 
-RESUMABLE = ("evaluate", "compare", "dataset")
-"""The subcommands whose finished work survives an interruption (docs/evaluation.md)."""
+RESUMABLE = ("evaluate", "compare", "dataset", "reproduce")
+"""The subcommands whose finished work survives an interruption (docs/evaluation.md; reproduce:
+its finished stages)."""
 
 
 class DefaultsFormatter(argparse.HelpFormatter):
@@ -72,6 +73,9 @@ class Terminated(KeyboardInterrupt):
 
 _TERMINATING = threading.Event()
 _STOPPED = threading.Event()
+_DEPTH = 0
+"""How many :func:`main` calls are running: more than one inside ``reproduce``, whose stages are
+commands run through ``main()``; a stop is the outermost call's to handle and say."""
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
@@ -100,7 +104,12 @@ def _repeat(signum):
 
 
 def _stopped(args, exc: BaseException) -> int:
-    """The stop's one line and exit status (``exc``: the exception it came as)."""
+    """The stop's one line and exit status (``exc``: the exception it came as); inside another
+    command (``reproduce``'s stages) ``exc`` goes on to it. (Until 2026-12-01 a stage said its own
+    stop, then ``reproduce`` said "error: stage command failed (exit 130)" and exited 2; and once
+    a stage had run, a Ctrl-C in ``reproduce``'s own work was taken and not raised.)"""
+    if _DEPTH > 1:
+        raise exc
     _STOPPED.set()  # first: a signal from now on is not raised (_stop)
     terminated = _terminated(exc)
     resumes = "; what finished is kept: the same command resumes" if args.command in RESUMABLE else ""
@@ -111,17 +120,21 @@ def _stopped(args, exc: BaseException) -> int:
 
 
 def main(argv=None) -> int:
+    global _DEPTH
     args = build_parser().parse_args(argv)
     from scenarios import ScenarioError
     from casadi_gpc.io import clear_stop, stop_requested
     from casadi_gpc.pool import WorkersDied
     from casadi_gpc.types import ProtocolError
-    _TERMINATING.clear()
-    _STOPPED.clear()
-    clear_stop()
+    outermost = _DEPTH == 0
     previous = {}
-    if threading.current_thread() is threading.main_thread():
-        previous = {sig: signal.signal(sig, _stop) for sig in _SIGNALS}
+    if outermost:
+        _TERMINATING.clear()
+        _STOPPED.clear()
+        clear_stop()
+        if threading.current_thread() is threading.main_thread():
+            previous = {sig: signal.signal(sig, _stop) for sig in _SIGNALS}
+    _DEPTH += 1
     try:
         try:
             return int(args._run(args) or 0)
@@ -160,8 +173,10 @@ def main(argv=None) -> int:
         # Terminated until 2026-11-30); the chain of exceptions holds the first
         return _stopped(args, exc)
     finally:
-        _STOPPED.set()
-        clear_stop()
+        _DEPTH -= 1
+        if outermost:
+            _STOPPED.set()
+            clear_stop()
         for sig, handler in previous.items():  # (stopping: the repeated signals are not the next command's)
             signal.signal(sig, signal.SIG_IGN if _TERMINATING.is_set() else handler)
 

@@ -270,7 +270,9 @@ class NavigationEnv(Env):
         index = (options or {}).get("index")
         if index is None:
             index = int(self.np_random.integers(0, self.count if self.count else 2 ** 31 - 1))
-        elif int(index) < 0:  # (any other: episode ``index`` of the suite, ``count`` or not: the draws' set only)
+        elif isinstance(index, bool) or not isinstance(index, numbers.Integral):  # (2.7 ran episode 2, True 1)
+            raise ValueError(f"options index {index!r}: an episode of the suite is a whole number, 0 or more")
+        elif index < 0:  # (any other: episode ``index`` of the suite, ``count`` or not: the draws' set only)
             raise ValueError(f"options index {index}: an episode of the suite is 0 or more")
         return self.suite.scenario(int(index))
 

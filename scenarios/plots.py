@@ -118,8 +118,9 @@ def run_figure(doc: dict, robot_radius_m: float = 0.35):
     return fig
 
 
-def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> None:
-    """A GIF of the run, one frame per sample."""
+def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8, progress=None) -> None:
+    """A GIF of the run, one frame per sample; ``progress``: an optional ``tqdm``-like factory
+    ``progress(total=, unit=)``, a bar over the frames drawn."""
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     from casadi_gpc.io import atomic_file
@@ -175,8 +176,12 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8) -> 
         return [path_line, robot, *discs, *(tr for tr in trails if tr is not None), label]
 
     anim = FuncAnimation(fig, frame, frames=len(t), blit=False)
+    bar = progress(total=len(t), unit="frame") if progress else None
+    drawn = None if bar is None else (lambda i, n: bar.update(1))
     try:
         with atomic_file(path, ".gif") as tmp:
-            anim.save(tmp, writer=PillowWriter(fps=fps))
+            anim.save(tmp, writer=PillowWriter(fps=fps), progress_callback=drawn)
     finally:
         plt.close(fig)
+        if bar is not None:
+            bar.close()

@@ -300,8 +300,10 @@ def _absent_far(gaps: np.ndarray) -> np.ndarray:
     return np.where(np.isnan(gaps), np.inf, gaps) if np.isnan(gaps).any() else gaps
 
 
-def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
-    """Run one closed-loop episode of ``scenario`` with ``controller`` (reset first)."""
+def simulate(scenario, controller: Policy, controller_name: str = "", progress=None) -> RunLog:
+    """Run one closed-loop episode of ``scenario`` with ``controller`` (reset first);
+    ``progress``: an optional ``tqdm``-like factory ``progress(total=, unit=)``, a bar over the
+    episode's samples."""
     controller.reset()
     # a controller with no solver to fail (a network, a peer; a check layer in front of one:
     # its inject_failures answers False) is said to in the events when failures are asked for
@@ -310,11 +312,17 @@ def simulate(scenario, controller: Policy, controller_name: str = "") -> RunLog:
                                           np.random.default_rng([scenario.sensing.seed, 7])) is not False
     unapplied = int(not taken and scenario.faults.solver_failure_prob > 0)
     episode = Episode(scenario, controller.sample_time_s, controller_name)
+    bar = progress(total=episode.n_steps, unit="step") if progress else None
     while not episode.done:
         obs = episode.observation()
         t0 = time.perf_counter()
         decision = checked_decision(controller.decide(obs), controller)
         episode.step(decision, time.perf_counter() - t0)
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:  # an episode that ended before its time limit: the bar ends full
+        bar.total = bar.n
+        bar.close()
     log = episode.log
     if unapplied:
         log.events["solver_failures_not_applied"] = 1

@@ -212,6 +212,16 @@ def test_a_negative_episode_index_is_refused():
         env.reset(seed=0, options={"index": -1})
 
 
+@pytest.mark.parametrize("index", [2.7, 1.0, True, "1", "a"])
+def test_an_episode_index_that_is_no_whole_number_is_refused(index):
+    """options index 2.7 ran episode 2 and True episode 1 (int() of them), as count=2.5 was taken
+    before it was refused; "a" was int()'s own message, naming no option."""
+    env = NavigationEnv(suite="circle-crossing", movers=3, count=2)
+    with pytest.raises(ValueError, match=r"^options index .*: an episode of the suite is a whole number, 0 or more$"):
+        env.reset(seed=0, options={"index": index})
+    assert env.reset(seed=0, options={"index": np.int64(1)})[1]["scenario"] == "circle-crossing-orca-3-0-0001"
+
+
 @pytest.mark.parametrize("count", [2.5, True, "3"])
 def test_a_count_that_is_no_whole_number_is_refused_when_made(count):
     """count=2.5 was taken (each reset drew from [0, 2.5)); it is a number of episodes."""

@@ -223,3 +223,40 @@ def test_a_signal_that_comes_again_while_the_stop_is_handled_is_still_one_line(m
             signal.signal(sig, handler)
     assert code == 143
     assert capsys.readouterr().err.strip().splitlines() == ["gpcnav simulate: terminated"]
+
+
+@pytest.mark.parametrize("sig, code, what", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_reproduce_stopped_in_a_stage_or_between_stages_says_so_once(sig, code, what, monkeypatch, capsys):
+    """``reproduce`` runs its stages as commands through ``main()``. Stopped inside one, the stage
+    said its own stop and reproduce "error: stage command failed (exit 130)", exit 2; and once a
+    stage had finished, a stop in reproduce's own work (its in-process stages) was taken and not
+    raised: the next stage cleared it and the run went on (exit 0)."""
+    from gpcnav import cli
+    from gpcnav.commands import reproduce, simulate
+    paper = str(REPO / "scenarios" / "paper" / "fig7_1_head_on.toml")
+    real_simulate = simulate.run
+
+    def stopped_in_a_stage(args):
+        reproduce._cli(["simulate", paper, "--controller", "stand"])  # a stage that finishes
+        monkeypatch.setattr(simulate, "run", lambda a: os.kill(os.getpid(), sig) or time.sleep(5.0))
+        reproduce._cli(["simulate", paper, "--controller", "stand"])  # the stop comes inside this one
+        raise AssertionError("not stopped")
+
+    def stopped_between_stages(args):
+        reproduce._cli(["simulate", paper, "--controller", "stand"])
+        os.kill(os.getpid(), sig)  # in reproduce's own work (the handler raises here)
+        reproduce._cli(["simulate", paper, "--controller", "stand"])
+        return 0
+
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    for fake in (stopped_in_a_stage, stopped_between_stages):
+        monkeypatch.setattr(simulate, "run", real_simulate)
+        monkeypatch.setattr(reproduce, "run", fake)
+        try:
+            assert cli.main(["reproduce", "--out", "/tmp/unused-by-the-fake"]) == code, fake.__name__
+        finally:
+            for s, handler in previous.items():  # (main() leaves them ignored after SIGTERM)
+                signal.signal(s, handler)
+        captured = capsys.readouterr()
+        assert captured.err.strip().splitlines() == [f"gpcnav reproduce: {what}; what finished is kept: the same "
+                                                     f"command resumes"], fake.__name__

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..controllers import ControllerSpec, check, describe, make, reads_planner_settings, spec_from_args
 from .common import (add_controller_arguments, check_output_files, check_seed, planner_config, for_pool, for_run,
-                     recorded_changes, refuse_unread_changes)
+                     progress, recorded_changes, refuse_unread_changes)
 
 
 def add_arguments(p):
@@ -18,15 +18,16 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=None, help="override the scenario's sensing seed")
 
 
-def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=None, passes=None):
+def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=None, passes=None, progress=None):
     """Simulate ``scenario`` with the controller ``spec`` names (or ``spec``, ``model``,
-    ``shield``, ``passes`` as the controller's name and options) and return its RUN document."""
+    ``shield``, ``passes`` as the controller's name and options) and return its RUN document
+    (``progress``: a bar over the episode's samples, :func:`scenarios.simulator.simulate`)."""
     from scenarios.metrics import run_document
     from scenarios.simulator import simulate
     if isinstance(spec, str):
         spec = ControllerSpec(spec, model, shield, passes)
     controller = make(spec, config, scenario.robot)
-    log = simulate(scenario, controller, spec.label)
+    log = simulate(scenario, controller, spec.label, progress=progress)
     extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
              "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode,  # docs/faults.md
              **recorded_changes(config, reads_planner_settings(spec)), "solve_lanes": config.solve_lanes}
@@ -55,7 +56,7 @@ def run(args) -> int:
     spec = spec_from_args(args)
     check(spec, config, scenario.robot)
     refuse_unread_changes([spec], config)
-    doc = run_one(scenario, spec, config)
+    doc = run_one(scenario, spec, config, progress=lambda **kw: progress(desc="simulating", **kw))
     if args.out:
         write_json(args.out, doc)
     if args.plot:
@@ -66,7 +67,8 @@ def run(args) -> int:
         plt.close(fig)
     if args.animate:
         from scenarios.plots import animate_run
-        animate_run(doc, args.animate, scenario.robot.radius_m)
+        animate_run(doc, args.animate, scenario.robot.radius_m,
+                    progress=lambda **kw: progress(desc="animating", **kw))
     ct = doc["compute_time_s"]
     print(f"{doc['scenario']} [{spec.label}, preset {config.name}, T={doc['sample_time_s']} s]: "
           f"{doc['outcome']}  min clearance {doc['min_clearance_m']:.3f} m  tracking RMSE "

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-__all__ = ["SamplerSettings", "DEFAULT_WHEEL_LIMIT_MPS"]
+from casadi_gpc.robot import RobotParams
 
-DEFAULT_WHEEL_LIMIT_MPS = 0.8
-"""The wheel limit of the robot the settings were drawn up for (CONTRACT's default robot)."""
+__all__ = ["SamplerSettings"]
 
 
 @dataclass(frozen=True)
@@ -139,7 +138,7 @@ class SamplerSettings:
         robot is given references it can follow); everything else, the people's speeds included,
         as it is. The default robot's wheel limit gives these very settings (a dataset's
         ``spec_id`` unchanged)."""
-        k = robot.max_wheel_speed_mps / DEFAULT_WHEEL_LIMIT_MPS
+        k = robot.max_wheel_speed_mps / RobotParams().max_wheel_speed_mps  # the robot they were drawn up for
         if k == 1.0:
             return self
         return replace(self, ref_speed_mps=tuple(v * k for v in self.ref_speed_mps),

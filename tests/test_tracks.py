@@ -193,6 +193,23 @@ def test_someone_appearing_on_the_robot_is_a_ghost_not_the_robots_doing():
     assert doc["obstacles"][0]["x"][0] is None                 # not in the scene at t = 0: null, not NaN
 
 
+def test_a_contact_exactly_the_ghost_time_after_the_first_row_is_the_robots_doing():
+    """Known answer: the robot drives at 0.4 m/s from t = 0 (x = 0.4 t) into a person standing at
+    x = 1.205 from t = 0.4 s; the discs (0.35 + 0.3 m) first overlap at a check instant at
+    t = 1.4 s (1.205 - 0.56 < 0.65; at 1.375 s, 1.205 - 0.55 = 0.655): the person had existed
+    1 s, the contract's "at least 1 s" (1.4 - 0.4 was 0.9999999999999999 and not counted)."""
+    class Drive(_Still):
+        def decide(self, obs):
+            return ControlDecision(0.4, 0.4)
+    person = "[[moving_obstacles]]\nradius_m = 0.3\ntrack = [[0.4, 1.205, 0.0], [10.0, 1.205, 0.0]]\n"
+    log = simulate(_scenario(person), Drive())
+    c = log.collision
+    assert log.outcome == "collided" and c["time_s"] == pytest.approx(1.4, abs=1e-12)
+    assert c["obstacle_age_s"] == pytest.approx(1.0, abs=1e-12) and c["robot_speed_towards_mps"] == pytest.approx(0.4)
+    assert episode_metrics(log).robot_approaching
+    assert eval_document("x", [episode_metrics(log)], [0.0])["collided_robot_approaching"] == 1
+
+
 # --- the recordings and the case protocol --------------------------------------------------------
 
 def test_frame_time_follows_the_recording():

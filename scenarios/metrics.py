@@ -151,10 +151,12 @@ class EpisodeMetrics:
     compute_median_s: float
     path_length_m: float = 0.0
     danger_steps: int = 0
-    """Sample intervals in which the clearance to some mover fell below
-    :data:`DANGER_CLEARANCE_M`."""
+    """Samples at which the clearance to some mover was below :data:`DANGER_CLEARANCE_M`."""
     danger_clearance_sum_m: float = 0.0
-    """Sum over those intervals of their smallest clearance (for the mean over all)."""
+    """Sum over those samples of their smallest clearance (for the mean over all)."""
+    danger_samples: int | None = None
+    """The samples the danger rate is a share of: the sample instants after the start, not a
+    contact nor an end cut at ``duration_s`` (:meth:`RunLog.at_samples`); None: ``steps``."""
     interventions: int = 0
     collision: dict | None = None
     """What was hit and how (RUN.json's ``collision``), for a collided episode."""
@@ -199,10 +201,17 @@ def episode_metrics(log: RunLog) -> EpisodeMetrics:
         path_length_m=path_length_m(log.states, log.sample_time_s, log.t),
         danger_steps=int(danger.size),
         danger_clearance_sum_m=float(danger.sum()),
+        danger_samples=int(mover.size),
         interventions=intervention_count(log.events),
         collision=getattr(log, "collision", None),
         robot_radius_m=float(log.scenario.robot.radius_m),
     )
+
+
+def _danger_samples(m: EpisodeMetrics) -> int:
+    """The samples ``m``'s danger rate is a share of (until 2026-12-01 its steps, which count a
+    collided run's contact and a run's end cut at ``duration_s``: not samples, and never in danger)."""
+    return m.steps if m.danger_samples is None else m.danger_samples
 
 
 def _nullable(values: np.ndarray) -> list:
@@ -242,7 +251,7 @@ def run_document(log: RunLog, extra: dict | None = None) -> dict:
         "fallbacks": m.fallbacks,
         "longest_stop_s": m.longest_stop_s,
         "path_length_m": m.path_length_m,
-        "danger_rate": m.danger_steps / max(m.steps, 1),
+        "danger_rate": m.danger_steps / max(_danger_samples(m), 1),
         "min_clearance_in_danger_m": m.danger_clearance_sum_m / m.danger_steps if m.danger_steps else None,
         "interventions": m.interventions,
         "collision": m.collision,
@@ -271,7 +280,7 @@ def eval_document(controller: str, metrics: list[EpisodeMetrics], compute_times:
     clear = np.array([m.min_clearance_m for m in metrics]) if n else np.zeros(1)
     rmse = np.array([m.tracking_rmse_m for m in metrics]) if n else np.zeros(1)
     ttg = [m.time_to_goal_s for m in metrics if m.reached_goal]
-    steps = sum(m.steps for m in metrics)
+    samples = sum(_danger_samples(m) for m in metrics)
     danger = sum(m.danger_steps for m in metrics)
     collisions = sum(m.collided for m in metrics)
     failures = n - sum(m.reached_goal for m in metrics)
@@ -286,7 +295,7 @@ def eval_document(controller: str, metrics: list[EpisodeMetrics], compute_times:
         "compute_time_s": time_stats(compute_times, (extra or {}).get("sample_time_s")),
         "fallbacks": int(sum(m.fallbacks for m in metrics)),
         "time_to_goal_s": {"mean": float(np.mean(ttg)), "median": float(np.median(ttg))} if ttg else None,
-        "danger_rate": danger / max(steps, 1),
+        "danger_rate": danger / max(samples, 1),
         "min_clearance_in_danger_m": sum(m.danger_clearance_sum_m for m in metrics) / danger if danger else None,
         "path_length_m": {"median": float(np.median([m.path_length_m for m in metrics])) if n else 0.0},
         "collision_rate_upper_95": clopper_pearson_upper(collisions, n),

@@ -184,6 +184,27 @@ def test_collision_between_samples_is_caught():
     assert m.outcome == "collided" and m.danger_steps == 0  # 1 s: 0.5 m; the contact at 1.5 s not counted
 
 
+def test_danger_rate_is_a_share_of_the_samples():
+    """The danger rate's denominator is the samples its numerator is counted over: neither a run's
+    end cut at ``duration_s`` nor a contact is one (it was the steps, which count both: 2 of 3 and
+    1 of 2 below, found by an audit)."""
+    from scenarios.metrics import eval_document
+    still = Scripted(lambda t, r: (0.0, 0.0), 1.0)
+    # a mover standing 0.1 m outside contact; samples at 1 and 2 s, the run cut at 2.5 s: both in danger
+    cut = episode_metrics(simulate(scenario(moving=[MovingObstacleSpec((0.0, 0.75), 0.0, 0.0, 0.3)], duration_s=2.5),
+                                   still))
+    assert (cut.outcome, cut.steps, cut.danger_steps) == ("timed_out", 3, 2)
+    # a mover from x = -1.8 at 1 m/s: 0.15 m from contact at the sample at 1 s, touching after 1.15 s
+    hit_log = simulate(scenario(moving=[MovingObstacleSpec((-1.8, 0.0), 0.0, 1.0, 0.3)], duration_s=5.0), still)
+    hit = episode_metrics(hit_log)
+    assert (hit.outcome, hit.steps, hit.danger_steps) == ("collided", 2, 1)
+    assert hit.danger_clearance_sum_m == pytest.approx(0.15, abs=1e-12)
+    assert run_document(hit_log)["danger_rate"] == 1.0  # 1 of its 1 sample (was 1 / 2)
+    doc = eval_document("x", [cut, hit], [0.0])
+    assert doc["danger_rate"] == 1.0  # 3 of 3 samples (was 3 / 5)
+    assert doc["min_clearance_in_danger_m"] == pytest.approx((0.1 + 0.1 + 0.15) / 3, abs=1e-12)
+
+
 def test_moving_robot_jumping_past_an_obstacle_between_samples_collides():
     # T = 2 s at 0.8 m/s: 1.6 m per step; the obstacle at x = 2.4 is 0.8 m from the samples
     # x = 1.6 and 3.2, more than 0.35 + 0.1, yet the robot drives straight through it

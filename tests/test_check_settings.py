@@ -102,3 +102,25 @@ def test_shield_takes_its_flags_from_the_settings():
         Shield(_Scripted(), RobotParams(), CheckSettings(fallback="planner"))
     with pytest.raises(ValueError, match="not 'planner'"):
         Shield(_Scripted(), RobotParams(), CheckSettings(), standby=_Scripted())
+
+
+def test_the_faults_page_shield_snippets_construct():
+    """docs/faults.md's inline ``Shield(...)`` and ``CheckSettings(...)`` forms are made as
+    written (``GPCController(...)`` taken as the improved preset's, ``=...`` as True): the page
+    showed keywords the Shield had lost (``fallback=``, ``rollouts=``, ``previous_plan=``)."""
+    import re
+    from pathlib import Path
+
+    from casadi_gpc.planner.gpc import GPCController
+    from casadi_gpc.safety import StandbyPlanner  # noqa: F401  (a name the snippets may use)
+    from nn_export import OnnxPolicy  # noqa: F401
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "faults.md").read_text(encoding="utf-8")
+    spans = [" ".join(s.split()) for s in re.findall(r"`((?:Shield|CheckSettings)\([^`]*\))`", text)]
+    assert len(spans) >= 5, spans
+    names = dict(globals(), GPCController=GPCController, StandbyPlanner=StandbyPlanner, OnnxPolicy=OnnxPolicy,
+                 policy=OnnxPolicy())
+    for span in spans:
+        code = span.replace("(...)", '(preset("improved"))').replace("=...", "=True")
+        made = eval(code, names)  # noqa: S307 (the page's own code)
+        assert isinstance(made, (Shield, CheckSettings)), span

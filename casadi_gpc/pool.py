@@ -220,10 +220,24 @@ def _run_local(fn, tasks: list, workers: int):
                     pool = new_pool("spawn")
                     queue[:0] = lost
                     pending.clear()
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+        except BaseException:  # a stop, a task's error, the caller gone: the workers' work is not wanted
+            _abandon(pool)
+            raise
+        pool.shutdown(wait=True)
 
     return results()
+
+
+def _abandon(pool) -> None:
+    """End ``pool`` at once: its workers terminated (they only compute; nothing of theirs is kept),
+    its queued tasks cancelled, nothing waited for. A stop that waited for the workers to finish their
+    tasks (``shutdown(wait=True)``) could be broken off by the stop's repeated signal (gpcnav.cli)
+    on a loaded machine, and the interpreter's exit then waited for ever on workers that never got
+    their end (a SIGTERM'd ``evaluate`` hung after its line, 3 runs in 3 beside two busy loops)."""
+    for p in list((getattr(pool, "_processes", None) or {}).values()):
+        with contextlib.suppress(Exception):
+            p.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _deaths(processes) -> str:

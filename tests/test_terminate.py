@@ -59,6 +59,48 @@ def test_an_evaluation_stopped_by_sigterm_says_so_and_resumes(tmp_path):
     assert again.returncode == 0 and f"reused {kept}" in again.stderr and (tmp_path / "E.json").exists()
 
 
+SLOW_MODULE = """
+import os, time
+from casadi_gpc import ControlDecision
+
+class Slow:
+    sample_time_s = 0.5
+
+    def reset(self):
+        pass
+
+    def decide(self, observation):
+        open(f"busy-{os.getpid()}", "w").close()
+        time.sleep(3.0)
+        return ControlDecision(v_right_mps=0.2, v_left_mps=0.2)
+"""
+
+
+def test_a_stop_while_the_workers_are_busy_ends_at_once(tmp_path):
+    """The stop waited for the workers to finish their tasks, and the stop's signal, sent again
+    every second, broke that wait off: the command said its line, then hung for ever at its exit
+    on workers that never got their end (a SIGTERM'd evaluate, beside two busy loops, 3 runs in
+    3). Now the workers are ended at once."""
+    (tmp_path / "slow.py").write_text(SLOW_MODULE, encoding="utf-8")
+    text = (REPO / "scenarios" / "paper" / "fig7_1_head_on.toml").read_text(encoding="utf-8")
+    files = []
+    for k in range(4):
+        (tmp_path / f"s{k}.toml").write_text(text, encoding="utf-8")
+        files.append(f"s{k}.toml")
+    proc = _start(["evaluate", *files, "--controller", "slow:Slow", "--workers", "2", "--out", "E.json"], tmp_path)
+    _wait_for(lambda: len(list(tmp_path.glob("busy-*"))) >= 2, proc)  # both workers inside a 3 s decision
+    workers = _children(proc.pid)
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 143, err
+    assert err.strip().splitlines()[-1] == "gpcnav evaluate: terminated; what finished is kept: the same command resumes"
+    assert time.monotonic() - t0 < 2.5  # not the workers' 3 s decisions waited for
+    time.sleep(0.5)
+    assert not [w for w in workers if Path(f"/proc/{w}").exists()
+                and Path(f"/proc/{w}/stat").read_text().split()[2] != "Z"]
+
+
 def test_a_compile_stopped_by_sigterm_leaves_no_temporary_folder(tmp_path):
     """A planner setting never compiled before (its own cache key), SIGTERM just after the
     compile's folder is made: while CasADi generates the code, where an exception raised by the

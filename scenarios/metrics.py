@@ -88,10 +88,17 @@ def passing_sides(robot_xy, obstacle_xy) -> tuple[int, ...]:
     return tuple(1 if t >= 0 else -1 for t in np.atleast_1d(turn))
 
 
-def same_instant_deviation_m(xy_a, xy_b) -> float:
-    """The largest distance between two runs' robot positions at the same sample instants
-    (over the samples both runs have)."""
+def same_instant_deviation_m(xy_a, xy_b, t_a=None, t_b=None) -> float:
+    """The largest distance between two runs' robot positions at the same instants: with the
+    records' times ``t_a``, ``t_b`` (RUN.json's ``trajectory.t``, ``RunLog.t``), at the instants both
+    runs recorded (equal within 1e-9 s); without them, record by record over those both have. A
+    collided run's last record is its contact, not a sample: paired by place, it was compared with
+    the other run's next sample (found by an audit)."""
     a, b = np.asarray(xy_a, float)[:, :2], np.asarray(xy_b, float)[:, :2]
+    if t_a is not None and t_b is not None:
+        ta, tb = np.round(np.asarray(t_a, float) * 1e9), np.round(np.asarray(t_b, float) * 1e9)
+        _, ia, ib = np.intersect1d(ta[:len(a)], tb[:len(b)], return_indices=True)
+        a, b = a[ia], b[ib]
     n = min(len(a), len(b))
     return float(np.max(np.hypot(*(a[:n] - b[:n]).T)))
 

@@ -53,3 +53,13 @@ def test_path_length_of_exact_arcs():
     states = [[0, 0, 0, 0, 0], [0, 0, 0, 0.4, 0.4], [0, 0, 0, 0.4, 0.4], [0, 0, 0, 0.4, 0.4],
               [0, 0, 0, -0.1, -0.3], [0, 0, 0, -0.1, -0.3]]
     assert path_length_m(states, 0.5) == pytest.approx(0.8, abs=1e-12)
+
+
+def test_same_instant_deviation_pairs_the_records_by_their_times():
+    """A collided run's last record is its contact (1.3 s), not a sample: paired by place it was
+    compared with the other run's sample at 1.5 s (found by an audit)."""
+    t_g, t_n = [0.0, 0.5, 1.0, 1.5, 2.0], [0.0, 0.5, 1.0, 1.3]
+    gpc = np.array([[0.0, 0.0], [0.2, 0.0], [0.4, 0.0], [0.6, 0.0], [0.8, 0.0]])
+    nn = np.array([[0.0, 0.0], [0.2, 0.1], [0.4, 0.2], [0.52, 0.26]])
+    assert same_instant_deviation_m(nn, gpc, t_n, t_g) == pytest.approx(0.2, abs=1e-12)  # at 1.0 s
+    assert same_instant_deviation_m(nn, gpc) == pytest.approx(np.hypot(0.08, 0.26), abs=1e-12)  # the old pairing

@@ -83,7 +83,7 @@ def fig7_rows(preset, model) -> tuple[list, dict]:
             rows.append({"preset": preset, "scenario": sc.name, "controller": name, "outcome": n.outcome,
                          "min_clearance_m": float(n.min_clearance_m), "fallbacks": int(n.fallbacks),
                          "path_deviation_m": path_deviation_m(xy(n), xy(g)),
-                         "same_instant_deviation_m": same_instant_deviation_m(xy(n), xy(g)),
+                         "same_instant_deviation_m": same_instant_deviation_m(xy(n), xy(g), n.t, g.t),
                          "passes": 2 if getattr(ctrl, "policy", ctrl).two_pass else 1})  # behind a Shield or bare
     return rows, paths
 
@@ -95,7 +95,7 @@ def encounter_rows(preset, model, count, seed) -> dict:
         g = simulate(sc, make_controller("gpc", config, sc.robot), "gpc")
         n = simulate(sc, make_controller("nn", config, sc.robot, model, "off"), "nn")
         dev.append(path_deviation_m(xy(n), xy(g)))
-        devt.append(same_instant_deviation_m(xy(n), xy(g)))
+        devt.append(same_instant_deviation_m(xy(n), xy(g), n.t, g.t))
         outs.append((g.outcome, n.outcome))
     dev, devt = np.asarray(dev), np.asarray(devt)
     return {"episodes": count, "seed": seed,

@@ -68,7 +68,7 @@ def _run(index, job):
     from scenarios.simulator import simulate
     scenario, kind, model, safety, passes, tie_margin = job
     log = simulate(scenario, _controller(kind, model, safety, passes, scenario.robot, tie_margin), kind)
-    return index, {"xy": np.asarray(log.states)[:, :2], "obstacles": np.asarray(log.obstacle_xy),
+    return index, {"xy": np.asarray(log.states)[:, :2], "t": list(log.t), "obstacles": np.asarray(log.obstacle_xy),
                    "outcome": log.outcome, "fallbacks": int(log.fallbacks)}
 
 
@@ -86,7 +86,7 @@ def compare(runs, refs) -> list[dict]:
     for n, g in zip(runs, refs):
         rows.append({"outcome": n["outcome"], "fallbacks": n["fallbacks"],
                      "path_m": path_deviation_m(n["xy"], g["xy"]),
-                     "same_instant_m": same_instant_deviation_m(n["xy"], g["xy"]),
+                     "same_instant_m": same_instant_deviation_m(n["xy"], g["xy"], n.get("t"), g.get("t")),
                      "same_side": passing_sides(n["xy"], n["obstacles"]) == passing_sides(g["xy"], g["obstacles"])})
     return rows
 

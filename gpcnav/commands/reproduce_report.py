@@ -25,7 +25,8 @@ def _xy(doc: dict) -> np.ndarray:
 def deviations_m(a: dict, b: dict) -> tuple[float, float]:
     """Two runs' distance: (as paths, at the same sample instants); scenarios.metrics."""
     from scenarios.metrics import path_deviation_m, same_instant_deviation_m
-    return path_deviation_m(_xy(a), _xy(b)), same_instant_deviation_m(_xy(a), _xy(b))
+    return path_deviation_m(_xy(a), _xy(b)), same_instant_deviation_m(_xy(a), _xy(b), a["trajectory"].get("t"),
+                                                                      b["trajectory"].get("t"))
 
 
 def fig7(run_files: dict, path: Path) -> None:

@@ -26,7 +26,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 __all__ = ["WorkerPool", "BACKENDS", "ClusterUnavailable", "WorkersDied", "CONNECT_TIMEOUT_S", "check_reachable",
-           "WORKER_RESTARTS"]
+           "WORKER_RESTARTS", "abandon_live_pools"]
 
 BACKENDS = ("local", "ray")
 
@@ -170,7 +170,9 @@ def _run_local(fn, tasks: list, workers: int):
 
     def new_pool(method: str):
         ctx = mp.get_context(method) if method in mp.get_all_start_methods() else None
-        return ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+        made = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+        _LIVE.add(made)
+        return made
 
     pool = new_pool("fork")
     queue = list(tasks)
@@ -207,6 +209,7 @@ def _run_local(fn, tasks: list, workers: int):
                         raise broken
                     workers_then = list((getattr(pool, "_processes", None) or {}).values())
                     pool.shutdown(wait=True, cancel_futures=True)
+                    _LIVE.discard(pool)
                     how = _deaths(workers_then)
                     restarts += 1
                     lost = list(pending.values())
@@ -224,8 +227,22 @@ def _run_local(fn, tasks: list, workers: int):
             _abandon(pool)
             raise
         pool.shutdown(wait=True)
+        _LIVE.discard(pool)
 
     return results()
+
+
+_LIVE: set = set()
+"""The local pools made and not yet shut down (:func:`abandon_live_pools`)."""
+
+
+def abandon_live_pools() -> None:
+    """End every local pool not yet shut down (:func:`_abandon`): a stop that came before a pool's
+    results were first asked for (the pool is made first, before the caller's threads start) left
+    it running its tasks, and the interpreter's exit waited for all of them (``gpcnav.cli.main``
+    calls this as a command ends)."""
+    for pool in list(_LIVE):
+        _abandon(pool)
 
 
 def _abandon(pool) -> None:
@@ -234,6 +251,7 @@ def _abandon(pool) -> None:
     tasks (``shutdown(wait=True)``) could be broken off by the stop's repeated signal (gpcnav.cli)
     on a loaded machine, and the interpreter's exit then waited for ever on workers that never got
     their end (a SIGTERM'd ``evaluate`` hung after its line, 3 runs in 3 beside two busy loops)."""
+    _LIVE.discard(pool)
     for p in list((getattr(pool, "_processes", None) or {}).values()):
         with contextlib.suppress(Exception):
             p.terminate()

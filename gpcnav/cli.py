@@ -124,7 +124,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     from scenarios import ScenarioError
     from casadi_gpc.io import clear_stop, stop_requested
-    from casadi_gpc.pool import WorkersDied
+    from casadi_gpc.pool import WorkersDied, abandon_live_pools
     from casadi_gpc.types import ProtocolError
     outermost = _DEPTH == 0
     previous = {}
@@ -177,6 +177,7 @@ def main(argv=None) -> int:
         if outermost:
             _STOPPED.set()
             clear_stop()
+            abandon_live_pools()  # (a stop before a pool's results were asked for: its workers, ended)
         for sig, handler in previous.items():  # (stopping: the repeated signals are not the next command's)
             signal.signal(sig, signal.SIG_IGN if _TERMINATING.is_set() else handler)
 

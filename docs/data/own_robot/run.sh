@@ -29,3 +29,7 @@ gpcnav export out/own_robot/model4 --out $D/m4.onnx --passes 1
 for s in enc cc5; do
     gpcnav evaluate out/own_robot/$s/*.toml --controller nn --model $D/m4.onnx --workers 2 --out $D/EVAL-m4-$s.json
 done
+# once more on a seed nothing above ran (63)
+PYTHONPATH=. python $D/make_files.py circle-crossing 40 63 5 $D/robot.toml 0.5 out/own_robot/cc5-s63
+gpcnav compare out/own_robot/cc5-s63/*.toml --controllers stand,gpc,nn --model $D/m4.onnx --workers 2 \
+    --out $D/COMPARE-cc5-seed63.json

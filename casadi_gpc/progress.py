@@ -6,6 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .reference import ReferencePath
+from .types import samples_since
 
 __all__ = ["ReferenceClock"]
 
@@ -34,6 +35,7 @@ class ReferenceClock:
     _stalled_s: float = 0.0
     _extra_lead_m: float = 0.0
     _started: bool = False
+    _last_t_s: float | None = None
 
     def reset(self) -> None:
         self.s_m = 0.0
@@ -41,9 +43,14 @@ class ReferenceClock:
         self._stalled_s = 0.0
         self._extra_lead_m = 0.0
         self._started = False
+        self._last_t_s = None
 
     def update(self, path: ReferencePath, t_s: float, robot_xy) -> float:
-        """The reference arc length for the sample at ``t_s`` (call once per sample)."""
+        """The reference arc length for the sample at ``t_s`` (call once per sample; a sample k > 1
+        samples after the last one's, :func:`~casadi_gpc.types.samples_since`, advances the point and
+        the patience's count by k samples, the observations between having been missed)."""
+        k = samples_since(self._last_t_s, t_s, self.sample_time_s)  # raises before anything changes
+        self._last_t_s = t_s
         # path.arclength_at_time on a plain float (np.clip costs more than the rest of the update);
         # min(max(., 0), L) written out (the same numbers, -0.0 and nan included)
         nominal = path.speed_mps * float(t_s)
@@ -63,9 +70,9 @@ class ReferenceClock:
         if t_s <= 0.0:
             self.s_m = 0.0
             return self.s_m
-        step = path.speed_mps * self.sample_time_s
+        step = path.speed_mps * self.sample_time_s * k
         if self._proj_m - previous < 0.25 * step and self.s_m < nominal:
-            self._stalled_s += self.sample_time_s
+            self._stalled_s += self.sample_time_s * k
         else:
             self._stalled_s = 0.0
         if self._stalled_s > self.patience_s:

@@ -19,6 +19,7 @@ __all__ = [
     "Policy",
     "ProtocolError",
     "checked_decision",
+    "samples_since",
 ]
 
 
@@ -127,6 +128,26 @@ def _walls_as_tuples(walls, t_s: float) -> tuple:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"observation at t={t_s} s: walls must be polylines of (x, y) points: {exc}") from None
     return tuple(out)
+
+
+def samples_since(previous_t_s: float | None, t_s: float, sample_time_s: float) -> int:
+    """How many samples of ``sample_time_s`` an observation at ``t_s`` comes after the one at
+    ``previous_t_s`` (None: the first since a reset, 1): the gap rounded to whole samples, so a
+    clock's jitter under half a sample counts as one, and a gap of k samples as k (k - 1 samples
+    went without an observation: a dropped sensor frame, a decision loop that overran). Whatever
+    is stepped once per sample (the obstacle filters, the reference clock) steps k times.
+
+    Raises ``ValueError`` when ``t_s`` is not at least half a sample after ``previous_t_s``: a
+    controller decides once per sample, and the filters would take a shorter interval (or time
+    running backwards, a new episode without ``reset()``) for a whole sample."""
+    if previous_t_s is None:
+        return 1
+    gap = t_s - previous_t_s
+    if not gap >= 0.5 * sample_time_s:
+        raise ValueError(f"an observation at t={t_s} s came {gap:.6g} s after the previous one (t={previous_t_s} s), "
+                         f"less than half the sample time {sample_time_s} s: a controller decides once per sample "
+                         f"(call reset() before a new episode)")
+    return max(1, int(round(gap / sample_time_s)))
 
 
 @dataclass(frozen=True)

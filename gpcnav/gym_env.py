@@ -294,7 +294,7 @@ class NavigationEnv(Env):
         ep = self.episode
         self.observation = obs = ep.observation()
         tracks = []
-        for m, ekf in self._bank.step(obs.moving):
+        for m, ekf in self._bank.step(obs.moving, obs.t_s):
             x, y = ekf.state_[:2]
             vel = ekf.velocity_mps
             tracks.append((x, y, *vel, m.radius_m))

@@ -390,7 +390,8 @@ def test_the_one_pass_decision_is_what_the_constructor_makes(paper_model):
         a, b = getattr(d, f.name), getattr(want, f.name)
         assert a is b or a == b or (a != a and b != b), f.name
     assert want.info == {} and set(d.info) == {"estimation_time_s", "network_time_s"}
-    assert all(v > 0 for v in d.info.values()) and d.info is not p.decide(obs).info  # a new dict each time
+    later = replace(obs, t_s=obs.t_s + p.sample_time_s)  # the next sample
+    assert all(v > 0 for v in d.info.values()) and d.info is not p.decide(later).info  # a new dict each time
     with pytest.raises(AttributeError):  # still frozen
         d.v_right_mps = 0.0
 

@@ -36,10 +36,10 @@ class _Plans:
         return ControlDecision(float(p[0, 0]), float(p[0, 1]), False, "scripted", p)
 
 
-def _obs(x, v):
-    """The robot at (x, 0) heading east at ``v`` on both wheels, a static disc (r 0.3 m) at (1.2, 0)."""
+def _obs(x, v, t=0.0):
+    """The robot at (x, 0) heading east at ``v`` on both wheels, a static disc (r 0.3 m) at (1.2, 0), at ``t``."""
     ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(20.0),), 0.4)
-    return Observation(0.0, RobotState(x, 0.0, 0.0, v, v), ref, (), (StaticObstacle((1.2, 0.0), 0.3),))
+    return Observation(t, RobotState(x, 0.0, 0.0, v, v), ref, (), (StaticObstacle((1.2, 0.0), 0.3),))
 
 
 BRAKE = np.array([[0.4, 0.4]] + [[0.0, 0.0]] * (H - 1))  # from 0.8 m/s at the acceleration limit
@@ -55,7 +55,7 @@ def test_the_shifted_previous_plan_is_the_safe_candidate(keep):
     sh = Shield(_Plans([BRAKE, INTO]), settings=CheckSettings(previous_plan=keep))
     first = sh.decide(_obs(0.0, 0.8))
     assert not first.fallback and (first.v_right_mps, first.v_left_mps) == (0.4, 0.4)
-    d = sh.decide(_obs(0.2, 0.4))
+    d = sh.decide(_obs(0.2, 0.4, T))  # the next sample
     assert sh.counters["interventions"] == 1
     if keep:
         assert d.info["safety_source"] == "previous_plan" and not d.fallback

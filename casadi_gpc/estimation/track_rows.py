@@ -29,7 +29,7 @@ import numpy as np
 from .ekf import EKFSettings, ObstacleEKF
 from .ekf_floats import frame_rows, step_frame_rows, step_rows
 from .ekf_batch import MANY_TRACKS
-from .tracking import TRACK_COUNTERS, counted
+from .tracking import TRACK_COUNTERS, counted, missed_steps
 from ..types import ObstacleMeasurement
 
 __all__ = ["RowBank", "SeenRows", "ROW_WIDTH"]
@@ -85,6 +85,7 @@ class RowBank:
         for k in TRACK_COUNTERS:
             self.counters.setdefault(k, 0)
         self._filters: dict[int, ObstacleEKF] = {}
+        self.last_t_s: float | None = None  # the time of the last step that said it (missed_steps)
         self._slots: dict[int, tuple[ObstacleEKF, int]] = {}  # obstacle id -> (its filter, its row)
         self._array = np.zeros((16, ROW_WIDTH))
         self._used = 0  # rows ever handed out
@@ -102,11 +103,14 @@ class RowBank:
                 self._check_out(ekf, i)
         return dict(self._filters)
 
-    def step(self, moving: Iterable[ObstacleMeasurement]) -> SeenRows:
-        """Fuse one sample's measurements (one step of every measured obstacle's filter):
-        :meth:`TrackBank.step <casadi_gpc.estimation.tracking.TrackBank.step>`'s tracks and
-        ghosts, in its order, as rows."""
+    def step(self, moving: Iterable[ObstacleMeasurement], t_s: float | None = None) -> SeenRows:
+        """Fuse one sample's measurements (one step of every measured obstacle's filter), taken at
+        ``t_s``: :meth:`TrackBank.step <casadi_gpc.estimation.tracking.TrackBank.step>`'s tracks and
+        ghosts, in its order, as rows (the samples missed before it too)."""
         slots, isfinite = self._slots, math.isfinite
+        for _ in range(missed_steps(self, t_s)):
+            for ekf, i in list(slots.values()):
+                self._own_step(ekf, i, None)
         order, fs, ms, together, jobs = [], [], [], [], []
         listed = 0
         for m in moving:

@@ -17,21 +17,40 @@ from collections.abc import Iterable
 from .ekf import ObstacleEKF
 from .obstacle_model import EKFSettings, planning_covariances, straightened
 from .ekf_batch import MANY_TRACKS, forecast_many
-from ..types import ObstacleForecast, ObstacleMeasurement
+from ..types import ObstacleForecast, ObstacleMeasurement, samples_since
 
-__all__ = ["TrackBank", "TRACK_COUNTERS", "UPDATED_TOGETHER", "counted"]
+__all__ = ["TrackBank", "TRACK_COUNTERS", "UPDATED_TOGETHER", "counted", "missed_steps"]
 
 UPDATED_TOGETHER = 4
 """From this many filters in a bank on, their steps are taken together in one compiled call
 (:meth:`TrackBank.step`); below it, one by one in Python floats (the same numbers)."""
 
-TRACK_COUNTERS = ("missed_measurements", "outliers", "unestimated_tracks", "manoeuvres", "ghosts")
-"""What a bank counts: measurements missing (or not finite), measurements gated as
+TRACK_COUNTERS = ("missed_measurements", "outliers", "unestimated_tracks", "manoeuvres", "ghosts", "missed_samples")
+"""What a bank counts: measurements missing (or not finite; a sample without an observation
+counts one for each filter), measurements gated as
 outliers, tracks that have a state but have seen a single position (speed and heading
 unknown; planned standing, :func:`~casadi_gpc.estimation.ekf.planning_covariances`), once per sample,
 manoeuvres (two gated measurements that agree: the velocity estimated afresh) and ghosts
 (samples a gated measurement waited for confirmation, its position planned as an obstacle
-standing there too, :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`)."""
+standing there too, :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`), and samples that
+came without an observation (:func:`missed_steps`)."""
+
+
+def missed_steps(bank, t_s: float | None) -> int:
+    """The samples between a bank's last step and one at ``t_s`` that came without an
+    observation (:func:`~casadi_gpc.types.samples_since` - 1; 0 where ``t_s`` is None: one sample,
+    as a caller that keeps no time says), counted as ``missed_samples``; ``t_s`` becomes the bank's
+    last time. Every bank's one definition of a step's time (:class:`TrackBank`,
+    :class:`~casadi_gpc.estimation.track_rows.RowBank`): its filters then step that many samples
+    without a measurement before the sample's own (a walker seen 0.5 m further on after a dropped
+    frame is where the filter's prediction puts it, not an outlier 0.5 m off)."""
+    if t_s is None:
+        return 0
+    missed = samples_since(bank.last_t_s, t_s, bank.sample_time_s) - 1  # raises before anything changes
+    bank.last_t_s = t_s
+    if missed:
+        bank.counters["missed_samples"] += missed
+    return missed
 
 
 def counted(counters: dict, ekf: ObstacleEKF, event: str) -> bool:
@@ -76,20 +95,27 @@ class TrackBank:
         self.straight = bool(straight)
         self.settings = settings or EKFSettings()
         self.filters: dict[int, ObstacleEKF] = {}
+        self.last_t_s: float | None = None  # the time of the last step that said it (missed_steps)
         self.counters = {} if counters is None else counters
         for k in TRACK_COUNTERS:
             self.counters.setdefault(k, 0)
 
-    def step(self, moving: Iterable[ObstacleMeasurement]) -> list[tuple[ObstacleMeasurement, ObstacleEKF]]:
-        """Fuse one sample's measurements (one step of every measured obstacle's filter);
+    def step(self, moving: Iterable[ObstacleMeasurement],
+             t_s: float | None = None) -> list[tuple[ObstacleMeasurement, ObstacleEKF]]:
+        """Fuse one sample's measurements (one step of every measured obstacle's filter), taken at
+        ``t_s`` (where the samples since the last step's time are k > 1, every filter first steps
+        k - 1 samples without a measurement: :func:`missed_steps`);
         returns the ``(measurement, filter)`` pairs of the tracks that have a state, then
         those of their ghosts (a gated, plausible measurement: the obstacle standing there,
         :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`), which every planner avoids as well.
         From :data:`UPDATED_TOGETHER` filters on, the initialised tracks' steps with a finite
         measurement are taken together (:meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.update_together`:
         the same numbers), the rest one by one."""
-        seen = []
         filters = self.filters
+        for _ in range(missed_steps(self, t_s)):
+            for ekf in filters.values():
+                self._stepped(ekf, ekf.step(None))
+        seen = []
         together = [] if len(filters) >= UPDATED_TOGETHER else None  # (filter, measured position)
         settings, T, isfinite = self.settings, self.sample_time_s, math.isfinite
         listed = 0

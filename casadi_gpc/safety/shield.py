@@ -179,7 +179,7 @@ class Shield:
                 raise ValueError("the shielded controller says it provides forecasts but its decision has none")
             return dec.forecasts
         H = self.horizon
-        return [self._bank.forecast(m, ekf, H) for m, ekf in self._bank.step(obs.moving)]
+        return [self._bank.forecast(m, ekf, H) for m, ekf in self._bank.step(obs.moving, obs.t_s)]
 
     def inject_failures(self, probability: float, rng=None) -> bool:
         """The planner's solve failures (``[faults] solver_failure_prob``), passed on to the

@@ -162,7 +162,7 @@ class MPPIPeer:
         decision."""
         cfg = self.config
         H = cfg.horizon
-        forecasts = [self.bank.forecast(m, ekf, H) for m, ekf in self.bank.step(observation.moving)]
+        forecasts = [self.bank.forecast(m, ekf, H) for m, ekf in self.bank.step(observation.moving, observation.t_s)]
         path = observation.reference
         self.clock.update(path, observation.t_s, (observation.robot.x_m, observation.robot.y_m))
         ref = np.array(path.poses_along(self.clock.s_m, path.speed_mps * cfg.sample_time_s, H + 1))  # steps 0..H

@@ -235,7 +235,7 @@ class NavgroundPeer:
         velocities (one step of the bank: call once per decision)."""
         from navground import core
         out = []
-        for m, ekf in self.bank.step(observation.moving):
+        for m, ekf in self.bank.step(observation.moving, observation.t_s):
             x, y = ekf.state_[:2]
             vel = ekf.velocity_mps
             out.append(core.Neighbor(np.array((x, y)), m.radius_m, np.array(vel), int(m.obstacle_id)))

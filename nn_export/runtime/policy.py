@@ -281,12 +281,12 @@ class OnnxPolicy:
 
     @property
     def counters(self) -> dict:
-        """Decisions, second passes, the feature report, and the tracker's missed
-        measurements and gated outliers (current when read; a track seen once is counted by
-        the safety check layer, as shield_unestimated_tracks)."""
+        """Decisions, second passes, the feature report, and the tracker's missed measurements
+        and samples, gated outliers, ghosts and manoeuvres (current when read; a track seen once
+        is counted by the safety check layer, as shield_unestimated_tracks)."""
         tracked, counters = self.tracker.counters, self._counters
-        counters["missed_measurements"] = tracked["missed_measurements"]
-        counters["outliers"] = tracked["outliers"]
+        for k in ("missed_measurements", "outliers", "missed_samples", "ghosts", "manoeuvres"):
+            counters[k] = tracked[k]
         return counters
 
     # --- the network -----------------------------------------------------------------

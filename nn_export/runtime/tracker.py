@@ -50,7 +50,7 @@ class SituationTracker:
     def observe(self, obs: Observation) -> None:
         """Fuse one sample's measurements and advance the clock, without building the
         situation (for samples whose decision is not wanted)."""
-        self.bank.step(obs.moving)
+        self.bank.step(obs.moving, obs.t_s)
         self.clock.update(obs.reference, obs.t_s, (obs.robot.x_m, obs.robot.y_m))
 
     @property
@@ -69,7 +69,7 @@ class SituationTracker:
         cfg = self.config
         H = cfg.horizon
         bank = self.bank
-        tracks = row_track_estimates(bank.step(obs.moving), bank.sample_time_s, bank.settings, H)
+        tracks = row_track_estimates(bank.step(obs.moving, obs.t_s), bank.sample_time_s, bank.settings, H)
         r, ref = obs.robot, obs.reference
         s_m = self.clock.update(ref, obs.t_s, (r.x_m, r.y_m))
         self._rows = rows = reference_rows(ref, s_m, cfg.sample_time_s, self.reference_steps)

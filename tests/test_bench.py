@@ -7,6 +7,7 @@ import math
 import subprocess
 import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -394,3 +395,21 @@ def test_the_bench_pools_the_crowd_scene_as_its_options_say():
         doc = {}
         pooled_crowd(SimpleNamespace(**{**vars(args), **changes}), doc, cfg, lambda msg: None)
         assert doc == {}
+
+
+def test_the_controller_row_of_nn_runs_the_model_given_with_model(tmp_path):
+    """``bench --model MODEL.onnx --controller nn``: the ``nn`` row times MODEL, as ``--controller nn
+    --model`` does on every other subcommand; it timed the shipped network under the same label."""
+    import argparse
+
+    from synthetic_models import tracker_model
+
+    from casadi_gpc.robot import RobotParams
+    from gpcnav.commands.bench import controller_policies
+    path = tracker_model(tmp_path / "tracker.onnx", "improved")
+    args = argparse.Namespace(controller=["nn", "stand"], shield=False, model=path)
+    rows = dict(controller_policies(args, PRESETS["improved"], RobotParams()))
+    made = rows["nn"]()
+    inner = getattr(made, "policy", made)
+    assert Path(inner.model_info["path"]).resolve() == path.resolve()
+    assert rows["stand"]() is not None  # the model is the network's alone

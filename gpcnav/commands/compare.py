@@ -60,7 +60,11 @@ def run(args) -> int:
     pool = pool_from_args(args)
     config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
     check_compare_outputs(args.out, [sc.source for sc in scenarios])
-    specs = [spec_from_args(args, name) for name in parse_controller_list(args.controllers)]
+    names = parse_controller_list(args.controllers)
+    if "nn" not in names and (args.model is not None or args.passes is not None):  # (dropped without a word)
+        given = " and ".join(o for o, v in (("--model", args.model), ("--passes", args.passes)) if v is not None)
+        raise UsageError(f"{given}: for the controller nn, which --controllers {args.controllers} does not name")
+    specs = [spec_from_args(args, name) for name in names]
     robot = scenarios[0].robot
     for spec in specs:
         check_scenarios(spec, config, scenarios)

@@ -413,3 +413,24 @@ def test_the_controller_row_of_nn_runs_the_model_given_with_model(tmp_path):
     inner = getattr(made, "policy", made)
     assert Path(inner.model_info["path"]).resolve() == path.resolve()
     assert rows["stand"]() is not None  # the model is the network's alone
+
+
+def test_the_pooled_crowd_episodes_run_under_a_progress_bar(monkeypatch):
+    """CONTRACT.md: a progress bar for any work longer than a few seconds on a terminal. The pooled
+    crowd (10 crossings, the GPC and the network on each: 15 s by default) ran under one line."""
+    from types import SimpleNamespace
+
+    from casadi_gpc.config import preset
+    from gpcnav.commands import bench
+    bars = []
+
+    def recorder(iterable=None, **kw):
+        bars.append(kw)
+        return iterable
+
+    monkeypatch.setattr(bench, "progress", recorder)
+    args = SimpleNamespace(crowd_movers=2, crowd_episodes=1, no_gpc_rows=True, no_nn_rows=False, model=None)
+    doc = {}
+    bench.pooled_crowd(args, doc, preset("improved"), lambda msg: None)
+    assert doc["crowd_decisions"]["episodes"] == 1
+    assert [b.get("desc") for b in bars] == ["crowd episodes"]

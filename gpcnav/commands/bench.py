@@ -139,7 +139,8 @@ def pooled_crowd(args, doc, config, say) -> None:
                   "episodes": args.crowd_episodes},
         **crowd_decisions([suite.scenario(i) for i in range(args.crowd_episodes)],
                           None if args.no_gpc_rows else config,
-                          None if args.no_nn_rows else (lambda sc: make(spec, config, sc.robot)))}
+                          None if args.no_nn_rows else (lambda sc: make(spec, config, sc.robot)),
+                          progress=lambda it: progress(it, desc="crowd episodes", unit="ep"))}  # (15 s by default)
 
 
 def pooled_summary(pooled: dict) -> list[str]:

@@ -268,3 +268,31 @@ def test_an_evaluation_records_a_peer_s_own_sample_time(outside):
     assert r.returncode == 0, r.stderr
     doc = json.loads((outside / "e.json").read_text())
     assert doc["sample_time_s"] == doc["controller_settings"]["sample_time_s"] == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["simulate", "{f}", "--controller", "stand", "--shield-fallback", "brake"], "stand runs bare unless --shield"),
+    (["evaluate", "{f}", "--controller", "blind", "--shield-fallback", "gpc", "--workers", "1"],
+     "blind runs bare unless --shield"),
+    (["simulate", "{f}", "--controller", "nn", "--no-shield", "--shield-fallback", "gpc"], "--no-shield"),
+    (["compare", "{f}", "--controllers", "stand,blind", "--shield-fallback", "gpc", "--workers", "1"],
+     "stand, blind run bare unless --shield"),
+])
+def test_a_shield_fallback_no_controller_runs_behind_is_refused(tmp_path, capsys, argv, words):
+    """``--shield-fallback`` for a controller that runs bare (a peer, a baseline or a user's class without
+    ``--shield``; ``--no-shield``) was dropped without a word, and the refusal of unread planner settings
+    advised it: ``--controller stand --horizon 8 --shield-fallback gpc`` was refused with the same advice."""
+    from gpcnav.cli import main
+    f = tmp_path / "empty.toml"
+    f.write_text(EMPTY, encoding="utf-8")
+    code = main([a.replace("{f}", str(f)) for a in argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--shield-fallback" in err[0] and words in err[0], err
+
+
+def test_the_advice_for_unread_planner_settings_is_one_that_runs(tmp_path, capsys):
+    from gpcnav.cli import main
+    f = tmp_path / "empty.toml"
+    f.write_text(EMPTY, encoding="utf-8")
+    assert main(["simulate", str(f), "--controller", "stand", "--horizon", "8"]) == 2
+    assert "put the planner on standby with --shield --shield-fallback gpc" in capsys.readouterr().err

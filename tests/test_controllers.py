@@ -296,3 +296,47 @@ def test_the_advice_for_unread_planner_settings_is_one_that_runs(tmp_path, capsy
     f.write_text(EMPTY, encoding="utf-8")
     assert main(["simulate", str(f), "--controller", "stand", "--horizon", "8"]) == 2
     assert "put the planner on standby with --shield --shield-fallback gpc" in capsys.readouterr().err
+
+
+SETTINGS_MODULE = textwrap.dedent('''
+    from dataclasses import dataclass, field
+    from pathlib import Path
+
+    import numpy as np
+
+    from casadi_gpc import ControlDecision
+
+    @dataclass
+    class Settings:
+        model: Path = Path("weights") / "net.onnx"
+        gains: np.ndarray = field(default_factory=lambda: np.array([0.5, 1.5]))
+        step: np.float32 = np.float32(0.25)
+        cap: float = float("inf")
+
+    class Tuned:
+        sample_time_s = 0.5
+
+        def __init__(self):
+            self.settings = Settings()
+
+        def reset(self):
+            pass
+
+        def decide(self, observation):
+            v = observation.reference.speed_mps
+            return ControlDecision(v, v)
+''')
+
+
+def test_a_user_class_s_settings_of_any_type_are_recorded_in_the_documents(outside):
+    """A user's class whose ``settings`` dataclass holds a Path (an array, a numpy scalar, an infinity) ran
+    every episode, then stopped writing RUN.json / EVAL.json with a traceback (TypeError: not JSON
+    serialisable: PosixPath), exit 1; the documents record such settings as JSON data."""
+    (outside / "tuned.py").write_text(SETTINGS_MODULE, encoding="utf-8")
+    r = _cli(outside, "simulate", "empty.toml", "--controller", "tuned:Tuned", "--out", "run.json")
+    assert r.returncode == 0, r.stderr
+    settings = json.loads((outside / "run.json").read_text())["controller_settings"]["settings"]
+    assert settings == {"model": os.path.join("weights", "net.onnx"), "gains": [0.5, 1.5], "step": 0.25, "cap": "inf"}
+    r = _cli(outside, "evaluate", "empty.toml", "--controller", "tuned:Tuned", "--workers", "1", "--out", "eval.json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads((outside / "eval.json").read_text())["controller_settings"]["settings"] == settings

@@ -191,7 +191,7 @@ def test_policy_rows_extension_point_times_any_policy(short_scenario):
 
 
 def _gpcnav(*args):
-    return subprocess.run([sys.executable, "-m", "gpcnav", "bench", *args], capture_output=True, text=True)
+    return subprocess.run([sys.executable, "-m", "gpcnav", "bench", *map(str, args)], capture_output=True, text=True)
 
 
 def test_cli_refuses_an_unknown_solver_with_one_line():
@@ -434,3 +434,12 @@ def test_the_pooled_crowd_episodes_run_under_a_progress_bar(monkeypatch):
     bench.pooled_crowd(args, doc, preset("improved"), lambda msg: None)
     assert doc["crowd_decisions"]["episodes"] == 1
     assert [b.get("desc") for b in bars] == ["crowd episodes"]
+
+
+def test_cli_refuses_a_model_that_no_row_would_run(tmp_path):
+    """``bench --no-nn-rows --model M.onnx`` (and no ``--controller nn``) ran, the model dropped without a
+    word; now one line, exit 2, before any work."""
+    proc = _gpcnav("--no-nn-rows", "--model", tmp_path / "m.onnx", "--controller", "orca", "--out", tmp_path / "B.json")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--model" in proc.stderr and "--no-nn-rows" in proc.stderr
+    assert not (tmp_path / "B.json").exists()

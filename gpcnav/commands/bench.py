@@ -188,6 +188,9 @@ def run(args) -> int:
 
     from casadi_gpc.io import save_figure, write_json
     solvers = parse_solvers(args.solvers)
+    if args.model is not None and args.no_nn_rows and "nn" not in args.controller:  # (dropped without a word)
+        raise UsageError(f"--model {args.model}: for the network rows, which --no-nn-rows leaves out, and "
+                         f"--controller nn")
     check_output_files(out=args.out, plot=args.plot)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")

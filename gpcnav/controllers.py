@@ -306,7 +306,7 @@ class UserController:
         except Exception as exc:  # noqa: BLE001
             raise ControllerError(f"--controller {self.text}: decide() raised at t = {float(observation.t_s):g} s: "
                                   f"{_one_line(exc)}") from exc
-        return checked_decision(decision, self.wrapped)  # named as the user's class
+        return checked_decision(decision, self.wrapped, numbers=True)  # named as the user's class
 
 
 def _make_peer(name: str, config, robot):

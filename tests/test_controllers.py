@@ -340,3 +340,47 @@ def test_a_user_class_s_settings_of_any_type_are_recorded_in_the_documents(outsi
     r = _cli(outside, "evaluate", "empty.toml", "--controller", "tuned:Tuned", "--workers", "1", "--out", "eval.json")
     assert r.returncode == 0, r.stderr
     assert json.loads((outside / "eval.json").read_text())["controller_settings"]["settings"] == settings
+
+
+WORDS_MODULE = textwrap.dedent('''
+    import numpy as np
+
+    from casadi_gpc import ControlDecision
+
+    class Base:
+        sample_time_s = 0.5
+
+        def reset(self):
+            pass
+
+    class Word(Base):
+        def decide(self, observation):
+            return ControlDecision("fast", 0.3)
+
+    class Array(Base):
+        def decide(self, observation):
+            return ControlDecision(np.array([0.3]), np.array([0.3]))
+
+    class Nothing(Base):
+        def decide(self, observation):
+            return ControlDecision(None, 0.3)
+
+    class Numpy(Base):
+        def decide(self, observation):
+            return ControlDecision(np.float32(0.3), np.int64(0))
+''')
+
+
+@pytest.mark.parametrize("name, shown", [("Word", "'fast' (a str)"), ("Array", "array([0.3]) (a ndarray)"),
+                                         ("Nothing", "None (a NoneType)")])
+@pytest.mark.parametrize("shield", [[], ["--shield"]])
+def test_a_decision_whose_wheel_speeds_are_not_numbers_exits_2_with_one_line(outside, name, shown, shield):
+    """A user's ControlDecision("fast", 0.3) (or arrays for numbers) failed deep in the simulator with a
+    traceback, exit 1 ("could not convert string to float"); None was taken as NaN and braked for, silently."""
+    (outside / "words.py").write_text(WORDS_MODULE, encoding="utf-8")
+    r = _cli(outside, "simulate", "empty.toml", "--controller", f"words:{name}", *shield, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip() == (f"gpcnav simulate: error: words.{name}.decide() returned a ControlDecision whose "
+                                f"v_right_mps is {shown}, not a number of m/s (the Policy protocol)")
+    r = _cli(outside, "simulate", "empty.toml", "--controller", "words:Numpy", *shield, timeout=120)
+    assert r.returncode == 0, r.stderr  # numpy's numbers are numbers

@@ -306,7 +306,7 @@ class UserController:
         except Exception as exc:  # noqa: BLE001
             raise ControllerError(f"--controller {self.text}: decide() raised at t = {float(observation.t_s):g} s: "
                                   f"{_one_line(exc)}") from exc
-        return checked_decision(decision, self.wrapped)  # named as the user's class
+        return checked_decision(decision, self.wrapped, numbers=True)  # named as the user's class
 
 
 def _make_peer(name: str, config, robot):
@@ -424,8 +424,11 @@ def describe(controller) -> dict:
     out = {"class": f"{type(inner).__module__}.{type(inner).__qualname__}",
            "sample_time_s": float(controller.sample_time_s)}
     settings = getattr(inner, "settings", None)
-    if is_dataclass(settings):
-        out["settings"] = asdict(settings)
+    if is_dataclass(settings) and not isinstance(settings, type):
+        try:
+            out["settings"] = _plain(asdict(settings))
+        except Exception:  # noqa: BLE001  (a user's field that cannot be copied)
+            out["settings"] = repr(settings)
         behaviour = getattr(settings, "behaviour", "")
         if behaviour:
             out["library"] = f"navground {_version('navground')} ({behaviour})"
@@ -433,6 +436,19 @@ def describe(controller) -> dict:
         out["library"] = f"pytorch-mppi {_version('pytorch_mppi')}, torch {_version('torch')}"
         out["horizon"] = int(inner.config.horizon)
     return out
+
+
+def _plain(value):
+    """``value`` as JSON data: a user's settings may hold a Path, an array, a numpy scalar, an
+    infinity (a Path stopped the document's write after the whole run, a traceback)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if not isinstance(value, str) and callable(getattr(value, "tolist", None)):  # numpy's
+        return _plain(value.tolist())
+    ok = value is None or isinstance(value, (bool, int, str)) or (isinstance(value, float) and math.isfinite(value))
+    return value if ok else str(value)
 
 
 def _version(dist: str) -> str:

@@ -7,6 +7,7 @@ import math
 import subprocess
 import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -190,7 +191,7 @@ def test_policy_rows_extension_point_times_any_policy(short_scenario):
 
 
 def _gpcnav(*args):
-    return subprocess.run([sys.executable, "-m", "gpcnav", "bench", *args], capture_output=True, text=True)
+    return subprocess.run([sys.executable, "-m", "gpcnav", "bench", *map(str, args)], capture_output=True, text=True)
 
 
 def test_cli_refuses_an_unknown_solver_with_one_line():
@@ -394,3 +395,51 @@ def test_the_bench_pools_the_crowd_scene_as_its_options_say():
         doc = {}
         pooled_crowd(SimpleNamespace(**{**vars(args), **changes}), doc, cfg, lambda msg: None)
         assert doc == {}
+
+
+def test_the_controller_row_of_nn_runs_the_model_given_with_model(tmp_path):
+    """``bench --model MODEL.onnx --controller nn``: the ``nn`` row times MODEL, as ``--controller nn
+    --model`` does on every other subcommand; it timed the shipped network under the same label."""
+    import argparse
+
+    from synthetic_models import tracker_model
+
+    from casadi_gpc.robot import RobotParams
+    from gpcnav.commands.bench import controller_policies
+    path = tracker_model(tmp_path / "tracker.onnx", "improved")
+    args = argparse.Namespace(controller=["nn", "stand"], shield=False, model=path)
+    rows = dict(controller_policies(args, PRESETS["improved"], RobotParams()))
+    made = rows["nn"]()
+    inner = getattr(made, "policy", made)
+    assert Path(inner.model_info["path"]).resolve() == path.resolve()
+    assert rows["stand"]() is not None  # the model is the network's alone
+
+
+def test_the_pooled_crowd_episodes_run_under_a_progress_bar(monkeypatch):
+    """CONTRACT.md: a progress bar for any work longer than a few seconds on a terminal. The pooled
+    crowd (10 crossings, the GPC and the network on each: 15 s by default) ran under one line."""
+    from types import SimpleNamespace
+
+    from casadi_gpc.config import preset
+    from gpcnav.commands import bench
+    bars = []
+
+    def recorder(iterable=None, **kw):
+        bars.append(kw)
+        return iterable
+
+    monkeypatch.setattr(bench, "progress", recorder)
+    args = SimpleNamespace(crowd_movers=2, crowd_episodes=1, no_gpc_rows=True, no_nn_rows=False, model=None)
+    doc = {}
+    bench.pooled_crowd(args, doc, preset("improved"), lambda msg: None)
+    assert doc["crowd_decisions"]["episodes"] == 1
+    assert [b.get("desc") for b in bars] == ["crowd episodes"]
+
+
+def test_cli_refuses_a_model_that_no_row_would_run(tmp_path):
+    """``bench --no-nn-rows --model M.onnx`` (and no ``--controller nn``) ran, the model dropped without a
+    word; now one line, exit 2, before any work."""
+    proc = _gpcnav("--no-nn-rows", "--model", tmp_path / "m.onnx", "--controller", "orca", "--out", tmp_path / "B.json")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--model" in proc.stderr and "--no-nn-rows" in proc.stderr
+    assert not (tmp_path / "B.json").exists()

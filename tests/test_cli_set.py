@@ -131,7 +131,7 @@ def test_settings_a_controller_does_not_read_are_refused_or_recorded_as_unused(t
     assert proc.stderr.strip().splitlines() == [
         "gpcnav evaluate: error: horizon: planner settings (--set, --sample-time, --horizon, --solver), which "
         "--controller nn does not read (a network runs at its model's settings, a peer at its own); drop them, or "
-        "put the planner on standby with --shield-fallback gpc"]
+        "put the planner on standby with --shield --shield-fallback gpc"]
     assert not out.exists()
     out = tmp_path / "C.json"
     proc = _gpcnav("compare", "--suite", "random", "--count", "1", "--seed", "1", "--controllers", "gpc,stand",

@@ -134,3 +134,17 @@ def test_the_paired_table_counts_each_controller_against_the_first():
     assert sign_test(4, 0) == 0.125
     assert paired_table({"controllers": [first]}) == ""  # nothing to pair
     assert paired_table({"controllers": [first, {"controller": "x", "episodes_detail": [{}] * 5}]}) == ""
+
+
+@pytest.mark.parametrize("option", [["--model", "net.onnx"], ["--passes", "1"]])
+def test_compare_refuses_the_network_s_options_without_nn_among_the_controllers(tmp_path, capsys, option):
+    """``compare --controllers stand,blind --model M.onnx`` ran, and the model was dropped without a word
+    (``simulate`` and ``evaluate`` refuse ``--model`` for another controller than nn); now one line, exit 2."""
+    from gpcnav.cli import main
+    scene = tmp_path / "free.toml"
+    scene.write_text(straight_line_toml("free"), encoding="utf-8")
+    code = main(["compare", str(scene), "--controllers", "stand,blind", *option, "--workers", "1",
+                 "--out", str(tmp_path / "C.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and option[0] in err[0] and "nn" in err[0], err
+    assert not (tmp_path / "C.json").exists()

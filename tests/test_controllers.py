@@ -268,3 +268,119 @@ def test_an_evaluation_records_a_peer_s_own_sample_time(outside):
     assert r.returncode == 0, r.stderr
     doc = json.loads((outside / "e.json").read_text())
     assert doc["sample_time_s"] == doc["controller_settings"]["sample_time_s"] == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["simulate", "{f}", "--controller", "stand", "--shield-fallback", "brake"], "stand runs bare unless --shield"),
+    (["evaluate", "{f}", "--controller", "blind", "--shield-fallback", "gpc", "--workers", "1"],
+     "blind runs bare unless --shield"),
+    (["simulate", "{f}", "--controller", "nn", "--no-shield", "--shield-fallback", "gpc"], "--no-shield"),
+    (["compare", "{f}", "--controllers", "stand,blind", "--shield-fallback", "gpc", "--workers", "1"],
+     "stand, blind run bare unless --shield"),
+])
+def test_a_shield_fallback_no_controller_runs_behind_is_refused(tmp_path, capsys, argv, words):
+    """``--shield-fallback`` for a controller that runs bare (a peer, a baseline or a user's class without
+    ``--shield``; ``--no-shield``) was dropped without a word, and the refusal of unread planner settings
+    advised it: ``--controller stand --horizon 8 --shield-fallback gpc`` was refused with the same advice."""
+    from gpcnav.cli import main
+    f = tmp_path / "empty.toml"
+    f.write_text(EMPTY, encoding="utf-8")
+    code = main([a.replace("{f}", str(f)) for a in argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--shield-fallback" in err[0] and words in err[0], err
+
+
+def test_the_advice_for_unread_planner_settings_is_one_that_runs(tmp_path, capsys):
+    from gpcnav.cli import main
+    f = tmp_path / "empty.toml"
+    f.write_text(EMPTY, encoding="utf-8")
+    assert main(["simulate", str(f), "--controller", "stand", "--horizon", "8"]) == 2
+    assert "put the planner on standby with --shield --shield-fallback gpc" in capsys.readouterr().err
+
+
+SETTINGS_MODULE = textwrap.dedent('''
+    from dataclasses import dataclass, field
+    from pathlib import Path
+
+    import numpy as np
+
+    from casadi_gpc import ControlDecision
+
+    @dataclass
+    class Settings:
+        model: Path = Path("weights") / "net.onnx"
+        gains: np.ndarray = field(default_factory=lambda: np.array([0.5, 1.5]))
+        step: np.float32 = np.float32(0.25)
+        cap: float = float("inf")
+
+    class Tuned:
+        sample_time_s = 0.5
+
+        def __init__(self):
+            self.settings = Settings()
+
+        def reset(self):
+            pass
+
+        def decide(self, observation):
+            v = observation.reference.speed_mps
+            return ControlDecision(v, v)
+''')
+
+
+def test_a_user_class_s_settings_of_any_type_are_recorded_in_the_documents(outside):
+    """A user's class whose ``settings`` dataclass holds a Path (an array, a numpy scalar, an infinity) ran
+    every episode, then stopped writing RUN.json / EVAL.json with a traceback (TypeError: not JSON
+    serialisable: PosixPath), exit 1; the documents record such settings as JSON data."""
+    (outside / "tuned.py").write_text(SETTINGS_MODULE, encoding="utf-8")
+    r = _cli(outside, "simulate", "empty.toml", "--controller", "tuned:Tuned", "--out", "run.json")
+    assert r.returncode == 0, r.stderr
+    settings = json.loads((outside / "run.json").read_text())["controller_settings"]["settings"]
+    assert settings == {"model": os.path.join("weights", "net.onnx"), "gains": [0.5, 1.5], "step": 0.25, "cap": "inf"}
+    r = _cli(outside, "evaluate", "empty.toml", "--controller", "tuned:Tuned", "--workers", "1", "--out", "eval.json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads((outside / "eval.json").read_text())["controller_settings"]["settings"] == settings
+
+
+WORDS_MODULE = textwrap.dedent('''
+    import numpy as np
+
+    from casadi_gpc import ControlDecision
+
+    class Base:
+        sample_time_s = 0.5
+
+        def reset(self):
+            pass
+
+    class Word(Base):
+        def decide(self, observation):
+            return ControlDecision("fast", 0.3)
+
+    class Array(Base):
+        def decide(self, observation):
+            return ControlDecision(np.array([0.3]), np.array([0.3]))
+
+    class Nothing(Base):
+        def decide(self, observation):
+            return ControlDecision(None, 0.3)
+
+    class Numpy(Base):
+        def decide(self, observation):
+            return ControlDecision(np.float32(0.3), np.int64(0))
+''')
+
+
+@pytest.mark.parametrize("name, shown", [("Word", "'fast' (a str)"), ("Array", "array([0.3]) (a ndarray)"),
+                                         ("Nothing", "None (a NoneType)")])
+@pytest.mark.parametrize("shield", [[], ["--shield"]])
+def test_a_decision_whose_wheel_speeds_are_not_numbers_exits_2_with_one_line(outside, name, shown, shield):
+    """A user's ControlDecision("fast", 0.3) (or arrays for numbers) failed deep in the simulator with a
+    traceback, exit 1 ("could not convert string to float"); None was taken as NaN and braked for, silently."""
+    (outside / "words.py").write_text(WORDS_MODULE, encoding="utf-8")
+    r = _cli(outside, "simulate", "empty.toml", "--controller", f"words:{name}", *shield, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip() == (f"gpcnav simulate: error: words.{name}.decide() returned a ControlDecision whose "
+                                f"v_right_mps is {shown}, not a number of m/s (the Policy protocol)")
+    r = _cli(outside, "simulate", "empty.toml", "--controller", "words:Numpy", *shield, timeout=120)
+    assert r.returncode == 0, r.stderr  # numpy's numbers are numbers

@@ -169,6 +169,33 @@ def test_export_refuses_a_model_without_provenance(fitted, tmp_path):
         export_onnx(tmp_path / "m", tmp_path / "m.onnx")
 
 
+@pytest.mark.parametrize("changes", [{"sample_time_s": 0.75}, {"horizon": 8}])
+def test_export_refuses_a_model_no_policy_would_run(fitted, tmp_path, capsys, changes):
+    """A model trained at another horizon or sample time than its preset's (``gpcnav train --sample-time``)
+    was exported (exit 0) and then refused by every command that ran it ("model made for H=6, T=0.75 s
+    but preset 'paper' has H=6, T=1.5 s"); now export says so in one line and writes nothing."""
+    from gpcnav.cli import main
+    m, X, _ = fitted
+    m.save(tmp_path / "m", {**PROV, **changes})
+    with pytest.raises(ValueError, match="H=6, T=1.5 s"):
+        export_onnx(tmp_path / "m", tmp_path / "m.onnx")
+    assert main(["export", str(tmp_path / "m"), "--out", str(tmp_path / "m.onnx")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "preset 'paper' has H=6, T=1.5 s" in err[0], err
+    assert not (tmp_path / "m.onnx").exists()
+
+
+@pytest.mark.parametrize("option", [["--sample-time", "0.75"], ["--horizon", "8"]])
+def test_train_refuses_settings_no_policy_would_run(tmp_path, capsys, option):
+    """``gpcnav train --sample-time``/``--horizon`` away from the preset's trained (on a dataset labelled
+    so) a network that export wrote and every command refused; now refused before any work."""
+    from gpcnav.cli import main
+    code = main(["train", str(tmp_path / "data"), "--out", str(tmp_path / "m"), "--preset", "paper", *option])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "preset 'paper' has H=6, T=1.5 s" in err[0], err
+    assert not (tmp_path / "m").exists()
+
+
 @pytest.mark.parametrize("name, words", [("weights.npz", "weights.npz: not a readable weights file ("),
                                          ("validation_features.npy", "validation_features.npy: not a readable array (")])
 def test_export_of_a_model_folder_with_a_damaged_file_is_one_line(fitted, tmp_path, capsys, name, words):

@@ -159,7 +159,7 @@ def deployed_against_gpc(gpc_rows, network_rows) -> list[dict]:
     return out
 
 
-def crowd_decisions(scenarios, config: PlannerConfig | None, make_network=None) -> dict:
+def crowd_decisions(scenarios, config: PlannerConfig | None, make_network=None, progress=None) -> dict:
     """The decisions of the GPC behind its check (``config``; None: not run) and of the
     deployed network (``make_network(scenario)``: a new policy; None: not run) over the same
     ``scenarios``, the two run one after the other on each scene (so that the machine's swings
@@ -167,7 +167,7 @@ def crowd_decisions(scenarios, config: PlannerConfig | None, make_network=None) 
     (about 45) does not give. Per controller: the pooled decision times
     (:func:`decision_time_stats`), outcomes, and for the network the parts of its decisions
     (:func:`decision_parts`) and the check's interventions; and the GPC's times over the
-    network's at the median, p99 and max where both ran."""
+    network's at the median, p99 and max where both ran. ``progress``: wraps the scenes' loop (a bar)."""
     from collections import Counter
 
     from ..controllers import ControllerSpec, make
@@ -177,7 +177,7 @@ def crowd_decisions(scenarios, config: PlannerConfig | None, make_network=None) 
     if make_network is not None:
         runs["nn"] = make_network
     pooled = {k: {"times": [], "decisions": [], "outcomes": Counter(), "interventions": 0} for k in runs}
-    for sc in scenarios:
+    for sc in (progress(scenarios) if progress else scenarios):
         for name, new in runs.items():
             log = simulate(sc, new(sc), name)
             acc = pooled[name]

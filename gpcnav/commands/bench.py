@@ -35,7 +35,8 @@ def add_arguments(p):
     p.add_argument("--no-gpc-rows", action="store_true",
                    help="leave out the full GPC decision rows (estimation + multi-start solves)")
     p.add_argument("--model", type=Path, default=None,
-                   help="ONNX network for the network rows (default: the one shipped for --preset)")
+                   help="ONNX network for the network rows and --controller nn (default: the one shipped for "
+                        "--preset)")
     p.add_argument("--no-nn-rows", action="store_true", help="leave out the network rows")
     p.add_argument("--controller", action="append", default=[], metavar="NAME",
                    help="also time this controller's full decision on the same recorded observations (repeatable; "
@@ -56,11 +57,13 @@ def controller_policies(args, config, robot) -> list:
     """The ``--controller`` rows: ``(label, make_policy)`` pairs from the controller registry,
     each refused in one line before any work if it cannot be made. A controller whose
     sample time is not the planner's is given the recorded observations all the same (its
-    decision time is what the row is for; its obstacle filter then steps at its own T)."""
+    decision time is what the row is for; its obstacle filter then steps at its own T). ``nn``
+    runs ``--model`` where given (it ran the shipped network under the same label)."""
     from ..controllers import ControllerSpec, check, make
     entries = []
     for name in dict.fromkeys(getattr(args, "controller", []) or []):
-        spec = ControllerSpec(name, shield="on" if args.shield else None)
+        model = getattr(args, "model", None) if name == "nn" else None
+        spec = ControllerSpec(name, model, shield="on" if args.shield else None)
         check(spec, config, robot)
         entries.append((spec.label, lambda spec=spec: make(spec, config, robot)))
     return entries
@@ -136,7 +139,8 @@ def pooled_crowd(args, doc, config, say) -> None:
                   "episodes": args.crowd_episodes},
         **crowd_decisions([suite.scenario(i) for i in range(args.crowd_episodes)],
                           None if args.no_gpc_rows else config,
-                          None if args.no_nn_rows else (lambda sc: make(spec, config, sc.robot)))}
+                          None if args.no_nn_rows else (lambda sc: make(spec, config, sc.robot)),
+                          progress=lambda it: progress(it, desc="crowd episodes", unit="ep"))}  # (15 s by default)
 
 
 def pooled_summary(pooled: dict) -> list[str]:
@@ -184,6 +188,9 @@ def run(args) -> int:
 
     from casadi_gpc.io import save_figure, write_json
     solvers = parse_solvers(args.solvers)
+    if args.model is not None and args.no_nn_rows and "nn" not in args.controller:  # (dropped without a word)
+        raise UsageError(f"--model {args.model}: for the network rows, which --no-nn-rows leaves out, and "
+                         f"--controller nn")
     check_output_files(out=args.out, plot=args.plot)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")

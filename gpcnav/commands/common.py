@@ -230,8 +230,21 @@ def refuse_unread_changes(specs, config) -> list:
                else f"none of {', '.join(s.label for s in specs)} reads")
         raise UsageError(f"{', '.join(sorted(changes))}: planner settings (--set, --sample-time, --horizon, --solver), "
                          f"which {who} (a network runs at its model's settings, a peer at its own); "
-                         f"drop them, or put the planner on standby with --shield-fallback gpc")
+                         f"drop them, or put the planner on standby with --shield --shield-fallback gpc")
     return unread
+
+
+def refuse_unused_fallback(args, specs) -> None:
+    """A ``--shield-fallback`` that no controller of ``specs`` runs behind (a peer, a baseline or a
+    user's class without ``--shield``; ``--no-shield``): one line, exit 2. It was dropped without a
+    word, and :func:`refuse_unread_changes` advised it: following the advice gave the same refusal."""
+    fallback = getattr(args, "shield_fallback", None)
+    if fallback is None or any(s.mode != "off" for s in specs):
+        return
+    names = ", ".join(s.name for s in specs)
+    why = ("--no-shield runs the bare controller" if getattr(args, "shield", None) == "off"
+           else f"{names} {'runs' if len(specs) == 1 else 'run'} bare unless --shield is given")
+    raise UsageError(f"--shield-fallback {fallback}: what the check layer hands over to, and {why}")
 
 
 def add_suite_arguments(p: argparse.ArgumentParser) -> None:

@@ -13,7 +13,8 @@ from pathlib import Path
 from ..controllers import check_scenarios, parse_controller_list, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_regular_file,
-                     connected, for_pool, for_run, planner_changes, planner_config, refuse_unread_changes, same_file)
+                     connected, for_pool, for_run, planner_changes, planner_config, refuse_unread_changes,
+                     refuse_unused_fallback, same_file)
 from .evaluate import (add_pool_arguments, add_resume_arguments, close_store, controller_extra, eval_doc, log_to_stderr,
                        open_store, pool_from_args, run_episodes, scenarios_from_args)
 
@@ -60,7 +61,12 @@ def run(args) -> int:
     pool = pool_from_args(args)
     config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
     check_compare_outputs(args.out, [sc.source for sc in scenarios])
-    specs = [spec_from_args(args, name) for name in parse_controller_list(args.controllers)]
+    names = parse_controller_list(args.controllers)
+    if "nn" not in names and (args.model is not None or args.passes is not None):  # (dropped without a word)
+        given = " and ".join(o for o, v in (("--model", args.model), ("--passes", args.passes)) if v is not None)
+        raise UsageError(f"{given}: for the controller nn, which --controllers {args.controllers} does not name")
+    specs = [spec_from_args(args, name) for name in names]
+    refuse_unused_fallback(args, specs)
     robot = scenarios[0].robot
     for spec in specs:
         check_scenarios(spec, config, scenarios)

@@ -12,8 +12,8 @@ from pathlib import Path
 from ..controllers import ControllerSpec, check_scenarios, reads_planner_settings, spec_from_args
 from ..errors import ControllerError, UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_seed, check_writable_folder,
-                     connected, planner_config, progress, recorded_changes, refuse_unread_changes, suite_from_args,
-                     for_pool, for_run, usable_cores)
+                     connected, planner_config, progress, recorded_changes, refuse_unread_changes, refuse_unused_fallback,
+                     suite_from_args, for_pool, for_run, usable_cores)
 
 _WORKER = {}
 
@@ -273,6 +273,7 @@ def run(args) -> int:
     pool = pool_from_args(args)
     config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
     spec = spec_from_args(args)
+    refuse_unused_fallback(args, [spec])
     check_scenarios(spec, config, scenarios)
     refuse_unread_changes([spec], config)
     check_output_files(inputs=[sc.source for sc in scenarios], out=args.out)

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import make_output_folder
+from .common import make_output_folder, progress
 
 
 def add_arguments(p):
@@ -51,7 +51,7 @@ def run(args) -> int:
     # every file made and read back before the first is written: a case that would not load
     # leaves nothing behind
     texts = {}
-    for k, case in enumerate(found):
+    for k, case in enumerate(progress(found, desc="cases", unit="case")):  # (students003: 178 cases, 26 s)
         sc = case_scenario(rec, case, args.behaviour, seed=k)
         path = args.out / f"{sc.name}.toml"
         texts[path] = to_toml(scenario_document(sc))

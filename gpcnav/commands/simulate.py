@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..controllers import ControllerSpec, check, describe, make, reads_planner_settings, spec_from_args
 from .common import (add_controller_arguments, check_output_files, check_seed, planner_config, for_pool, for_run,
-                     progress, recorded_changes, refuse_unread_changes)
+                     progress, recorded_changes, refuse_unread_changes, refuse_unused_fallback)
 
 
 def add_arguments(p):
@@ -54,6 +54,7 @@ def run(args) -> int:
     from casadi_gpc.pool import WorkerPool
     config = for_pool(for_run(planner_config(args), [scenario]), WorkerPool(1))  # one process: lanes up to the cores
     spec = spec_from_args(args)
+    refuse_unused_fallback(args, [spec])
     check(spec, config, scenario.robot)
     refuse_unread_changes([spec], config)
     doc = run_one(scenario, spec, config, progress=lambda **kw: progress(desc="simulating", **kw))

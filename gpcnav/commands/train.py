@@ -98,6 +98,13 @@ def run(args) -> int:
     from nn_export.training.dataset import load_dataset, read_manifest
     cfg = planner_config(args)
     check_seed(args.seed)
+    from nn_export.runtime.model_file import timing_mismatch
+    if timing_mismatch(cfg.name, cfg.horizon, cfg.sample_time_s):  # export wrote it, every command refused it
+        from casadi_gpc.config import preset as preset_config
+        base = preset_config(cfg.name)
+        raise UsageError(f"--horizon/--sample-time: H={cfg.horizon}, T={cfg.sample_time_s} s but preset {cfg.name!r} "
+                         f"has H={base.horizon}, T={base.sample_time_s} s: a policy runs a network at its preset's "
+                         f"horizon and sample time, and every command would refuse this one")
     out = Path(args.out)
     if out.exists() and not out.is_dir():  # found only after the training, as a traceback
         raise UsageError(f"--out {out}: a file, where the trained model's folder goes")

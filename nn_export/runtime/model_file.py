@@ -25,7 +25,8 @@ from casadi_gpc.robot import RobotParams
 
 from .layouts import FeatureLayout, layout_from_dict
 
-__all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "read_model_metadata", "float32_bound", "serves_robot"]
+__all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "read_model_metadata", "float32_bound", "serves_robot",
+           "timing_mismatch"]
 
 POLICY_FORMAT = "gpcnav-onnx-policy/1"  # written by nn_export.training.export (kept equal by a test)
 INPUT_NAME, OUTPUT_NAME = "features", "wheel_speeds_mps"
@@ -53,6 +54,18 @@ def _drives_disc(model_robot: dict, robot: RobotParams) -> bool:
     :func:`serves_robot`)."""
     radius = model_robot.get("radius_m")
     return isinstance(radius, (int, float)) and 0 < robot.radius_m <= radius
+
+
+def timing_mismatch(preset_name: str, horizon: int, sample_time_s: float) -> str | None:
+    """Why a network made for ``horizon`` and ``sample_time_s`` under the preset ``preset_name``
+    cannot run (a policy runs a model at its preset's horizon and sample time), or None. Read by
+    the loader, and by ``gpcnav train`` and ``export``, which refuse such a network before it is
+    made (a model trained with ``--sample-time`` was exported, then refused by every command)."""
+    cfg = preset_config(preset_name)
+    if cfg.horizon != horizon or not math.isclose(cfg.sample_time_s, sample_time_s):
+        return (f"model made for H={horizon}, T={sample_time_s} s but preset {preset_name!r} has H={cfg.horizon}, "
+                f"T={cfg.sample_time_s} s")
+    return None
 
 
 def float32_bound(limit_mps: float) -> float:
@@ -182,9 +195,9 @@ def _validate(path: Path, session: ort.InferenceSession, meta: dict, preset: str
         cfg = preset_config(name)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
-    if cfg.horizon != horizon or layout.horizon != horizon or not math.isclose(cfg.sample_time_s, sample_time_s):
-        raise ValueError(f"{path}: model made for H={horizon}, T={sample_time_s} s but preset {name!r} has "
-                         f"H={cfg.horizon}, T={cfg.sample_time_s} s")
+    mismatch = timing_mismatch(name, horizon, sample_time_s)
+    if mismatch or layout.horizon != horizon:
+        raise ValueError(f"{path}: {mismatch or timing_mismatch(name, layout.horizon, sample_time_s)}")
     if not serves_robot(model_robot, robot):
         mine, drives_disc = robot.to_dict(), _drives_disc(model_robot, robot)
         # a smaller disc it drives: only what refuses the robot is named (the wheels, or a larger disc)

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..runtime.model_file import float32_bound
+from ..runtime.model_file import float32_bound, timing_mismatch
 from .train import WheelSpeedMLP, wheel_selection
 
 __all__ = ["POLICY_FORMAT", "INPUT_NAME", "OUTPUT_NAME", "REQUIRED_METADATA", "export_onnx", "ExportReport"]
@@ -89,6 +89,12 @@ def export_onnx(model: WheelSpeedMLP | str | Path, out_path, parity_X: np.ndarra
                if k not in prov]
     if missing:
         raise ValueError(f"the model's provenance lacks {', '.join(missing)} (train it with `gpcnav train`)")
+    try:
+        mismatch = timing_mismatch(str(prov["preset"]), int(prov["horizon"]), float(prov["sample_time_s"]))
+    except ValueError as exc:  # an unknown preset
+        mismatch = str(exc)
+    if mismatch:  # the loader refuses it: no command would run the file
+        raise ValueError(f"{mismatch}: a policy runs a model at its preset's horizon and sample time")
     if decision_passes not in (1, 2):
         raise ValueError(f"decision_passes must be 1 or 2, got {decision_passes!r}")
     if prov.get("output", "command") == "plan" and decision_passes != 1:

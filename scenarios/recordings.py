@@ -26,14 +26,18 @@ import numpy as np
 from .loader import LARGEST
 
 __all__ = ["Recording", "RecordingError", "read_recording", "recording_name", "seconds_per_frame", "SHIPPED",
-           "shipped_recording", "MAX_GAP_S"]
+           "shipped_recording", "MAX_GAP_ROWS"]
 
 RECORDINGS_DIR = Path(__file__).parent / "recordings"
 SHIPPED = ("crowds_zara01", "crowds_zara02", "students003")
 """The recordings that ship with the package, by name."""
-MAX_GAP_S = 1.2
-"""A person's rows further apart than this (three missing rows of 0.4 s) split the track in
-two: the person is out of the recording in between, not walking a straight line."""
+MAX_GAP_ROWS = 3
+"""A person's rows further apart than this many of the recording's row steps (the median time
+between a person's rows: 0.4 s in the UCY files, 0.667 s in `biwi_eth`) split the track in two,
+three or more rows missing: the person is out of the recording in between, not walking a straight
+line. (Until 2026-12-01 a fixed 1.2 s, the same for rows 0.4 s apart: a recording with rows 0.667 s
+apart split at one missing row, and one with rows over 1.2 s apart had every track split into
+single rows and was refused.)"""
 
 
 class RecordingError(ValueError):
@@ -43,7 +47,7 @@ class RecordingError(ValueError):
 @dataclass(frozen=True)
 class Recording:
     """A recording's tracks: ``tracks[k]`` is a ``(n, 3)`` array of ``(t_s, x_m, y_m)`` rows,
-    times increasing, of one person (split where rows are missing, :data:`MAX_GAP_S`)."""
+    times increasing, of one person (split where rows are missing, :data:`MAX_GAP_ROWS`)."""
 
     name: str
     seconds_per_frame: float
@@ -120,15 +124,20 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
     if not rows:
         raise RecordingError(f"{path}: no rows (expected 'frame id x y' per line)")
     data = np.array(rows)
-    tracks = []
+    people = []
     for pid in np.unique(data[:, 1]):
         mine = data[data[:, 1] == pid]
         mine = mine[np.argsort(mine[:, 0], kind="stable")]
         if np.any(np.diff(mine[:, 0]) == 0):
             frame = mine[1:, 0][np.diff(mine[:, 0]) == 0][0]
             raise RecordingError(f"{path}: person {pid:g} has two rows at frame {frame:g}")
+        people.append(mine)
+    steps = np.concatenate([np.diff(mine[:, 0]) for mine in people])
+    max_gap_s = MAX_GAP_ROWS * float(np.median(steps)) * spf if steps.size else 0.0
+    tracks = []
+    for mine in people:
         t = mine[:, 0] * spf
-        breaks = np.flatnonzero(np.diff(t) > MAX_GAP_S + 1e-9) + 1
+        breaks = np.flatnonzero(np.diff(t) > max_gap_s * (1 + 1e-9)) + 1
         for piece_t, piece_xy in zip(np.split(t, breaks), np.split(mine[:, 2:4], breaks)):
             if len(piece_t) >= 2:
                 tracks.append(np.column_stack([piece_t, piece_xy]))

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import numbers
 import os
 import sys
 from collections.abc import Callable
@@ -264,7 +265,8 @@ def _check_protocol(text: str, controller) -> None:
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (no {' and no '.join(missing)}"
                          f" method; see README, 'Your own controller')")
     T = getattr(controller, "sample_time_s", None)
-    if isinstance(T, bool) or not isinstance(T, (int, float)) or not math.isfinite(T) or T <= 0:
+    # any real number (numpy's float32 and int64 too: they were refused as "not a positive number")
+    if isinstance(T, bool) or not isinstance(T, numbers.Real) or not math.isfinite(T) or T <= 0:
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (sample_time_s must be a "
                          f"positive number of seconds, got {T!r})")
 

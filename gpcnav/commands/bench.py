@@ -40,7 +40,8 @@ def add_arguments(p):
     p.add_argument("--no-nn-rows", action="store_true", help="leave out the network rows")
     p.add_argument("--controller", action="append", default=[], metavar="NAME",
                    help="also time this controller's full decision on the same recorded observations (repeatable; "
-                        "gpc, nn, orca, hrvo, social_force, mppi or MODULE:CLASS; docs/peers.md)")
+                        "gpc, nn, orca, hrvo, social_force, mppi, the baselines stand and blind, or MODULE:CLASS; "
+                        "docs/peers.md)")
     p.add_argument("--shield", action="store_true",
                    help="the --controller rows behind the safety check layer (casadi_gpc.safety.Shield)")
     p.add_argument("--crowd-movers", type=int, default=10, metavar="N",

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from numbers import Real
+from numbers import Integral, Real
 from typing import Protocol
 
 import numpy as np
@@ -29,6 +29,8 @@ class ObstacleMeasurement:
     """One moving obstacle as the sensor reports it this sample."""
 
     obstacle_id: int
+    """The obstacle's track: the same integer for one obstacle from sample to sample (any integer
+    type; anything else is refused by :class:`Observation`)."""
     position_m: tuple[float, float] | None
     """Measured position, or None when the measurement is missing."""
     radius_m: float
@@ -50,7 +52,9 @@ class Observation:
     obstacle of no known size, and the planner's solves all failed on one, braking for good; and
     when two moving obstacles share an id (the filters are kept by id: the two were fused into one
     phantom, its filter stepped twice a sample, a 3 m/s obstacle that sent the check layer into
-    reverse, and neither person was where it was forecast). A
+    reverse, and neither person was where it was forecast); and when a moving obstacle's id is not
+    an integer (a tracker's name, "person_3", failed deep in the network's features, and in the
+    planner only once a wall came into view). A
     missing or non-finite obstacle *position measurement* is a sensor fault, not an error: the
     obstacle filters skip it and count it.
     """
@@ -75,6 +79,10 @@ class Observation:
             if not (m.radius_m >= 0 and math.isfinite(m.radius_m)):
                 raise ValueError(f"observation at t={self.t_s} s: moving obstacle {m.obstacle_id} has radius "
                                  f"{m.radius_m!r} (a finite number, not negative)")
+            if not isinstance(m.obstacle_id, Integral):
+                raise ValueError(f"observation at t={self.t_s} s: moving obstacle id {m.obstacle_id!r} is a "
+                                 f"{type(m.obstacle_id).__name__}, not an integer (an id is one obstacle's track, "
+                                 f"an int: number the names a tracker gives)")
         if len(self.moving) > 1 and len({m.obstacle_id for m in self.moving}) < len(self.moving):
             seen, twice = set(), None
             for m in self.moving:

@@ -21,6 +21,7 @@ __all__ = [
     "ProtocolError",
     "checked_decision",
     "samples_since",
+    "positive_seconds",
 ]
 
 
@@ -137,6 +138,12 @@ def _walls_as_tuples(walls, t_s: float) -> tuple:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"observation at t={t_s} s: walls must be polylines of (x, y) points: {exc}") from None
     return tuple(out)
+
+
+def positive_seconds(value) -> bool:
+    """Whether ``value`` is a sample time: a real number (numpy's too, not a bool), finite and
+    above 0 (``np.float32(0.5)`` read from a config array was refused as "not a positive number")."""
+    return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value) and value > 0
 
 
 def samples_since(previous_t_s: float | None, t_s: float, sample_time_s: float) -> int:

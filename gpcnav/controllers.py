@@ -263,8 +263,9 @@ def _check_protocol(text: str, controller) -> None:
     if missing:
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (no {' and no '.join(missing)}"
                          f" method; see README, 'Your own controller')")
+    from casadi_gpc.types import positive_seconds
     T = getattr(controller, "sample_time_s", None)
-    if isinstance(T, bool) or not isinstance(T, (int, float)) or not math.isfinite(T) or T <= 0:
+    if not positive_seconds(T):  # numpy's numbers too
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (sample_time_s must be a "
                          f"positive number of seconds, got {T!r})")
 

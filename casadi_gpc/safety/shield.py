@@ -22,15 +22,15 @@ samples.
 """
 from __future__ import annotations
 
-import math
 import time
+from numbers import Integral
 
 import numpy as np
 
 from ..estimation.ekf import EKFSettings
 from ..robot import RobotParams
 from ..estimation.tracking import TrackBank
-from ..types import ControlDecision, Observation, checked_decision
+from ..types import ControlDecision, Observation, checked_decision, positive_seconds
 from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
@@ -47,8 +47,8 @@ DEFAULT_HORIZON_S = 6.0
 
 def _policy_horizon(policy, sample_time_s: float) -> int:
     for h in (getattr(policy, "horizon", None), getattr(getattr(policy, "config", None), "horizon", None)):
-        if isinstance(h, int) and h >= 1:
-            return h
+        if isinstance(h, Integral) and not isinstance(h, bool) and h >= 1:  # numpy's integers too
+            return int(h)
     return max(1, int(round(DEFAULT_HORIZON_S / sample_time_s)))
 
 
@@ -87,7 +87,7 @@ class Shield:
             if not callable(getattr(policy, attr, None)):
                 raise TypeError(f"the shielded controller must have a {attr}() method")
         T = getattr(policy, "sample_time_s", None)
-        if not isinstance(T, (int, float)) or not (math.isfinite(T) and T > 0):
+        if not positive_seconds(T):
             raise TypeError(f"the shielded controller's sample_time_s must be a positive number, got {T!r}")
         settings = settings or CheckSettings()
         self.settings = settings

@@ -19,7 +19,8 @@ ROBOT = RobotState(0.0, 0.0, 0.0, 0.0, 0.0)
 @pytest.mark.parametrize("bad", ["person_0", 1.5, None, (1, 2), 2.0])
 def test_an_obstacle_id_that_is_not_an_integer_is_refused_in_one_line(bad):
     with pytest.raises(ValueError) as exc:
-        Observation(0.5, ROBOT, REF, (ObstacleMeasurement(0, (4.0, 1.0), 0.3), ObstacleMeasurement(bad, (3.0, 0.0), 0.3)))
+        Observation(0.5, ROBOT, REF, (ObstacleMeasurement(0, (4.0, 1.0), 0.3),
+                                      ObstacleMeasurement(bad, (3.0, 0.0), 0.3)))
     assert str(exc.value).startswith(f"observation at t=0.5 s: moving obstacle id {bad!r} is ")
     assert "\n" not in str(exc.value)
 

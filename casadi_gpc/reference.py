@@ -46,6 +46,7 @@ class ReferencePath:
     def __post_init__(self):
         if not self.segments:
             raise ValueError("reference path has no segments")
+        _refuse_unfollowable(self)
         x, y, h = float(self.start_xy_m[0]), float(self.start_xy_m[1]), float(self.start_heading_rad)
         starts, cum = [], [0.0]
         for seg in self.segments:
@@ -168,6 +169,35 @@ class ReferencePath:
     def polyline(self, step_m: float = 0.05) -> np.ndarray:
         n = max(2, int(np.ceil(self.length_m / step_m)) + 1)
         return self.pose_at_arclength(np.linspace(0.0, self.length_m, n))
+
+
+def _refuse_unfollowable(path: ReferencePath) -> None:
+    """A ``ValueError`` of one line for a path no robot can follow, as a scenario file's is refused
+    (CONTRACT.md): a start, heading or speed that is not a finite number, a speed not above 0, a
+    segment whose length is not finite and at least 0 or whose curvature is not finite (an arc of
+    radius 0). Made in Python they were taken: a NaN start had both controllers brake at every
+    decision, a speed of 0 had the network creep from a point standing at the start."""
+    def finite(v) -> bool:
+        try:
+            return math.isfinite(v)
+        except TypeError:
+            return False
+
+    try:
+        x, y = path.start_xy_m
+    except (TypeError, ValueError):
+        x = y = math.nan
+    if not (finite(x) and finite(y)):
+        raise ValueError(f"reference path: start {path.start_xy_m!r} is not two finite numbers (m)")
+    if not finite(path.start_heading_rad):
+        raise ValueError(f"reference path: heading {path.start_heading_rad!r} is not a finite number (rad)")
+    if not (finite(path.speed_mps) and path.speed_mps > 0):
+        raise ValueError(f"reference path: speed {path.speed_mps!r} is not a finite number above 0 (m/s)")
+    for i, seg in enumerate(path.segments):
+        if not (finite(seg.length_m) and seg.length_m >= 0 and finite(seg.curvature_1pm)):
+            raise ValueError(f"reference path: segment {i} has length {seg.length_m!r} m and curvature "
+                             f"{seg.curvature_1pm!r} 1/m (a length finite and not negative, a finite curvature: "
+                             f"an arc's radius above 0)")
 
 
 @njit("float64(float64, float64, float64, float64, int64, float64, float64[::1], float64[:, ::1])", cache=True)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from numbers import Real
+from numbers import Integral, Real
 from typing import Protocol
 
 import numpy as np
@@ -21,6 +21,7 @@ __all__ = [
     "ProtocolError",
     "checked_decision",
     "samples_since",
+    "positive_seconds",
 ]
 
 
@@ -29,6 +30,8 @@ class ObstacleMeasurement:
     """One moving obstacle as the sensor reports it this sample."""
 
     obstacle_id: int
+    """The obstacle's track: the same integer for one obstacle from sample to sample (any integer
+    type; anything else is refused by :class:`Observation`)."""
     position_m: tuple[float, float] | None
     """Measured position, or None when the measurement is missing."""
     radius_m: float
@@ -50,7 +53,9 @@ class Observation:
     obstacle of no known size, and the planner's solves all failed on one, braking for good; and
     when two moving obstacles share an id (the filters are kept by id: the two were fused into one
     phantom, its filter stepped twice a sample, a 3 m/s obstacle that sent the check layer into
-    reverse, and neither person was where it was forecast). A
+    reverse, and neither person was where it was forecast); and when a moving obstacle's id is not
+    an integer (a tracker's name, "person_3", failed deep in the network's features, and in the
+    planner only once a wall came into view). A
     missing or non-finite obstacle *position measurement* is a sensor fault, not an error: the
     obstacle filters skip it and count it.
     """
@@ -75,6 +80,10 @@ class Observation:
             if not (m.radius_m >= 0 and math.isfinite(m.radius_m)):
                 raise ValueError(f"observation at t={self.t_s} s: moving obstacle {m.obstacle_id} has radius "
                                  f"{m.radius_m!r} (a finite number, not negative)")
+            if not isinstance(m.obstacle_id, Integral):
+                raise ValueError(f"observation at t={self.t_s} s: moving obstacle id {m.obstacle_id!r} is a "
+                                 f"{type(m.obstacle_id).__name__}, not an integer (an id is one obstacle's track, "
+                                 f"an int: number the names a tracker gives)")
         if len(self.moving) > 1 and len({m.obstacle_id for m in self.moving}) < len(self.moving):
             seen, twice = set(), None
             for m in self.moving:
@@ -129,6 +138,12 @@ def _walls_as_tuples(walls, t_s: float) -> tuple:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"observation at t={t_s} s: walls must be polylines of (x, y) points: {exc}") from None
     return tuple(out)
+
+
+def positive_seconds(value) -> bool:
+    """Whether ``value`` is a sample time: a real number (numpy's too, not a bool), finite and
+    above 0 (``np.float32(0.5)`` read from a config array was refused as "not a positive number")."""
+    return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value) and value > 0
 
 
 def samples_since(previous_t_s: float | None, t_s: float, sample_time_s: float) -> int:

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import importlib
 import math
-import numbers
 import os
 import sys
 from collections.abc import Callable
@@ -264,9 +263,9 @@ def _check_protocol(text: str, controller) -> None:
     if missing:
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (no {' and no '.join(missing)}"
                          f" method; see README, 'Your own controller')")
+    from casadi_gpc.types import positive_seconds
     T = getattr(controller, "sample_time_s", None)
-    # any real number (numpy's float32 and int64 too: they were refused as "not a positive number")
-    if isinstance(T, bool) or not isinstance(T, numbers.Real) or not math.isfinite(T) or T <= 0:
+    if not positive_seconds(T):  # numpy's numbers too
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (sample_time_s must be a "
                          f"positive number of seconds, got {T!r})")
 

@@ -22,15 +22,15 @@ samples.
 """
 from __future__ import annotations
 
-import math
 import time
+from numbers import Integral
 
 import numpy as np
 
 from ..estimation.ekf import EKFSettings
 from ..robot import RobotParams
 from ..estimation.tracking import TrackBank
-from ..types import ControlDecision, Observation, checked_decision
+from ..types import ControlDecision, Observation, ProtocolError, checked_decision, positive_seconds
 from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
@@ -47,9 +47,19 @@ DEFAULT_HORIZON_S = 6.0
 
 def _policy_horizon(policy, sample_time_s: float) -> int:
     for h in (getattr(policy, "horizon", None), getattr(getattr(policy, "config", None), "horizon", None)):
-        if isinstance(h, int) and h >= 1:
-            return h
+        if isinstance(h, Integral) and not isinstance(h, bool) and h >= 1:  # numpy's integers too
+            return int(h)
     return max(1, int(round(DEFAULT_HORIZON_S / sample_time_s)))
+
+
+def _plan_refused(policy, plan, horizon: int) -> ProtocolError:
+    """The one line for a controller whose plan is not ``(horizon, 2)``: the check judges a plan
+    over its own horizon (a plan of another length failed deep in the check, or as an IndexError)."""
+    cls = type(policy)
+    return ProtocolError(f"{cls.__module__}.{cls.__qualname__}.decide() returned planned_wheels_mps of shape "
+                         f"{np.shape(plan)}, not ({horizon}, 2): the check layer's horizon is {horizon} samples (the "
+                         f"controller's horizon attribute, else {DEFAULT_HORIZON_S:g} s of its samples; the Policy "
+                         f"protocol)")
 
 
 class Shield:
@@ -87,7 +97,7 @@ class Shield:
             if not callable(getattr(policy, attr, None)):
                 raise TypeError(f"the shielded controller must have a {attr}() method")
         T = getattr(policy, "sample_time_s", None)
-        if not isinstance(T, (int, float)) or not (math.isfinite(T) and T > 0):
+        if not positive_seconds(T):
             raise TypeError(f"the shielded controller's sample_time_s must be a positive number, got {T!r}")
         settings = settings or CheckSettings()
         self.settings = settings
@@ -216,6 +226,8 @@ class Shield:
         forecasts = self._forecasts(obs, dec)
         # the plan is the candidate's own continuation only when its first step is the command
         plan = dec.planned_wheels_mps
+        if plan is not None and np.shape(plan) != (self.horizon, 2):
+            raise _plan_refused(self.policy, plan, self.horizon)
         own = plan is not None and plan[0, 0] == dec.v_right_mps and plan[0, 1] == dec.v_left_mps
         cand = plan if own else (dec.v_right_mps, dec.v_left_mps)
         v = self.filter.filter(obs, cand, forecasts, obs.static, dec.planned_poses if own else None,

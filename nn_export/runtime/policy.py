@@ -76,6 +76,7 @@ def shipped_walls_model_path(preset: str) -> Path:
     return MODELS_DIR / f"{preset}-walls.onnx"
 
 
+TRACKED = ("missed_measurements", "outliers", "missed_samples", "ghosts", "manoeuvres")
 SHIPPED = "shipped"
 """``OnnxPolicy(crowd_model=SHIPPED)``: the crowd network shipped for the preset, if any,
 when the policy runs the model shipped for it."""
@@ -281,12 +282,11 @@ class OnnxPolicy:
 
     @property
     def counters(self) -> dict:
-        """Decisions, second passes, the feature report, and the tracker's missed measurements
-        and samples, gated outliers, ghosts and manoeuvres (current when read; a track seen once
-        is counted by the safety check layer, as shield_unestimated_tracks)."""
+        """Decisions, second passes, the feature report, and the tracker's missed measurements and samples,
+        gated outliers, ghosts, manoeuvres and dropped tracks (movers no longer listed, once one is), current
+        when read (a track seen once is counted by the safety check layer, as shield_unestimated_tracks)."""
         tracked, counters = self.tracker.counters, self._counters
-        for k in ("missed_measurements", "outliers", "missed_samples", "ghosts", "manoeuvres"):
-            counters[k] = tracked[k]
+        counters.update((k, tracked[k]) for k in (*TRACKED, "dropped_tracks") if k in tracked)
         return counters
 
     # --- the network -----------------------------------------------------------------

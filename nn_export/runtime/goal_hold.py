@@ -8,7 +8,7 @@ commands standing still (:func:`goal_hold`; counted ``goal_holds``), a decision 
 as any other (a person coming at the robot standing at its goal is the check's to answer). Further out,
 within :data:`GOAL_REACHED_M` (the simulator's goal tolerance), it stands still where the network's
 command would not take it nearer the goal: past its goal, beside it or facing back at it, the network
-crept away (0.15 m past Fig. 7.2's end: 0.77 m from it 20 s later; measured 2026-12-02)."""
+crept away (0.15 m past Fig. 7.2's end: 0.77 m from it 20 s later; measured 2026-12-01)."""
 from __future__ import annotations
 
 import math

@@ -280,7 +280,7 @@ def _deaths(processes) -> str:
 def _run_ray(fn, tasks: list, workers: int, address: str | None):
     started = _ray_init(workers, address)
     import ray
-    remote = ray.remote(num_cpus=1, max_retries=2)(fn)
+    remote = ray.remote(num_cpus=1, max_retries=WORKER_RESTARTS)(fn)
     capacity = max(1, int(ray.cluster_resources().get("CPU", workers)))
     pending, queue = [], list(tasks)
     try:
@@ -289,10 +289,27 @@ def _run_ray(fn, tasks: list, workers: int, address: str | None):
                 pending.append(remote.remote(*queue.pop(0)))
             done, pending = ray.wait(pending, num_returns=1)
             for ref in done:
-                yield ray.get(ref)
+                yield _ray_result(ray, ref)
     finally:
         for ref in pending:
             with contextlib.suppress(Exception):
                 ray.cancel(ref, force=True)
         if started:
             ray.shutdown()
+
+
+def _ray_result(ray, ref):
+    """``ray.get(ref)``, its failures as the local backend's: a task's own error raised as itself
+    (Ray's wrapper said it over several lines, the remote traceback in colour), and a task whose
+    workers died beyond Ray's retries :class:`WorkersDied` in one line (it was Ray's traceback)."""
+    errors = ray.exceptions
+    try:
+        return ray.get(ref)
+    except errors.RayTaskError as exc:
+        if isinstance(exc.cause, BaseException):
+            raise exc.cause from None
+        raise
+    except (errors.WorkerCrashedError, errors.OutOfMemoryError) as exc:
+        how = "killed by Ray's memory monitor" if isinstance(exc, errors.OutOfMemoryError) else "killed or crashed"
+        raise WorkersDied(f"Ray workers died {WORKER_RESTARTS + 1} times running one task ({how}; Ray retries a "
+                          f"task {WORKER_RESTARTS} times)") from None

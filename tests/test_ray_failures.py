@@ -1,0 +1,41 @@
+"""Failures on Ray said as on local workers: a task's own error raised as itself (it came in Ray's
+wrapper, several lines with the remote traceback in colour: ``evaluate --backend ray`` with a
+controller whose decide() raised printed them after ``error:``), and a task whose workers die
+beyond Ray's retries :class:`~casadi_gpc.pool.WorkersDied` in one line, exit 1 (it was Ray's
+``WorkerCrashedError`` traceback, where local workers say one line: docs/evaluation.md)."""
+from __future__ import annotations
+
+import os
+
+import pytest
+
+ray = pytest.importorskip("ray")
+
+from casadi_gpc.pool import WORKER_RESTARTS, WorkerPool, WorkersDied  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    yield
+    ray.shutdown()
+
+
+def test_a_task_error_on_ray_is_the_task_own_error(local_ray):
+    def task(text):  # (made here: Ray sends it by value, not by this module's name)
+        return int(text)
+
+    with pytest.raises(ValueError) as info:
+        list(WorkerPool(2, "ray").imap_unordered(task, [("1",), ("x",)]))
+    assert type(info.value) is ValueError
+    assert str(info.value) == "invalid literal for int() with base 10: 'x'"
+
+
+def test_a_task_that_kills_its_ray_worker_every_time_is_one_line(local_ray):
+    def task():
+        os.abort()
+
+    with pytest.raises(WorkersDied) as info:
+        list(WorkerPool(2, "ray").imap_unordered(task, [()]))
+    text = str(info.value)
+    assert "\n" not in text and text.startswith(f"Ray workers died {WORKER_RESTARTS + 1} times running one task")

@@ -14,7 +14,9 @@ What a behaviour does each time navground asks it for a command (docs/navground.
 
 1. navground's target becomes the reference the controller follows: the straight line from
    where the robot is when the target is set to the target's point, or the target's path,
-   at navground's ``optimal_speed``; a new target restarts the controller on a new reference
+   at navground's ``optimal_speed`` (a target with a direction and no point, navground's
+   ``Direction`` task: a long line that way); a new target, or the robot moved by the world
+   (navground's periodic lattice), restarts the controller on a new reference
    (:mod:`gpcnav.navground_state`);
 2. at the controller's own sample time (the preset's, 0.5 s for ``improved``) it is told
    navground's state: the robot's pose and the wheel speeds it drives, the neighbours'
@@ -57,6 +59,10 @@ __all__ = ["GPCBehavior", "GPCNetworkBehavior", "WHEELED_KINEMATICS"]
 WHEELED_KINEMATICS = ("2WDiff", "2WDiffDyn")
 """navground's kinematics a gpcnav controller can drive (a two-wheel differential drive)."""
 
+TELEPORT_M = 0.5
+"""How much farther than its wheels take it in a step a robot must have moved to count as moved by the
+world (navground's periodic lattice), which restarts the controller where it is."""
+
 
 def _from_float32(value) -> float:
     """A length or speed navground stores in single precision, as written in its file
@@ -86,6 +92,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self._robot: RobotParams | None = None
         self._neighbours = NeighbourTracks()
         self._clock_s = 0.0
+        self._last_xy: tuple[float, float] | None = None
         self._reset_target()
 
     # --- navground properties --------------------------------------------------------
@@ -178,6 +185,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self.make_controller()
         self._neighbours.reset()
         self._clock_s = 0.0
+        self._last_xy = None
 
     # --- one command -----------------------------------------------------------------
     def _reset_target(self) -> None:
@@ -199,6 +207,17 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self._reference_start_s = self._next_decision_s = now_s
         self.controller.reset()
 
+    def _moved_by_the_world(self, dt_s: float) -> None:
+        """A robot farther from where it was a step ago than its wheels take it was moved by the world
+        (navground's periodic lattice, as in its ``Corridor``: the agent wraps from one end to the other):
+        the controller restarts from where it is now, as on a new target (its reference, clock and
+        filters: the neighbours jumped with it)."""
+        xy = (float(self.position[0]), float(self.position[1]))
+        last, self._last_xy = self._last_xy, xy
+        if last is not None and math.dist(xy, last) > self._robot.max_wheel_speed_mps * dt_s + TELEPORT_M:
+            self._target_key = None
+            self._neighbours.reset()
+
     def _limited(self, right: float, left: float, current: tuple[float, float], dt_s: float) -> tuple[float, float]:
         """The wheel speeds as gpcnav's robot applies them: each within its acceleration
         limit over ``dt_s`` and the wheel limit."""
@@ -213,6 +232,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
         dt = float(time_step)
         now = self._clock_s
         self._clock_s += dt
+        self._moved_by_the_world(dt)
         moving = self._neighbours.update(self._state.neighbors, dt)
         lines = walls(self._state.line_obstacles)
         if lines and not self._with_walls:  # a world with walls: the planner gets its wall slots, once

@@ -22,7 +22,8 @@ sim = pytest.importorskip("navground.sim")
 from conftest import REPO  # noqa: E402
 from casadi_gpc.types import ControlDecision  # noqa: E402
 from gpcnav.navground_plugin import GPCBehavior  # noqa: E402
-from gpcnav.navground_state import NeighbourTracks, reference_to_target, static_obstacles, walls  # noqa: E402
+from gpcnav.navground_state import (DIRECTION_LINE_M, NeighbourTracks, reference_to_target, static_obstacles,  # noqa: E402
+                                    target_key, walls)
 from test_deploy_isolation import BLOCKER  # noqa: E402
 
 EXAMPLE = REPO / "docs" / "navground" / "antipodal_gpc.yaml"
@@ -141,6 +142,62 @@ def test_decisions_at_the_controller_s_sample_time_and_the_wheels_held_between()
     assert [[(m.obstacle_id, m.position_m, round(m.radius_m, 6)) for m in o.moving] for o in obs] == \
         [[(0, (2.0, 1.0), 0.3)]] * 3 and not obs[0].static
     assert obs[2].robot.x_m > 0.2                # it drove (0.25 m/s for 1 s, on an arc)
+
+
+class _StraightRecorder(_Recorder):
+    def decide(self, observation):
+        self.observations.append(observation)
+        return ControlDecision(0.8, 0.8)
+
+
+class _StraightRecordingGPC(_RecordingGPC, name="GPCStraightRecordingForTests"):
+    def make_controller(self):
+        super().make_controller()
+        self._controller = _StraightRecorder()
+        return self._controller
+
+
+CORRIDOR = """
+groups:
+  - number: 1
+    position: [2.0, 0.5]
+    orientation: 0.0
+    radius: 0.35
+    kinematics: {type: 2WDiff, wheel_axis: 0.5, max_speed: 0.8, max_backward_speed: 0.8}
+    behavior: {type: GPCStraightRecordingForTests, optimal_speed: 0.4}
+    task: {type: Direction, direction: [1.0, 0.0]}
+"""
+
+
+def test_a_direction_target_is_a_long_line_that_way_from_the_robot():
+    """navground's Direction task (its Corridor scenario's) gives a target with a direction and
+    no point: the robot braked for ever in its place (the Corridor's GPC agents stood still)."""
+    ref = reference_to_target(core.Target.Direction([0.0, 2.0]), (1.0, 1.0), 0.4)
+    assert ref.start_xy_m == (1.0, 1.0) and ref.start_heading_rad == pytest.approx(math.pi / 2)
+    assert (ref.length_m, ref.speed_mps) == pytest.approx((DIRECTION_LINE_M, 0.4))
+    assert target_key(core.Target.Direction([0.0, 2.0])) == ("direction", 0.0, 1.0)
+    assert reference_to_target(core.Target.Direction([0.0, 0.0]), (1.0, 1.0), 0.4) is None
+
+
+def test_a_robot_the_periodic_world_moves_restarts_where_it_is():
+    """In navground's periodic corridor (a lattice 3 m long) the robot driven along it wraps from x
+    near 3 to near 0: the controller restarts on a line from there (its clock at 0 again)."""
+    world = sim.World()
+    sim.load_scenario(CORRIDOR).init_world(world, seed=0)
+    world.set_lattice(0, (0.0, 3.0))
+    agent = world.agents[0]
+    xs = []
+    for _ in range(30):
+        world.update(0.1)
+        xs.append(float(agent.position[0]))
+    assert min(xs) < 1.0 and max(xs) > 2.5               # it drove and wrapped
+    recorder = agent.behavior.controller
+    obs = recorder.observations
+    starts = [o.reference.start_xy_m[0] for o in obs]
+    assert recorder.resets == 2 and starts[0] == pytest.approx(2.0) and starts[-1] < 1.0
+    restart = starts.index(starts[-1])
+    assert obs[restart].t_s == 0.0 and obs[restart - 1].t_s > 0.0
+    assert all(o.reference.start_heading_rad == pytest.approx(0.0) for o in obs)
 
 
 def test_kinematics_the_robot_cannot_be_driven_with_are_refused():

@@ -49,6 +49,7 @@ from pathlib import Path
 
 from navground import core
 
+from casadi_gpc.config import PRESETS  # settings only: no solver, no network
 from casadi_gpc.robot import RobotParams, RobotState, brake_wheels
 from casadi_gpc.types import Observation
 
@@ -62,6 +63,11 @@ WHEELED_KINEMATICS = ("2WDiff", "2WDiffDyn")
 TELEPORT_M = 0.5
 """How much farther than its wheels take it in a step a robot must have moved to count as moved by the
 world (navground's periodic lattice), which restarts the controller where it is."""
+
+
+def _one_of_the_presets(schema: dict) -> None:
+    """The preset's JSON schema (``navground_py schema``, ``validate``): one of the presets' names."""
+    schema["enum"] = list(PRESETS)
 
 
 def _from_float32(value) -> float:
@@ -97,21 +103,20 @@ class GPCBehavior(core.Behavior, name="GPC"):
 
     # --- navground properties --------------------------------------------------------
     @property
-    @core.register("improved", "The planner preset (paper | improved)")
+    @core.register("improved", "The planner preset (paper | improved)", _one_of_the_presets)
     def preset(self) -> str:
         """The planner preset: its sample time, horizon, weights (CONTRACT.md, presets)."""
         return self._preset
 
     @preset.setter
     def preset(self, value: str) -> None:
-        from casadi_gpc.config import PRESETS  # settings only: no solver, no network
         if str(value) not in PRESETS:  # refused when set (navground sets it as a run makes its world)
             raise ValueError(f"GPC behaviour: unknown preset {value!r} (choose from {', '.join(PRESETS)})")
         self._preset = str(value)
         self._controller = None
 
     @property
-    @core.register(0.8, "Each wheel's acceleration limit [m/s^2]", core.schema.positive)
+    @core.register(0.8, "Each wheel's acceleration limit [m/s^2]", core.schema.strict_positive)
     def max_wheel_acceleration(self) -> float:
         """Each wheel's acceleration limit (m/s^2; the contract's robot: 0.8)."""
         return self._max_wheel_acceleration
@@ -119,7 +124,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
     @max_wheel_acceleration.setter
     def max_wheel_acceleration(self, value: float) -> None:
         value = float(value)
-        if not (math.isfinite(value) and value > 0.0):  # the schema's "positive" is not enforced on set
+        if not (math.isfinite(value) and value > 0.0):  # (the schema says so, but navground does not check on set)
             raise ValueError(f"GPC behaviour: max_wheel_acceleration must be a positive number of m/s^2, got {value!r}")
         self._max_wheel_acceleration = value
         self._controller = None

@@ -339,6 +339,18 @@ def test_a_wheel_acceleration_that_is_not_a_positive_number_is_refused_when_set(
         assert b.max_wheel_acceleration == 1.5
 
 
+@pytest.mark.parametrize("behaviour", ["GPC", "GPCNetwork"])
+def test_navground_s_validate_refuses_what_the_behaviour_refuses(behaviour):
+    """``navground_py validate`` (navground's schema) took ``max_wheel_acceleration: 0`` (its schema
+    said minimum 0) and ``preset: bogus`` (any text), which the behaviour refuses when set."""
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = {**core.schema.bundle(), "$ref": "behavior"}
+    jsonschema.validate({"type": behaviour, "preset": "paper", "max_wheel_acceleration": 0.5}, schema)
+    for bad in ({"preset": "bogus"}, {"max_wheel_acceleration": 0}, {"max_wheel_acceleration": -1}):
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate({"type": behaviour, **bad}, schema)
+
+
 def test_recorded_runs_without_a_record_they_need_say_which(tmp_path, capsys):
     """A data file of an experiment that did not record the world (or the deadlocks): the line
     says which record to switch on (it said only "can't locate attribute: 'world'")."""

@@ -42,7 +42,8 @@ class ClusterUnavailable(RuntimeError):
 
 class WorkersDied(RuntimeError):
     """Local worker processes died abruptly (killed: out of memory, a signal; a crash in compiled
-    code) more than :data:`WORKER_RESTARTS` times in one batch; the message is one line."""
+    code) more than :data:`WORKER_RESTARTS` times in one batch, or on Ray a task's workers beyond
+    its retries, or Ray itself under the run; the message is one line."""
 
 
 WORKER_RESTARTS = 2
@@ -301,7 +302,8 @@ def _run_ray(fn, tasks: list, workers: int, address: str | None):
 def _ray_result(ray, ref):
     """``ray.get(ref)``, its failures as the local backend's: a task's own error raised as itself
     (Ray's wrapper said it over several lines, the remote traceback in colour), and a task whose
-    workers died beyond Ray's retries :class:`WorkersDied` in one line (it was Ray's traceback)."""
+    workers died beyond Ray's retries, or Ray failing under the run (its raylet killed),
+    :class:`WorkersDied` in one line (they were Ray's tracebacks)."""
     errors = ray.exceptions
     try:
         return ray.get(ref)
@@ -313,3 +315,6 @@ def _ray_result(ray, ref):
         how = "killed by Ray's memory monitor" if isinstance(exc, errors.OutOfMemoryError) else "killed or crashed"
         raise WorkersDied(f"Ray workers died {WORKER_RESTARTS + 1} times running one task ({how}; Ray retries a "
                           f"task {WORKER_RESTARTS} times)") from None
+    except errors.RayError as exc:  # Ray itself under the run: its raylet or node died, an object lost
+        first = (str(exc).strip().splitlines() or [""])[0]
+        raise WorkersDied(f"Ray failed under the run: {type(exc).__name__}: {first}") from None

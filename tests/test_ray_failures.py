@@ -1,8 +1,9 @@
 """Failures on Ray said as on local workers: a task's own error raised as itself (it came in Ray's
 wrapper, several lines with the remote traceback in colour: ``evaluate --backend ray`` with a
 controller whose decide() raised printed them after ``error:``), and a task whose workers die
-beyond Ray's retries :class:`~casadi_gpc.pool.WorkersDied` in one line, exit 1 (it was Ray's
-``WorkerCrashedError`` traceback, where local workers say one line: docs/evaluation.md)."""
+beyond Ray's retries, or Ray failing under the run (its raylet killed), :class:`~casadi_gpc.pool.WorkersDied`
+in one line, exit 1 (they were Ray's ``WorkerCrashedError`` and ``LocalRayletDiedError`` tracebacks,
+where local workers say one line: docs/evaluation.md)."""
 from __future__ import annotations
 
 import os
@@ -39,3 +40,19 @@ def test_a_task_that_kills_its_ray_worker_every_time_is_one_line(local_ray):
         list(WorkerPool(2, "ray").imap_unordered(task, [()]))
     text = str(info.value)
     assert "\n" not in text and text.startswith(f"Ray workers died {WORKER_RESTARTS + 1} times running one task")
+
+
+def test_ray_failing_under_the_run_is_one_line():
+    """The local Ray instance's raylet killed mid-run (evaluate --backend ray): Ray's
+    LocalRayletDiedError traceback, exit 1; now WorkersDied's one line (what finished is kept)."""
+    from types import SimpleNamespace
+
+    from casadi_gpc.pool import _ray_result
+
+    def get(ref):
+        raise ray.exceptions.LocalRayletDiedError()
+
+    with pytest.raises(WorkersDied) as info:
+        _ray_result(SimpleNamespace(get=get, exceptions=ray.exceptions), None)
+    text = str(info.value)
+    assert "\n" not in text and text.startswith("Ray failed under the run: LocalRayletDiedError: The task's local raylet")

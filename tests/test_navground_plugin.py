@@ -367,6 +367,31 @@ def test_recorded_runs_without_a_record_they_need_say_which(tmp_path, capsys):
     assert err.count("\n") == 0 and "record_world: true" in err
 
 
+def test_the_runs_summary_takes_a_waypoint_s_own_tolerance(tmp_path):
+    """navground's Waypoints task takes ``tolerances[i]`` for waypoint i where the list reaches it,
+    else ``tolerance`` (recorded as 1 m by default): the summary read ``tolerance`` alone, so an agent
+    that came within 0.8 m of a waypoint whose own tolerance is 0.3 m was counted reached."""
+    h5py = pytest.importorskip("h5py")
+    import yaml
+    from gpcnav.navground_runs import agent_runs
+    tasks = [{"type": "Waypoints", "waypoints": [[4.0, 0.0]], "tolerance": 1.0, "tolerances": [0.3]},
+             {"type": "Waypoints", "waypoints": [[2.0, 0.0], [4.0, 0.0]], "tolerance": 1.0, "tolerances": [0.3]}]
+    world = {"agents": [{"behavior": {"type": "GPC"}, "task": t} for t in tasks]}
+    xs = np.array([0.0, 1.0, 2.0, 3.0, 3.2, 3.2])          # 0.8 m short of (4, 0) at the end
+    poses = np.zeros((len(xs), 2, 3))
+    poses[:, :, 0] = xs[:, None]
+    with h5py.File(tmp_path / "data.h5", "w") as f:
+        run = f.create_group("run_0")
+        run.attrs["time_step"], run.attrs["world"] = 1.0, yaml.safe_dump(world)
+        run.create_dataset("poses", data=poses)
+        run.create_dataset("efficacy", data=np.ones((len(xs), 2)))
+        run.create_dataset("deadlocks", data=[-1.0, -1.0])
+        run.create_dataset("collisions", data=np.zeros((0, 3), dtype=int))
+    own, beyond = agent_runs(tmp_path / "data.h5")
+    assert own.reached is False                   # its own 0.3 m
+    assert beyond.reached and beyond.time_to_target_s == 3.0   # the list does not reach it: 1 m
+
+
 def test_the_runs_summary_reads_several_experiments_one_table_each(tmp_path, capsys):
     """`python -m gpcnav.navground_runs experiment_*/data.h5` (docs/navground.md) after a second
     experiment in the same folder matched two files, and was refused as unrecognized arguments;

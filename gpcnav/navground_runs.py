@@ -10,8 +10,8 @@ h5py (``pip install h5py``; navground's own reader needs it too)::
 What each figure is, per agent and run (an "agent-run"):
 
 - ``reached``: the agent's last waypoint (navground's ``Waypoints`` task, as Antipodal and
-  Cross set it) came within its tolerance (its own in ``tolerances``, else ``tolerance``) at some step (with a looping task, at
-  least once); ``time_to_target_s`` is the first such step's time (recorded poses);
+  Cross set it) came within its tolerance (its own in ``tolerances``, else ``tolerance``) at some
+  step (with a looping task, at least once); ``time_to_target_s`` is the first such step's time (recorded poses);
 - ``collided``: the agent is in at least one of navground's recorded collisions (any step,
   with anything);
 - ``stuck``: navground's deadlock record is set at the end of the run (the agent had not

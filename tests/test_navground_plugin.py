@@ -22,8 +22,8 @@ sim = pytest.importorskip("navground.sim")
 from conftest import REPO  # noqa: E402
 from casadi_gpc.types import ControlDecision  # noqa: E402
 from gpcnav.navground_plugin import GPCBehavior  # noqa: E402
-from gpcnav.navground_state import (DIRECTION_LINE_M, NeighbourTracks, reference_to_target, static_obstacles,  # noqa: E402
-                                    target_key, walls)
+from gpcnav.navground_state import (  # noqa: E402
+    DIRECTION_LINE_M, NeighbourTracks, reference_to_target, static_obstacles, target_key, walls)
 from test_deploy_isolation import BLOCKER  # noqa: E402
 
 EXAMPLE = REPO / "docs" / "navground" / "antipodal_gpc.yaml"

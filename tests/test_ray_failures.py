@@ -55,4 +55,5 @@ def test_ray_failing_under_the_run_is_one_line():
     with pytest.raises(WorkersDied) as info:
         _ray_result(SimpleNamespace(get=get, exceptions=ray.exceptions), None)
     text = str(info.value)
-    assert "\n" not in text and text.startswith("Ray failed under the run: LocalRayletDiedError: The task's local raylet")
+    assert "\n" not in text
+    assert text.startswith("Ray failed under the run: LocalRayletDiedError: The task's local raylet")

@@ -135,15 +135,47 @@ def _ray_init(workers: int, address: str | None) -> bool:
     if address:
         check_reachable(address)
     try:
-        if address:
-            ray.init(address=address, **kw)
-        else:
-            ray.init(num_cpus=workers, **kw)
+        with _own_sigterm(ray):
+            if address:
+                ray.init(address=address, **kw)
+            else:
+                ray.init(num_cpus=workers, **kw)
     except Exception as exc:  # noqa: BLE001 - whatever Ray raises, the user gets one line
         text = " ".join(str(exc).split()) or type(exc).__name__
         where = f"the Ray cluster at {address}" if address else "a local Ray instance"
         raise ClusterUnavailable(f"cannot use {where}: {text}") from None
     return True
+
+
+@contextlib.contextmanager
+def _own_sigterm(ray):
+    """``ray.init`` inside, SIGTERM left to the caller's handler (CONTRACT.md: a stop says so in one
+    line, exit 143; the caller's stop shuts Ray down). Ray's init put its own in, ``sys.exit(15)``, and
+    its C++ crash handler, which takes SIGTERM too and which Ray's shutdown leaves at the default
+    action: a SIGTERM'd ``evaluate --backend ray`` ended with exit status 15, or was killed by the
+    stop's repeated signal while Ray shut down (143), with no line. This process goes without Ray's
+    crash handler (its stack trace of a crash in Ray's C++ code); the workers keep theirs."""
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGTERM)
+    private = getattr(ray, "_private", None)
+    utils, constants = getattr(private, "utils", None), getattr(private, "ray_constants", None)
+    setter = getattr(utils, "set_sigterm_handler", None)
+    crash_handler = getattr(constants, "RAY_DISABLE_FAILURE_SIGNAL_HANDLER", None)
+    if setter is not None:
+        utils.set_sigterm_handler = lambda handler: None
+    if crash_handler is not None:  # read as this process connects: its workers are made with theirs
+        constants.RAY_DISABLE_FAILURE_SIGNAL_HANDLER = True
+    try:
+        yield
+    finally:
+        if setter is not None:
+            utils.set_sigterm_handler = setter
+        if crash_handler is not None:
+            constants.RAY_DISABLE_FAILURE_SIGNAL_HANDLER = crash_handler
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _worker_init():

@@ -7,12 +7,17 @@ where local workers say one line: docs/evaluation.md)."""
 from __future__ import annotations
 
 import os
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
 ray = pytest.importorskip("ray")
 
 from casadi_gpc.pool import WORKER_RESTARTS, WorkerPool, WorkersDied  # noqa: E402
+from conftest import REPO  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -57,3 +62,24 @@ def test_ray_failing_under_the_run_is_one_line():
     text = str(info.value)
     assert "\n" not in text
     assert text.startswith("Ray failed under the run: LocalRayletDiedError: The task's local raylet")
+
+
+@pytest.mark.slow
+def test_an_evaluation_on_ray_stopped_by_sigterm_says_so(tmp_path):
+    """Ray's init put its own SIGTERM handlers in (sys.exit(15); its C++ crash handler, which Ray's
+    shutdown leaves at the default action while the stop's repeated signal comes): a SIGTERM'd
+    evaluate --backend ray ended with exit status 15 or 143 and no line; now as on local workers."""
+    argv = ["evaluate", "--suite", "random", "--count", "200", "--seed", "3", "--controller", "orca", "--workers",
+            "2", "--backend", "ray", "--out", "E.json"]
+    proc = subprocess.Popen([sys.executable, "-m", "gpcnav", *argv], cwd=tmp_path, text=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env={**os.environ, "PYTHONPATH": str(REPO)})
+    store, deadline = tmp_path / "E.json.episodes", time.monotonic() + 240.0
+    while len(list(store.glob("[0-9a-f]*.json"))) < 3:
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err[-2000:]
+    assert err.strip().splitlines()[-1] == \
+        "gpcnav evaluate: terminated; what finished is kept: the same command resumes", err[-2000:]

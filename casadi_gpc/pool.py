@@ -42,7 +42,8 @@ class ClusterUnavailable(RuntimeError):
 
 class WorkersDied(RuntimeError):
     """Local worker processes died abruptly (killed: out of memory, a signal; a crash in compiled
-    code) more than :data:`WORKER_RESTARTS` times in one batch; the message is one line."""
+    code) more than :data:`WORKER_RESTARTS` times in one batch, or on Ray a task's workers beyond
+    its retries, or Ray itself under the run; the message is one line."""
 
 
 WORKER_RESTARTS = 2
@@ -134,15 +135,47 @@ def _ray_init(workers: int, address: str | None) -> bool:
     if address:
         check_reachable(address)
     try:
-        if address:
-            ray.init(address=address, **kw)
-        else:
-            ray.init(num_cpus=workers, **kw)
+        with _own_sigterm(ray):
+            if address:
+                ray.init(address=address, **kw)
+            else:
+                ray.init(num_cpus=workers, **kw)
     except Exception as exc:  # noqa: BLE001 - whatever Ray raises, the user gets one line
         text = " ".join(str(exc).split()) or type(exc).__name__
         where = f"the Ray cluster at {address}" if address else "a local Ray instance"
         raise ClusterUnavailable(f"cannot use {where}: {text}") from None
     return True
+
+
+@contextlib.contextmanager
+def _own_sigterm(ray):
+    """``ray.init`` inside, SIGTERM left to the caller's handler (CONTRACT.md: a stop says so in one
+    line, exit 143; the caller's stop shuts Ray down). Ray's init put its own in, ``sys.exit(15)``, and
+    its C++ crash handler, which takes SIGTERM too and which Ray's shutdown leaves at the default
+    action: a SIGTERM'd ``evaluate --backend ray`` ended with exit status 15, or was killed by the
+    stop's repeated signal while Ray shut down (143), with no line. This process goes without Ray's
+    crash handler (its stack trace of a crash in Ray's C++ code); the workers keep theirs."""
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGTERM)
+    private = getattr(ray, "_private", None)
+    utils, constants = getattr(private, "utils", None), getattr(private, "ray_constants", None)
+    setter = getattr(utils, "set_sigterm_handler", None)
+    crash_handler = getattr(constants, "RAY_DISABLE_FAILURE_SIGNAL_HANDLER", None)
+    if setter is not None:
+        utils.set_sigterm_handler = lambda handler: None
+    if crash_handler is not None:  # read as this process connects: its workers are made with theirs
+        constants.RAY_DISABLE_FAILURE_SIGNAL_HANDLER = True
+    try:
+        yield
+    finally:
+        if setter is not None:
+            utils.set_sigterm_handler = setter
+        if crash_handler is not None:
+            constants.RAY_DISABLE_FAILURE_SIGNAL_HANDLER = crash_handler
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _worker_init():
@@ -280,7 +313,7 @@ def _deaths(processes) -> str:
 def _run_ray(fn, tasks: list, workers: int, address: str | None):
     started = _ray_init(workers, address)
     import ray
-    remote = ray.remote(num_cpus=1, max_retries=2)(fn)
+    remote = ray.remote(num_cpus=1, max_retries=WORKER_RESTARTS)(fn)
     capacity = max(1, int(ray.cluster_resources().get("CPU", workers)))
     pending, queue = [], list(tasks)
     try:
@@ -289,10 +322,31 @@ def _run_ray(fn, tasks: list, workers: int, address: str | None):
                 pending.append(remote.remote(*queue.pop(0)))
             done, pending = ray.wait(pending, num_returns=1)
             for ref in done:
-                yield ray.get(ref)
+                yield _ray_result(ray, ref)
     finally:
         for ref in pending:
             with contextlib.suppress(Exception):
                 ray.cancel(ref, force=True)
         if started:
             ray.shutdown()
+
+
+def _ray_result(ray, ref):
+    """``ray.get(ref)``, its failures as the local backend's: a task's own error raised as itself
+    (Ray's wrapper said it over several lines, the remote traceback in colour), and a task whose
+    workers died beyond Ray's retries, or Ray failing under the run (its raylet killed),
+    :class:`WorkersDied` in one line (they were Ray's tracebacks)."""
+    errors = ray.exceptions
+    try:
+        return ray.get(ref)
+    except errors.RayTaskError as exc:
+        if isinstance(exc.cause, BaseException):
+            raise exc.cause from None
+        raise
+    except (errors.WorkerCrashedError, errors.OutOfMemoryError) as exc:
+        how = "killed by Ray's memory monitor" if isinstance(exc, errors.OutOfMemoryError) else "killed or crashed"
+        raise WorkersDied(f"Ray workers died {WORKER_RESTARTS + 1} times running one task ({how}; Ray retries a "
+                          f"task {WORKER_RESTARTS} times)") from None
+    except errors.RayError as exc:  # Ray itself under the run: its raylet or node died, an object lost
+        first = (str(exc).strip().splitlines() or [""])[0]
+        raise WorkersDied(f"Ray failed under the run: {type(exc).__name__}: {first}") from None

@@ -212,6 +212,11 @@ class NavigationEnv(Env):
             if count is not None and (isinstance(count, bool) or not isinstance(count, numbers.Integral)
                                       or count < 1):  # (2.5 was taken: the draws' set was [0, 2.5))
                 raise ValueError(f"count must be a whole number of episodes, at least 1, got {count!r}")
+            # (movers=True ran one mover, suite_seed=True suite 1; suite_seed "a" was a TypeError naming neither)
+            for key, value in (("movers", movers), ("suite_seed", suite_seed)):
+                if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Integral)
+                                          or value < 0):
+                    raise ValueError(f"{key} must be a whole number, 0 or more, got {value!r}")
             check_suite_options(suite, movers, behaviour)
             self.suite = Suite(suite, count or 1, suite_seed, 5 if movers is None else movers, behaviour)
         self.count = count

@@ -14,7 +14,9 @@ What a behaviour does each time navground asks it for a command (docs/navground.
 
 1. navground's target becomes the reference the controller follows: the straight line from
    where the robot is when the target is set to the target's point, or the target's path,
-   at navground's ``optimal_speed``; a new target restarts the controller on a new reference
+   at navground's ``optimal_speed`` (a target with a direction and no point, navground's
+   ``Direction`` task: a long line that way); a new target, or the robot moved by the world
+   (navground's periodic lattice), restarts the controller on a new reference
    (:mod:`gpcnav.navground_state`);
 2. at the controller's own sample time (the preset's, 0.5 s for ``improved``) it is told
    navground's state: the robot's pose and the wheel speeds it drives, the neighbours'
@@ -47,6 +49,7 @@ from pathlib import Path
 
 from navground import core
 
+from casadi_gpc.config import PRESETS  # settings only: no solver, no network
 from casadi_gpc.robot import RobotParams, RobotState, brake_wheels
 from casadi_gpc.types import Observation
 
@@ -56,6 +59,15 @@ __all__ = ["GPCBehavior", "GPCNetworkBehavior", "WHEELED_KINEMATICS"]
 
 WHEELED_KINEMATICS = ("2WDiff", "2WDiffDyn")
 """navground's kinematics a gpcnav controller can drive (a two-wheel differential drive)."""
+
+TELEPORT_M = 0.5
+"""How much farther than its wheels take it in a step a robot must have moved to count as moved by the
+world (navground's periodic lattice), which restarts the controller where it is."""
+
+
+def _one_of_the_presets(schema: dict) -> None:
+    """The preset's JSON schema (``navground_py schema``, ``validate``): one of the presets' names."""
+    schema["enum"] = list(PRESETS)
 
 
 def _from_float32(value) -> float:
@@ -86,25 +98,25 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self._robot: RobotParams | None = None
         self._neighbours = NeighbourTracks()
         self._clock_s = 0.0
+        self._last_xy: tuple[float, float] | None = None
         self._reset_target()
 
     # --- navground properties --------------------------------------------------------
     @property
-    @core.register("improved", "The planner preset (paper | improved)")
+    @core.register("improved", "The planner preset (paper | improved)", _one_of_the_presets)
     def preset(self) -> str:
         """The planner preset: its sample time, horizon, weights (CONTRACT.md, presets)."""
         return self._preset
 
     @preset.setter
     def preset(self, value: str) -> None:
-        from casadi_gpc.config import PRESETS  # settings only: no solver, no network
         if str(value) not in PRESETS:  # refused when set (navground sets it as a run makes its world)
             raise ValueError(f"GPC behaviour: unknown preset {value!r} (choose from {', '.join(PRESETS)})")
         self._preset = str(value)
         self._controller = None
 
     @property
-    @core.register(0.8, "Each wheel's acceleration limit [m/s^2]", core.schema.positive)
+    @core.register(0.8, "Each wheel's acceleration limit [m/s^2]", core.schema.strict_positive)
     def max_wheel_acceleration(self) -> float:
         """Each wheel's acceleration limit (m/s^2; the contract's robot: 0.8)."""
         return self._max_wheel_acceleration
@@ -112,7 +124,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
     @max_wheel_acceleration.setter
     def max_wheel_acceleration(self, value: float) -> None:
         value = float(value)
-        if not (math.isfinite(value) and value > 0.0):  # the schema's "positive" is not enforced on set
+        if not (math.isfinite(value) and value > 0.0):  # (the schema says so, but navground does not check on set)
             raise ValueError(f"GPC behaviour: max_wheel_acceleration must be a positive number of m/s^2, got {value!r}")
         self._max_wheel_acceleration = value
         self._controller = None
@@ -178,6 +190,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self.make_controller()
         self._neighbours.reset()
         self._clock_s = 0.0
+        self._last_xy = None
 
     # --- one command -----------------------------------------------------------------
     def _reset_target(self) -> None:
@@ -199,6 +212,17 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self._reference_start_s = self._next_decision_s = now_s
         self.controller.reset()
 
+    def _moved_by_the_world(self, dt_s: float) -> None:
+        """A robot farther from where it was a step ago than its wheels take it was moved by the world
+        (navground's periodic lattice, as in its ``Corridor``: the agent wraps from one end to the other):
+        the controller restarts from where it is now, as on a new target (its reference, clock and
+        filters: the neighbours jumped with it)."""
+        xy = (float(self.position[0]), float(self.position[1]))
+        last, self._last_xy = self._last_xy, xy
+        if last is not None and math.dist(xy, last) > self._robot.max_wheel_speed_mps * dt_s + TELEPORT_M:
+            self._target_key = None
+            self._neighbours.reset()
+
     def _limited(self, right: float, left: float, current: tuple[float, float], dt_s: float) -> tuple[float, float]:
         """The wheel speeds as gpcnav's robot applies them: each within its acceleration
         limit over ``dt_s`` and the wheel limit."""
@@ -213,6 +237,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
         dt = float(time_step)
         now = self._clock_s
         self._clock_s += dt
+        self._moved_by_the_world(dt)
         moving = self._neighbours.update(self._state.neighbors, dt)
         lines = walls(self._state.line_obstacles)
         if lines and not self._with_walls:  # a world with walls: the planner gets its wall slots, once

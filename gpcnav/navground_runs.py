@@ -10,8 +10,8 @@ h5py (``pip install h5py``; navground's own reader needs it too)::
 What each figure is, per agent and run (an "agent-run"):
 
 - ``reached``: the agent's last waypoint (navground's ``Waypoints`` task, as Antipodal and
-  Cross set it) came within the task's tolerance at some step (with a looping task, at
-  least once); ``time_to_target_s`` is the first such step's time (recorded poses);
+  Cross set it) came within its tolerance (its own in ``tolerances``, else ``tolerance``) at some
+  step (with a looping task, at least once); ``time_to_target_s`` is the first such step's time (recorded poses);
 - ``collided``: the agent is in at least one of navground's recorded collisions (any step,
   with anything);
 - ``stuck``: navground's deadlock record is set at the end of the run (the agent had not
@@ -82,6 +82,14 @@ def _run_index(name: str) -> int:
     return int(name.rpartition("_")[2])
 
 
+def _tolerance(task: dict, i: int) -> float:
+    """The tolerance of waypoint ``i`` as navground's ``Waypoints`` task takes it: its own in
+    ``tolerances`` where that list reaches it, else ``tolerance`` (the summary read ``tolerance``
+    alone, 1 m by navground's default, so ``tolerances: [0.3]`` counted arrivals 0.7 m early)."""
+    tolerances = task.get("tolerances") or []
+    return float(tolerances[i] if i < len(tolerances) else task.get("tolerance", 0.0))
+
+
 def agent_runs(path: str | Path) -> list[AgentRun]:
     """Every agent of every run recorded in ``path`` (navground's ``data.h5``)."""
     import h5py
@@ -101,7 +109,7 @@ def agent_runs(path: str | Path) -> list[AgentRun]:
                 reached, t_s, steps = None, math.nan, len(poses)
                 if waypoints:
                     d = np.hypot(*(poses[:, i, :2] - np.asarray(waypoints[-1], dtype=float)).T)
-                    within = d <= float(task.get("tolerance", 0.0)) + 1e-6
+                    within = d <= _tolerance(task, len(waypoints) - 1) + 1e-6
                     reached = bool(within.any())
                     if reached:
                         steps = int(np.argmax(within))

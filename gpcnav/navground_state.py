@@ -16,11 +16,29 @@ import numpy as np
 from casadi_gpc.reference import ReferencePath, Segment
 from casadi_gpc.types import ObstacleMeasurement, StaticObstacle
 
-__all__ = ["NeighbourTracks", "reference_to_target", "target_key", "static_obstacles", "walls", "PATH_STEP_M"]
+__all__ = ["NeighbourTracks", "reference_to_target", "target_key", "static_obstacles", "walls", "PATH_STEP_M",
+           "DIRECTION_LINE_M"]
 
 PATH_STEP_M = 0.1
 """A navground path target is followed as a reference of pieces this long, each turning as
 the path turns over it (a polyline's corner becomes an arc of this length)."""
+
+DIRECTION_LINE_M = 10_000.0
+"""A direction target (navground's ``Direction`` task, which its ``Corridor`` scenario gives every
+agent: a direction, no point) is followed as a straight line this long from where the robot is
+when it is set, in that direction (at 0.4 m/s, 7 hours of navground time)."""
+
+
+def _direction(target) -> np.ndarray | None:
+    """The unit vector of a target that has a direction and no point, else None."""
+    if getattr(target, "position", None) is not None:
+        return None
+    d = getattr(target, "direction", None)
+    if d is None:
+        return None
+    d = np.asarray(d, dtype=float)
+    norm = float(np.hypot(*d))
+    return d / norm if norm > 0.0 and math.isfinite(norm) else None
 
 
 def target_key(target) -> tuple | None:
@@ -32,15 +50,17 @@ def target_key(target) -> tuple | None:
         return ("path", round(float(path.length), 6), *np.round(np.asarray(end, dtype=float), 6))
     position = getattr(target, "position", None)
     if position is None:
-        return None
+        direction = _direction(target)
+        return None if direction is None else ("direction", *np.round(direction, 6))
     return ("point", *np.round(np.asarray(position, dtype=float), 6))
 
 
 def reference_to_target(target, xy_m, speed_mps: float) -> ReferencePath | None:
     """The reference the controller follows to navground's ``target``, from the robot at
     ``xy_m`` at navground's optimal speed: along the target's path from the robot's
-    projection on it, else the straight line to its point. None: nothing to drive to (no
-    point, or already on it)."""
+    projection on it, else the straight line to its point, or for a target with a direction and
+    no point the straight line of :data:`DIRECTION_LINE_M` that way. None: nothing to drive to
+    (no point or direction, or already on the point)."""
     if not speed_mps > 0.0:
         return None
     xy = np.asarray(xy_m, dtype=float)
@@ -60,7 +80,11 @@ def reference_to_target(target, xy_m, speed_mps: float) -> ReferencePath | None:
         return ReferencePath((float(start[0]), float(start[1])), float(headings[0]), segments, float(speed_mps))
     position = getattr(target, "position", None)
     if position is None:
-        return None
+        d = _direction(target)
+        if d is None:
+            return None
+        return ReferencePath((float(xy[0]), float(xy[1])), math.atan2(d[1], d[0]), (Segment.line(DIRECTION_LINE_M),),
+                             float(speed_mps))
     delta = np.asarray(position, dtype=float) - xy
     distance = float(math.hypot(*delta))
     if distance < 1e-3:

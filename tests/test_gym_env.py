@@ -230,6 +230,16 @@ def test_a_count_that_is_no_whole_number_is_refused_when_made(count):
     assert NavigationEnv(suite="circle-crossing", movers=3, count=np.int64(2)).count == 2
 
 
+@pytest.mark.parametrize("key, value", [("movers", True), ("movers", 2.5), ("suite_seed", True), ("suite_seed", 1.5),
+                                        ("suite_seed", "a")])
+def test_movers_and_a_suite_seed_that_are_no_whole_number_are_refused_when_made(key, value):
+    """movers=True ran one mover and suite_seed=True suite 1 (bools are ints); suite_seed "a" and 1.5
+    were TypeErrors naming no keyword ("'<' not supported ...", "seed must be integer")."""
+    with pytest.raises(ValueError, match=rf"^{key} must be a whole number, 0 or more, got "):
+        NavigationEnv(suite="circle-crossing", **{"movers": 3, key: value})
+    assert NavigationEnv(suite="circle-crossing", movers=np.int64(2), suite_seed=np.int64(1)).suite.movers == 2
+
+
 def test_an_episode_index_given_to_a_file_is_refused():
     """options index picks a suite's episode; a file's one episode ran whatever index was given."""
     env = NavigationEnv(scenario=PAPER_DIR / "fig7_2_crossing.toml")

@@ -22,7 +22,8 @@ sim = pytest.importorskip("navground.sim")
 from conftest import REPO  # noqa: E402
 from casadi_gpc.types import ControlDecision  # noqa: E402
 from gpcnav.navground_plugin import GPCBehavior  # noqa: E402
-from gpcnav.navground_state import NeighbourTracks, reference_to_target, static_obstacles, walls  # noqa: E402
+from gpcnav.navground_state import (  # noqa: E402
+    DIRECTION_LINE_M, NeighbourTracks, reference_to_target, static_obstacles, target_key, walls)
 from test_deploy_isolation import BLOCKER  # noqa: E402
 
 EXAMPLE = REPO / "docs" / "navground" / "antipodal_gpc.yaml"
@@ -141,6 +142,62 @@ def test_decisions_at_the_controller_s_sample_time_and_the_wheels_held_between()
     assert [[(m.obstacle_id, m.position_m, round(m.radius_m, 6)) for m in o.moving] for o in obs] == \
         [[(0, (2.0, 1.0), 0.3)]] * 3 and not obs[0].static
     assert obs[2].robot.x_m > 0.2                # it drove (0.25 m/s for 1 s, on an arc)
+
+
+class _StraightRecorder(_Recorder):
+    def decide(self, observation):
+        self.observations.append(observation)
+        return ControlDecision(0.8, 0.8)
+
+
+class _StraightRecordingGPC(_RecordingGPC, name="GPCStraightRecordingForTests"):
+    def make_controller(self):
+        super().make_controller()
+        self._controller = _StraightRecorder()
+        return self._controller
+
+
+CORRIDOR = """
+groups:
+  - number: 1
+    position: [2.0, 0.5]
+    orientation: 0.0
+    radius: 0.35
+    kinematics: {type: 2WDiff, wheel_axis: 0.5, max_speed: 0.8, max_backward_speed: 0.8}
+    behavior: {type: GPCStraightRecordingForTests, optimal_speed: 0.4}
+    task: {type: Direction, direction: [1.0, 0.0]}
+"""
+
+
+def test_a_direction_target_is_a_long_line_that_way_from_the_robot():
+    """navground's Direction task (its Corridor scenario's) gives a target with a direction and
+    no point: the robot braked for ever in its place (the Corridor's GPC agents stood still)."""
+    ref = reference_to_target(core.Target.Direction([0.0, 2.0]), (1.0, 1.0), 0.4)
+    assert ref.start_xy_m == (1.0, 1.0) and ref.start_heading_rad == pytest.approx(math.pi / 2)
+    assert (ref.length_m, ref.speed_mps) == pytest.approx((DIRECTION_LINE_M, 0.4))
+    assert target_key(core.Target.Direction([0.0, 2.0])) == ("direction", 0.0, 1.0)
+    assert reference_to_target(core.Target.Direction([0.0, 0.0]), (1.0, 1.0), 0.4) is None
+
+
+def test_a_robot_the_periodic_world_moves_restarts_where_it_is():
+    """In navground's periodic corridor (a lattice 3 m long) the robot driven along it wraps from x
+    near 3 to near 0: the controller restarts on a line from there (its clock at 0 again)."""
+    world = sim.World()
+    sim.load_scenario(CORRIDOR).init_world(world, seed=0)
+    world.set_lattice(0, (0.0, 3.0))
+    agent = world.agents[0]
+    xs = []
+    for _ in range(30):
+        world.update(0.1)
+        xs.append(float(agent.position[0]))
+    assert min(xs) < 1.0 and max(xs) > 2.5               # it drove and wrapped
+    recorder = agent.behavior.controller
+    obs = recorder.observations
+    starts = [o.reference.start_xy_m[0] for o in obs]
+    assert recorder.resets == 2 and starts[0] == pytest.approx(2.0) and starts[-1] < 1.0
+    restart = starts.index(starts[-1])
+    assert obs[restart].t_s == 0.0 and obs[restart - 1].t_s > 0.0
+    assert all(o.reference.start_heading_rad == pytest.approx(0.0) for o in obs)
 
 
 def test_kinematics_the_robot_cannot_be_driven_with_are_refused():
@@ -282,6 +339,18 @@ def test_a_wheel_acceleration_that_is_not_a_positive_number_is_refused_when_set(
         assert b.max_wheel_acceleration == 1.5
 
 
+@pytest.mark.parametrize("behaviour", ["GPC", "GPCNetwork"])
+def test_navground_s_validate_refuses_what_the_behaviour_refuses(behaviour):
+    """``navground_py validate`` (navground's schema) took ``max_wheel_acceleration: 0`` (its schema
+    said minimum 0) and ``preset: bogus`` (any text), which the behaviour refuses when set."""
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = {**core.schema.bundle(), "$ref": "behavior"}
+    jsonschema.validate({"type": behaviour, "preset": "paper", "max_wheel_acceleration": 0.5}, schema)
+    for bad in ({"preset": "bogus"}, {"max_wheel_acceleration": 0}, {"max_wheel_acceleration": -1}):
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate({"type": behaviour, **bad}, schema)
+
+
 def test_recorded_runs_without_a_record_they_need_say_which(tmp_path, capsys):
     """A data file of an experiment that did not record the world (or the deadlocks): the line
     says which record to switch on (it said only "can't locate attribute: 'world'")."""
@@ -296,6 +365,31 @@ def test_recorded_runs_without_a_record_they_need_say_which(tmp_path, capsys):
     assert main([str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "record_world: true" in err
+
+
+def test_the_runs_summary_takes_a_waypoint_s_own_tolerance(tmp_path):
+    """navground's Waypoints task takes ``tolerances[i]`` for waypoint i where the list reaches it,
+    else ``tolerance`` (recorded as 1 m by default): the summary read ``tolerance`` alone, so an agent
+    that came within 0.8 m of a waypoint whose own tolerance is 0.3 m was counted reached."""
+    h5py = pytest.importorskip("h5py")
+    import yaml
+    from gpcnav.navground_runs import agent_runs
+    tasks = [{"type": "Waypoints", "waypoints": [[4.0, 0.0]], "tolerance": 1.0, "tolerances": [0.3]},
+             {"type": "Waypoints", "waypoints": [[2.0, 0.0], [4.0, 0.0]], "tolerance": 1.0, "tolerances": [0.3]}]
+    world = {"agents": [{"behavior": {"type": "GPC"}, "task": t} for t in tasks]}
+    xs = np.array([0.0, 1.0, 2.0, 3.0, 3.2, 3.2])          # 0.8 m short of (4, 0) at the end
+    poses = np.zeros((len(xs), 2, 3))
+    poses[:, :, 0] = xs[:, None]
+    with h5py.File(tmp_path / "data.h5", "w") as f:
+        run = f.create_group("run_0")
+        run.attrs["time_step"], run.attrs["world"] = 1.0, yaml.safe_dump(world)
+        run.create_dataset("poses", data=poses)
+        run.create_dataset("efficacy", data=np.ones((len(xs), 2)))
+        run.create_dataset("deadlocks", data=[-1.0, -1.0])
+        run.create_dataset("collisions", data=np.zeros((0, 3), dtype=int))
+    own, beyond = agent_runs(tmp_path / "data.h5")
+    assert own.reached is False                   # its own 0.3 m
+    assert beyond.reached and beyond.time_to_target_s == 3.0   # the list does not reach it: 1 m
 
 
 def test_the_runs_summary_reads_several_experiments_one_table_each(tmp_path, capsys):

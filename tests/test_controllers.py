@@ -371,9 +371,9 @@ WORDS_MODULE = textwrap.dedent('''
 ''')
 
 
-@pytest.mark.parametrize("name, shown", [("Word", "'fast' (a str)"), ("Array", "array([0.3]) (a ndarray)"),
-                                         ("Nothing", "None (a NoneType)")])
-@pytest.mark.parametrize("shield", [[], ["--shield"]])
+@pytest.mark.parametrize("name, shown, shield", [("Word", "'fast' (a str)", []),
+                                                 ("Array", "array([0.3]) (a ndarray)", ["--shield"]),
+                                                 ("Nothing", "None (a NoneType)", [])])
 def test_a_decision_whose_wheel_speeds_are_not_numbers_exits_2_with_one_line(outside, name, shown, shield):
     """A user's ControlDecision("fast", 0.3) (or arrays for numbers) failed deep in the simulator with a
     traceback, exit 1 ("could not convert string to float"); None was taken as NaN and braked for, silently."""
@@ -382,5 +382,7 @@ def test_a_decision_whose_wheel_speeds_are_not_numbers_exits_2_with_one_line(out
     assert r.returncode == 2, r.stderr
     assert r.stderr.strip() == (f"gpcnav simulate: error: words.{name}.decide() returned a ControlDecision whose "
                                 f"v_right_mps is {shown}, not a number of m/s (the Policy protocol)")
+    if name == "Nothing":  # (each case a subprocess or two: the numpy one, bare and shielded, in the others)
+        return
     r = _cli(outside, "simulate", "empty.toml", "--controller", "words:Numpy", *shield, timeout=120)
     assert r.returncode == 0, r.stderr  # numpy's numbers are numbers

@@ -170,6 +170,7 @@ def test_the_memory_forgets_obstacles_that_left_long_ago():
     assert len(cs._seen) <= 34
 
 
+@pytest.mark.slow  # 11 s: the GPC over 37 ticks of Fig. 7.1, three configurations
 def test_spread_cold_starts_solve_a_due_multistart_over_the_next_ticks():
     """``cold_starts``: a full multi-start that falls due queues the fixed guesses, and each
     tick solves at most that many of them, in tie order, beside the warm starts of every kept

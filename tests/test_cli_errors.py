@@ -43,15 +43,20 @@ def test_bad_input_is_one_line_and_exit_2(argv, words, a_file, tmp_path):
     assert a_file.read_text() == "a file, not a folder\n"
 
 
-def test_help_points_to_files_the_project_has():
-    """The help names the README and docs/, never a file a user of the project lacks."""
+def test_help_points_to_files_the_project_has(capsys):
+    """The help names the README and docs/, never a file a user of the project lacks (each
+    command's help in this process, the top one as a user runs it)."""
     from pathlib import Path
+    from gpcnav.cli import main
     repo = Path(__file__).resolve().parents[1]
-    for argv in (["--help"], *([c, "--help"] for c in ("simulate", "evaluate", "dataset", "train", "export", "bench",
-                                                        "reproduce"))):
-        proc = _gpcnav(*argv)
-        assert proc.returncode == 0
-        assert "CONTRACT" not in proc.stdout, argv
-    top = _gpcnav("--help").stdout
+    for command in ("simulate", "evaluate", "dataset", "train", "export", "bench", "reproduce"):
+        with pytest.raises(SystemExit) as done:
+            main([command, "--help"])
+        assert done.value.code == 0
+        out = capsys.readouterr().out
+        assert command in out and "CONTRACT" not in out, command
+    proc = _gpcnav("--help")
+    assert proc.returncode == 0 and "CONTRACT" not in proc.stdout
+    top = proc.stdout
     assert "README" in top and "docs/" in top
     assert (repo / "README.md").is_file() and (repo / "docs").is_dir()

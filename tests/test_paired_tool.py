@@ -50,6 +50,7 @@ def test_other_episodes_are_refused(other, words):
         outcome_changes(_rows(["collided"] * 2), other)
 
 
+@pytest.mark.slow  # 9 s: four runs of the tool in subprocesses
 def test_the_command_line(tmp_path):
     a = _eval(tmp_path / "a.json", ["reached_goal"] * 6 + ["collided"] * 4)
     b = _eval(tmp_path / "b.json", ["reached_goal"] * 10)

@@ -150,7 +150,8 @@ class GPCController(MultiStart):
     def estimate(self, obs: Observation) -> list[ObstacleForecast]:
         """Fuse this sample's measurements and predict every track over the horizon; near
         walls, with each walker's learned forecast beside (``PlannerConfig.walls_forecast``)."""
-        forecasts = self.bank.forecasts(self.bank.step(obs.moving, obs.t_s), self.config.horizon, self._forecast_function)
+        tracks = self.bank.step(obs.moving, obs.t_s)
+        forecasts = self.bank.forecasts(tracks, self.config.horizon, self._forecast_function)
         if obs.walls and self.walls_forecast is not None:
             forecasts = self.walls_forecast.add(obs, forecasts, self.counters)
         return forecasts

@@ -22,6 +22,34 @@ def straight_line_toml(name: str, duration_s: float = 30.0, line_m: float = 4.0,
             f"[[reference.segments]]\nline_m = {line_m}\n{extra}")
 
 
+def gpcnav_on_a_terminal(*args: str):
+    """``python -m gpcnav ARGS`` with its stderr on a pseudo-terminal (100 columns), stdout piped:
+    ``(completed process, the terminal's lines)``, carriage returns read as line ends (each redraw
+    of a progress bar a line)."""
+    import fcntl
+    import pty
+    import struct
+    import subprocess
+    import sys
+    import termios
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
+    res = subprocess.run([sys.executable, "-m", "gpcnav", *map(str, args)], stdout=subprocess.PIPE, stderr=slave,
+                         text=True, cwd=REPO, timeout=300)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:  # the terminal's other end is closed: everything is read
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    os.close(master)
+    return res, b"".join(chunks).decode().replace("\r", "\n").splitlines()
+
+
 def assert_refused_in_one_line(path: Path, words: str, capsys) -> None:
     """The scenario file ``path`` is refused by the loader with a ``ScenarioError`` that says
     ``words``, and by ``gpcnav simulate`` with exit 2 and one line saying them, no traceback."""

@@ -42,32 +42,12 @@ def test_simulate_and_animate_show_progress_bars_on_a_terminal(tmp_path):
     """CONTRACT.md: a progress bar for any work longer than a few seconds on a terminal. The
     episode and the GIF had none (a 250 s episode among 20 walkers: 35 s drawing its GIF in
     silence); each bar ends full, an episode that reached its goal early too."""
-    import fcntl
-    import os
-    import pty
     import re
-    import struct
-    import termios
+    from conftest import gpcnav_on_a_terminal
     path = tmp_path / "short.toml"
     path.write_text(straight_line_toml("short", duration_s=8.0, line_m=1.6))  # the goal at 4 s (8 samples), 16 allowed
-    master, slave = pty.openpty()
-    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
-    res = subprocess.run([sys.executable, "-m", "gpcnav", "simulate", str(path), "--controller", "blind",
-                          "--animate", str(tmp_path / "a.gif")], stdout=subprocess.PIPE, stderr=slave, text=True,
-                         cwd=REPO, timeout=300)
-    os.close(slave)
-    chunks = []
-    while True:
-        try:
-            chunk = os.read(master, 65536)
-        except OSError:  # the terminal's other end is closed: everything is read
-            break
-        if not chunk:
-            break
-        chunks.append(chunk)
-    os.close(master)
+    res, lines = gpcnav_on_a_terminal("simulate", path, "--controller", "blind", "--animate", tmp_path / "a.gif")
     assert res.returncode == 0 and "reached_goal" in res.stdout and "steps 8" in res.stdout
-    lines = b"".join(chunks).decode().replace("\r", "\n").splitlines()
     last = {m.group(1): m.group(2) for m in (re.match(r"(simulating|animating): +100%\|.*\| (\d+/\d+)", ln)
                                                 for ln in lines) if m}
     assert last == {"simulating": "8/8", "animating": "9/9"}, lines[-4:]

@@ -450,32 +450,10 @@ def test_a_tracks_top_speed_is_taken_over_spans_of_a_frame_or_more():
 def test_import_tracks_shows_a_progress_bar_on_a_terminal(tmp_path):
     """CONTRACT.md: a progress bar for any work longer than a few seconds on a terminal. Writing the
     cases of students003 took 26 s (0.1-0.2 s a case, each written and read back) in silence."""
-    import fcntl
-    import os
-    import pty
     import re
-    import struct
-    import subprocess
-    import sys
-    import termios
 
-    from conftest import REPO
-    master, slave = pty.openpty()
-    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
-    res = subprocess.run([sys.executable, "-m", "gpcnav", "import-tracks", str(_excerpt(tmp_path, 150.0)), "--out",
-                          str(tmp_path / "cases"), "--max-cases", "3"], stdout=subprocess.PIPE, stderr=slave, text=True,
-                         cwd=REPO, timeout=300)
-    os.close(slave)
-    chunks = []
-    while True:
-        try:
-            chunk = os.read(master, 65536)
-        except OSError:  # the terminal's other end is closed: everything is read
-            break
-        if not chunk:
-            break
-        chunks.append(chunk)
-    os.close(master)
+    from conftest import gpcnav_on_a_terminal
+    res, lines = gpcnav_on_a_terminal("import-tracks", _excerpt(tmp_path, 150.0), "--out", tmp_path / "cases",
+                                      "--max-cases", "3")
     assert res.returncode == 0 and "3 cases written" in res.stdout
-    lines = b"".join(chunks).decode().replace("\r", "\n").splitlines()
     assert any(re.match(r"cases: +100%\|.*\| 3/3", ln) for ln in lines), lines[-4:]

@@ -192,7 +192,9 @@ class PlannerConfig:
     decision's median (docs/pedestrians.md)."""
     time_budget_s: float | None = None
     """Wall time one control step may spend solving; an answer later than this is not used
-    and the step falls back (counted). None: the sample time."""
+    and the step falls back (counted), and a start that the controller's recent solves say
+    would end later is not begun. None: 0.8 of the sample time
+    (:data:`casadi_gpc.planner.gpc.SOLVE_SHARE`: the rest is the check's)."""
 
     def __post_init__(self):
         self._check_numbers()

@@ -19,7 +19,7 @@ from casadi_gpc import solvers
 from gpcnav.benchmarks.solvers import record_problems
 from casadi_gpc.config import PRESETS
 from casadi_gpc.problem.cost import build_problem
-from casadi_gpc.planner.gpc import GPCController
+from casadi_gpc.planner.gpc import SOLVE_SHARE, GPCController
 from scenarios.simulator import simulate
 from casadi_gpc.solvers import (COMPILE_EVENTS, FASTEST_SOLVER, SOLVER_NAMES, SolveResult, canonical_name,
                                 constraint_violation_mps, make_backend, project_increments)
@@ -474,11 +474,52 @@ def test_the_backup_starts_only_while_half_the_budget_is_left():
     assert quick.counters["backup_solves"] > 0 and quick.counters.get("backup_skips", 0) == 0
 
 
-def test_the_time_budget_defaults_to_the_sample_time():
+def test_the_time_budget_defaults_to_a_share_of_the_sample_time():
+    """The rest of the step is the check's behind the planner (and a solve that ends late)."""
+    assert 0.0 < SOLVE_SHARE < 1.0
     ctl = GPCController(PAPER)
-    assert ctl.time_budget_s == PAPER.sample_time_s
-    assert ctl.solver_info["time_budget_s"] == PAPER.sample_time_s
+    assert ctl.time_budget_s == SOLVE_SHARE * PAPER.sample_time_s
+    assert ctl.solver_info["time_budget_s"] == SOLVE_SHARE * PAPER.sample_time_s
     assert GPCController(replace(PAPER, time_budget_s=0.2)).time_budget_s == 0.2
+
+
+class _Sleeping(_Failing):
+    """A backend whose every solve takes ``pause_s`` (reported as its solve time) and succeeds
+    with the start it was given."""
+
+    def __init__(self, pause_s: float):
+        super().__init__()
+        self.pause_s = pause_s
+
+    def solve(self, p, u0, lam_x=None, lam_g=None):
+        import time
+        self.calls += 1
+        t0 = time.perf_counter()
+        time.sleep(self.pause_s)
+        u = np.asarray(u0, float)
+        return SolveResult(u, float(np.sum(u * u)), True, "slept", 1, lam_x, lam_g, time.perf_counter() - t0)
+
+
+def test_a_start_that_would_end_past_the_budget_is_not_begun():
+    """Solves of 0.1 s against a 0.25 s budget, every guess at once: the third start (at 0.2 s)
+    would end at 0.3 s; it is not begun (``budget_skips``), so no answer comes late and no step
+    outlives its budget by a solve. The step's first solve is always tried (its time keeps the
+    machine's speed current)."""
+    sc = _short(paper_scenarios()[1], 6.0)
+    ctl = GPCController(replace(PAPER, solver=FASTEST_SOLVER, time_budget_s=0.25, solve_lanes=1,
+                                candidates="multistart"), sc.robot)
+    ctl.backend = slow = _Sleeping(0.1)
+    log = simulate(sc, ctl, "gpc")
+    steps = len(log.compute_time_s)
+    assert ctl.counters["over_budget"] == 0 and ctl.counters["budget_skips"] > 0
+    assert slow.calls == ctl.counters["solves"] <= 2 * steps
+    assert max(log.compute_time_s) < 0.25
+    # the first start alone may end late (nothing to judge it by, or a slower machine): one solve at most
+    late = GPCController(replace(PAPER, solver=FASTEST_SOLVER, time_budget_s=0.05, solve_lanes=1,
+                                 candidates="multistart"), sc.robot)
+    late.backend = _Sleeping(0.1)
+    log = simulate(sc, late, "gpc")
+    assert late.backend.calls == late.counters["over_budget"] == len(log.compute_time_s)
 
 
 def test_injected_failures_follow_the_rng_and_are_counted_fallbacks():
@@ -566,7 +607,7 @@ def test_simulate_takes_the_solver_option_and_says_which_solver_ran(tmp_path):
                            "--solver", "ipopt", "--out", str(out)], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(out.read_text())
-    assert doc["solver"]["name"] == "ipopt-warm" and doc["solver"]["time_budget_s"] == PAPER.sample_time_s
+    assert doc["solver"]["name"] == "ipopt-warm" and doc["solver"]["time_budget_s"] == SOLVE_SHARE * PAPER.sample_time_s
     bad = subprocess.run([sys.executable, "-m", "gpcnav", "simulate", scenario, "--solver", "snopt"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "snopt" in bad.stderr

@@ -46,12 +46,13 @@ class SolveLanes:
     def count(self) -> int:
         return len(self.backends)
 
-    def solve_all(self, jobs: list[tuple], stop=None) -> list[tuple[SolveResult, float] | None]:
+    def solve_all(self, jobs: list[tuple], stop=None, timed=None) -> list[tuple[SolveResult, float] | None]:
         """Each job ``(p, u0, lam_x, lam_g)`` solved, in the order given, with the
         ``time.perf_counter()`` at which its answer was there; None for a job not started
-        because ``stop()`` (checked as each job is about to start) said so."""
+        because ``stop()`` (checked as each job is about to start) said so. ``timed(seconds)``
+        is told each solve's wall time as it ends (from the lane's thread)."""
         if len(self.backends) == 1 or len(jobs) < 2:
-            return [_run(self.backends[0], job, stop) for job in jobs]
+            return [_run(self.backends[0], job, stop, timed) for job in jobs]
         if self._pool is None or self._pool_pid != os.getpid():
             # a process forked from this one (a worker pool) inherits the executor but not its
             # threads: work handed to it would wait for ever, so each process makes its own
@@ -67,7 +68,7 @@ class SolveLanes:
                     i = next(order, None)
                 if i is None:
                     return
-                results[i] = _run(backend, jobs[i], stop)
+                results[i] = _run(backend, jobs[i], stop, timed)
 
         helpers = [self._pool.submit(drain, b) for b in self.backends[1:]]
         drain(self.backends[0])  # the first start (the likeliest answer) is taken here, at once
@@ -76,8 +77,12 @@ class SolveLanes:
         return results
 
 
-def _run(backend: Backend, job, stop) -> tuple[SolveResult, float] | None:
+def _run(backend: Backend, job, stop, timed) -> tuple[SolveResult, float] | None:
     if stop is not None and stop():
         return None
+    t0 = time.perf_counter()
     r = backend.solve(*job)
-    return r, time.perf_counter()
+    done = time.perf_counter()
+    if timed is not None:
+        timed(done - t0)
+    return r, done

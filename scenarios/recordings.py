@@ -47,11 +47,15 @@ class RecordingError(ValueError):
 @dataclass(frozen=True)
 class Recording:
     """A recording's tracks: ``tracks[k]`` is a ``(n, 3)`` array of ``(t_s, x_m, y_m)`` rows,
-    times increasing, of one person (split where rows are missing, :data:`MAX_GAP_ROWS`)."""
+    times increasing, of one person (split where rows are missing, :data:`MAX_GAP_ROWS`).
+    ``people``: the ids in the file; ``lone_rows``: rows left out because no other row of their
+    person is within :data:`MAX_GAP_ROWS` row steps (a person with one row: no track to follow)."""
 
     name: str
     seconds_per_frame: float
     tracks: tuple[np.ndarray, ...]
+    people: int = 0
+    lone_rows: int = 0
 
     @property
     def start_s(self) -> float:
@@ -88,8 +92,8 @@ def _text(path: Path) -> str:
             raw = gzip.decompress(raw)
         except (OSError, EOFError) as exc:
             raise RecordingError(f"{path}: not a readable gzip file ({exc})") from None
-    try:
-        return raw.decode("utf-8")
+    try:  # a byte-order mark first (Windows editors write one): read past it, as UTF-8 or UTF-16
+        return raw.decode("utf-16" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig")
     except UnicodeDecodeError:
         raise RecordingError(f"{path}: not a text file of rows 'frame id x y'") from None
 
@@ -134,17 +138,19 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
         people.append(mine)
     steps = np.concatenate([np.diff(mine[:, 0]) for mine in people])
     max_gap_s = MAX_GAP_ROWS * float(np.median(steps)) * spf if steps.size else 0.0
-    tracks = []
+    tracks, lone = [], 0
     for mine in people:
         t = mine[:, 0] * spf
         breaks = np.flatnonzero(np.diff(t) > max_gap_s * (1 + 1e-9)) + 1
         for piece_t, piece_xy in zip(np.split(t, breaks), np.split(mine[:, 2:4], breaks)):
             if len(piece_t) >= 2:
                 tracks.append(np.column_stack([piece_t, piece_xy]))
+            else:  # counted: until 2026-12-01 left out unsaid (a person of one row was simply not there)
+                lone += 1
     if not tracks:
         raise RecordingError(f"{path}: no person has two rows in a row")
     tracks.sort(key=lambda tr: (tr[0, 0], tr[0, 1], tr[0, 2]))
-    return Recording(recording_name(path), spf, tuple(tracks))
+    return Recording(recording_name(path), spf, tuple(tracks), len(people), lone)
 
 
 def recording_name(path) -> str:

@@ -30,7 +30,7 @@ def run(args) -> int:
     from scenarios.loader import scenario_from_dict
     from scenarios.pedestrian_cases import case_scenario, cases
     from scenarios.writer import scenario_document, to_toml
-    from scenarios.recordings import RecordingError, read_recording
+    from scenarios.recordings import MAX_GAP_ROWS, RecordingError, read_recording
     from casadi_gpc.io import write_text
     if args.seconds_per_frame is not None and not (math.isfinite(args.seconds_per_frame)
                                                    and args.seconds_per_frame > 0):
@@ -67,6 +67,8 @@ def run(args) -> int:
     if others:  # cases of another recording or run: a glob of the folder takes them too
         print(f"note: {args.out} also holds {len(others)} other scenario files (e.g. {others[0].name}), "
               f"not written by this run", file=sys.stderr)
-    print(f"{args.recording}: {len(rec.tracks)} tracks, {rec.end_s - rec.start_s:.0f} s "
+    lone = (f", {rec.lone_rows} row{'s' * (rec.lone_rows != 1)} left out (no other row of the person within "
+            f"{MAX_GAP_ROWS} row steps: nothing to follow)" if rec.lone_rows else "")
+    print(f"{args.recording}: {rec.people} people, {len(rec.tracks)} tracks{lone}, {rec.end_s - rec.start_s:.0f} s "
           f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} cases written to {args.out}", file=sys.stdout)
     return 0

@@ -312,7 +312,7 @@ def load_scenario(path) -> Scenario:
     """Read and validate a scenario file; raises :class:`ScenarioError` with one line."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # past a byte-order mark (Windows editors write one)
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: cannot read the file ({exc.__class__.__name__}: {exc})") from None
     try:

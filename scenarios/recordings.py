@@ -106,7 +106,7 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
     spf = seconds_per_frame(path.name) if seconds_per_frame_s is None else float(seconds_per_frame_s)
     if not (math.isfinite(spf) and spf > 0):
         raise RecordingError(f"{path}: seconds per frame must be a positive number, got {seconds_per_frame_s}")
-    rows = []
+    rows, ids, names = [], {}, []
     for n, line in enumerate(_text(path).splitlines(), start=1):
         parts = line.split()
         if not parts:
@@ -114,27 +114,33 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
         if len(parts) != 4:
             raise RecordingError(f"{path}: line {n}: expected four columns 'frame id x y', got {len(parts)}")
         try:
-            values = [float(p) for p in parts]
+            values = [float(p) for p in (parts[0], parts[2], parts[3])]
         except ValueError:
             raise RecordingError(f"{path}: line {n}: not a number in {line.strip()!r}") from None
         if not all(math.isfinite(v) for v in values):
             raise RecordingError(f"{path}: line {n}: numbers must be finite, got {line.strip()!r}")
-        if max(abs(v) for v in values) > LARGEST:  # the scenario files' bound: a case could not be written
-            raise RecordingError(f"{path}: line {n}: numbers must be at most {LARGEST:g} in magnitude, got "
+        if max(abs(v) for v in values[1:]) > LARGEST:  # the scenario files' bound: a case could not be written
+            raise RecordingError(f"{path}: line {n}: positions must be at most {LARGEST:g} m in magnitude, got "
                                  f"{line.strip()!r}")
         if values[0] < 0:
             raise RecordingError(f"{path}: line {n}: the frame must not be negative, got {parts[0]}")
-        rows.append(values)
+        if not math.isfinite(values[0] * spf):
+            raise RecordingError(f"{path}: line {n}: frame {parts[0]} at {spf:g} s a frame is no finite time")
+        key = _person(parts[1])
+        if key not in ids:
+            ids[key] = len(names)
+            names.append(parts[1])
+        rows.append([values[0], ids[key], values[1], values[2]])
     if not rows:
         raise RecordingError(f"{path}: no rows (expected 'frame id x y' per line)")
     data = np.array(rows)
     people = []
-    for pid in np.unique(data[:, 1]):
+    for pid in range(len(names)):
         mine = data[data[:, 1] == pid]
         mine = mine[np.argsort(mine[:, 0], kind="stable")]
         if np.any(np.diff(mine[:, 0]) == 0):
             frame = mine[1:, 0][np.diff(mine[:, 0]) == 0][0]
-            raise RecordingError(f"{path}: person {pid:g} has two rows at frame {frame:g}")
+            raise RecordingError(f"{path}: person {names[pid]} has two rows at frame {frame:g}")
         people.append(mine)
     steps = np.concatenate([np.diff(mine[:, 0]) for mine in people])
     max_gap_s = MAX_GAP_ROWS * float(np.median(steps)) * spf if steps.size else 0.0
@@ -151,6 +157,23 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
         raise RecordingError(f"{path}: no person has two rows in a row")
     tracks.sort(key=lambda tr: (tr[0, 0], tr[0, 1], tr[0, 2]))
     return Recording(recording_name(path), spf, tuple(tracks), len(people), lone)
+
+
+def _person(token: str):
+    """Who a row's id names: a number by its value (``1`` and ``1.0`` are one person; an integer
+    exactly, however long: a tracker's 64-bit ids), anything else by its text (``ped1``). Until
+    2026-12-01 the id was read as a float and bounded as a position: a tracker's id above 1e9 (or a
+    frame that is a Unix time, with ``--seconds-per-frame 1``) was refused, ids beyond 2^53 made
+    one person of several, and ``ped1`` was 'not a number'."""
+    try:
+        return int(token)
+    except ValueError:
+        pass
+    try:
+        v = float(token)
+    except ValueError:
+        return token
+    return int(v) if v.is_integer() else v if math.isfinite(v) else token
 
 
 def recording_name(path) -> str:

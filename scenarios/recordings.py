@@ -1,6 +1,6 @@
 """Recordings of pedestrians in the ETH/UCY four-column format, read into tracks.
 
-A file holds one row per person and frame: ``frame id x y`` (whitespace-separated, metres),
+A file holds one row per person and frame: ``frame id x y`` (whitespace-separated, or commas; metres),
 the format of the ETH (Pellegrini et al., 2009) and UCY (Lerner, Chrysanthou, Lischinski,
 "Crowds by Example", 2007) recordings as the prediction literature shares them. Frame ids
 count the frames of the recording's video, 10 apart between annotated rows; what a frame
@@ -108,7 +108,8 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
         raise RecordingError(f"{path}: seconds per frame must be a positive number, got {seconds_per_frame_s}")
     rows, ids, names = [], {}, []
     for n, line in enumerate(_text(path).splitlines(), start=1):
-        parts = line.split()
+        # spaces or tabs, or commas (a CSV export: 'expected four columns, got 1' until 2026-12-01)
+        parts = [p.strip() for p in line.split(",")] if "," in line else line.split()
         if not parts:
             continue
         if len(parts) != 4:
@@ -116,7 +117,9 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
         try:
             values = [float(p) for p in (parts[0], parts[2], parts[3])]
         except ValueError:
-            raise RecordingError(f"{path}: line {n}: not a number in {line.strip()!r}") from None
+            header = (" (a header line? the format has none: remove it)"
+                      if not rows and not any(re.fullmatch(r"[-+.\d]", p[:1] or " ") for p in parts) else "")
+            raise RecordingError(f"{path}: line {n}: not a number in {line.strip()!r}{header}") from None
         if not all(math.isfinite(v) for v in values):
             raise RecordingError(f"{path}: line {n}: numbers must be finite, got {line.strip()!r}")
         if max(abs(v) for v in values[1:]) > LARGEST:  # the scenario files' bound: a case could not be written

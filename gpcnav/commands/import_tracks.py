@@ -12,7 +12,8 @@ from .common import make_output_folder, progress
 
 
 def add_arguments(p):
-    p.add_argument("recording", type=Path, help="the recording: rows 'frame id x y', separated by spaces, tabs or commas (plain text or gzip)")
+    p.add_argument("recording", type=Path,
+                   help="the recording: rows 'frame id x y', separated by spaces, tabs or commas (plain text or gzip)")
     p.add_argument("--out", type=Path, required=True, help="folder for the scenario files (made if missing)")
     p.add_argument("--seconds-per-frame", type=float, default=None, metavar="S",
                    help="what one frame id lasts (default: 1/15 s for biwi_eth and its parts, biwi_eth_train "

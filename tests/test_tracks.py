@@ -457,3 +457,20 @@ def test_import_tracks_shows_a_progress_bar_on_a_terminal(tmp_path):
                                       "--max-cases", "3")
     assert res.returncode == 0 and "3 cases written" in res.stdout
     assert any(re.match(r"cases: +100%\|.*\| 3/3", ln) for ln in lines), lines[-4:]
+
+
+def test_import_tracks_refuses_a_case_name_taken_by_a_folder_before_writing_any(tmp_path, capsys):
+    """A folder (or a pipe) where a case is to be written ended the run with os.replace's
+    IsADirectoryError traceback, exit 1, the cases before it written."""
+    f = _excerpt(tmp_path, 40.0)
+    out = tmp_path / "o"
+    assert main(["import-tracks", str(f), "--out", str(out), "--max-cases", "2"]) == 0
+    names = sorted(p.name for p in out.glob("*.toml"))
+    capsys.readouterr()
+    for p in out.glob("*.toml"):
+        p.unlink()
+    (out / names[-1]).mkdir()
+    assert main(["import-tracks", str(f), "--out", str(out), "--max-cases", "2"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and f"{names[-1]} is a folder" in err, err
+    assert sorted(p.name for p in out.iterdir()) == [names[-1]]

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import make_output_folder, progress
+from .common import check_regular_file, make_output_folder, progress
 
 
 def add_arguments(p):
@@ -60,6 +60,11 @@ def run(args) -> int:
             scenario_from_dict(tomllib.loads(texts[path]), str(path))
         except ValueError as exc:
             raise UsageError(f"{args.recording}: case {sc.name} would not load: {exc}") from None
+    for path in texts:  # a case's name taken by a folder or a device: said before any file is written
+        if path.is_dir():
+            raise UsageError(f"--out {args.out}: {path.name} is a folder, not a file: case {path.stem} cannot be "
+                             f"written (nothing was written)")
+        check_regular_file(path, f"--out {args.out}: {path.name}")
     make_output_folder(args.out, "--out")
     others = sorted(set(args.out.glob("*.toml")) - set(texts))
     for path, text in texts.items():

@@ -179,6 +179,12 @@ def _person(token: str):
     return int(v) if v.is_integer() else v if math.isfinite(v) else token
 
 
+NAME_LENGTH = 200
+"""The longest recording name the cases take (characters): a case's file name adds up to 34
+(``-across-back-000-social_force.toml``), within the 255 bytes of a file name (a longer one was
+written to a name no file system takes: ``OSError: File name too long``, until 2026-12-01)."""
+
+
 def recording_name(path) -> str:
     """The name a recording's cases are named after: its file's name without ``.gz`` and
     ``.txt``, every run of characters a scenario's name may not hold (CONTRACT.md: letters,
@@ -191,7 +197,7 @@ def recording_name(path) -> str:
     for ext in (".gz", ".txt"):
         if stem.lower().endswith(ext):
             stem = stem[:-len(ext)]
-    return re.sub(r"[^A-Za-z0-9_-]+", "_", stem).lstrip("-_") or "recording"
+    return re.sub(r"[^A-Za-z0-9_-]+", "_", stem).lstrip("-_")[:NAME_LENGTH] or "recording"
 
 
 def shipped_recording(name: str) -> Recording:

@@ -262,3 +262,28 @@ def test_an_output_that_is_a_pipe_or_a_link_to_one_is_refused_and_kept(argv, tmp
         assert len(lines) == 1 and "is not a regular file" in lines[0], proc.stderr
     assert (tmp_path / "pipe").is_fifo() and (tmp_path / "link").is_symlink()
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["pipe", "link"] + (["c.md"] if argv[0] == "compare" else []))
+
+
+def test_names_longer_than_a_file_system_takes_are_one_line_and_the_longest_it_takes_are_written(tmp_path, capsys):
+    """A file name of 215 to 255 bytes is valid, and its temporary (40 bytes longer) was not: the
+    output failed after the whole run with 'OSError: File name too long'. A name over 255 bytes
+    was the checks' OSError traceback, before the run (until 2026-12-01)."""
+    from gpcnav.cli import main
+    from scenarios.recordings import recording_name
+    longest = "r" * 250 + ".json"                                  # 255 bytes
+    assert main(["simulate", str(SCENE), "--controller", "blind", "--out", str(tmp_path / longest)]) == 0
+    assert (tmp_path / longest).is_file() and [p.name for p in tmp_path.iterdir()] == [longest]
+    too_long = str(tmp_path / ("r" * 300))
+    capsys.readouterr()
+    for argv in (["simulate", str(SCENE), "--controller", "blind", "--out", too_long + ".json"],
+                 ["simulate", str(SCENE), "--controller", "blind", "--plot", too_long + "/x.png"],
+                 ["compare", str(SCENE), "--controllers", "blind,stand", "--out", too_long + ".json"],
+                 ["import-tracks", str(SCENE), "--out", too_long],
+                 ["dataset", "--out", too_long, "--samples", "10"],
+                 ["train", str(tmp_path), "--out", too_long]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "bytes long, more than the 255" in err, (argv, err)
+    assert [p.name for p in tmp_path.iterdir()] == [longest]
+    # a recording's name is cut to 200 characters: its cases' names fit
+    assert recording_name("a" * 240 + ".txt") == "a" * 200

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import check_regular_file, make_output_folder, progress
+from .common import check_name_lengths, check_regular_file, make_output_folder, progress
 
 
 def add_arguments(p):
@@ -38,6 +38,7 @@ def run(args) -> int:
         raise UsageError(f"--seconds-per-frame must be a positive number, got {args.seconds_per_frame}")
     if args.max_cases is not None and args.max_cases < 1:
         raise UsageError(f"--max-cases must be at least 1, got {args.max_cases}")
+    check_name_lengths(args.out, f"--out {args.out}")
     try:
         rec = read_recording(args.recording, args.seconds_per_frame)
     except RecordingError as exc:

@@ -148,6 +148,19 @@ def test_the_sensor_lists_only_movers_within_range():
     assert set(pol.seen[0]) == {0, 1}
 
 
+def test_unseen_measurements_count_movers_in_the_scene_the_sensor_missed_not_those_absent():
+    """``unseen_measurements`` (docs/scenarios.md: the movers the sensor left unmeasured, out of
+    range or behind a wall) counted a track mover before its first row and after its last too:
+    a recording's cases reported tens of thousands (students001: 72 387 in 12 episodes), with no
+    range and no wall hiding anyone."""
+    later = "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[2.0, 3.0, 2.0], [4.0, 3.0, 2.0]]\n"
+    far = "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 9.0, 0.0], [2.0, 9.0, 0.0]]\n"
+    log = simulate(_scenario(later + far), _Still())          # 24 decisions, at 0, 0.5, ... 11.5 s
+    assert log.events.get("unseen_measurements", 0) == 0
+    log = simulate(_scenario(later + far, "[sensing]\nrange_m = 5.0\n"), _Still())
+    assert log.events["unseen_measurements"] == 5              # the far one, in the scene at 0 ... 2 s
+
+
 def test_a_walker_that_follows_its_recording_keeps_to_it_alone_and_gives_way_to_the_robot():
     walk = "[[0.0, 6.0, 0.0], [10.0, 2.0, 0.0]]"          # straight at the robot standing at the origin
     alone = _scenario('[[moving_obstacles]]\nradius_m = 0.25\nbehaviour = "orca"\ntrack = [[0.0, 6.0, 3.0], [10.0, 2.0, 3.0]]\n')

@@ -54,6 +54,8 @@ BAD = {
     "short row": ("track = [[0.0, 5.0], [2.0, 4.0, 0.0]]", "three numbers"),
     "text in a row": ("track = [[0.0, 5.0, 'a'], [2.0, 4.0, 0.0]]", "three numbers"),
     "not a list": ("track = 3", "list of [t_s, x_m, y_m] rows"),
+    "misspelt track": ("trak = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]", "a recorded one: track"),  # was told a
+    # constant mover's keys alone, as if tracks were not a thing
     "unknown behaviour": ('track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]\nbehaviour = "constant"', "replay, orca, social_force"),
     "replay that sees": ("track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]\nsees_robot = true", "cannot give way"),
     "starts on the robot": ("track = [[0.0, 0.3, 0.0], [2.0, 4.0, 0.0]]", "starts overlapping"),

@@ -130,6 +130,8 @@ def read_recording(path, seconds_per_frame_s: float | None = None) -> Recording:
         if not math.isfinite(values[0] * spf):
             raise RecordingError(f"{path}: line {n}: frame {parts[0]} at {spf:g} s a frame is no finite time")
         key = _person(parts[1])
+        if key is None:
+            raise RecordingError(f"{path}: line {n}: the id must be a finite number or a name, got {parts[1]}")
         if key not in ids:
             ids[key] = len(names)
             names.append(parts[1])
@@ -176,7 +178,7 @@ def _person(token: str):
         v = float(token)
     except ValueError:
         return token
-    return int(v) if v.is_integer() else v if math.isfinite(v) else token
+    return int(v) if v.is_integer() else v if math.isfinite(v) else None  # nan, inf: no one (a missing id)
 
 
 NAME_LENGTH = 200

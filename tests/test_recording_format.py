@@ -43,6 +43,9 @@ def test_ids_are_names_and_frames_may_be_unix_times(tmp_path):
     (tmp_path / "twice.txt").write_text("0 ped1 1 1\n0 ped1 2 2\n")
     with pytest.raises(RecordingError, match="person ped1 has two rows at frame 0"):
         read_recording(tmp_path / "twice.txt")
+    (tmp_path / "nan.txt").write_text("0 1 1 1\n10 1 2 2\n0 nan 1 1\n10 nan 2 2\n")  # a missing id: refused
+    with pytest.raises(RecordingError, match="line 3: the id must be a finite number or a name, got nan"):
+        read_recording(tmp_path / "nan.txt")
     (tmp_path / "far.txt").write_text("0 1 2e9 1\n10 1 2e9 2\n")
     with pytest.raises(RecordingError, match="positions must be at most 1e"):
         read_recording(tmp_path / "far.txt")

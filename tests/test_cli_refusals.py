@@ -68,6 +68,10 @@ CASES = [
     # found only after the work, as tracebacks
     (["train", "{tmp}/no-data", "--out", "/proc/mm", "--preset", "paper"], "--out /proc/mm: cannot write files"),
     (["export", "{tmp}/no-model", "--out", "/proc/x.onnx"], "--out /proc/x.onnx"),
+    # a folder that exists and takes no file: its first file's traceback (until 2026-12-01)
+    (["import-tracks", REPO / "scenarios/recordings/crowds_zara01.txt.gz", "--max-cases", "1", "--out", "/proc"],
+     "--out /proc: cannot write files in /proc"),
+    (["dataset", "--samples", "10", "--out", "/proc"], "--out /proc: cannot write files in /proc"),
 ]
 
 

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import check_name_lengths, check_regular_file, make_output_folder, progress
+from .common import check_name_lengths, check_regular_file, check_writable_folder, make_output_folder, progress
 
 
 def add_arguments(p):
@@ -66,6 +66,7 @@ def run(args) -> int:
             raise UsageError(f"--out {args.out}: {path.name} is a folder, not a file: case {path.stem} cannot be "
                              f"written (nothing was written)")
         check_regular_file(path, f"--out {args.out}: {path.name}")
+    check_writable_folder(args.out, f"--out {args.out}")  # a folder where no file can be made (/proc, read-only)
     make_output_folder(args.out, "--out")
     others = sorted(set(args.out.glob("*.toml")) - set(texts))
     for path, text in texts.items():

@@ -77,7 +77,9 @@ def run(args) -> int:
               f"not written by this run", file=sys.stderr)
     lone = (f", {rec.lone_rows} row{'s' * (rec.lone_rows != 1)} left out (no other row of the person within "
             f"{MAX_GAP_ROWS} row steps: nothing to follow)" if rec.lone_rows else "")
-    people = f"{rec.people} {'person' if rec.people == 1 else 'people'}, {len(rec.tracks)} track{'s' * (len(rec.tracks) != 1)}"
+    n_tracks = len(rec.tracks)
+    people = f"{rec.people} {'person' if rec.people == 1 else 'people'}, {n_tracks} track{'s' * (n_tracks != 1)}"
     print(f"{args.recording}: {people}{lone}, {rec.end_s - rec.start_s:.0f} s "
-          f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} cases written to {args.out}", file=sys.stdout)
+          f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} case{'s' * (len(found) != 1)} written to "
+          f"{args.out}", file=sys.stdout)
     return 0

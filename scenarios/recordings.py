@@ -26,11 +26,14 @@ import numpy as np
 from .loader import LARGEST
 
 __all__ = ["Recording", "RecordingError", "read_recording", "recording_name", "seconds_per_frame", "SHIPPED",
-           "shipped_recording", "MAX_GAP_ROWS"]
+           "shipped_recording", "MAX_GAP_ROWS", "WALKING_SPEEDS_MPS"]
 
 RECORDINGS_DIR = Path(__file__).parent / "recordings"
 SHIPPED = ("crowds_zara01", "crowds_zara02", "students003")
 """The recordings that ship with the package, by name."""
+WALKING_SPEEDS_MPS = (0.3, 3.0)
+"""Median walking speeds (:attr:`Recording.walking_speed_mps`) outside these make import-tracks say
+that the frame time may be wrong (a recording's frame time is not in the file)."""
 MAX_GAP_ROWS = 3
 """A person's rows further apart than this many of the recording's row steps (the median time
 between a person's rows: 0.4 s in the UCY files, 0.667 s in `biwi_eth`) split the track in two,
@@ -64,6 +67,14 @@ class Recording:
     @property
     def end_s(self) -> float:
         return max(float(tr[-1, 0]) for tr in self.tracks)
+
+    @property
+    def walking_speed_mps(self) -> float:
+        """The median over the tracks of each one's median speed between rows: 0.65 to 1.5 m/s in
+        the ETH/UCY files, read at their frame times (25 times that with seconds read as frames)."""
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return float(np.median([np.median(np.hypot(*np.diff(tr[:, 1:], axis=0).T) / np.diff(tr[:, 0]))
+                                    for tr in self.tracks]))
 
     def positions_at(self, t_s: float) -> np.ndarray:
         """Where everyone in the scene at ``t_s`` is, ``(m, 2)`` (linear between rows)."""

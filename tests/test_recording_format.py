@@ -70,3 +70,30 @@ def test_commas_separate_columns_as_spaces_do_and_a_header_is_named(tmp_path):
     f.write_text("0,1,1,2,\n")
     with pytest.raises(RecordingError, match="expected four columns 'frame id x y', got 5"):
         read_recording(f)
+
+
+def test_import_tracks_says_when_people_walk_at_no_walking_speed(tmp_path, capsys):
+    """The frame time is not in the file: a recording whose first column is seconds (0.4, 0.8,
+    ...) read at the default 1/25 s a frame had its people walk at 30 m/s, and import-tracks wrote
+    its cases (or found none) saying nothing of it."""
+    import gzip
+
+    from gpcnav.cli import main
+    from scenarios.recordings import RECORDINGS_DIR
+    rows = [r.split() for r in gzip.decompress((RECORDINGS_DIR / "crowds_zara01.txt.gz").read_bytes()).decode()
+            .splitlines() if r.split()]
+
+    def seconds(last_frame):  # the recording with its frames written as seconds
+        f = tmp_path / f"mine{last_frame}.txt"
+        f.write_text("".join(f"{float(fr) / 25:.2f} {pid} {x} {y}\n" for fr, pid, x, y in rows
+                             if float(fr) <= last_frame))
+        return str(f)
+    assert main(["import-tracks", seconds(2500), "--out", str(tmp_path / "a"), "--max-cases", "1"]) == 2  # 4 s
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "no case" in err and "people walk at 30" in err, err
+    assert main(["import-tracks", seconds(10 ** 6), "--out", str(tmp_path / "b"), "--max-cases", "1"]) == 0  # 14 s
+    err = capsys.readouterr().err
+    assert "note:" in err and "people walk at 30" in err and "is --seconds-per-frame right?" in err, err
+    assert main(["import-tracks", seconds(10 ** 6), "--out", str(tmp_path / "c"), "--max-cases", "1",
+                 "--seconds-per-frame", "1"]) == 0
+    assert "walk at" not in capsys.readouterr().err

@@ -31,7 +31,7 @@ def run(args) -> int:
     from scenarios.loader import scenario_from_dict
     from scenarios.pedestrian_cases import case_scenario, cases
     from scenarios.writer import scenario_document, to_toml
-    from scenarios.recordings import MAX_GAP_ROWS, RecordingError, read_recording
+    from scenarios.recordings import MAX_GAP_ROWS, WALKING_SPEEDS_MPS, RecordingError, read_recording
     from casadi_gpc.io import write_text
     if args.seconds_per_frame is not None and not (math.isfinite(args.seconds_per_frame)
                                                    and args.seconds_per_frame > 0):
@@ -43,10 +43,15 @@ def run(args) -> int:
         rec = read_recording(args.recording, args.seconds_per_frame)
     except RecordingError as exc:
         raise UsageError(str(exc)) from None
+    speed, (slow, fast) = rec.walking_speed_mps, WALKING_SPEEDS_MPS
+    doubt = ("" if slow <= speed <= fast else  # the frame time is not in the file: 1/25 s taken for one of seconds
+             f"at {rec.seconds_per_frame:.4g} s a frame its people walk at {speed:.3g} m/s (median; people walk about "
+             f"1 m/s): is --seconds-per-frame right?")
     found = cases(rec)
     if not found:
         raise UsageError(f"{args.recording}: no case of the protocol in this recording (docs/pedestrians.md: at "
-                         f"least 5 people in the busiest 6 m square, the robot's start clear)")
+                         f"least 5 people in the busiest 6 m square, the robot's start clear)"
+                         + (f"; {doubt}" if doubt else ""))
     if args.max_cases is not None and args.max_cases < len(found):
         step = len(found) / args.max_cases
         found = [found[int(k * step)] for k in range(args.max_cases)]
@@ -77,6 +82,8 @@ def run(args) -> int:
               f"not written by this run", file=sys.stderr)
     lone = (f", {rec.lone_rows} row{'s' * (rec.lone_rows != 1)} left out (no other row of the person within "
             f"{MAX_GAP_ROWS} row steps: nothing to follow)" if rec.lone_rows else "")
+    if doubt:
+        print(f"note: {args.recording}: {doubt}", file=sys.stderr)
     n_tracks = len(rec.tracks)
     people = f"{rec.people} {'person' if rec.people == 1 else 'people'}, {n_tracks} track{'s' * (n_tracks != 1)}"
     print(f"{args.recording}: {people}{lone}, {rec.end_s - rec.start_s:.0f} s "

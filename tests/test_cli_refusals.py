@@ -291,3 +291,21 @@ def test_names_longer_than_a_file_system_takes_are_one_line_and_the_longest_it_t
     assert [p.name for p in tmp_path.iterdir()] == [longest]
     # a recording's name is cut to 200 characters: its cases' names fit
     assert recording_name("a" * 240 + ".txt") == "a" * 200
+
+
+def test_evaluate_and_compare_keep_their_episodes_beside_an_out_of_the_longest_name(tmp_path, capsys):
+    """The finished episodes' folder is --out's name and '.episodes': for an --out of 247 to 255
+    bytes, a name no file system takes (its OSError traceback before the run); the table beside
+    a compare's --out with no extension, 256 bytes."""
+    from gpcnav.cli import main
+    out = tmp_path / ("e" * 250 + ".json")
+    argv = ["evaluate", str(SCENE), "--controller", "blind", "--workers", "1", "--out", str(out), "--keep-episodes"]
+    assert main(argv) == 0 and out.is_file()
+    (kept,) = [p for p in tmp_path.iterdir() if p.name.endswith(".episodes")]
+    assert len(kept.name.encode()) <= 255 and any(kept.iterdir())
+    capsys.readouterr()
+    assert main(argv) == 0 and "reused 1 of 1" in capsys.readouterr().err             # the same folder, found again
+    bare = str(tmp_path / ("c" * 253))
+    assert main(["compare", str(SCENE), "--controllers", "blind,stand", "--workers", "1", "--out", bare]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "the table beside it" in err and "256 bytes long" in err, err

@@ -117,6 +117,19 @@ def sweep_abandoned(folder, pattern: str) -> int:
     return gone
 
 
+NAME_MAX = 255
+"""The longest file name, in bytes, of the common file systems (ext4, XFS, Btrfs, APFS, NTFS)."""
+
+
+def _temporary_stem(name: str, extra: int) -> str:
+    """``name`` cut so that a temporary named ``.{stem}{extra bytes}`` fits :data:`NAME_MAX`:
+    a file name of 215 to 255 bytes is a valid output, and its temporary, 40 bytes longer, was
+    not (``OSError: File name too long`` after the whole run, until 2026-12-01)."""
+    room = NAME_MAX - 1 - extra
+    raw = name.encode()
+    return name if len(raw) <= room else raw[:max(room, 1)].decode(errors="ignore")
+
+
 @contextlib.contextmanager
 def atomic_file(path, suffix: str = ""):
     """Yield a temporary path beside ``path``; on a clean exit it is synced to disk and
@@ -126,9 +139,10 @@ def atomic_file(path, suffix: str = ""):
         raise KeyboardInterrupt(f"stopping: {Path(path).name} not written")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    sweep_abandoned(path.parent, f".{glob_escape(path.name)}.*")  # a kill -9 mid-write's, of this file
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}{writer_tag()}.", suffix=suffix or path.suffix,
-                               dir=path.parent)
+    suffix = suffix or path.suffix
+    stem = _temporary_stem(path.name, len(writer_tag()) + len(suffix.encode()) + 12)
+    sweep_abandoned(path.parent, f".{glob_escape(stem)}.*")  # a kill -9 mid-write's, of this file
+    fd, tmp = tempfile.mkstemp(prefix=f".{stem}{writer_tag()}.", suffix=suffix, dir=path.parent)
     os.close(fd)
     tmp = Path(tmp)
     try:

@@ -225,6 +225,12 @@ def _moving(r: _Reader, ob, f: str) -> MovingObstacleSpec | WalkerSpec | TrackSp
         if isinstance(ob, dict) and key in ob:
             r.fail(f"{f}.{key}", f"not for a mover with behaviour {behaviour!r} (one way to say one thing: "
                                  f"{'a walker starts towards its goal' if behaviour != 'constant' else 'a constant mover has no goal'})")
+    every = _CONSTANT_KEYS | _WALKER_KEYS | _TRACK_KEYS
+    unknown = sorted(k for k in ob if k not in every) if isinstance(ob, dict) else []
+    if unknown:  # the keys of every kind of mover: a misspelt 'track' was told a constant mover's alone
+        walker = ", ".join(sorted(_WALKER_KEYS - _CONSTANT_KEYS))
+        r.fail(f"{f}.{unknown[0]}", f"unknown key (a mover takes {', '.join(sorted(_CONSTANT_KEYS))}; a walker, "
+                                    f"behaviour orca or social_force: {walker}; a recorded one: track, sees_robot)")
     if behaviour == "constant":
         r.table(ob, f, _CONSTANT_KEYS, {"position", "heading_deg", "speed_mps", "radius_m"})
         return MovingObstacleSpec(
@@ -312,7 +318,7 @@ def load_scenario(path) -> Scenario:
     """Read and validate a scenario file; raises :class:`ScenarioError` with one line."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # past a byte-order mark (Windows editors write one)
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: cannot read the file ({exc.__class__.__name__}: {exc})") from None
     try:

@@ -9,7 +9,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
-__all__ = ["plot_run", "run_figure", "animate_run", "mover_colour", "walls_beside"]
+__all__ = ["plot_run", "run_figure", "animate_run", "animation_view", "mover_colour", "walls_beside"]
 
 _OBSTACLE_COLOURS = ["tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan"]
 
@@ -118,6 +118,25 @@ def run_figure(doc: dict, robot_radius_m: float = 0.35):
     return fig
 
 
+def animation_view(doc: dict, pad_m: float = 1.0) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The animation's x and y limits: what :func:`plot_run`'s view holds (the robot, the
+    reference, the movers, and a wall beside them within :data:`WALL_VIEW_M`), ``pad_m`` beyond.
+    (Until 2026-12-01 it took walls within 1 m only and not the reference: a robot alone in a
+    2.5 m corridor was animated with neither wall in view, and a collided run's path cut short.)"""
+    tr = doc["trajectory"]
+    parts = [np.column_stack([tr["x"], tr["y"]]).astype(float)]
+    if "reference_path" in doc:
+        parts.append(np.asarray(doc["reference_path"], dtype=float).reshape(-1, 2))
+    parts += [np.column_stack([np.asarray(o["x"], dtype=float), np.asarray(o["y"], dtype=float)])
+              for o in doc.get("obstacles", [])]
+    pts = np.concatenate(parts)
+    (x0, y0), (x1, y1) = np.nanmin(pts, axis=0), np.nanmax(pts, axis=0)
+    near = walls_beside([np.asarray(w["points"], dtype=float) for w in doc.get("walls", [])], (x0, x1), (y0, y1))
+    if len(near):
+        (x0, y0), (x1, y1) = np.minimum((x0, y0), near.min(axis=0)), np.maximum((x1, y1), near.max(axis=0))
+    return (float(x0) - pad_m, float(x1) + pad_m), (float(y0) - pad_m, float(y1) + pad_m)
+
+
 def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8, progress=None) -> None:
     """A GIF of the run, one frame per sample; ``progress``: an optional ``tqdm``-like factory
     ``progress(total=, unit=)``, a bar over the frames drawn."""
@@ -130,13 +149,9 @@ def animate_run(doc: dict, path, robot_radius_m: float = 0.35, fps: int = 8, pro
     fig, ax = plt.subplots(figsize=(7, 4))
     obs = [{**o, "x": np.asarray(o["x"], dtype=float), "y": np.asarray(o["y"], dtype=float)}  # null: not in the scene
            for o in doc.get("obstacles", [])]
-    allx = np.concatenate([x] + [o["x"] for o in obs])
-    ally = np.concatenate([y] + [o["y"] for o in obs])
-    near = walls_beside([np.asarray(w["points"], dtype=float) for w in doc.get("walls", [])],
-                        (np.nanmin(allx), np.nanmax(allx)), (np.nanmin(ally), np.nanmax(ally)), margin_m=1.0)
-    allx, ally = np.concatenate([allx, near[:, 0]]), np.concatenate([ally, near[:, 1]])
-    ax.set_xlim(np.nanmin(allx) - 1, np.nanmax(allx) + 1)
-    ax.set_ylim(np.nanmin(ally) - 1, np.nanmax(ally) + 1)
+    xlim, ylim = animation_view(doc)
+    ax.set_xlim(*xlim)
+    ax.set_ylim(*ylim)
     ax.set_aspect("equal")
     if "reference_path" in doc:
         rp = np.asarray(doc["reference_path"])

@@ -100,7 +100,8 @@ class _Sensor:
                 self.events["injected_dropouts"] = self.events.get("injected_dropouts", 0) + 1
             if seen[i]:
                 out.append(ObstacleMeasurement(i, None if z is None else (float(z[0]), float(z[1])), m.radius_m))
-            else:
+            elif np.isfinite(true_xy[i, 0]):  # in the scene, out of range or behind a wall (one not in the
+                # scene, a track before its first row or after its last, was counted too until 2026-12-01)
                 self.events["unseen_measurements"] = self.events.get("unseen_measurements", 0) + 1
         self.queue.append(tuple(out))
         if len(self.queue) <= f.delay_steps:

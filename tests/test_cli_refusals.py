@@ -68,6 +68,10 @@ CASES = [
     # found only after the work, as tracebacks
     (["train", "{tmp}/no-data", "--out", "/proc/mm", "--preset", "paper"], "--out /proc/mm: cannot write files"),
     (["export", "{tmp}/no-model", "--out", "/proc/x.onnx"], "--out /proc/x.onnx"),
+    # a folder that exists and takes no file: its first file's traceback (until 2026-12-01)
+    (["import-tracks", REPO / "scenarios/recordings/crowds_zara01.txt.gz", "--max-cases", "1", "--out", "/proc"],
+     "--out /proc: cannot write files in /proc"),
+    (["dataset", "--samples", "10", "--out", "/proc"], "--out /proc: cannot write files in /proc"),
 ]
 
 
@@ -262,3 +266,46 @@ def test_an_output_that_is_a_pipe_or_a_link_to_one_is_refused_and_kept(argv, tmp
         assert len(lines) == 1 and "is not a regular file" in lines[0], proc.stderr
     assert (tmp_path / "pipe").is_fifo() and (tmp_path / "link").is_symlink()
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["pipe", "link"] + (["c.md"] if argv[0] == "compare" else []))
+
+
+def test_names_longer_than_a_file_system_takes_are_one_line_and_the_longest_it_takes_are_written(tmp_path, capsys):
+    """A file name of 215 to 255 bytes is valid, and its temporary (40 bytes longer) was not: the
+    output failed after the whole run with 'OSError: File name too long'. A name over 255 bytes
+    was the checks' OSError traceback, before the run (until 2026-12-01)."""
+    from gpcnav.cli import main
+    from scenarios.recordings import recording_name
+    longest = "r" * 250 + ".json"                                  # 255 bytes
+    assert main(["simulate", str(SCENE), "--controller", "blind", "--out", str(tmp_path / longest)]) == 0
+    assert (tmp_path / longest).is_file() and [p.name for p in tmp_path.iterdir()] == [longest]
+    too_long = str(tmp_path / ("r" * 300))
+    capsys.readouterr()
+    for argv in (["simulate", str(SCENE), "--controller", "blind", "--out", too_long + ".json"],
+                 ["simulate", str(SCENE), "--controller", "blind", "--plot", too_long + "/x.png"],
+                 ["compare", str(SCENE), "--controllers", "blind,stand", "--out", too_long + ".json"],
+                 ["import-tracks", str(SCENE), "--out", too_long],
+                 ["dataset", "--out", too_long, "--samples", "10"],
+                 ["train", str(tmp_path), "--out", too_long]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "bytes long, more than the 255" in err, (argv, err)
+    assert [p.name for p in tmp_path.iterdir()] == [longest]
+    # a recording's name is cut to 200 characters: its cases' names fit
+    assert recording_name("a" * 240 + ".txt") == "a" * 200
+
+
+def test_evaluate_and_compare_keep_their_episodes_beside_an_out_of_the_longest_name(tmp_path, capsys):
+    """The finished episodes' folder is --out's name and '.episodes': for an --out of 247 to 255
+    bytes, a name no file system takes (its OSError traceback before the run); the table beside
+    a compare's --out with no extension, 256 bytes."""
+    from gpcnav.cli import main
+    out = tmp_path / ("e" * 250 + ".json")
+    argv = ["evaluate", str(SCENE), "--controller", "blind", "--workers", "1", "--out", str(out), "--keep-episodes"]
+    assert main(argv) == 0 and out.is_file()
+    (kept,) = [p for p in tmp_path.iterdir() if p.name.endswith(".episodes")]
+    assert len(kept.name.encode()) <= 255 and any(kept.iterdir())
+    capsys.readouterr()
+    assert main(argv) == 0 and "reused 1 of 1" in capsys.readouterr().err             # the same folder, found again
+    bare = str(tmp_path / ("c" * 253))
+    assert main(["compare", str(SCENE), "--controllers", "blind,stand", "--workers", "1", "--out", bare]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "the table beside it" in err and "256 bytes long" in err, err

@@ -39,3 +39,23 @@ def test_a_track_splits_where_more_than_the_rule_s_rows_are_missing(tmp_path, mi
 def test_a_file_of_single_rows_is_still_refused(tmp_path):
     with pytest.raises(RecordingError, match="no person has two rows in a row"):
         read_recording(_write(tmp_path / "one.txt", {1: [0], 2: [10]}))
+
+
+def test_a_lone_row_is_counted_and_said(tmp_path, capsys):
+    """A person with one row (or a row apart from the rest of theirs) cannot be followed: it was
+    left out and nothing said so ('148 tracks' for a file of 149 people)."""
+    from gpcnav.cli import main
+    frames = {pid: range(10 * pid, 10 * pid + 300, 10) for pid in range(1, 9)}
+    frames[99] = [100]                                                   # seen in one frame
+    frames[7] = list(frames[7]) + [int(frames[7][-1]) + 10 * (MAX_GAP_ROWS + 2)]  # a row long after the rest
+    rec = read_recording(_write(tmp_path / "lone.txt", frames))
+    assert (rec.people, len(rec.tracks), rec.lone_rows) == (9, 8, 2)
+    import gzip
+    from scenarios.recordings import RECORDINGS_DIR
+    rows = [r for r in gzip.decompress((RECORDINGS_DIR / "crowds_zara01.txt.gz").read_bytes()).decode().splitlines()
+            if r.split() and float(r.split()[0]) <= 1500]               # its first 60 s: 29 people, cases
+    (tmp_path / "zara.txt").write_text("\n".join(rows + ["100 999 5.0 5.0"]) + "\n")
+    assert main(["import-tracks", str(tmp_path / "zara.txt"), "--out", str(tmp_path / "o"), "--max-cases", "1"]) == 0
+    out = capsys.readouterr().out
+    people = len({r.split()[1] for r in rows})
+    assert f"{people + 1} people, {people} tracks, 1 row left out" in out, out

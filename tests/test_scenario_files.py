@@ -141,6 +141,15 @@ def test_the_good_file_loads_to_its_values(write_scenario):
     assert sc.robot.radius_m == 0.35 and sc.robot.wheel_base_m == 0.5  # contract defaults
 
 
+def test_a_file_saved_with_a_byte_order_mark_loads(tmp_path):
+    """Windows editors (Notepad) save UTF-8 with a byte-order mark and CRLF line ends: the file
+    was refused as 'not valid TOML (Invalid statement (at line 1, column 1))', naming nothing
+    a person could see in it."""
+    path = tmp_path / "notepad.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + GOOD.replace("\n", "\r\n").encode())
+    assert load_scenario(path).name == "good_one"
+
+
 def test_allowed_edge_values_load(write_scenario):
     """A speed of 0 for an obstacle, a noise of 0, robot overrides that make a fast reference
     reachable, integer numbers where floats are written, and a negative (right) arc."""

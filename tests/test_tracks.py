@@ -54,6 +54,8 @@ BAD = {
     "short row": ("track = [[0.0, 5.0], [2.0, 4.0, 0.0]]", "three numbers"),
     "text in a row": ("track = [[0.0, 5.0, 'a'], [2.0, 4.0, 0.0]]", "three numbers"),
     "not a list": ("track = 3", "list of [t_s, x_m, y_m] rows"),
+    "misspelt track": ("trak = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]", "a recorded one: track"),  # was told a
+    # constant mover's keys alone, as if tracks were not a thing
     "unknown behaviour": ('track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]\nbehaviour = "constant"', "replay, orca, social_force"),
     "replay that sees": ("track = [[0.0, 5.0, 0.0], [2.0, 4.0, 0.0]]\nsees_robot = true", "cannot give way"),
     "starts on the robot": ("track = [[0.0, 0.3, 0.0], [2.0, 4.0, 0.0]]", "starts overlapping"),
@@ -146,6 +148,19 @@ def test_the_sensor_lists_only_movers_within_range():
     pol = _Still()
     simulate(_scenario(movers), pol)
     assert set(pol.seen[0]) == {0, 1}
+
+
+def test_unseen_measurements_count_movers_in_the_scene_the_sensor_missed_not_those_absent():
+    """``unseen_measurements`` (docs/scenarios.md: the movers the sensor left unmeasured, out of
+    range or behind a wall) counted a track mover before its first row and after its last too:
+    a recording's cases reported tens of thousands (students001: 72 387 in 12 episodes), with no
+    range and no wall hiding anyone."""
+    later = "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[2.0, 3.0, 2.0], [4.0, 3.0, 2.0]]\n"
+    far = "[[moving_obstacles]]\nradius_m = 0.25\ntrack = [[0.0, 9.0, 0.0], [2.0, 9.0, 0.0]]\n"
+    log = simulate(_scenario(later + far), _Still())          # 24 decisions, at 0, 0.5, ... 11.5 s
+    assert log.events.get("unseen_measurements", 0) == 0
+    log = simulate(_scenario(later + far, "[sensing]\nrange_m = 5.0\n"), _Still())
+    assert log.events["unseen_measurements"] == 5              # the far one, in the scene at 0 ... 2 s
 
 
 def test_a_walker_that_follows_its_recording_keeps_to_it_alone_and_gives_way_to_the_robot():
@@ -457,3 +472,20 @@ def test_import_tracks_shows_a_progress_bar_on_a_terminal(tmp_path):
                                       "--max-cases", "3")
     assert res.returncode == 0 and "3 cases written" in res.stdout
     assert any(re.match(r"cases: +100%\|.*\| 3/3", ln) for ln in lines), lines[-4:]
+
+
+def test_import_tracks_refuses_a_case_name_taken_by_a_folder_before_writing_any(tmp_path, capsys):
+    """A folder (or a pipe) where a case is to be written ended the run with os.replace's
+    IsADirectoryError traceback, exit 1, the cases before it written."""
+    f = _excerpt(tmp_path, 40.0)
+    out = tmp_path / "o"
+    assert main(["import-tracks", str(f), "--out", str(out), "--max-cases", "2"]) == 0
+    names = sorted(p.name for p in out.glob("*.toml"))
+    capsys.readouterr()
+    for p in out.glob("*.toml"):
+        p.unlink()
+    (out / names[-1]).mkdir()
+    assert main(["import-tracks", str(f), "--out", str(out), "--max-cases", "2"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and f"{names[-1]} is a folder" in err, err
+    assert sorted(p.name for p in out.iterdir()) == [names[-1]]

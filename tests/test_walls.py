@@ -242,3 +242,27 @@ def test_a_scenario_written_back_reads_the_same(kind, tmp_path):
     assert back.name == sc.name and back.duration_s == sc.duration_s and back.robot == sc.robot
     assert back.reference.length_m == pytest.approx(sc.reference.length_m)
     assert np.allclose(back.reference.end_pose, sc.reference.end_pose, atol=1e-9)
+
+
+def test_the_animation_shows_the_walls_the_figure_shows(tmp_path, monkeypatch):
+    """The animation took walls within 1 m of what moves (the figure: 1.5 m) and not the
+    reference: a robot alone in a 2.5 m corridor was animated between y = -1 and 1, neither wall
+    in view; a run cut short by a collision lost the rest of its reference."""
+    import json
+
+    from scenarios import plots
+    f = tmp_path / "c.toml"
+    f.write_text(BASE + "[[walls]]\npoints = [[-20.0, 1.25], [20.0, 1.25]]\n[[walls]]\n"
+                        "points = [[-20.0, -1.25], [20.0, -1.25]]\n")
+    assert main(["simulate", str(f), "--controller", "blind", "--out", str(tmp_path / "r.json")]) == 0
+    doc = json.loads((tmp_path / "r.json").read_text())
+    made = []
+    subplots = plots.plt.subplots
+    monkeypatch.setattr(plots.plt, "subplots", lambda *a, **k: made.append(subplots(*a, **k)) or made[-1])
+    for run in (doc, {**doc, "trajectory": {k: v[:3] for k, v in doc["trajectory"].items()}}):
+        plots.animate_run(run, tmp_path / "c.gif")
+        assert (tmp_path / "c.gif").read_bytes()[:3] == b"GIF"
+        ax = made[-1][1]
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        assert y0 < -1.25 and y1 > 1.25 and x1 < 20.0, (y0, y1)     # both sides, not their lengths
+        assert x1 >= doc["reference_path"][-1][0]                   # the whole reference

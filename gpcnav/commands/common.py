@@ -360,6 +360,7 @@ def check_output_files(inputs=(), **paths) -> None:
     seen: dict[Path, str] = {}
     for option, path in given.items():
         what = f"--{option.replace('_', '-')} {path}"
+        check_name_lengths(path, what)
         if path.is_dir():
             raise UsageError(f"{what} is a folder, not a file")
         check_regular_file(path, what)
@@ -375,6 +376,16 @@ def check_output_files(inputs=(), **paths) -> None:
         if option in ANIMATION_OPTIONS and path.suffix.lower() != ".gif":
             raise UsageError(f"{what}: an animation is written as a GIF; name it .gif")
         check_writable_folder(path.parent, f"{what}: its folder {path.parent}")
+
+
+def check_name_lengths(path: Path, what: str) -> None:
+    """Refuse in one line a path with a name longer than a file system takes (255 bytes): the
+    checks asked the file system about it and raised its OSError, a traceback (until 2026-12-01)."""
+    from casadi_gpc.io import NAME_MAX
+    for part in Path(path).parts:
+        if len(part.encode()) > NAME_MAX:
+            raise UsageError(f"{what}: the name {part[:20]}... is {len(part.encode())} bytes long, more than the "
+                             f"{NAME_MAX} a file system takes")
 
 
 def check_regular_file(path: Path, what: str) -> None:
@@ -438,6 +449,7 @@ def connected(pool):
 
 
 def _make_folder(folder: Path, what: str) -> None:
+    check_name_lengths(folder, what)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{what} exists and is not a folder")
     try:

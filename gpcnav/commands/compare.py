@@ -12,9 +12,9 @@ from pathlib import Path
 
 from ..controllers import check_scenarios, parse_controller_list, spec_from_args
 from ..errors import UsageError
-from .common import (add_controller_arguments, add_suite_arguments, check_output_files, check_regular_file,
-                     connected, for_pool, for_run, planner_changes, planner_config, refuse_unread_changes,
-                     refuse_unused_fallback, same_file)
+from .common import (add_controller_arguments, add_suite_arguments, check_name_lengths, check_output_files,
+                     check_regular_file, connected, for_pool, for_run, planner_changes, planner_config,
+                     refuse_unread_changes, refuse_unused_fallback, same_file)
 from .evaluate import (add_pool_arguments, add_resume_arguments, close_store, controller_extra, eval_doc, log_to_stderr,
                        open_store, pool_from_args, run_episodes, scenarios_from_args)
 
@@ -45,6 +45,7 @@ def check_compare_outputs(out, inputs=()) -> None:
     if out is not None:
         for beside in (out.with_suffix(".md"), out.with_suffix(".png")):
             what = "table" if beside.suffix == ".md" else "figure"
+            check_name_lengths(beside, f"--out {out}: the {what} beside it")
             if beside.is_dir() or beside == out:
                 raise UsageError(f"--out {out}: the {what} beside it, "
                                  f"{beside}, {'is a folder' if beside.is_dir() else 'would overwrite it'}")

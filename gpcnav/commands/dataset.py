@@ -19,8 +19,8 @@ from scenarios import CROWD_SUITES, SUITES
 from scenarios.suites import SUITE_BEHAVIOURS
 
 from ..errors import UsageError
-from .common import (add_preset_arguments, check_seed, check_suite_options, config_differences, connected,
-                     planner_config, progress, usable_cores)
+from .common import (add_preset_arguments, check_name_lengths, check_seed, check_suite_options, check_writable_folder,
+                     config_differences, connected, planner_config, progress, usable_cores)
 
 MAX_SAMPLES = 100_000_000
 """The most samples one ``--samples`` asks for: labelling runs at 100-1000 samples/s on a
@@ -152,8 +152,10 @@ def run(args) -> int:
         raise UsageError(f"--shard-size must be an even number from 2 to 1000000, got {args.shard_size}")
     if args.mirror_check_every < 0:
         raise UsageError(f"--mirror-check-every must be 0 or more, got {args.mirror_check_every}")
+    check_name_lengths(args.out, f"--out {args.out}")
     if args.out.exists() and not args.out.is_dir():
         raise UsageError(f"--out {args.out} exists and is not a directory")
+    check_writable_folder(args.out, f"--out {args.out}")  # (/proc: its lock file's traceback until 2026-12-01)
     if args.backend == "ray":
         try:
             import ray  # noqa: F401

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casadi_gpc.io import abandoned, write_text
+from casadi_gpc.io import NAME_MAX, abandoned, write_text
 
 __all__ = ["EpisodeStore", "store_folder", "code_stamp", "run_key", "episode_key", "canonical", "STORE_FORMAT"]
 
@@ -57,7 +57,11 @@ _LIBRARIES = ("numpy", "scipy", "casadi", "onnxruntime", "navground", "torch", "
 def store_folder(out: Path | None) -> Path:
     """Where the episodes of a run writing ``out`` are kept."""
     if out is not None:
-        return out.with_name(out.name + ".episodes")
+        name = out.name + ".episodes"
+        if len(name.encode()) > NAME_MAX:  # an --out of 247 to 255 bytes: a name as long, no file system takes
+            stem = out.name.encode()[:NAME_MAX - len(".episodes") - 13].decode(errors="ignore")
+            name = f"{stem}-{hashlib.sha256(out.name.encode()).hexdigest()[:12]}.episodes"
+        return out.with_name(name)
     from casadi_gpc.io import cache_dir
     return cache_dir() / "episodes"
 

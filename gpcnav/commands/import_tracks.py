@@ -8,11 +8,12 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import make_output_folder, progress
+from .common import check_name_lengths, check_regular_file, check_writable_folder, make_output_folder, progress
 
 
 def add_arguments(p):
-    p.add_argument("recording", type=Path, help="the recording: rows 'frame id x y' (plain text or gzip)")
+    p.add_argument("recording", type=Path,
+                   help="the recording: rows 'frame id x y', separated by spaces, tabs or commas (plain text or gzip)")
     p.add_argument("--out", type=Path, required=True, help="folder for the scenario files (made if missing)")
     p.add_argument("--seconds-per-frame", type=float, default=None, metavar="S",
                    help="what one frame id lasts (default: 1/15 s for biwi_eth and its parts, biwi_eth_train "
@@ -30,21 +31,27 @@ def run(args) -> int:
     from scenarios.loader import scenario_from_dict
     from scenarios.pedestrian_cases import case_scenario, cases
     from scenarios.writer import scenario_document, to_toml
-    from scenarios.recordings import RecordingError, read_recording
+    from scenarios.recordings import MAX_GAP_ROWS, WALKING_SPEEDS_MPS, RecordingError, read_recording
     from casadi_gpc.io import write_text
     if args.seconds_per_frame is not None and not (math.isfinite(args.seconds_per_frame)
                                                    and args.seconds_per_frame > 0):
         raise UsageError(f"--seconds-per-frame must be a positive number, got {args.seconds_per_frame}")
     if args.max_cases is not None and args.max_cases < 1:
         raise UsageError(f"--max-cases must be at least 1, got {args.max_cases}")
+    check_name_lengths(args.out, f"--out {args.out}")
     try:
         rec = read_recording(args.recording, args.seconds_per_frame)
     except RecordingError as exc:
         raise UsageError(str(exc)) from None
+    speed, (slow, fast) = rec.walking_speed_mps, WALKING_SPEEDS_MPS
+    doubt = ("" if slow <= speed <= fast else  # the frame time is not in the file: 1/25 s taken for one of seconds
+             f"at {rec.seconds_per_frame:.4g} s a frame its people walk at {speed:.3g} m/s (median; people walk about "
+             f"1 m/s): is --seconds-per-frame right?")
     found = cases(rec)
     if not found:
         raise UsageError(f"{args.recording}: no case of the protocol in this recording (docs/pedestrians.md: at "
-                         f"least 5 people in the busiest 6 m square, the robot's start clear)")
+                         f"least 5 people in the busiest 6 m square, the robot's start clear)"
+                         + (f"; {doubt}" if doubt else ""))
     if args.max_cases is not None and args.max_cases < len(found):
         step = len(found) / args.max_cases
         found = [found[int(k * step)] for k in range(args.max_cases)]
@@ -59,6 +66,12 @@ def run(args) -> int:
             scenario_from_dict(tomllib.loads(texts[path]), str(path))
         except ValueError as exc:
             raise UsageError(f"{args.recording}: case {sc.name} would not load: {exc}") from None
+    for path in texts:  # a case's name taken by a folder or a device: said before any file is written
+        if path.is_dir():
+            raise UsageError(f"--out {args.out}: {path.name} is a folder, not a file: case {path.stem} cannot be "
+                             f"written (nothing was written)")
+        check_regular_file(path, f"--out {args.out}: {path.name}")
+    check_writable_folder(args.out, f"--out {args.out}")  # a folder where no file can be made (/proc, read-only)
     make_output_folder(args.out, "--out")
     others = sorted(set(args.out.glob("*.toml")) - set(texts))
     for path, text in texts.items():
@@ -67,6 +80,13 @@ def run(args) -> int:
     if others:  # cases of another recording or run: a glob of the folder takes them too
         print(f"note: {args.out} also holds {len(others)} other scenario files (e.g. {others[0].name}), "
               f"not written by this run", file=sys.stderr)
-    print(f"{args.recording}: {len(rec.tracks)} tracks, {rec.end_s - rec.start_s:.0f} s "
-          f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} cases written to {args.out}", file=sys.stdout)
+    lone = (f", {rec.lone_rows} row{'s' * (rec.lone_rows != 1)} left out (no other row of the person within "
+            f"{MAX_GAP_ROWS} row steps: nothing to follow)" if rec.lone_rows else "")
+    if doubt:
+        print(f"note: {args.recording}: {doubt}", file=sys.stderr)
+    n_tracks = len(rec.tracks)
+    people = f"{rec.people} {'person' if rec.people == 1 else 'people'}, {n_tracks} track{'s' * (n_tracks != 1)}"
+    print(f"{args.recording}: {people}{lone}, {rec.end_s - rec.start_s:.0f} s "
+          f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} case{'s' * (len(found) != 1)} written to "
+          f"{args.out}", file=sys.stdout)
     return 0

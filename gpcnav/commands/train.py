@@ -9,8 +9,8 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import (add_preset_arguments, check_seed, check_writable_folder, config_differences, planner_config,
-                     progress)
+from .common import (add_preset_arguments, check_name_lengths, check_seed, check_writable_folder, config_differences,
+                     planner_config, progress)
 
 
 def add_arguments(p):
@@ -106,6 +106,7 @@ def run(args) -> int:
                          f"has H={base.horizon}, T={base.sample_time_s} s: a policy runs a network at its preset's "
                          f"horizon and sample time, and every command would refuse this one")
     out = Path(args.out)
+    check_name_lengths(out, f"--out {out}")
     if out.exists() and not out.is_dir():  # found only after the training, as a traceback
         raise UsageError(f"--out {out}: a file, where the trained model's folder goes")
     check_writable_folder(out, f"--out {out}")

@@ -232,8 +232,9 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     qcen, qrad, qtouch = np.empty((n, nb), np.complex128), np.empty((n, nb)), np.empty((n, nb))
     for j in range(n):
         _block_discs(q[j], qcen[j], qrad[j])
-        for k in range(nb):
-            qtouch[j, k] = touch[j, k * CHORD_BLOCK:min(N, (k + 1) * CHORD_BLOCK)].max()
+        for c in range(N):
+            k = c // CHORD_BLOCK
+            qtouch[j, k] = touch[j, c] if c % CHORD_BLOCK == 0 else max(qtouch[j, k], touch[j, c])
     pcen, prad = np.empty(nb, np.complex128), np.empty(nb)
     for m in range(M):
         reach2 = 0.0

@@ -110,6 +110,27 @@ def closest_on_segment(p, a, b):  # pragma: no cover (compiled)
     return a + _along(p - a, b - a) * (b - a)
 
 
+CHORD_BLOCK = 8
+"""The chords :func:`chord_clearances` bounds together (two intervals at four sub-samples): a block whose
+robot and disc stay far enough apart is not measured chord by chord."""
+
+
+@njit(cache=True)
+def _block_discs(x, cen, rad):  # pragma: no cover (compiled)
+    """For each block of :data:`CHORD_BLOCK` chords of the points ``x`` (``(N + 1,)`` complex), a disc
+    that holds the block's points (the chords between them too): its centre ``cen[k]``, the block's
+    middle point, and radius ``rad[k]``."""
+    N = x.shape[0] - 1
+    for k in range(cen.shape[0]):
+        c0, c1 = k * CHORD_BLOCK, min(N, (k + 1) * CHORD_BLOCK)
+        mid = x[(c0 + c1) // 2]
+        r2 = 0.0
+        for c in range(c0, c1 + 1):
+            u = x[c] - mid
+            r2 = max(r2, u.real * u.real + u.imag * u.imag)
+        cen[k], rad[k] = mid, math.sqrt(r2)
+
+
 @njit("Tuple((float64[::1], float64, int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1], int64[::1]))("
       "complex128[:, ::1], complex128[:, ::1], float64[:, ::1], float64[::1], complex128[:, ::1], float64, float64, float64, int64, "
       "float64, int64, boolean, boolean)", cache=True)
@@ -139,7 +160,14 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
     from drives into them; walls and static discs keep the test above. Last of all, with
     ``robust_ties``, the same count taken that robust way whatever ``robust_drives`` says (the
     tie-break of :attr:`~casadi_gpc.safety.check.SafetyCheck.uncertain_drives_in_s`); without it,
-    a copy of the count before."""
+    a copy of the count before.
+
+    Measured are only the chords that can change an answer: an obstacle, a block of
+    :data:`CHORD_BLOCK` chords or a chord whose lower bound of its gap is above both the smallest
+    gap found and the obstacle's thresholds (by 1e-9, rounding) is left out (a left-out chord's
+    distance reads ``inf``, which no count takes), and the counts read only the obstacles a gap of
+    which falls below a threshold: the same answers as every chord measured, whatever the order
+    (tests/test_chord_skip.py holds them to that form, bit for bit)."""
     M, N = p.shape[0], p.shape[1] - 1
     n, nw = q.shape[0], walls.shape[0]
     cmin = np.empty(M)
@@ -197,7 +225,17 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
         near[n + w] = segment_distance(p0, walls[w, 0], walls[w, 1]) - 1e-9
         loose[n + w] = robot_radius
     floor = np.maximum(thr, thr0)  # a gap at or above both is below neither
-    computed = np.zeros(n + nw, np.bool_)
+    below = np.zeros(n + nw, np.bool_)  # whether a gap of the obstacle falls below one of its thresholds
+    active = np.empty(n + nw, np.int64)
+    robust = robust_ties or robust_drives
+    nb = (N + CHORD_BLOCK - 1) // CHORD_BLOCK
+    qcen, qrad, qtouch = np.empty((n, nb), np.complex128), np.empty((n, nb)), np.empty((n, nb))
+    for j in range(n):
+        _block_discs(q[j], qcen[j], qrad[j])
+        for c in range(N):
+            k = c // CHORD_BLOCK
+            qtouch[j, k] = touch[j, c] if c % CHORD_BLOCK == 0 else max(qtouch[j, k], touch[j, c])
+    pcen, prad = np.empty(nb, np.complex128), np.empty(nb)
     for m in range(M):
         reach2 = 0.0
         for c in range(1, N + 1):
@@ -205,27 +243,47 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
             reach2 = max(reach2, r.real * r.real + r.imag * r.imag)
         low = near - math.sqrt(reach2)
         low -= loose  # below which no gap of the obstacle falls (its inflated, and so its expected, disc)
+        _block_discs(p[m], pcen, prad)
         best, bj, bc = math.inf, 0, 0
         # the nearest first, so that the far ones are left out once their bound is above the
         # smallest gap found and the thresholds; the first in (obstacle, chord) order on a tie
         for j in np.argsort(low):
             if low[j] > best and low[j] >= floor[j]:
-                computed[j] = False
+                below[j] = False
                 continue
-            computed[j] = True
+            least, least0 = math.inf, math.inf  # its least gaps measured (NaN is never less)
             if j < n:
-                rr = p[m, 0] - q[j, 0]
-                for c in range(N):
-                    r1 = p[m, c + 1] - q[j, c + 1]
-                    ur, ui = r1.real - rr.real, r1.imag - rr.imag
-                    s = (rr.real * ur + rr.imag * ui) / ((ur * ur + ui * ui) + 1e-18)
-                    s = min(max(-s, 0.0), 1.0)
-                    d = _norm(rr.real + s * ur, rr.imag + s * ui)
-                    dist[j, c] = d
-                    g = d - touch[j, c]
-                    if g < best or (g == best and (j < bj or (j == bj and c < bc))):
-                        best, bj, bc = g, j, c
-                    rr = r1
+                fj, rj = floor[j], radii[j]
+                for k in range(nb):
+                    c0, c1 = k * CHORD_BLOCK, min(N, (k + 1) * CHORD_BLOCK)
+                    # the block left out when its robot's and disc's discs are apart by more than the gap to beat
+                    x = ((best if best > fj else fj) + 1e-9) + prad[k] + qrad[j, k] + qtouch[j, k]
+                    u = pcen[k] - qcen[j, k]
+                    if x < 0.0 or u.real * u.real + u.imag * u.imag > x * x:
+                        dist[j, c0:c1] = math.inf
+                        continue
+                    rr = p[m, c0] - q[j, c0]
+                    a2 = rr.real * rr.real + rr.imag * rr.imag
+                    for c in range(c0, c1):
+                        r1 = p[m, c + 1] - q[j, c + 1]
+                        b2 = r1.real * r1.real + r1.imag * r1.imag
+                        ur, ui = r1.real - rr.real, r1.imag - rr.imag
+                        # and a chord, by min(|a|^2, |b|^2) - |u|^2 / 4 <= its squared distance (ends a, b; u = b - a)
+                        tc = touch[j, c] + (best if best > fj else fj) + 1e-9
+                        if tc >= 1e-3 and (a2 if a2 < b2 else b2) - 0.25 * (ur * ur + ui * ui) > tc * tc:
+                            dist[j, c] = math.inf
+                        else:
+                            s = (rr.real * ur + rr.imag * ui) / ((ur * ur + ui * ui) + 1e-18)
+                            s = min(max(-s, 0.0), 1.0)
+                            d = _norm(rr.real + s * ur, rr.imag + s * ui)
+                            dist[j, c] = d
+                            g = d - touch[j, c]
+                            if g < best or (g == best and (j < bj or (j == bj and c < bc))):
+                                best, bj, bc = g, j, c
+                            least = g if g < least else least
+                            g = d - rj
+                            least0 = g if g < least0 else least0
+                        rr, a2 = r1, b2
             else:
                 a, b = walls[j - n, 0], walls[j - n, 1]
                 for c in range(N):
@@ -234,19 +292,28 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
                     g = d - robot_radius
                     if g < best or (g == best and (j < bj or (j == bj and c < bc))):
                         best, bj, bc = g, j, c
+                    least = g if g < least else least
+                least0 = least
+            below[j] = least < thr[j] or least0 < thr0[j] or (robust and j < n_moving and least < thr2[j])
         cmin[m], which[m], chord[m] = best, bj, bc
         if M == 1 and best >= highest:
             continue  # never below: no need to find where (clear of the inflated discs: of the expected ones too)
         k_kept, k_contact, k_fixed, k_drives, k_rdrives = N, N, N, N, N
         if not robust_ties:
             k_rdrives = 0  # not wanted: the loop's end does not wait for it (the copy is made below)
-        any_fixed = False  # a fixed obstacle near enough to be touched: its first touch is wanted too
-        for j in range(n_moving, n + nw):
-            any_fixed = any_fixed or computed[j]
+        # the obstacles a gap of which falls below a threshold (the others keep the margin and keep off
+        # their discs all along), and whether a fixed one is among them (its first touch is wanted too)
+        na, any_fixed = 0, False
+        for j in range(n + nw):
+            if below[j]:
+                active[na] = j
+                na += 1
+                any_fixed = any_fixed or j >= n_moving
+        if na == 0:
+            continue
         for c in range(N):
-            for j in range(n + nw):
-                if not computed[j]:
-                    continue  # its gaps keep the margin and keep off its disc all along
+            for i in range(na):
+                j = active[i]
                 t = touch[j, c] if j < n else robot_radius
                 r0 = radii[j] if j < n else robot_radius
                 if k_kept == N and dist[j, c] - t < thr[j]:
@@ -258,7 +325,7 @@ def chord_clearances(p, q, touch, radii, walls, robot_radius, margin, not_worse,
                     if k_fixed == N and j >= n_moving:
                         k_fixed = c
                 r_inside = inside  # (the robust count's: wanted only with robust_ties or robust_drives)
-                if (robust_ties or robust_drives) and not inside and j < n_moving:
+                if robust and not inside and j < n_moving:
                     r_inside = dist[j, c] - t < thr2[j]
                     if robust_drives:
                         inside = r_inside

@@ -249,7 +249,8 @@ def test_train_into_a_file_and_export_into_a_folder_are_refused_before_any_work(
 
 
 @pytest.mark.parametrize("argv", [["export", "no-model"], ["simulate", str(SCENE), "--controller", "blind"],
-                                  ["compare", str(SCENE), "--controllers", "blind,stand"]])
+                                  pytest.param(["compare", str(SCENE), "--controllers", "blind,stand"],
+                                               marks=pytest.mark.slow)])  # 7 s: kept out of the default suite
 def test_an_output_that_is_a_pipe_or_a_link_to_one_is_refused_and_kept(argv, tmp_path):
     """Outputs are renamed over their path: ``--out /dev/full`` (as root) replaced the device
     with the model file, exit 0; a link to a pipe (``/dev/stdout``) was replaced by a file."""

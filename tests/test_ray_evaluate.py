@@ -35,6 +35,7 @@ def _episodes(doc):
     return [{k: v for k, v in e.items() if k not in TIMING} for e in doc["episodes_detail"]]
 
 
+@pytest.mark.slow  # 12 s: kept out of the default suite (CI: under 10 minutes); Ray's pool runs in test_ray_backend
 def test_evaluate_and_compare_on_ray_give_the_local_outcomes(tmp_path, local_ray):
     suite = ["--suite", "circle-crossing", "--count", "3", "--seed", "1", "--movers", "4"]
     _cli(tmp_path, "evaluate", *suite, "--controller", "orca", "--workers", "2", "--out", tmp_path / "local.json")

@@ -28,8 +28,9 @@ which include solves over their time budget."""
 CROWD = ["--suite", "circle-crossing", "--movers", "10", "--seed", "0"]
 NO_CLOCK = ["--set", "time_budget_s=3600"]
 """The planner's answer depends on the wall clock through its time budget alone: a solve that
-ends later than the budget (the sample time) is not used. On a busy machine a solve can run
-over it in one run and not in the other, and the two documents then differ by design (seen
+ends later than the budget (0.8 of the sample time) is not used, and a start that the last
+solves' times say would end later is not begun. On a busy machine a solve can run over it in
+one run and not in the other, and the two documents then differ by design (seen
 with Ray's processes and two other jobs on the 2-core machine: decisions of 160 ms median, 8
 over the budget). The runs compared here take an hour's budget, so that what they compare is
 the resuming alone."""

@@ -4,6 +4,7 @@ fallback."""
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field, fields, replace
@@ -43,6 +44,10 @@ SOLVE_MEMORY = 50
 """How many of the controller's last solves :meth:`GPCController.decide` looks back on: a
 start after the step's first is begun only while the longest of them would end within the
 budget."""
+
+_SOLVE_TIMES = threading.Lock()
+"""The solve lanes' threads read and write a controller's solve times under this (one for every
+controller: it is held for microseconds)."""
 
 
 @dataclass(frozen=True)
@@ -119,6 +124,8 @@ class GPCController(MultiStart):
         """Solves begun in this ``decide``."""
         self._recent = deque(maxlen=SOLVE_MEMORY)
         """The wall times of the last solves (s), kept across episodes: the machine's speed."""
+        self._longest = 0.0
+        """The longest of :attr:`_recent`."""
         self.reset()
 
     @property
@@ -227,7 +234,7 @@ class GPCController(MultiStart):
         of the controller's recent solves would end past it; an answer that arrives after the
         budget is marked failed (``over_budget``): the loop does not use late answers."""
         answers = self.lanes.solve_all([(p, u0, lx, lg) for _, u0, lx, lg in starts], self._no_time_for_a_solve,
-                                      self._recent.append)
+                                      self._solved_in)
         out = []
         for a, (guess, u0, lx, lg) in zip(answers, starts):
             if a is None:
@@ -280,11 +287,18 @@ class GPCController(MultiStart):
         so this is what keeps the decision within its sample time."""
         if self._deadline is None:
             return False
-        left = self._deadline - time.perf_counter()
-        if left <= 0.0 or (self._started and left < max(self._recent, default=0.0)):
-            return True
-        self._started += 1
-        return False
+        with _SOLVE_TIMES:  # lanes ask from their threads
+            left = self._deadline - time.perf_counter()
+            if left <= 0.0 or (self._started and left < self._longest):
+                return True
+            self._started += 1
+            return False
+
+    def _solved_in(self, seconds: float) -> None:
+        """A solve's wall time, told by its lane as it ends."""
+        with _SOLVE_TIMES:
+            self._recent.append(seconds)
+            self._longest = max(self._recent)
 
     def _time_left(self) -> float:
         """Seconds left of this step's budget (infinite outside ``decide``)."""

@@ -196,6 +196,20 @@ def test_train_refuses_settings_no_policy_would_run(tmp_path, capsys, option):
     assert not (tmp_path / "m").exists()
 
 
+def test_dataset_says_before_labelling_that_train_refuses_labels_at_another_timing(capsys):
+    """``gpcnav dataset --horizon 8`` (or ``--sample-time``) labelled for hours a dataset that train
+    then refused ("labelled with another planner configuration"), said nowhere before; now a note
+    first (the labels are still made: solutions are data of their own)."""
+    from casadi_gpc.config import preset
+    from gpcnav.commands.dataset import _note_timing
+    for changes in ({"horizon": 8}, {"sample_time_s": 0.75}):
+        _note_timing(preset("paper").with_overrides(**changes))
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "preset 'paper' has H=6, T=1.5 s: gpcnav train refuses them" in err[0], err
+    _note_timing(preset("paper"))
+    assert capsys.readouterr().err == ""
+
+
 @pytest.mark.parametrize("name, words", [("weights.npz", "weights.npz: not a readable weights file ("),
                                          ("validation_features.npy", "validation_features.npy: not a readable array (")])
 def test_export_of_a_model_folder_with_a_damaged_file_is_one_line(fitted, tmp_path, capsys, name, words):

@@ -105,6 +105,20 @@ def _layout_and_config(args):
     return config.for_walls(bool(layout.wall_sectors)), layout
 
 
+def _note_timing(config) -> None:
+    """Say, before any labelling, that labels at another horizon or sample time than the preset's
+    make no network gpcnav runs: ``train`` refuses such a dataset (its preset differs) and such a
+    network (every command would refuse it). Labelled anyway: the solutions are data of their own."""
+    from casadi_gpc.config import preset
+    from nn_export.runtime.model_file import timing_mismatch
+    if timing_mismatch(config.name, config.horizon, config.sample_time_s):
+        base = preset(config.name)
+        print(f"gpcnav dataset: note: labels at H={config.horizon}, T={config.sample_time_s:g} s, where preset "
+              f"{config.name!r} has H={base.horizon}, T={base.sample_time_s:g} s: gpcnav train refuses them (a "
+              f"policy runs a network at its preset's horizon and sample time); labelled for use elsewhere",
+              file=sys.stderr)
+
+
 def run(args) -> int:
     from nn_export.training.dataset import DatasetMismatch, DatasetSpec, generate
     from nn_export.training.labels import label_solver
@@ -163,6 +177,7 @@ def run(args) -> int:
             raise UsageError("--backend ray needs Ray: pip install 'gpcnav[distributed]'") from None
     from casadi_gpc.pool import WorkerPool
     config, layout = _layout_and_config(args)
+    _note_timing(config)
     if args.scheme == "two-pass" and layout.name != "paper":
         raise UsageError("--scheme two-pass needs --layout paper (one moving obstacle)")
     robot = _robot(args.robot)

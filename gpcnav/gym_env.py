@@ -306,7 +306,7 @@ class NavigationEnv(Env):
         vec = observation_vector(obs, tracks, self.layout, self.sample_time_s)
         info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.t_s,
                 "clearance_m": self._clearance_now(), "min_clearance_m": float(ep.log.min_clearance_m),
-                "scenario": ep.scenario.name}
+                "scenario": ep.scenario.name, **self._actions}
         expert = self.expert
         if expert is not None and not ep.done:
             d = expert.decide(obs)
@@ -335,6 +335,7 @@ class NavigationEnv(Env):
         self._check_duration(scenario)
         self.episode = Episode(scenario, self.sample_time_s, self.expert_name or "gym")
         self._bank = TrackBank(self.sample_time_s, EKFSettings().for_sample_time(self.sample_time_s))
+        self._actions = {"clipped_actions": 0, "non_finite_actions": 0}
         self._s_m = 0.0
         self._progress_m()
         self.expert = expert = self._expert(scenario)
@@ -352,9 +353,13 @@ class NavigationEnv(Env):
     def step(self, action):
         if self.episode is None or self.episode.done:
             raise RuntimeError("call reset() first: the episode has ended")
-        a = np.asarray(action, dtype=float).reshape(2)
+        raw = np.asarray(action, dtype=float).reshape(2)
         vmax = self.episode.scenario.robot.max_wheel_speed_mps
-        a = np.clip(a, -vmax, vmax)
+        a = np.clip(raw, -vmax, vmax)
+        if not np.isfinite(raw).all():  # braked for by the simulator (its events count it too)
+            self._actions["non_finite_actions"] += 1
+        elif (a != raw).any():  # beyond the wheel limit: applied at the limit
+            self._actions["clipped_actions"] += 1
         before = self._s_m
         outcome = self.episode.step(ControlDecision(float(a[0]), float(a[1])))
         rs = self.reward_settings

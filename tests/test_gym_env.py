@@ -109,6 +109,25 @@ def test_terminated_is_the_goal_or_a_collision_truncated_the_time_limit(tmp_path
         env.step([0.0, 0.0])
 
 
+def test_actions_not_applied_as_given_are_counted_in_info(tmp_path):
+    """An action beyond the wheel limit was clipped, and a NaN one braked for, said nowhere in what the
+    agent is told (the simulator's events only): now counted in ``info`` per episode."""
+    env = NavigationEnv(scenario=_file(tmp_path))
+    _, info = env.reset(seed=0)
+    assert (info["clipped_actions"], info["non_finite_actions"]) == (0, 0)
+    _, _, _, _, info = env.step([2.0, 0.4])
+    assert (info["clipped_actions"], info["non_finite_actions"]) == (1, 0)
+    clipped = env.unwrapped.observation.robot.as_array()
+    _, _, _, _, info = env.step([float("nan"), 0.4])
+    _, _, _, _, info = env.step([0.8, -0.8])  # at the limit: applied as given
+    assert (info["clipped_actions"], info["non_finite_actions"]) == (1, 1)
+    env.reset(seed=0)
+    env.step([0.8, 0.4])  # the clipped action is the one at the limit
+    np.testing.assert_array_equal(env.unwrapped.observation.robot.as_array(), clipped)
+    _, info = env.reset(seed=0)
+    assert (info["clipped_actions"], info["non_finite_actions"]) == (0, 0)
+
+
 def test_an_episode_driven_by_the_gpc_reaches_the_goal():
     env = NavigationEnv(scenario=PAPER_DIR / "fig7_1_head_on.toml", expert="gpc")
     obs, info = env.reset(seed=1)

@@ -446,6 +446,8 @@ def test_the_check_layer_passes_solver_failures_on_and_a_network_says_it_has_no_
     ("solver_failure_prob=nan", "faults.solver_failure_prob: must be finite"),
     ("dropout_prob=0.1,dropout_prob=0.2", "dropout_prob given twice"),
     ("", "--faults takes NAME=VALUE"),
+    ("delay_steps=1.5", "delay_steps needs a whole number, got '1.5'"),  # (it said "needs a number")
+    ("outlier_prob=x", "outlier_prob needs a number, got 'x'"),
 ])
 def test_faults_on_the_command_line_are_checked_as_a_file_s_are(spec, words):
     """They ran (dropout_prob=1.5, outlier_distance_m=-2), or stopped after the episodes (NaN)."""

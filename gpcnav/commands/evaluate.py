@@ -187,7 +187,8 @@ def parse_faults(spec: str | None):
         try:
             values[key] = int(value) if key == "delay_steps" else float(value)
         except ValueError:
-            raise UsageError(f"--faults: {key} needs a number, got {value!r}") from None
+            kind = "a whole number" if key == "delay_steps" else "a number"  # (1.5 was "needs a number")
+            raise UsageError(f"--faults: {key} needs {kind}, got {value!r}") from None
     try:
         return faults_from_table(values, "--faults")
     except ScenarioError as exc:

@@ -267,6 +267,9 @@ class NavigationEnv(Env):
                              f"first step")
 
     def _next_scenario(self, options: dict | None):
+        unknown = sorted(map(str, set(options or {}) - {"index"}))
+        if unknown:  # (a misspelt "idx" was taken and ignored: a random episode ran)
+            raise ValueError(f"options {', '.join(map(repr, unknown))}: not an option of reset (it reads only index)")
         if self._file_scenario is not None:
             if (options or {}).get("index") is not None:  # (it was taken and ignored)
                 source = self._file_scenario.source or self._file_scenario.name

@@ -240,6 +240,15 @@ def test_movers_and_a_suite_seed_that_are_no_whole_number_are_refused_when_made(
     assert NavigationEnv(suite="circle-crossing", movers=np.int64(2), suite_seed=np.int64(1)).suite.movers == 2
 
 
+@pytest.mark.parametrize("kw", [{"scenario": PAPER_DIR / "fig7_2_crossing.toml"}, {"suite": "circle-crossing"}])
+def test_an_option_reset_does_not_read_is_refused(kw):
+    """A misspelt option ("idx") was taken and ignored: a random episode ran in its place."""
+    env = NavigationEnv(**kw)
+    with pytest.raises(ValueError, match=r"^options 'idx': not an option of reset \(it reads only index\)$"):
+        env.reset(seed=0, options={"idx": 3})
+    env.reset(seed=0, options={})
+
+
 def test_an_episode_index_given_to_a_file_is_refused():
     """options index picks a suite's episode; a file's one episode ran whatever index was given."""
     env = NavigationEnv(scenario=PAPER_DIR / "fig7_2_crossing.toml")

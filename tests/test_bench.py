@@ -443,3 +443,12 @@ def test_cli_refuses_a_model_that_no_row_would_run(tmp_path):
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "--model" in proc.stderr and "--no-nn-rows" in proc.stderr
     assert not (tmp_path / "B.json").exists()
+
+
+def test_cli_refuses_a_shield_with_no_controller_row(tmp_path):
+    """``bench --shield`` with no ``--controller`` ran the whole bench, the option doing nothing
+    (it puts the --controller rows behind the check layer); now one line, exit 2, before any work."""
+    proc = _gpcnav("--shield", "--solvers", "ipopt-warm", "--out", tmp_path / "B.json")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--shield" in proc.stderr and "--controller" in proc.stderr
+    assert not (tmp_path / "B.json").exists()

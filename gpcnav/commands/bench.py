@@ -192,6 +192,8 @@ def run(args) -> int:
     if args.model is not None and args.no_nn_rows and "nn" not in args.controller:  # (dropped without a word)
         raise UsageError(f"--model {args.model}: for the network rows, which --no-nn-rows leaves out, and "
                          f"--controller nn")
+    if args.shield and not args.controller:  # (it ran the whole bench, the option doing nothing)
+        raise UsageError("--shield puts the --controller rows behind the check layer: give --controller NAME")
     check_output_files(out=args.out, plot=args.plot)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")

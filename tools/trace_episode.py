@@ -138,7 +138,12 @@ def main(argv=None) -> int:
     except (OSError, ValueError) as exc:
         print(f"trace_episode: {str(exc).splitlines()[0]}", file=sys.stderr)
         return 2
-    log, seen = run(sc, a.controller, a.preset)
+    from gpcnav.errors import UsageError
+    try:
+        log, seen = run(sc, a.controller, a.preset)
+    except UsageError as exc:  # (a name of no controller, one that cannot drive the robot: it was a traceback)
+        print(f"trace_episode: {exc}", file=sys.stderr)
+        return 2
     if not movers and log.collision and log.collision.get("obstacle") == "moving":
         movers = [int(log.collision["index"])]
     end = a.end if a.end is not None else (log.collision["time_s"] if log.collision else log.t[len(seen) - 1])

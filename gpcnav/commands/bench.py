@@ -47,7 +47,7 @@ def add_arguments(p):
     p.add_argument("--crowd-movers", type=int, default=10, metavar="N",
                    help="the planner's decision is also measured on a crowd scene: circle-crossing, N orca "
                         "movers, seed 1, its first episode (default 10; 0: none)")
-    p.add_argument("--crowd-episodes", type=int, default=10, metavar="K",
+    p.add_argument("--crowd-episodes", type=int, default=None, metavar="K",
                    help="the GPC's and the deployed network's decisions are also pooled over the crowd scene's "
                         "first K episodes, the two run one after the other on each (a p99 of one crossing, "
                         "about 45 decisions, is its largest but one; default 10; 0: not pooled)")
@@ -120,6 +120,10 @@ def crowd_suite(movers: int, episodes: int):
     ``episodes`` episodes (the first alone has the decision rows)."""
     from scenarios import Suite
     return Suite("circle-crossing", episodes, 1, movers, "orca")
+
+
+CROWD_EPISODES = 10
+"""``--crowd-episodes``' default: a p99 over some 450 decisions."""
 
 
 def pooled_crowd(args, doc, config, say) -> None:
@@ -206,8 +210,13 @@ def run(args) -> int:
 
     if args.crowd_movers < 0:
         raise UsageError(f"--crowd-movers must be 0 or more, got {args.crowd_movers}")
-    if args.crowd_episodes < 0:
+    if args.crowd_episodes is not None and args.crowd_episodes < 0:
         raise UsageError(f"--crowd-episodes must be 0 or more, got {args.crowd_episodes}")
+    if args.crowd_episodes and (not args.crowd_movers or (args.no_gpc_rows and args.no_nn_rows)):  # (ignored)
+        left_out = "--crowd-movers 0 leaves" if not args.crowd_movers else "--no-gpc-rows and --no-nn-rows leave"
+        raise UsageError(f"--crowd-episodes {args.crowd_episodes}: pools the GPC's and the network's decisions on "
+                         f"the crowd scene, which {left_out} out")
+    args.crowd_episodes = CROWD_EPISODES if args.crowd_episodes is None else args.crowd_episodes
     crowd = [] if not args.crowd_movers else [crowd_suite(args.crowd_movers, 1).scenario(0)]
     # the planner as evaluate runs these scenes: wall slots where one has walls, the crowd NLP
     # where one has more movers than the preset's slots

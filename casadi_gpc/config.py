@@ -200,6 +200,8 @@ class PlannerConfig:
         self._check_numbers()
         if self.forecast not in FORECASTS:
             raise ValueError(f"forecast must be one of {', '.join(FORECASTS)}, got {self.forecast!r}")
+        if self.candidates not in CANDIDATES:
+            raise ValueError(f"candidates must be one of {', '.join(CANDIDATES)}, got {self.candidates!r}")
         if self.cold_starts is not None and self.cold_starts < 1:
             raise ValueError(f"cold_starts must be at least 1 (or None), got {self.cold_starts}")
         if self.crowd_moving is not None and not (isinstance(self.crowd_moving, int) and self.crowd_moving >= 1):
@@ -275,6 +277,8 @@ class PlannerConfig:
 
 FORECASTS = ("turn", "straight")
 """The movers' forecast models (:attr:`PlannerConfig.forecast`)."""
+CANDIDATES = ("persistent", "multistart")
+"""How the planner keeps its starts from tick to tick (:attr:`PlannerConfig.candidates`)."""
 _WEIGHTS = ("xi_moving", "xi_static", "lambda1", "lambda2", "tracking_weight", "heading_weight", "clearance_penalty",
             "goal_weight")
 """The cost's weights: finite, not negative (a negative one rewards what the cost penalises)."""

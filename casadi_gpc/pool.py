@@ -18,6 +18,7 @@ flight, so a long queue costs no memory. The standard library only (Ray if asked
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import signal
 import socket
@@ -25,14 +26,31 @@ import sys
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
-__all__ = ["WorkerPool", "BACKENDS", "ClusterUnavailable", "WorkersDied", "CONNECT_TIMEOUT_S", "check_reachable",
-           "WORKER_RESTARTS", "abandon_live_pools"]
+__all__ = ["WorkerPool", "BACKENDS", "ClusterUnavailable", "WorkersDied", "CONNECT_TIMEOUT_S", "connect_timeout_s",
+           "check_reachable", "WORKER_RESTARTS", "abandon_live_pools"]
 
 BACKENDS = ("local", "ray")
 
-CONNECT_TIMEOUT_S = float(os.environ.get("GPCNAV_RAY_CONNECT_TIMEOUT_S") or 5.0)
+CONNECT_TIMEOUT_S = 5.0
 """How long a Ray cluster's address may take to accept a TCP connection before the run is
-refused (s). A cluster on a network answers in milliseconds; Ray itself retries for minutes."""
+refused (s), unless ``$GPCNAV_RAY_CONNECT_TIMEOUT_S`` says otherwise (:func:`connect_timeout_s`).
+A cluster on a network answers in milliseconds; Ray itself retries for minutes."""
+
+
+def connect_timeout_s() -> float:
+    """``$GPCNAV_RAY_CONNECT_TIMEOUT_S`` (s), or :data:`CONNECT_TIMEOUT_S` where it is unset;
+    one that is not a positive number is a :class:`ClusterUnavailable` naming it (it was read at
+    import: "abc" stopped every command with a traceback, ray or not, and -1 a Ray run)."""
+    text = os.environ.get("GPCNAV_RAY_CONNECT_TIMEOUT_S") or ""
+    if not text.strip():
+        return CONNECT_TIMEOUT_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise ClusterUnavailable(f"$GPCNAV_RAY_CONNECT_TIMEOUT_S must be a positive number of seconds, got {text!r}")
+    return value
 
 
 class ClusterUnavailable(RuntimeError):
@@ -106,12 +124,13 @@ def _host_port(address: str) -> tuple[str, int] | None:
     return host.strip("[]"), int(port)
 
 
-def check_reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+def check_reachable(address: str, timeout_s: float | None = None) -> None:
     """Refuse (:class:`ClusterUnavailable`) an address where nothing accepts a TCP connection
-    within ``timeout_s``."""
+    within ``timeout_s`` (default :func:`connect_timeout_s`)."""
     hp = _host_port(address)
     if hp is None:
         return
+    timeout_s = connect_timeout_s() if timeout_s is None else timeout_s
     try:
         with socket.create_connection(hp, timeout=timeout_s):
             pass

@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -99,6 +99,12 @@ class ObservationLayout:
     statics: int = 3
     """Static-obstacle slots (random-multi has up to three)."""
 
+    def __post_init__(self):
+        for name, least in (("reference_points", 1), ("movers", 0), ("statics", 0)):
+            v = getattr(self, name)  # (movers=-1 made a shorter vector, reference_points=0 an IndexError)
+            if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < least:
+                raise ValueError(f"ObservationLayout.{name} must be a whole number of at least {least}, got {v!r}")
+
     def names(self) -> list[str]:
         out = ["v_right", "v_left"]
         out += [f"ref{k}_{c}" for k in range(self.reference_points) for c in ("dx", "dy")]
@@ -140,6 +146,12 @@ class RewardSettings:
     progress_per_m: float = 0.1
     """Reward per metre gained along the path (projection of the robot on it); 0 for
     CrowdNav's reward alone, which is sparse."""
+
+    def __post_init__(self):
+        for f in fields(self):  # (a NaN was taken, and every reward of its kind was NaN)
+            v = getattr(self, f.name)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
+                raise ValueError(f"RewardSettings.{f.name} must be a finite number, got {v!r}")
 
 
 def observation_vector(obs: Observation, tracks: list, layout: ObservationLayout, sample_time_s: float) -> np.ndarray:
@@ -220,6 +232,9 @@ class NavigationEnv(Env):
             check_suite_options(suite, movers, behaviour)
             self.suite = Suite(suite, count or 1, suite_seed, 5 if movers is None else movers, behaviour)
         self.count = count
+        for key, value, kind in (("layout", layout, ObservationLayout), ("reward", reward, RewardSettings)):
+            if not isinstance(value, kind):  # (None or a dict failed at the first reset or step, naming neither)
+                raise ValueError(f"{key} must be a gpcnav.gym_env.{kind.__name__}, got {value!r}")
         self.layout, self.reward_settings = layout, reward
         self.expert_name = expert
         self._experts: dict = {}
@@ -267,6 +282,9 @@ class NavigationEnv(Env):
                              f"first step")
 
     def _next_scenario(self, options: dict | None):
+        unknown = sorted(map(str, set(options or {}) - {"index"}))
+        if unknown:  # (a misspelt "idx" was taken and ignored: a random episode ran)
+            raise ValueError(f"options {', '.join(map(repr, unknown))}: not an option of reset (it reads only index)")
         if self._file_scenario is not None:
             if (options or {}).get("index") is not None:  # (it was taken and ignored)
                 source = self._file_scenario.source or self._file_scenario.name

@@ -264,6 +264,10 @@ def _refusal(paths, settings: TwinSettings) -> str | None:
     if settings.behaviour not in core.Behavior.types:
         return f"--behaviour {settings.behaviour!r}: not a navground behaviour (choose from " \
                f"{', '.join(sorted(t for t in core.Behavior.types if t))})"
+    behaviour = core.Behavior.make_type(settings.behaviour)
+    for name in settings.properties:  # (it was run_twin's ValueError, a traceback)
+        if not behaviour.has(name):
+            return f"--set {name}: navground's {settings.behaviour} has no property {name!r}"
     for path in paths:
         try:
             sc = load_scenario(path)
@@ -276,6 +280,26 @@ def _refusal(paths, settings: TwinSettings) -> str | None:
                 return f"{path}: mover {j} is not a walker with a goal (navground's twin takes navground's scenes, " \
                        f"tools/export_navground_scenario.py)"
     return None
+
+
+def _properties(items) -> dict | str:
+    """``--set NAME=VALUE`` items as the behaviour's properties (a number, or true / false), or
+    why one cannot be (one line: a bad value was a traceback)."""
+    props = {}
+    for item in items:
+        name, eq, value = (part.strip() for part in item.partition("="))
+        if not eq or not name:
+            return f"--set takes NAME=VALUE, got {item!r}"
+        if value.lower() in ("true", "false"):
+            props[name] = value.lower() == "true"
+            continue
+        try:
+            props[name] = float(value)
+        except ValueError:
+            return f"--set {name}: a number or true / false, got {value!r}"
+        if not math.isfinite(props[name]):
+            return f"--set {name}: must be finite, got {value!r}"
+    return props
 
 
 def _run_one(args):
@@ -296,13 +320,17 @@ def main(argv=None) -> int:
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--out", type=Path, help="JSON file of the outcomes")
     a = p.parse_args(argv)
-    props = {}
-    for item in a.set:
-        name, _, value = item.partition("=")
-        props[name] = value.lower() == "true" if value.lower() in ("true", "false") else float(value)
-    settings = TwinSettings(a.behaviour, a.safety_margin, acceleration_limit=not a.no_acceleration_limit,
-                            properties=props, blind_walkers_see_robot=a.walkers_see_robot)
-    bad = _refusal(a.scenarios, settings)  # every file and the behaviour checked before any run
+    props, bad = _properties(a.set), None
+    if isinstance(props, str):
+        bad = props
+    elif not (math.isfinite(a.safety_margin) and a.safety_margin >= 0):  # (-1 and nan ran)
+        bad = f"--safety-margin must be a finite number of m, not negative, got {a.safety_margin}"
+    elif a.workers < 1:  # (0 ran as 1)
+        bad = f"--workers must be at least 1, got {a.workers}"
+    else:
+        settings = TwinSettings(a.behaviour, a.safety_margin, acceleration_limit=not a.no_acceleration_limit,
+                                properties=props, blind_walkers_see_robot=a.walkers_see_robot)
+        bad = _refusal(a.scenarios, settings)  # every file and the behaviour checked before any run
     if bad:
         print(f"{p.prog}: error: {bad}", file=sys.stderr)
         return 2

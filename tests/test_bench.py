@@ -443,3 +443,25 @@ def test_cli_refuses_a_model_that_no_row_would_run(tmp_path):
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "--model" in proc.stderr and "--no-nn-rows" in proc.stderr
     assert not (tmp_path / "B.json").exists()
+
+
+def test_cli_refuses_a_shield_with_no_controller_row(tmp_path):
+    """``bench --shield`` with no ``--controller`` ran the whole bench, the option doing nothing
+    (it puts the --controller rows behind the check layer); now one line, exit 2, before any work."""
+    proc = _gpcnav("--shield", "--solvers", "ipopt-warm", "--out", tmp_path / "B.json")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--shield" in proc.stderr and "--controller" in proc.stderr
+    assert not (tmp_path / "B.json").exists()
+
+
+@pytest.mark.parametrize("options, words", [
+    (["--crowd-movers", "0", "--crowd-episodes", "3"], "which --crowd-movers 0 leaves out"),
+    (["--no-gpc-rows", "--no-nn-rows", "--crowd-episodes", "3"], "which --no-gpc-rows and --no-nn-rows leave out"),
+])
+def test_cli_refuses_crowd_episodes_that_nothing_would_pool(tmp_path, options, words):
+    """``--crowd-episodes K`` with no crowd scene, or no GPC and no network rows to pool on it,
+    ran the bench without them, the option doing nothing; now one line, exit 2, before any work."""
+    proc = _gpcnav(*options, "--solvers", "ipopt-warm", "--out", tmp_path / "B.json")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--crowd-episodes 3" in proc.stderr and words in proc.stderr
+    assert not (tmp_path / "B.json").exists()

@@ -155,6 +155,19 @@ def test_an_absent_cluster_is_refused_at_once_and_a_silent_one_after_the_timeout
         pool.check_reachable("192.0.2.1:6379")
 
 
+@pytest.mark.parametrize("value", ["abc", "-1", "nan", "0"])
+def test_a_connect_timeout_that_is_no_positive_number_is_said_when_a_cluster_is_reached(monkeypatch, value):
+    """$GPCNAV_RAY_CONNECT_TIMEOUT_S was read when casadi_gpc.pool was imported: "abc" stopped every
+    command (simulate too) with a traceback, and -1 a Ray run with socket's "Timeout value out of range";
+    now one line when a cluster's address is checked, the only use of it."""
+    from casadi_gpc import pool
+    monkeypatch.setenv("GPCNAV_RAY_CONNECT_TIMEOUT_S", value)  # (read when the run reaches for a cluster)
+    with pytest.raises(pool.ClusterUnavailable, match=r"^\$GPCNAV_RAY_CONNECT_TIMEOUT_S must be a positive number"):
+        pool.check_reachable("127.0.0.1:6379")
+    monkeypatch.setenv("GPCNAV_RAY_CONNECT_TIMEOUT_S", "2.5")
+    assert pool.connect_timeout_s() == 2.5
+
+
 def test_a_reachable_port_passes_the_check():
     from casadi_gpc.pool import check_reachable
     with socket.socket() as s:

@@ -53,10 +53,21 @@ def test_values_are_read_as_the_setting_s_type():
     ("uncertainty_sigmas=-2", "uncertainty_sigmas must not be negative"),
     ("solve_lanes=0", "solve_lanes must be a whole number of at least 1"),
     ("max_moving=-1", "max_moving must be a whole number of at least 0"),
+    # names the planner refused only when it was made, in a traceback (exit 1)
+    ("solver=bogus", "unknown solver 'bogus'"),
+    ("candidates=bogus", "candidates must be one of persistent, multistart"),
+    ("guesses=straight,bogus", "unknown initial guesses"),
+    ("guesses=", "give at least one initial guess"),  # (the planner never solved: the robot stood all run)
+    ("cold_starts=1 cold_starts=2", "cold_starts: given twice"),  # (the last ran, the first was said nowhere)
 ])
 def test_bad_settings_are_refused_in_one_line(item, words):
     with pytest.raises(UsageError, match=words):
-        with_settings(IMPROVED, [item])
+        with_settings(IMPROVED, item.split(" "))
+
+
+def test_a_solver_s_alias_is_read_as_its_name_as_with_the_solver_option():
+    """--set solver=ipopt is --solver ipopt: the same configuration, the same changes recorded."""
+    assert with_settings(IMPROVED, ["solver=ipopt"]).solver == "ipopt-warm"
 
 
 def test_the_command_line_s_bounds_hold_for_a_value_given_with_set():

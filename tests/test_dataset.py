@@ -142,6 +142,11 @@ def test_other_arguments_are_refused(reference_dataset):
     (["--dagger", "gpc", "--behaviour", "replay", "--dagger-files", "a.toml"], "runs the files as they are"),
     (["--samples", "10", "--movers", "3"], "need --dagger"),
     (["--samples", "10", "--count", "3"], "need --dagger"),
+    # taken and ignored until 2026-12-01
+    (["--samples", "10", "--round", "3"], "need --dagger"),
+    (["--samples", "10", "--dagger-safety", "gpc"], "need --dagger"),
+    (["--dagger", "gpc", "--samples", "10"], "--samples: a --dagger round adds the samples its episodes visit"),
+    (["--dagger", "gpc", "--dagger-safety", "brake"], "--dagger-safety is for --dagger MODEL.onnx"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, argv, words):
     proc = subprocess.run([sys.executable, "-m", "gpcnav", "dataset", "--out", str(tmp_path / "d"), *argv],

@@ -446,6 +446,8 @@ def test_the_check_layer_passes_solver_failures_on_and_a_network_says_it_has_no_
     ("solver_failure_prob=nan", "faults.solver_failure_prob: must be finite"),
     ("dropout_prob=0.1,dropout_prob=0.2", "dropout_prob given twice"),
     ("", "--faults takes NAME=VALUE"),
+    ("delay_steps=1.5", "delay_steps needs a whole number, got '1.5'"),  # (it said "needs a number")
+    ("outlier_prob=x", "outlier_prob needs a number, got 'x'"),
 ])
 def test_faults_on_the_command_line_are_checked_as_a_file_s_are(spec, words):
     """They ran (dropout_prob=1.5, outlier_distance_m=-2), or stopped after the episodes (NaN)."""
@@ -453,3 +455,19 @@ def test_faults_on_the_command_line_are_checked_as_a_file_s_are(spec, words):
     from gpcnav.errors import UsageError
     with pytest.raises(UsageError, match=words.replace(".", r"\.")):
         parse_faults(spec)
+
+
+def test_faults_on_the_command_line_that_replace_a_file_s_own_are_said(write_scenario, capsys):
+    """--faults replaced a file's [faults] table without a word (its dropouts gone from its episode);
+    now one line on stderr names the file. Files with no table, or the same one, are not named."""
+    from gpcnav.cli import build_parser
+    from gpcnav.commands.evaluate import scenarios_from_args
+    own = write_scenario(HEAD_ON.read_text() + "\n[faults]\ndropout_prob = 0.5\n", name="own.toml")
+    plain = write_scenario(HEAD_ON.read_text(), name="plain.toml")
+    args = build_parser().parse_args(["evaluate", str(own), str(plain), "--faults", "outlier_prob=0.1"])
+    scenarios, _ = scenarios_from_args(args)
+    assert all(s.faults == Faults(outlier_prob=0.1) for s in scenarios)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"gpcnav evaluate: --faults replaces the [faults] table of {own}"]
+    scenarios_from_args(build_parser().parse_args(["evaluate", str(own), "--faults", "dropout_prob=0.5"]))
+    assert capsys.readouterr().err == ""

@@ -12,7 +12,7 @@ import pytest
 gymnasium = pytest.importorskip("gymnasium")
 
 from conftest import PAPER_DIR  # noqa: E402
-from gpcnav.gym_env import DEFAULT_SUITE, NavigationEnv, ObservationLayout  # noqa: E402
+from gpcnav.gym_env import DEFAULT_SUITE, NavigationEnv, ObservationLayout, RewardSettings  # noqa: E402
 
 LINE = """
 name = "line"
@@ -259,6 +259,15 @@ def test_movers_and_a_suite_seed_that_are_no_whole_number_are_refused_when_made(
     assert NavigationEnv(suite="circle-crossing", movers=np.int64(2), suite_seed=np.int64(1)).suite.movers == 2
 
 
+@pytest.mark.parametrize("kw", [{"scenario": PAPER_DIR / "fig7_2_crossing.toml"}, {"suite": "circle-crossing"}])
+def test_an_option_reset_does_not_read_is_refused(kw):
+    """A misspelt option ("idx") was taken and ignored: a random episode ran in its place."""
+    env = NavigationEnv(**kw)
+    with pytest.raises(ValueError, match=r"^options 'idx': not an option of reset \(it reads only index\)$"):
+        env.reset(seed=0, options={"idx": 3})
+    env.reset(seed=0, options={})
+
+
 def test_an_episode_index_given_to_a_file_is_refused():
     """options index picks a suite's episode; a file's one episode ran whatever index was given."""
     env = NavigationEnv(scenario=PAPER_DIR / "fig7_2_crossing.toml")
@@ -293,3 +302,30 @@ def test_an_expert_of_another_sample_time_is_refused_when_made(expert):
     with pytest.raises(ValueError, match=r"expert 'orca' decides every 0.1 s, the environment steps every 0.5 s"):
         NavigationEnv(suite="circle-crossing", expert="orca")
     NavigationEnv(suite="circle-crossing", expert="orca", sample_time_s=0.1)
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"layout": {"movers": 3}}, "layout must be a gpcnav.gym_env.ObservationLayout"),
+    ({"reward": None}, "reward must be a gpcnav.gym_env.RewardSettings"),
+])
+def test_a_layout_or_reward_of_another_type_is_refused_when_made(kw, words):
+    """None or a dict failed at the first reset or step (AttributeError naming neither)."""
+    with pytest.raises(ValueError, match=words):
+        NavigationEnv(suite="circle-crossing", movers=2, **kw)
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: ObservationLayout(movers=-1), "ObservationLayout.movers must be a whole number of at least 0"),
+    (lambda: ObservationLayout(reference_points=0), "reference_points must be a whole number of at least 1"),
+    (lambda: ObservationLayout(statics=1.5), "statics must be a whole number of at least 0"),
+    (lambda: RewardSettings(goal=float("nan")), "RewardSettings.goal must be a finite number"),
+    (lambda: RewardSettings(progress_per_m="0.1"), "progress_per_m must be a finite number"),
+])
+def test_a_layout_or_reward_no_environment_can_use_is_refused(make, words):
+    """movers=-1 made a vector of 52 values (one slot taken off), reference_points=0 an
+    IndexError at the first reset, and a NaN reward NaN rewards."""
+    with pytest.raises(ValueError, match=words):
+        make()
+    env = NavigationEnv(suite="circle-crossing", movers=2, layout=ObservationLayout(movers=0, statics=0),
+                        reward=RewardSettings(progress_per_m=0))
+    assert env.reset(seed=0)[0].shape == (16,) == env.observation_space.shape

@@ -118,3 +118,11 @@ def test_an_antipodal_seed_whose_robot_starts_overlapping_is_named_not_written(t
     err = capsys.readouterr().err
     assert "2 seeds not written" in err and "0 scenario files" in err
     assert list((tmp_path / "b").glob("*.toml")) == []
+
+
+def test_an_out_that_is_a_file_is_refused_in_one_line(tmp_path, capsys):
+    """--out naming a file was FileExistsError's traceback."""
+    (tmp_path / "a").write_text("")
+    with pytest.raises(SystemExit) as exit_:
+        tool.main(["--out", str(tmp_path / "a"), "--count", "1"])
+    assert exit_.value.code == 2 and "--out" in capsys.readouterr().err and (tmp_path / "a").read_text() == ""

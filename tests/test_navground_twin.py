@@ -127,7 +127,13 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
     good.write_text(straight_line_toml("one"))
     for argv, words in (([str(tmp_path / "notes.toml")], "notes.toml: not valid TOML"),
                         ([str(PAPER_DIR / "fig7_1_head_on.toml")], "mover 0 is not a walker with a goal"),
-                        ([str(good), "--behaviour", "Nope"], "--behaviour 'Nope': not a navground behaviour")):
+                        ([str(good), "--behaviour", "Nope"], "--behaviour 'Nope': not a navground behaviour"),
+                        # (these were tracebacks, exit 1, or ran: a margin of -1, no worker)
+                        ([str(good), "--set", "bogus=1"], "--set bogus: navground's ORCA has no property 'bogus'"),
+                        ([str(good), "--set", "time_horizon=x"], "--set time_horizon: a number or true / false"),
+                        ([str(good), "--set", "time_horizon"], "--set takes NAME=VALUE"),
+                        ([str(good), "--safety-margin", "-1"], "--safety-margin must be a finite number"),
+                        ([str(good), "--workers", "0"], "--workers must be at least 1")):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and words in err and "Traceback" not in err

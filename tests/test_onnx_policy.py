@@ -123,6 +123,13 @@ def test_mismatched_metadata_is_refused(paper_model, tmp_path, changes, match):
     _one_line_refusal(e, path)
 
 
+def test_a_preset_that_is_none_is_said_so():
+    """OnnxPolicy(preset="imroved") said no model file .../imroved.onnx existed (a FileNotFoundError),
+    as if the package had lost one."""
+    with pytest.raises(ValueError, match=r"^unknown preset 'imroved' \(choose from paper, improved\)$"):
+        OnnxPolicy(preset="imroved")
+
+
 def test_never_runs_under_another_preset(paper_model):
     with pytest.raises(ValueError, match="trained for preset 'paper', refusing .* 'improved'") as e:
         OnnxPolicy(paper_model, preset="improved")

@@ -364,6 +364,20 @@ def test_without_a_compiler_the_backend_says_so_and_counts_the_fallback(tmp_path
     assert not list(tmp_path.glob("*.so"))
 
 
+def test_a_cache_folder_that_cannot_be_made_is_said_as_no_compiler_is(tmp_path, monkeypatch):
+    """$GPCNAV_CACHE_DIR under a file (or /proc) stopped every command that made the planner with
+    mkdir's traceback; now the backend runs uncompiled and says why, as without a compiler."""
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("GPCNAV_CACHE_DIR", str(tmp_path / "file" / "cache"))
+    problem = build_problem(SMALL)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        backend = make_backend("ipopt-warm-compiled", problem)
+    assert not backend.compiled
+    assert any("($GPCNAV_CACHE_DIR) cannot be made" in n for n in backend.notes)
+    assert any("cannot be made" in str(w.message) for w in caught)
+
+
 # --- the controller: budget, injected failures, same answers ---------------------------------
 def _short(sc, duration_s=12.0):
     return replace(sc, duration_s=duration_s)

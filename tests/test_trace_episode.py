@@ -59,5 +59,11 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
     assert trace_episode.main([str(tmp_path / "missing.toml")]) == 2
     assert trace_episode.main([]) == 2
     assert trace_episode.main([str(ROOT / "scenarios" / "paper" / "fig7_1_head_on.toml"), "--mover", "7"]) == 2
+    # a name of no controller was the UsageError's traceback
+    assert trace_episode.main([str(ROOT / "scenarios" / "paper" / "fig7_1_head_on.toml"), "--controller", "gcp"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 3 and all(line.startswith("trace_episode: ") for line in err)
+    assert len(err) == 4 and all(line.startswith("trace_episode: ") for line in err)
+    assert "--controller 'gcp': not a controller" in err[-1]
+    with pytest.raises(SystemExit) as exit_:  # (a preset of no name was the ValueError's traceback)
+        trace_episode.main([str(ROOT / "scenarios" / "paper" / "fig7_1_head_on.toml"), "--preset", "bogus"])
+    assert exit_.value.code == 2 and "--preset: invalid choice: 'bogus'" in capsys.readouterr().err

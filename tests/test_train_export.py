@@ -210,6 +210,22 @@ def test_dataset_says_before_labelling_that_train_refuses_labels_at_another_timi
     assert capsys.readouterr().err == ""
 
 
+@pytest.mark.parametrize("option, words", [
+    (["--encoder-width", "32"], "--encoder-width: an option of --architecture set"),
+    (["--batch-size", "64"], "--batch-size: an option of --optimizer adam"),
+    (["--lr", "0.1"], "--lr: an option of --optimizer adam"),
+    (["--optimizer", "adam", "--encoder-width", "32"], "--encoder-width: an option of --architecture set"),
+])
+def test_train_refuses_options_the_training_does_not_use(tmp_path, capsys, option, words):
+    """--encoder-width without --architecture set, --batch-size and --lr with L-BFGS were taken and
+    ignored (the same network as without them); now one line before any work."""
+    from gpcnav.cli import main
+    code = main(["train", str(tmp_path / "data"), "--out", str(tmp_path / "m"), "--preset", "paper", *option])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and words in err[0], err
+    assert not (tmp_path / "m").exists()
+
+
 @pytest.mark.parametrize("name, words", [("weights.npz", "weights.npz: not a readable weights file ("),
                                          ("validation_features.npy", "validation_features.npy: not a readable array (")])
 def test_export_of_a_model_folder_with_a_damaged_file_is_one_line(fitted, tmp_path, capsys, name, words):

@@ -269,6 +269,8 @@ def main(argv=None) -> int:
     if not all(math.isfinite(v) and v > 0 for v in (a.length, a.width, a.radius, a.agent_radius, a.speed,
                                                      a.time_factor)):
         p.error("--length, --width, --radius, --agent-radius, --speed and --time-factor must be finite and positive")
+    if a.out.exists() and not a.out.is_dir():  # (FileExistsError's traceback)
+        p.error(f"--out {a.out} exists and is not a folder")
     if a.scene == "corridor":
         try:  # (a corridor no wider than the robot is refused before any file is written)
             paths, skipped = export_corridor(a.out, a.count, a.seed, agents, a.length, a.width, a.agent_radius,

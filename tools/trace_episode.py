@@ -108,6 +108,7 @@ def text(log, trace: list[dict]) -> str:
 
 
 def main(argv=None) -> int:
+    from casadi_gpc.config import PRESETS
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenario", nargs="?", help="a scenario file (TOML); or --suite")
     ap.add_argument("--suite", help="a seeded suite's episode instead (with --index)")
@@ -117,7 +118,7 @@ def main(argv=None) -> int:
     ap.add_argument("--behaviour", default=None, help="the suite's movers' behaviour (default the suite's)")
     ap.add_argument("--index", type=int, default=0, help="which episode of the suite (default 0)")
     ap.add_argument("--controller", default="gpc")
-    ap.add_argument("--preset", default="improved")
+    ap.add_argument("--preset", default="improved", choices=tuple(PRESETS))
     ap.add_argument("--mover", default=None, help="comma-separated mover indices to follow (default: the one hit)")
     ap.add_argument("--window", type=float, default=4.0, help="seconds before the collision, or the end (default 4)")
     ap.add_argument("--from", dest="start", type=float, default=None, help="start of the window, s")
@@ -138,7 +139,12 @@ def main(argv=None) -> int:
     except (OSError, ValueError) as exc:
         print(f"trace_episode: {str(exc).splitlines()[0]}", file=sys.stderr)
         return 2
-    log, seen = run(sc, a.controller, a.preset)
+    from gpcnav.errors import UsageError
+    try:
+        log, seen = run(sc, a.controller, a.preset)
+    except UsageError as exc:  # (a name of no controller, one that cannot drive the robot: it was a traceback)
+        print(f"trace_episode: {exc}", file=sys.stderr)
+        return 2
     if not movers and log.collision and log.collision.get("obstacle") == "moving":
         movers = [int(log.collision["index"])]
     end = a.end if a.end is not None else (log.collision["time_s"] if log.collision else log.t[len(seen) - 1])

@@ -18,7 +18,7 @@ from ..problem.cost import GPCProblem, to_world
 from ..estimation.ekf import EKFSettings, ObstacleEKF
 from ..estimation.forecast_function import ForecastFunction
 from ..estimation.walls_forecast import WallsForecast
-from .guesses import TIE_ORDER
+from .guesses import check_guess_names
 from .lanes import SolveLanes
 from .multistart import MultiStart, Plan
 from ..progress import ReferenceClock
@@ -110,11 +110,7 @@ class GPCController(MultiStart):
         """The learned forecast of walkers near walls, or None (not asked for, or another sample
         time or horizon than it was trained at)."""
         self.horizon = self.config.horizon
-        unknown = sorted(set(self.config.guesses) - set(TIE_ORDER))
-        if unknown:
-            raise ValueError(f"unknown initial guesses {unknown} (choose from {', '.join(TIE_ORDER)})")
-        if self.config.candidates not in ("persistent", "multistart"):
-            raise ValueError(f"candidates must be 'persistent' or 'multistart', got {self.config.candidates!r}")
+        check_guess_names(self.config.guesses)
         period = max(1, int(round(self.config.multistart_period_s / self.config.sample_time_s)))
         memory = max(1, int(round(self.config.relevance_memory_s / self.config.sample_time_s)))
         self.candidates = CandidateSet(self.config.horizon, period, self.config.prune_ratio, memory)

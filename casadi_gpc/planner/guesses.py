@@ -18,19 +18,32 @@ from numba import njit
 from ..geometry import distance_to_segments_m, segments_cross
 from ..robot import robot_step_compiled, robot_step_float
 
-__all__ = ["TIE_ORDER", "SIDEWAYS", "NARROWER", "wheels_to_increments", "swerve_guesses", "detour_guesses",
-           "brake_guess", "initial_guesses", "meets_walls", "meets_walls_reference", "plan_meets_walls", "fitted_guesses"]
+__all__ = ["TIE_ORDER", "check_guess_names", "SIDEWAYS", "NARROWER", "wheels_to_increments", "swerve_guesses",
+           "detour_guesses", "brake_guess", "initial_guesses", "meets_walls", "meets_walls_reference", "plan_meets_walls",
+           "fitted_guesses"]
 
 TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake")
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow
 SIDEWAYS = frozenset({"swerve_right", "swerve_left", "detour_right", "detour_left"})
 """The guesses that leave the reference sideways, by a turn rate or a lateral offset."""
+
 NARROWER = (0.5, 0.25)
 """A sideways guess that meets a wall (:func:`meets_walls`) is made again with its turn rate
 or offset scaled by each of these in turn, and the first that keeps off the walls is solved:
 in a 2.5 m corridor the full swerve (0.5 rad/s for half the horizon) and the 1.5 m detours
 leave it, and without a narrower one the robot's only cold guesses there are straight on and
 braking (docs/buildings.md, "Guesses that fit the corridor")."""
+
+
+def check_guess_names(names) -> None:
+    """Refuse (ValueError) a guess name not in :data:`TIE_ORDER`, and no guess at all: a planner
+    with none never solves (every decision its fallback: the robot stood for the whole run)."""
+    unknown = sorted(set(names) - set(TIE_ORDER))
+    if unknown:
+        raise ValueError(f"unknown initial guesses {unknown} (choose from {', '.join(TIE_ORDER)})")
+    if not names:
+        raise ValueError(f"guesses: give at least one initial guess (of {', '.join(TIE_ORDER)}): with none the "
+                         f"planner never solves")
 
 
 def _follow(v: float, target: float, dv_max: float, v_max: float) -> float:

@@ -11,6 +11,7 @@ the same library says so too (:data:`ANNOUNCE`)."""
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import hashlib
 import os
@@ -208,7 +209,13 @@ def start_compile(solver: ca.Function, plugin: str, nlp: dict, extra: dict | Non
         return Compile(None, f"no C compiler ({os.environ.get('CC') or 'gcc'}) found: uncompiled CasADi functions")
     key = _library_key(plugin, nlp, cc, extra)
     folder = cache_dir()
-    folder.mkdir(parents=True, exist_ok=True)
+    try:  # a folder that cannot be made is a compiler's absence (it was mkdir's traceback)
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):  # a full disk is said as one (the command line)
+            raise
+        return Compile(None, f"the cache folder {folder} ($GPCNAV_CACHE_DIR) cannot be made ({exc.strerror}): "
+                             f"uncompiled CasADi functions")
     lib = folder / f"gpc_{plugin}_{key}.so"
     cached = Compile(str(lib), f"compiled functions (cached {lib.name})", what=what)
     if lib.exists():

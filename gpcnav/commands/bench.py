@@ -47,7 +47,7 @@ def add_arguments(p):
     p.add_argument("--crowd-movers", type=int, default=10, metavar="N",
                    help="the planner's decision is also measured on a crowd scene: circle-crossing, N orca "
                         "movers, seed 1, its first episode (default 10; 0: none)")
-    p.add_argument("--crowd-episodes", type=int, default=10, metavar="K",
+    p.add_argument("--crowd-episodes", type=int, default=None, metavar="K",
                    help="the GPC's and the deployed network's decisions are also pooled over the crowd scene's "
                         "first K episodes, the two run one after the other on each (a p99 of one crossing, "
                         "about 45 decisions, is its largest but one; default 10; 0: not pooled)")
@@ -122,6 +122,10 @@ def crowd_suite(movers: int, episodes: int):
     return Suite("circle-crossing", episodes, 1, movers, "orca")
 
 
+CROWD_EPISODES = 10
+"""``--crowd-episodes``' default: a p99 over some 450 decisions."""
+
+
 def pooled_crowd(args, doc, config, say) -> None:
     """The crowd scene's first ``--crowd-episodes`` episodes, the GPC (unless ``--no-gpc-rows``)
     and the deployed network (unless ``--no-nn-rows``) on each, pooled
@@ -192,6 +196,8 @@ def run(args) -> int:
     if args.model is not None and args.no_nn_rows and "nn" not in args.controller:  # (dropped without a word)
         raise UsageError(f"--model {args.model}: for the network rows, which --no-nn-rows leaves out, and "
                          f"--controller nn")
+    if args.shield and not args.controller:  # (it ran the whole bench, the option doing nothing)
+        raise UsageError("--shield puts the --controller rows behind the check layer: give --controller NAME")
     check_output_files(out=args.out, plot=args.plot)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")
@@ -204,8 +210,13 @@ def run(args) -> int:
 
     if args.crowd_movers < 0:
         raise UsageError(f"--crowd-movers must be 0 or more, got {args.crowd_movers}")
-    if args.crowd_episodes < 0:
+    if args.crowd_episodes is not None and args.crowd_episodes < 0:
         raise UsageError(f"--crowd-episodes must be 0 or more, got {args.crowd_episodes}")
+    if args.crowd_episodes and (not args.crowd_movers or (args.no_gpc_rows and args.no_nn_rows)):  # (ignored)
+        left_out = "--crowd-movers 0 leaves" if not args.crowd_movers else "--no-gpc-rows and --no-nn-rows leave"
+        raise UsageError(f"--crowd-episodes {args.crowd_episodes}: pools the GPC's and the network's decisions on "
+                         f"the crowd scene, which {left_out} out")
+    args.crowd_episodes = CROWD_EPISODES if args.crowd_episodes is None else args.crowd_episodes
     crowd = [] if not args.crowd_movers else [crowd_suite(args.crowd_movers, 1).scenario(0)]
     # the planner as evaluate runs these scenes: wall slots where one has walls, the crowd NLP
     # where one has more movers than the preset's slots

@@ -154,6 +154,21 @@ def _setting_value(name: str, text: str, annotation: str):
     return value
 
 
+def _check_names(changes: dict) -> None:
+    """The solver and the guesses of ``changes`` checked by name, as ``--solver`` is (the
+    solver's alias read as its name); the planner refused a bad one only when it was made, in a
+    traceback."""
+    try:
+        if "solver" in changes:
+            from casadi_gpc.solvers import canonical_name
+            changes["solver"] = canonical_name(changes["solver"])
+        if "guesses" in changes:
+            from casadi_gpc.planner.guesses import check_guess_names
+            check_guess_names(changes["guesses"])
+    except ValueError as exc:  # (each message names its setting)
+        raise UsageError(f"--set: {exc}") from None
+
+
 def with_settings(config, items):
     """``config`` with each ``NAME=VALUE`` of ``items`` (``--set``) applied; an unknown name,
     a value of the wrong type or one the settings refuse is a one-line error."""
@@ -169,9 +184,12 @@ def with_settings(config, items):
             raise UsageError(f"--set {name}: not a planner setting (casadi_gpc.config.PlannerConfig)")
         if name in RUN_ADAPTED:
             raise UsageError(f"--set {name}: adapted to each run's scenarios (the wall slots, the crowd NLP), not set here")
+        if name in changes:  # (the last one ran, the first said nowhere; --faults refuses it so)
+            raise UsageError(f"--set {name}: given twice")
         changes[name] = _setting_value(name, text, known[name])
     if not changes:
         return config
+    _check_names(changes)
     try:
         return replace(config, **changes)
     except (ValueError, TypeError) as exc:

@@ -75,7 +75,8 @@ def add_arguments(p):
                         "(closed-loop; nn_export/training/dataset/onpolicy.py)")
     p.add_argument("--episodes", "--count", dest="episodes", type=int, default=None,
                    help="episodes of the suite for --dagger (default 100; with --dagger-files, one a file)")
-    p.add_argument("--round", type=int, default=1, help="DAgger round number (names the part: dagger<R>)")
+    p.add_argument("--round", type=int, default=None,
+                   help="--dagger: the round's number (names the part: dagger<R>, gpc<R>; default 1)")
     p.add_argument("--dagger-noise", type=float, default=0.0, metavar="SIGMA",
                    help="--dagger: add N(0, SIGMA) m/s to each wheel speed the driver applies (DART: the "
                         "GPC drives, the states spread as a learner's errors would spread them; labels "
@@ -135,10 +136,18 @@ def run(args) -> int:
         raise UsageError(f"--tie-margin must be in [0, 1), got {args.tie_margin}")
     if args.dagger is not None and args.scheme != "sampled":
         raise UsageError("--scheme applies to sampled situations, not to --dagger rounds")
+    # (--round and --dagger-safety were taken and ignored without --dagger)
     if args.dagger is None and (args.dagger_noise or args.start_offset or args.dagger_suite or args.dagger_files
-                                or args.labels != "cold"):
-        raise UsageError("--dagger-noise, --dagger-suite, --dagger-files, --start-offset and --labels apply to "
-                         "on-policy rounds: they need --dagger")
+                                or args.labels != "cold" or args.round is not None or args.dagger_safety != "off"):
+        raise UsageError("--round, --dagger-safety, --dagger-noise, --dagger-suite, --dagger-files, --start-offset "
+                         "and --labels apply to on-policy rounds: they need --dagger")
+    if args.dagger is not None and args.samples is not None:  # (it was taken and ignored)
+        raise UsageError("--samples: a --dagger round adds the samples its episodes visit (--episodes, or "
+                         "--dagger-files), not a number asked")
+    if str(args.dagger) == "gpc" and args.dagger_safety != "off":  # (it was taken and ignored)
+        raise UsageError("--dagger-safety is for --dagger MODEL.onnx: with --dagger gpc the planner drives behind "
+                         "its own check layer")
+    args.round = 1 if args.round is None else args.round
     if args.dagger_files and args.dagger_suite:
         raise UsageError("give --dagger-suite or --dagger-files, not both")
     if args.dagger_files and args.episodes is not None:

@@ -187,7 +187,8 @@ def parse_faults(spec: str | None):
         try:
             values[key] = int(value) if key == "delay_steps" else float(value)
         except ValueError:
-            raise UsageError(f"--faults: {key} needs a number, got {value!r}") from None
+            kind = "a whole number" if key == "delay_steps" else "a number"  # (1.5 was "needs a number")
+            raise UsageError(f"--faults: {key} needs {kind}, got {value!r}") from None
     try:
         return faults_from_table(values, "--faults")
     except ScenarioError as exc:
@@ -214,8 +215,20 @@ def scenarios_from_args(args) -> tuple[list, object]:
         scenarios = [load_scenario(p) for p in args.scenarios]
         _say_repeated_files(args.scenarios, args.command)
     if faults is not None:
+        _say_replaced_faults(scenarios, faults, args.command)
         scenarios = [replace(s, faults=faults) for s in scenarios]
     return scenarios, suite
+
+
+def _say_replaced_faults(scenarios, faults, command: str) -> None:
+    """One line on stderr when ``--faults`` replaces a file's own ``[faults]`` table (it did so
+    without a word: a file's dropouts gone from its episode)."""
+    from scenarios import Faults
+    own = [s.source or s.name for s in scenarios if s.faults != Faults() and s.faults != faults]
+    if own:
+        more = f" and {len(own) - 3} more" if len(own) > 3 else ""
+        print(f"gpcnav {command}: --faults replaces the [faults] table of {', '.join(map(str, own[:3]))}{more}",
+              file=sys.stderr)
 
 
 def _say_repeated_files(paths, command: str) -> None:

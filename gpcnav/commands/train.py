@@ -28,7 +28,8 @@ def add_arguments(p):
     p.add_argument("--target", choices=("command", "plan"), default="command",
                    help="what the network outputs: the first command (default) or the GPC's whole H-step plan "
                         "of wheel speeds (checked as a plan behind the check layer; docs/nn.md)")
-    p.add_argument("--encoder-width", type=int, default=64, help="--architecture set: units of the obstacle encoder")
+    p.add_argument("--encoder-width", type=int, default=None,
+                   help="--architecture set: units of the obstacle encoder (default 64)")
     p.add_argument("--relative", action="store_true",
                    help="learn the change from the current wheel speeds (the GPC decides increments); the exported "
                         "graph adds them back, so the model file answers wheel speeds as any other")
@@ -42,8 +43,8 @@ def add_arguments(p):
                    help="maximum L-BFGS steps (10 iterations each) or Adam epochs (early stopping ends sooner)")
     p.add_argument("--patience", type=int, default=40,
                    help="steps/epochs without a better validation error before stopping")
-    p.add_argument("--batch-size", type=int, default=1024, help="Adam mini-batch size")
-    p.add_argument("--lr", type=float, default=3e-3, help="initial Adam learning rate")
+    p.add_argument("--batch-size", type=int, default=None, help="--optimizer adam: mini-batch size (default 1024)")
+    p.add_argument("--lr", type=float, default=None, help="--optimizer adam: initial learning rate (default 0.003)")
     p.add_argument("--weight-decay", type=float, default=0.0, help="L2 penalty")
     p.add_argument("--cost-gap-weight", type=float, default=None, metavar="SCALE",
                    help="weigh each label by how much dearer the runner-up optimum of its multi-start was, relative "
@@ -112,12 +113,18 @@ def run(args) -> int:
     check_writable_folder(out, f"--out {out}")
     if not 1 <= args.layers <= 4:
         raise UsageError(f"--layers must be from 1 to 4, got {args.layers}")
+    set_net, adam = args.architecture == "set", args.optimizer == "adam"
+    for name, given, used, of in (("--encoder-width", args.encoder_width, set_net, "--architecture set"),
+                                  ("--batch-size", args.batch_size, adam, "--optimizer adam"),
+                                  ("--lr", args.lr, adam, "--optimizer adam")):
+        if given is not None and not used:  # (taken and ignored: the same network as without it)
+            raise UsageError(f"{name}: an option of {of}, which this training does not use")
     for name, v, lo in (("--hidden", args.hidden, 1), ("--epochs", args.epochs, 1), ("--patience", args.patience, 1),
                         ("--encoder-width", args.encoder_width, 1),
                         ("--batch-size", args.batch_size, 1)):
-        if v < lo:
+        if v is not None and v < lo:
             raise UsageError(f"{name} must be at least {lo}, got {v}")
-    if not args.lr > 0:
+    if args.lr is not None and not args.lr > 0:
         raise UsageError(f"--lr must be positive, got {args.lr}")
     if args.cost_gap_weight is not None and not args.cost_gap_weight > 0:
         raise UsageError(f"--cost-gap-weight must be positive, got {args.cost_gap_weight}")
@@ -172,12 +179,12 @@ def run(args) -> int:
         weights = np.concatenate([cost_gap_weights(s.candidate_costs, s.cost, args.cost_gap_weight) for s in sets])
         weighting = {"kind": "cost_gap", "scale": args.cost_gap_weight, "floor": WEIGHT_FLOOR,
                      "mean": float(weights.mean()), "below_one": int(np.sum(weights < 1.0))}
+    given = {k: v for k, v in (("batch_size", args.batch_size), ("learning_rate", args.lr),
+                               ("encoder_width", args.encoder_width)) if v is not None}  # else the model's defaults
     model = WheelSpeedMLP(hidden=args.hidden, layers=args.layers, activation=args.activation, output_basis=args.output_basis,
-                          optimizer=args.optimizer, max_epochs=args.epochs,
-                          batch_size=args.batch_size, learning_rate=args.lr, weight_decay=args.weight_decay,
+                          optimizer=args.optimizer, max_epochs=args.epochs, weight_decay=args.weight_decay,
                           validation_fraction=args.validation_fraction, patience=args.patience,
-                          random_state=args.seed, architecture=args.architecture,
-                          encoder_width=args.encoder_width, relative=args.relative)
+                          random_state=args.seed, architecture=args.architecture, relative=args.relative, **given)
     bar = progress(total=args.epochs, desc="training", unit="it")
 
     def tick(epoch, tr, va):
@@ -209,7 +216,7 @@ def run(args) -> int:
     shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-{Y.shape[1]}"
     if args.architecture == "set":
         rho = "-".join([str(args.hidden)] * args.layers)
-        shape = f"set encoder {args.encoder_width}-{args.encoder_width}, max+sum pool, {rho}-{Y.shape[1]}"
+        shape = f"set encoder {model.encoder_width}-{model.encoder_width}, max+sum pool, {rho}-{Y.shape[1]}"
     print(f"trained {lay.name} layout ({shape}) on {len(model.train_indices_)} samples, "
           f"validated on {len(model.validation_indices_)}: validation RMSE {np.sqrt(model.validation_mse_):.4f} m/s "
           f"(max {model.validation_max_abs_error_:.3f}), best epoch {model.best_epoch_} ({model.stop_reason_}), "

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casadi_gpc.config import DEFAULT_PRESET
+from casadi_gpc.config import DEFAULT_PRESET, preset as preset_config
 from casadi_gpc.estimation.ekf import EKFSettings
 from casadi_gpc.robot import RobotParams, robot_step_float
 from casadi_gpc.types import ControlDecision, Observation
@@ -61,8 +61,8 @@ DEFAULT_SAFETY_DISTANCE_M = {"paper": 1.0, "improved": 1.0}
 
 
 def shipped_model_path(preset: str) -> Path:
-    """The model the package ships for ``preset``."""
-    return MODELS_DIR / f"{preset}.onnx"
+    """The model the package ships for ``preset`` (a name of no preset: its ValueError, not a missing file)."""
+    return MODELS_DIR / f"{preset_config(preset).name}.onnx"
 
 
 def shipped_crowd_model_path(preset: str) -> Path:

@@ -20,6 +20,7 @@ __all__ = [
     "Policy",
     "ProtocolError",
     "checked_decision",
+    "policy_class_name",
     "samples_since",
     "positive_seconds",
 ]
@@ -221,21 +222,28 @@ class ProtocolError(TypeError):
     ``decide()`` returned something other than a :class:`ControlDecision`."""
 
 
+def policy_class_name(policy) -> str:
+    """The dotted name of ``policy``'s class, as a :class:`ProtocolError` names it; a wrapper that
+    holds the controller as ``wrapped`` (the command line's guard of a ``MODULE:CLASS``) names the
+    class it wraps, the one its user wrote."""
+    cls = type(getattr(policy, "wrapped", policy))
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
 def checked_decision(decision, policy, numbers: bool = False) -> ControlDecision:
     """``decision``, which ``policy.decide()`` returned, if it is a :class:`ControlDecision`;
     else a :class:`ProtocolError` naming the class (a tuple failed later, as an
     ``AttributeError`` deep in the simulator). With ``numbers`` (a user's class), its wheel speeds
     must be real numbers too, NaN included (a command the robot brakes for and counts): a word or
     an array failed deep in the simulator with a traceback, and None was braked for in silence."""
-    cls = type(policy)
     if not isinstance(decision, ControlDecision):
-        raise ProtocolError(f"{cls.__module__}.{cls.__qualname__}.decide() returned a {type(decision).__name__}, not "
+        raise ProtocolError(f"{policy_class_name(policy)}.decide() returned a {type(decision).__name__}, not "
                             f"a casadi_gpc.ControlDecision (the Policy protocol)")
     for name in ("v_right_mps", "v_left_mps") if numbers else ():
         v = getattr(decision, name)
         if isinstance(v, bool) or not isinstance(v, Real):
             import reprlib
-            raise ProtocolError(f"{cls.__module__}.{cls.__qualname__}.decide() returned a ControlDecision whose {name} "
+            raise ProtocolError(f"{policy_class_name(policy)}.decide() returned a ControlDecision whose {name} "
                                 f"is {' '.join(reprlib.repr(v).split())} (a {type(v).__name__}), not a number of m/s "
                                 f"(the Policy protocol)")
     return decision

@@ -51,3 +51,12 @@ def test_a_plan_of_the_horizon_the_class_says_is_checked():
     assert (d.v_right_mps, d.v_left_mps) == (0.4, 0.4)
     d = _decide(Shield(Planner((12, 2)), settings=CheckSettings(trust_plans=True)))
     assert (d.v_right_mps, d.v_left_mps) == (0.4, 0.4)
+
+
+def test_the_plan_refusal_names_the_user_s_class_behind_the_command_line_s_guard():
+    """--controller MODULE:CLASS --shield named the command line's wrapper
+    (gpcnav.controllers.UserController.decide() returned ...), not the class the user wrote."""
+    from gpcnav.controllers import UserController
+    shield = Shield(UserController("tests:Planner", Planner((6, 2))), settings=CheckSettings(trust_plans=True))
+    with pytest.raises(ProtocolError, match=r"^test_shield_plans\.Planner\.decide\(\) returned planned_wheels_mps"):
+        _decide(shield)

@@ -30,7 +30,7 @@ import numpy as np
 from ..estimation.ekf import EKFSettings
 from ..robot import RobotParams
 from ..estimation.tracking import TrackBank
-from ..types import ControlDecision, Observation, ProtocolError, checked_decision, positive_seconds
+from ..types import ControlDecision, Observation, ProtocolError, checked_decision, policy_class_name, positive_seconds
 from .check import shared_batch
 from .filter import SafetyFilter
 from .settings import CheckSettings
@@ -55,8 +55,7 @@ def _policy_horizon(policy, sample_time_s: float) -> int:
 def _plan_refused(policy, plan, horizon: int) -> ProtocolError:
     """The one line for a controller whose plan is not ``(horizon, 2)``: the check judges a plan
     over its own horizon (a plan of another length failed deep in the check, or as an IndexError)."""
-    cls = type(policy)
-    return ProtocolError(f"{cls.__module__}.{cls.__qualname__}.decide() returned planned_wheels_mps of shape "
+    return ProtocolError(f"{policy_class_name(policy)}.decide() returned planned_wheels_mps of shape "
                          f"{np.shape(plan)}, not ({horizon}, 2): the check layer's horizon is {horizon} samples (the "
                          f"controller's horizon attribute, else {DEFAULT_HORIZON_S:g} s of its samples; the Policy "
                          f"protocol)")

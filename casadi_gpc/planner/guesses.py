@@ -19,8 +19,8 @@ from ..geometry import distance_to_segments_m, segments_cross
 from ..robot import robot_step_compiled, robot_step_float
 
 __all__ = ["TIE_ORDER", "check_guess_names", "SIDEWAYS", "NARROWER", "wheels_to_increments", "swerve_guesses",
-           "detour_guesses", "brake_guess", "initial_guesses", "meets_walls", "meets_walls_reference", "plan_meets_walls",
-           "fitted_guesses"]
+           "detour_guesses", "brake_guess", "initial_guesses", "meets_walls", "meets_walls_reference",
+           "plan_meets_walls", "fitted_guesses"]
 
 TIE_ORDER = ("swerve_right", "swerve_left", "straight", "detour_right", "detour_left", "brake")
 DETOUR_OFFSETS_M = (-1.5, 1.5)  # lateral shifts of the reference that the detour guesses follow

@@ -5,6 +5,7 @@ from __future__ import annotations
 import gzip
 import math
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ from scenarios.metrics import episode_metrics, eval_document, run_document
 from scenarios.simulator import Episode, simulate
 
 BASE = straight_line_toml("tracks", 12.0, 4.0)
+REPO_RECORDINGS = Path(__file__).resolve().parents[1] / "scenarios" / "recordings"
 
 
 def _scenario(movers: str, extra: str = ""):
@@ -351,6 +353,22 @@ def test_import_tracks_names_cases_that_every_command_reads(tmp_path, capsys):
     assert main(["import-tracks", str(tmp_path / "my rec.txt"), "--out", str(tmp_path / "zara_v2-"),
                  "--max-cases", "2"]) == 0
     assert "also holds 3 other scenario files" in capsys.readouterr().err
+
+
+def test_a_case_is_the_same_file_whatever_max_cases_picks(tmp_path):
+    """A case's noise seed is its place among all the recording's cases: it was its place among
+    the cases written, so the same case made with --max-cases 2 and 4 drew other noise."""
+    from scenarios.pedestrian_cases import cases
+    from scenarios.recordings import shipped_recording
+    rec = REPO_RECORDINGS / "crowds_zara01.txt.gz"
+    found = cases(shipped_recording("crowds_zara01"))
+    assert len(found) == 31  # --max-cases 2 writes cases 0 and 15; 4: 0, 7, 15 and 23
+    for n in (2, 4):
+        assert main(["import-tracks", str(rec), "--out", str(tmp_path / str(n)), "--max-cases", str(n)]) == 0
+    name = f"{found[15].name}.toml"
+    assert {f.name for f in (tmp_path / "2").glob("*.toml")} < {f.name for f in (tmp_path / "4").glob("*.toml")}
+    two, four = (tmp_path / "2" / name).read_text(), (tmp_path / "4" / name).read_text()
+    assert two == four and load_scenario(tmp_path / "4" / name).sensing.seed == 15
 
 
 def test_import_tracks_takes_a_stray_row_far_away(tmp_path):

@@ -22,7 +22,8 @@ def add_arguments(p):
                    help="the people: replayed open loop (default), or walkers that follow their recording "
                         "and give way to the robot (orca, social_force)")
     p.add_argument("--max-cases", type=int, default=None, metavar="N",
-                   help="write at most N cases, spread evenly over all of them (default: every case)")
+                   help="write at most N cases, spread evenly over all of them, each the same file as without it "
+                        "(its noise seed is its place among all; default: every case)")
 
 
 def run(args) -> int:
@@ -52,13 +53,16 @@ def run(args) -> int:
         raise UsageError(f"{args.recording}: no case of the protocol in this recording (docs/pedestrians.md: at "
                          f"least 5 people in the busiest 6 m square, the robot's start clear)"
                          + (f"; {doubt}" if doubt else ""))
+    # a case's noise seed is its place among all the recording's cases, whatever --max-cases picks (it was
+    # its place among those written: the same case, made with another --max-cases, drew other noise)
+    numbered = list(enumerate(found))
     if args.max_cases is not None and args.max_cases < len(found):
         step = len(found) / args.max_cases
-        found = [found[int(k * step)] for k in range(args.max_cases)]
+        numbered = [numbered[int(k * step)] for k in range(args.max_cases)]
     # every file made and read back before the first is written: a case that would not load
     # leaves nothing behind
     texts = {}
-    for k, case in enumerate(progress(found, desc="cases", unit="case")):  # (students003: 178 cases, 26 s)
+    for k, case in progress(numbered, desc="cases", unit="case"):  # (students003: 178 cases, 26 s)
         sc = case_scenario(rec, case, args.behaviour, seed=k)
         path = args.out / f"{sc.name}.toml"
         texts[path] = to_toml(scenario_document(sc))
@@ -87,6 +91,6 @@ def run(args) -> int:
     n_tracks = len(rec.tracks)
     people = f"{rec.people} {'person' if rec.people == 1 else 'people'}, {n_tracks} track{'s' * (n_tracks != 1)}"
     print(f"{args.recording}: {people}{lone}, {rec.end_s - rec.start_s:.0f} s "
-          f"({rec.seconds_per_frame:.4g} s per frame); {len(found)} case{'s' * (len(found) != 1)} written to "
+          f"({rec.seconds_per_frame:.4g} s per frame); {len(numbered)} case{'s' * (len(numbered) != 1)} written to "
           f"{args.out}", file=sys.stdout)
     return 0

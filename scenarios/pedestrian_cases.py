@@ -16,7 +16,8 @@ reasons; in short:
    then. The robot starts so that its reference point, at :data:`REFERENCE_SPEED_MPS` (the
    speed of every suite here; G-MPC's robot drives 1.75 m/s, ours reaches 0.8 m/s), reaches
    the centre at that instant. A start with someone within :data:`START_CLEARANCE_M` of the
-   robot's disc is dropped (G-MPC: 1 m between centres).
+   robot's disc is dropped (G-MPC: 1 m between centres), and so is one where someone appears
+   that near within :data:`APPEAR_WITHIN_S` (a person who enters the recording on the robot).
 4. **How long.** :data:`DURATION_S` = three times the nominal 20 s (CrowdNav's ratio; G-MPC
    allows six times, for a robot that needs no detour to be fast).
 5. **Who.** Every track that overlaps the case's time, cut to it (a row interpolated at each
@@ -42,7 +43,7 @@ from .recordings import Recording
 
 __all__ = ["CaseSpec", "cases", "case_scenario", "TASKS", "PEDESTRIAN_RADIUS_M",
            "REGION_SIDE_M", "PATH_LENGTH_M", "REFERENCE_SPEED_MPS", "DURATION_S", "MIN_PEOPLE",
-           "CANDIDATE_EVERY_S", "START_CLEARANCE_M", "SENSING_RANGE_M"]
+           "CANDIDATE_EVERY_S", "START_CLEARANCE_M", "APPEAR_WITHIN_S", "SENSING_RANGE_M"]
 
 PEDESTRIAN_RADIUS_M = 0.25
 """A person's disc: half a typical shoulder width (0.45-0.5 m)."""
@@ -53,6 +54,10 @@ DURATION_S = 60.0
 MIN_PEOPLE = 5
 CANDIDATE_EVERY_S = 3.0
 START_CLEARANCE_M = 0.5
+APPEAR_WITHIN_S = 1.0
+"""Someone whose track starts this soon after a case's start, within :data:`START_CLEARANCE_M`
+of the robot's disc, blocks the start as someone there at the start does (the ghost time of
+``collided_robot_approaching``: nothing avoids a person who appears on it)."""
 SENSING_RANGE_M = 8.0
 NOISE_STD_M = 0.02
 TASKS = ("along", "along-back", "across", "across-back")
@@ -110,14 +115,29 @@ def _flow_axis(rec: Recording) -> np.ndarray:
     return axis if axis[0] > 0 or (axis[0] == 0 and axis[1] > 0) else -axis  # a fixed sign: reproducible
 
 
-def cases(rec: Recording) -> list[CaseSpec]:
-    """Every case of the protocol in ``rec``, task by task, in time order."""
+def _start_blocked(rec: Recording, t0: float, start: np.ndarray, firsts: np.ndarray) -> str | None:
+    """Why the robot cannot start at ``start`` at ``t0``: ``"occupied"`` (someone within
+    :data:`START_CLEARANCE_M` of its disc then), ``"appears"`` (someone appears that near within
+    :data:`APPEAR_WITHIN_S`: until 2026-12-02 only those in the scene at ``t0`` were looked at), or None.
+    ``firsts``: every track's first row."""
+    near = RobotParams().radius_m + PEDESTRIAN_RADIUS_M + START_CLEARANCE_M
+    people = rec.positions_at(t0)
+    if people.size and np.hypot(*(people - start).T).min() < near:
+        return "occupied"
+    soon = firsts[(firsts[:, 0] > t0) & (firsts[:, 0] <= t0 + APPEAR_WITHIN_S), 1:]
+    return "appears" if soon.size and np.hypot(*(soon - start).T).min() < near else None
+
+
+def cases(rec: Recording, skipped: dict | None = None) -> list[CaseSpec]:
+    """Every case of the protocol in ``rec``, task by task, in time order. ``skipped``, a dict
+    if given, counts the instants dropped for a blocked start by reason (:func:`_start_blocked`)."""
     centre = _busiest_point(rec)
     along = _flow_axis(rec)
     across = np.array([-along[1], along[0]])
     half = REGION_SIDE_M / 2
     to_centre_s = 0.5 * PATH_LENGTH_M / REFERENCE_SPEED_MPS
     instants = np.arange(rec.start_s, rec.end_s, CANDIDATE_EVERY_S)
+    firsts = np.array([tr[0] for tr in rec.tracks], dtype=float).reshape(-1, 3)
     busy = [t for t in instants
             if np.sum(np.all(np.abs(rec.positions_at(t) - centre) < half, axis=1)) >= MIN_PEOPLE]
     out = []
@@ -129,9 +149,10 @@ def cases(rec: Recording) -> list[CaseSpec]:
             t0 = t - to_centre_s
             if t0 < rec.start_s:
                 continue
-            people = rec.positions_at(t0)
-            gaps = np.hypot(*(people - start).T) - RobotParams().radius_m - PEDESTRIAN_RADIUS_M
-            if gaps.size and gaps.min() < START_CLEARANCE_M:
+            blocked = _start_blocked(rec, t0, start, firsts)
+            if blocked:
+                if skipped is not None:
+                    skipped[blocked] = skipped.get(blocked, 0) + 1
                 continue
             out.append(CaseSpec(rec.name, task, k, float(t0), (float(start[0]), float(start[1])),
                                 (float(goal[0]), float(goal[1]))))

@@ -371,6 +371,32 @@ def test_a_case_is_the_same_file_whatever_max_cases_picks(tmp_path):
     assert two == four and load_scenario(tmp_path / "4" / name).sensing.seed == 15
 
 
+def test_a_start_on_which_someone_appears_within_a_second_is_skipped(tmp_path, capsys):
+    """The start check looked at the people in the scene at the case's start only: someone
+    appearing on the robot's start 0.4 s later (a person entering the recording there, whom
+    nothing avoids) left the case in. Now it is skipped as a start with someone on it is, and
+    import-tracks counts both kinds."""
+    from scenarios.pedestrian_cases import cases
+    from scenarios.recordings import read_recording
+    text = gzip.decompress((REPO_RECORDINGS / "crowds_zara01.txt.gz").read_bytes()).decode()
+    (tmp_path / "crowds_zara01.txt").write_text(text)
+    before = cases(read_recording(tmp_path / "crowds_zara01.txt"))
+    case = before[10]
+    frame = round((case.start_s + 0.4) / 0.04)  # standing on the robot's start from 0.4 to 0.8 s after it
+    x, y = case.start_xy
+    (tmp_path / "crowds_zara01.txt").write_text(text + f"{frame} 9999 {x + 0.3} {y}\n{frame + 10} 9999 {x + 0.3} {y}\n")
+    after = cases(read_recording(tmp_path / "crowds_zara01.txt"))
+    assert case.start_s not in [c.start_s for c in after if c.task == case.task]
+    assert len(after) == len(before) - 1
+    skipped = {}
+    cases(read_recording(tmp_path / "crowds_zara01.txt"), skipped)
+    assert skipped == {"occupied": 5, "appears": 1}
+    assert main(["import-tracks", str(tmp_path / "crowds_zara01.txt"), "--out", str(tmp_path / "o"),
+                 "--max-cases", "1"]) == 0
+    assert "(6 starts skipped, someone within 0.5 m of the robot's disc: 5 there at the start, 1 appearing " \
+           "within 1 s)" in capsys.readouterr().out
+
+
 def test_import_tracks_takes_a_stray_row_far_away(tmp_path):
     """The busiest square is found over the occupied cells: a person 100 km away asked a dense
     grid for 75 GB (a traceback, exit 1; found by an audit). Now the same cases as without them."""

@@ -30,7 +30,7 @@ def run(args) -> int:
     import tomllib
     from scenarios import load_scenario
     from scenarios.loader import scenario_from_dict
-    from scenarios.pedestrian_cases import case_scenario, cases
+    from scenarios.pedestrian_cases import APPEAR_WITHIN_S, START_CLEARANCE_M, case_scenario, cases
     from scenarios.writer import scenario_document, to_toml
     from scenarios.recordings import MAX_GAP_ROWS, WALKING_SPEEDS_MPS, RecordingError, read_recording
     from casadi_gpc.io import write_text
@@ -48,7 +48,8 @@ def run(args) -> int:
     doubt = ("" if slow <= speed <= fast else  # the frame time is not in the file: 1/25 s taken for one of seconds
              f"at {rec.seconds_per_frame:.4g} s a frame its people walk at {speed:.3g} m/s (median; people walk about "
              f"1 m/s): is --seconds-per-frame right?")
-    found = cases(rec)
+    skipped = {}
+    found = cases(rec, skipped)
     if not found:
         raise UsageError(f"{args.recording}: no case of the protocol in this recording (docs/pedestrians.md: at "
                          f"least 5 people in the busiest 6 m square, the robot's start clear)"
@@ -92,5 +93,16 @@ def run(args) -> int:
     people = f"{rec.people} {'person' if rec.people == 1 else 'people'}, {n_tracks} track{'s' * (n_tracks != 1)}"
     print(f"{args.recording}: {people}{lone}, {rec.end_s - rec.start_s:.0f} s "
           f"({rec.seconds_per_frame:.4g} s per frame); {len(numbered)} case{'s' * (len(numbered) != 1)} written to "
-          f"{args.out}", file=sys.stdout)
+          f"{args.out}{_skipped(skipped, START_CLEARANCE_M, APPEAR_WITHIN_S)}", file=sys.stdout)
     return 0
+
+
+def _skipped(skipped: dict, clearance_m: float, within_s: float) -> str:
+    """The starts left out, said after the cases written: someone within ``clearance_m`` of the
+    robot's disc at the start, or appearing there within ``within_s``."""
+    n = sum(skipped.values())
+    if not n:
+        return ""
+    return (f" ({n} start{'s' * (n != 1)} skipped, someone within {clearance_m:g} m of the robot's disc: "
+            f"{skipped.get('occupied', 0)} there at the start, {skipped.get('appears', 0)} appearing within "
+            f"{within_s:g} s)")

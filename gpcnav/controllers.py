@@ -42,7 +42,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, is_dataclass
 from pathlib import Path
 
-from .errors import ControllerError, UsageError
+from .errors import MIN_SAMPLE_TIME_S, ControllerError, UsageError
 
 __all__ = ["BUILTIN", "PEERS", "REGISTRY", "SHIELD_MODES", "DEFAULT_SHIELD", "Kind", "ControllerSpec", "make",
            "make_controller", "check", "check_settings", "shield_mode", "load_user_class", "describe", "spec_from_args",
@@ -268,6 +268,9 @@ def _check_protocol(text: str, controller) -> None:
     if not positive_seconds(T):  # numpy's numbers too
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (sample_time_s must be a "
                          f"positive number of seconds, got {T!r})")
+    if T < MIN_SAMPLE_TIME_S:  # --sample-time's rule (1e-9 s was taken: 4e10 decisions for 40 s)
+        raise UsageError(f"--controller {text}: sample_time_s must be at least {MIN_SAMPLE_TIME_S} s, as "
+                         f"--sample-time's, got {float(T):g} (one decision per sample)")
 
 
 def _make_user(text: str):

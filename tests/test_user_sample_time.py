@@ -28,6 +28,9 @@ MODULE = textwrap.dedent('''
 
     class Negative(Float32):
         sample_time_s = np.float32(-0.5)
+
+    class Tiny(Float32):
+        sample_time_s = 1e-9
 ''')
 
 
@@ -54,3 +57,15 @@ def test_a_negative_numpy_sample_time_is_still_refused(tmp_path):
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "sample_time_s must be a positive" \
         in r.stderr
     assert not (tmp_path / "e.json").exists()
+
+
+def test_a_sample_time_below_the_command_lines_shortest_is_refused(tmp_path):
+    """1e-9 s was taken (forty billion decisions for a 40 s scene): a user's class gets the rule
+    of --sample-time and --set sample_time_s, at least 0.05 s, in one line before any episode."""
+    (tmp_path / "npmod.py").write_text(MODULE, encoding="utf-8")
+    scene = REPO / "scenarios" / "paper" / "fig7_2_crossing.toml"
+    r = _cli(tmp_path, "simulate", scene, "--controller", "npmod:Tiny", "--out", "r.json")
+    assert r.returncode == 2 and r.stderr.strip().splitlines() == [
+        "gpcnav simulate: error: --controller npmod:Tiny: sample_time_s must be at least 0.05 s, as --sample-time's, "
+        "got 1e-09 (one decision per sample)"], r.stderr
+    assert not (tmp_path / "r.json").exists()

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from casadi_gpc.config import DEFAULT_PRESET, PRESETS, preset
 
-from ..errors import UsageError
+from ..errors import MIN_SAMPLE_TIME_S, UsageError
 
 
 MAX_HORIZON = 24
@@ -18,10 +18,6 @@ MAX_HORIZON = 24
 problem, and that compile grows steeply with H: measured on a busy 2-core machine, H = 12
 (the improved preset) 10-40 s, H = 24 about 4 min, H = 30 over 15 min; H = 5000 would not
 finish building. The presets use 6 and 12 (docs/assumptions.md)."""
-MIN_SAMPLE_TIME_S = 0.05
-"""The shortest sample time the command line takes: an episode is one planner decision per
-sample, so shorter ones multiply its length (a 40 s scenario at 0.05 s is 800 decisions, at
-1e-6 s forty million); the presets use 0.5 and 1.5 s."""
 MAX_COUNT = 100_000
 """The most episodes one ``--count`` asks for: the scenarios are made before the first
 episode runs and every episode's measures are kept until the document is written; 100 000

@@ -39,15 +39,17 @@ def add_arguments(p):
                    help="address of an existing Ray cluster (--backend ray; default: start a local one)")
     p.add_argument("--seed", type=int, default=0, help="seed of the situations (default 0)")
     add_preset_arguments(p)
-    p.add_argument("--layout", choices=("paper", "multi", "set", "set-walls"), default="paper",
-                   help="feature layout: the paper's (one moving obstacle), multi (3 moving + 3 static), set "
-                        "(12 moving + 6 static as one set, for the set network) or set-walls (set, and the walls "
-                        "as a 24-sector scan; labelled by the planner with wall slots)")
+    p.add_argument("--layout", choices=("paper", "multi", "set", "set-walls"), default=None,
+                   help="feature layout of a new dataset: the paper's (one moving obstacle; the default), multi (3 "
+                        "moving + 3 static), set (12 moving + 6 static as one set, for the set network) or set-walls "
+                        "(set, and the walls as a 24-sector scan; labelled by the planner with wall slots); a "
+                        "--dagger round labels in its dataset's layout")
     p.add_argument("--robot", type=Path, default=None, metavar="SCENARIO.toml",
                    help="label for the robot of this scenario file (its [robot]: wheel base, radius, wheel limits), "
                         "for a network that drives it (default: the contract's robot, 0.5 m wheel base, 0.35 m, "
                         "0.8 m/s, 0.8 m/s^2); a --dagger round labels for its dataset's robot")
-    p.add_argument("--shard-size", type=int, default=1000, help="samples per shard (even; default 1000)")
+    p.add_argument("--shard-size", type=int, default=None,
+                   help="samples per shard of a new dataset (even; default 1000); a --dagger round appends one shard")
     p.add_argument("--no-mirror", action="store_true", help="do not add the mirror image of each situation")
     p.add_argument("--mirror-check-every", type=int, default=25, metavar="K",
                    help="solve the mirrored situation for every K-th situation as a check of the labels (0: never)")
@@ -163,7 +165,13 @@ def run(args) -> int:
     if args.dagger is not None:
         if args.robot is not None:
             raise UsageError("--robot applies to a new dataset: a --dagger round labels for its dataset's robot")
+        given = [o for o, v in (("--layout", args.layout), ("--shard-size", args.shard_size)) if v is not None]
+        if given:  # (both were taken and ignored)
+            raise UsageError(f"{' and '.join(given)} appl{'y' if len(given) > 1 else 'ies'} to a new dataset: a "
+                             f"--dagger round labels in its dataset's layout and appends its samples as one shard")
         return _dagger(args)
+    args.layout = "paper" if args.layout is None else args.layout
+    args.shard_size = 1000 if args.shard_size is None else args.shard_size
     if args.samples is None:
         raise UsageError("--samples is required")
     if args.samples < 1:

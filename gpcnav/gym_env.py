@@ -41,7 +41,8 @@ applies them as the simulator does, within its acceleration limit. ``terminated`
 reached or a collision; ``truncated``: the scenario's time limit. ``info``: ``outcome``
 (``running``, ``reached_goal``, ``collided``, ``timed_out``), ``clearance_m`` (the smallest
 gap between the robot's disc and any obstacle's disc or wall now, true positions), ``min_clearance_m`` (the smallest over
-the episode so far, sub-sampled like the collision check), ``t_s``, ``scenario``.
+the episode so far, sub-sampled like the collision check; both ``inf`` while there is nothing to keep clear
+of, where the JSON documents write 1e9 m), ``t_s``, ``scenario``.
 ``clearance_m`` and ``min_clearance_m`` count the walls as well. ``env.unwrapped.observation``
 is what a controller of the Policy protocol is told at the same instant (a :class:`casadi_gpc.types.Observation`), so any of them can drive the environment.
 

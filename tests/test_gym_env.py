@@ -189,6 +189,21 @@ def test_walls_give_the_expert_wall_slots_and_count_in_the_clearance(tmp_path):
     assert plain.expert.config.max_walls == 0 and info["clearance_m"] == math.inf
 
 
+def test_with_nothing_to_keep_clear_of_both_clearances_are_infinite(tmp_path):
+    """One convention in info: ``clearance_m`` and ``min_clearance_m`` are ``inf`` (a Python float)
+    from the reset to the episode's end when there is nothing to keep clear of; only the JSON
+    documents, which cannot hold infinity, write 1e9 m for it (docs/gym.md, docs/scenarios.md)."""
+    from scenarios.metrics import episode_metrics
+    env = NavigationEnv(scenario=_file(tmp_path, duration=2.0))
+    _, info = env.reset(seed=0)
+    assert info["clearance_m"] == info["min_clearance_m"] == math.inf
+    terminated = truncated = False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, info = env.step([0.4, 0.4])
+        assert info["clearance_m"] == info["min_clearance_m"] == math.inf
+    assert info["outcome"] == "timed_out" and episode_metrics(env.episode.log).min_clearance_m == 1e9
+
+
 def test_a_scenario_that_ends_before_the_first_step_is_refused_when_made(tmp_path):
     """Its reset() said the episode had timed out and the first step() then asked for a
     reset: any training loop stopped there."""

@@ -26,6 +26,11 @@ from gpcnav.controllers import DEFAULT_SHIELD, REGISTRY, WALLS_CHECK_MARGIN_M, c
     (dict(walls_sigmas=1.0), "go together"),
     (dict(walls_margin_m=-0.01, walls_sigmas=1.0), "walls_margin_m must be finite"),
     (dict(walls_margin_m=0.02, walls_sigmas=math.inf), "walls_sigmas must be finite"),
+    # taken until 2026-12-02, and failed only when the check was built (NaN: "cannot convert float NaN")
+    (dict(substeps=math.nan), "substeps must be a whole number"),
+    (dict(substeps=2.5), "substeps must be a whole number"),
+    (dict(horizon=math.nan), "horizon must be a whole number"),
+    (dict(horizon=1.5), "horizon must be a whole number"),
 ])
 def test_bad_settings_are_refused(bad, words):
     with pytest.raises(ValueError, match=words):

@@ -130,6 +130,31 @@ def test_a_preset_that_is_none_is_said_so():
         OnnxPolicy(preset="imroved")
 
 
+@pytest.mark.parametrize("kw, words", [
+    # a negative distance was taken (the second pass never ran); NaN and infinity were refused already
+    (dict(safety_distance_m=-1), r"^safety_distance_m must be finite and not negative, got -1$"),
+    (dict(safety_distance_m=math.nan), r"^safety_distance_m must be finite and not negative, got nan$"),
+    (dict(safety_distance_m=math.inf), r"^safety_distance_m must be finite and not negative, got inf$"),
+    (dict(check_forecast="curved"), r"^check_forecast must be 'turn' or 'straight'"),
+])
+def test_a_bad_keyword_argument_is_a_value_error_naming_it(kw, words):
+    with pytest.raises(ValueError, match=words):
+        OnnxPolicy(**kw)
+    assert OnnxPolicy(safety_distance_m=0).safety_distance_m == 0.0  # 0: a second pass only on a predicted overlap
+
+
+@pytest.mark.parametrize("field, value", [("measurement_std_m", -0.02), ("speed_noise_mps2", math.nan),
+                                          ("initial_speed_std_mps", math.inf), ("gate_chi2", 0.0),
+                                          ("max_maneuver_mps", -1.0), ("max_rejections", 2.5)])
+def test_filter_settings_that_are_no_noise_level_are_refused(field, value):
+    """EKFSettings (OnnxPolicy's ekf_settings, the planner's filters) took any number: a negative
+    or NaN noise level made the filter's covariances nonsense, with no word."""
+    from casadi_gpc.estimation.ekf import EKFSettings
+    with pytest.raises(ValueError, match=f"^EKFSettings.{field} must be "):
+        EKFSettings(**{field: value})
+    assert EKFSettings(measurement_std_m=0.0, max_rejections=0).measurement_std_m == 0.0
+
+
 def test_never_runs_under_another_preset(paper_model):
     with pytest.raises(ValueError, match="trained for preset 'paper', refusing .* 'improved'") as e:
         OnnxPolicy(paper_model, preset="improved")
@@ -193,7 +218,8 @@ def _free_rollout(policy, obs):
 
 
 def test_pass_one_is_the_networks_free_rollout(paper_model):
-    p = OnnxPolicy(paper_model, safety_distance_m=-1e9)  # never a second pass
+    p = OnnxPolicy(paper_model)
+    p.safety_distance_m = -1e9  # never a second pass (the constructor refuses a negative distance: set past it)
     obs = _obs(3.0, RobotState(1.0, 0.2, 0.1, 0.3, 0.35), obstacle_xy=(4.0, 0.0))
     d = p.decide(obs)
     poses, wheels = _free_rollout(p, obs)

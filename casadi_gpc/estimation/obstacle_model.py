@@ -7,7 +7,8 @@ of it. Numpy only (the deployed policy uses it).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
+from numbers import Real
 from typing import NamedTuple
 
 import numpy as np
@@ -89,6 +90,19 @@ class EKFSettings:
     swerve), which the next measurement confirms; a farther one is a sensor glitch."""
     max_rejections: int = 3
     """After this many outliers in a row the track restarts at the new measurement."""
+
+    def __post_init__(self):
+        """Every number finite and not negative, the gate above 0 and ``max_rejections`` a whole
+        number: a ValueError naming the field (until 2026-12-02 a negative or NaN noise level was
+        taken, and the filter's covariances were nonsense)."""
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not (isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"EKFSettings.{f.name} must be a finite number, not negative, got {value!r}")
+        if self.gate_chi2 <= 0:
+            raise ValueError(f"EKFSettings.gate_chi2 must be above 0, got {self.gate_chi2!r}")
+        if self.max_rejections != int(self.max_rejections):
+            raise ValueError(f"EKFSettings.max_rejections must be a whole number, got {self.max_rejections!r}")
 
     def for_sample_time(self, sample_time_s: float, reference_sample_time_s: float = 0.5) -> "EKFSettings":
         """These settings, meant per step of ``reference_sample_time_s`` (the ``improved``

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from numbers import Real
 
 __all__ = ["CheckSettings", "FALLBACKS"]
 
@@ -147,11 +148,17 @@ class CheckSettings:
             raise ValueError(f"margin_m must be finite and not negative, got {self.margin_m}")
         if not (math.isfinite(self.sigmas) and self.sigmas >= 0):
             raise ValueError(f"sigmas must be finite and not negative, got {self.sigmas}")
-        if self.substeps < 1:
-            raise ValueError(f"substeps must be at least 1, got {self.substeps}")
-        if self.horizon is not None and self.horizon < 1:
-            raise ValueError(f"horizon must be at least 1, got {self.horizon}")
+        # (NaN and 2.5 passed here, and failed only when the check was built, NaN without the field's name)
+        if not (_whole(self.substeps) and self.substeps >= 1):
+            raise ValueError(f"substeps must be a whole number, at least 1, got {self.substeps!r}")
+        if self.horizon is not None and not (_whole(self.horizon) and self.horizon >= 1):
+            raise ValueError(f"horizon must be a whole number, at least 1, got {self.horizon!r}")
         if self.safer_alternatives and not self.trust_plans:
             raise ValueError("safer_alternatives applies to trusted plans: set trust_plans too")
         if self.trust_rollout_s is not None and not self.rollouts:
             raise ValueError("trust_rollout_s applies to roll-outs: set rollouts too")
+
+
+def _whole(value) -> bool:
+    """A whole number (4, np.int64(4), 4.0), not a bool, NaN or infinity."""
+    return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value) and value == int(value)

@@ -220,8 +220,8 @@ class OnnxPolicy:
         self.two_pass = bool(two_pass)
         self.safety_distance_m = float(DEFAULT_SAFETY_DISTANCE_M[self.config.name] if safety_distance_m is None
                                        else safety_distance_m)
-        if not math.isfinite(self.safety_distance_m):
-            raise ValueError(f"safety_distance_m must be finite, got {safety_distance_m}")
+        if not (math.isfinite(self.safety_distance_m) and self.safety_distance_m >= 0):  # (-1 was taken)
+            raise ValueError(f"safety_distance_m must be finite and not negative, got {safety_distance_m}")
         # two passes need the desired poses at steps 0..2H-1 (the window of roll-out step j is j..j+H)
         self.tracker = SituationTracker(self.config, ekf_settings,
                                         reference_steps=2 * self.horizon - 1 if self.two_pass else None)

@@ -362,6 +362,25 @@ class NavigationEnv(Env):
             expert.reset()
         return self._observe()
 
+    def __deepcopy__(self, memo):
+        """A copy that steps on as this environment would, independent of it (the episode's
+        movers, sensor noise, filters and generator copied). An expert that holds what cannot be
+        copied (the GPC's CasADi solver, the network's onnxruntime session, navground's social
+        force) is a TypeError saying so: copied bare, the walkers failed with "cannot pickle
+        'navground.core._navground.GeometricState' object" after a reset."""
+        import copy
+        new = object.__new__(type(self))
+        memo[id(self)] = new
+        for name, value in self.__dict__.items():
+            try:
+                new.__dict__[name] = copy.deepcopy(value, memo)
+            except TypeError as exc:
+                if name not in ("expert", "_experts"):
+                    raise
+                raise TypeError(f"NavigationEnv: expert {self.expert_name!r} cannot be copied ({exc}): make another "
+                                f"environment with the same keywords and reset it with the same seed") from None
+        return new
+
     def render(self):
         """Nothing: the environment has no render mode (Gymnasium's convention for
         ``render_mode=None``: no render is computed, None returned; the base class raised

@@ -129,6 +129,31 @@ class MoverWorld:
             self._entered = np.array([not hasattr(self.movers[j], "track") or self.movers[j].start_s <= 1e-9
                                       for j in self._walkers], dtype=bool)
 
+    _NAVGROUND = ("_behaviours", "_static_discs", "_lines", "_envs")
+    """navground's objects of the walkers (none of them can be copied or pickled)."""
+
+    def __deepcopy__(self, memo):
+        """A copy that moves on as this world would: its state copied, navground's objects made
+        again (every step sets what they decide from: position, velocity, neighbours, and a track
+        walker's target and speed). ``copy.deepcopy`` of a world with walkers failed ("cannot
+        pickle 'navground.core._navground.GeometricState'"), and so did that of a Gymnasium
+        environment after its reset."""
+        import copy
+        new = object.__new__(type(self))
+        memo[id(self)] = new
+        for name, value in self.__dict__.items():
+            if name not in self._NAVGROUND:
+                setattr(new, name, copy.deepcopy(value, memo))
+        if self._walkers:
+            from navground import core
+            new._behaviours = [_make_behaviour(new.movers[j]) for j in new._walkers]
+            new._static_discs = [core.Disc(np.asarray(s.position_m, float), s.radius_m) for s in new._statics]
+            new._lines = [core.LineSegment(np.asarray(ln.p1, float), np.asarray(ln.p2, float)) for ln in self._lines]
+            new._envs = [b.environment_state for b in new._behaviours]
+            for env in new._envs:
+                env.line_obstacles = new._lines
+        return new
+
     @property
     def has_walkers(self) -> bool:
         return bool(self._walkers)

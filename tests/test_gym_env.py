@@ -204,6 +204,39 @@ def test_with_nothing_to_keep_clear_of_both_clearances_are_infinite(tmp_path):
     assert info["outcome"] == "timed_out" and episode_metrics(env.episode.log).min_clearance_m == 1e9
 
 
+def test_a_deep_copy_after_reset_steps_on_as_the_original_and_apart_from_it():
+    """copy.deepcopy of the environment after reset() failed: its ORCA walkers hold navground's
+    objects ("cannot pickle 'navground.core._navground.GeometricState' object"). Now a copy
+    steps on as the original does, and stepping one copy leaves the others as they were."""
+    import copy
+    env = NavigationEnv()  # the default scene: ORCA walkers
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step([0.2, 0.2])
+    other, twin = copy.deepcopy(env), copy.deepcopy(env)
+    assert twin.episode.world.has_walkers and twin.episode.world is not env.episode.world
+    for _ in range(3):
+        other.step([-0.3, 0.3])
+    steps = 0
+    for k in range(40):
+        a = [0.1 + 0.02 * (k % 4), 0.15]
+        got, want = twin.step(a), env.step(a)
+        assert np.array_equal(got[0], want[0]) and got[1:] == want[1:]
+        steps += 1
+        if want[2] or want[3]:
+            break
+    assert steps >= 10 and twin.episode.world.counters["walker_steps"] > 0
+
+
+def test_an_expert_that_cannot_be_copied_makes_the_copy_a_clear_type_error():
+    import copy
+    env = NavigationEnv(expert="nn")
+    env.reset(seed=0)
+    with pytest.raises(TypeError, match=r"^NavigationEnv: expert 'nn' cannot be copied \(cannot pickle "
+                                        r"'.*InferenceSession' object\): make another environment"):
+        copy.deepcopy(env)
+
+
 def test_a_scenario_that_ends_before_the_first_step_is_refused_when_made(tmp_path):
     """Its reset() said the episode had timed out and the first step() then asked for a
     reset: any training loop stopped there."""

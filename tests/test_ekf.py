@@ -159,19 +159,42 @@ def test_missed_samples_between_the_first_two_measurements(gap):
 
 
 def test_a_glitch_is_gated_and_changes_nothing():
-    """A measurement 3 m off (6 m/s of velocity change in 0.5 s) is a sensor glitch: not
-    fused, the prediction and its covariance untouched, no ghost; the next good one is fused."""
+    """A measurement 3 m off (6 m/s of velocity change in 0.5 s) is not fused, the prediction
+    and its covariance untouched; its ghost stands there for the one sample that decides (a
+    glitch, or someone there: planned around either way); the next good one is fused and the
+    ghost is gone."""
     T = 0.5
     ekf = run_filter(T, 20, noise=0.02, seed=2)
     s0, p0 = ekf.state_.copy(), ekf.cov_.copy()
     x, y, _ = OBSTACLE.state_at(20 * T)
     _, p_pred = _matrix_step(ekf, s0, p0, None)  # the propagated covariance, independently
     assert ekf.step([x + 3.0, y]) == "outlier"
-    assert ekf.outliers_ == 1 and ekf.ghost() is None
+    assert ekf.outliers_ == 1
+    np.testing.assert_allclose(ekf.ghost().state_[:3], [x + 3.0, y, 0.0], atol=1e-15)
     np.testing.assert_allclose(ekf.state_, obstacle_model_step(s0, T), atol=1e-15)  # no update
     np.testing.assert_allclose(ekf.cov_, p_pred, rtol=1e-12, atol=1e-15)
     x, y, _ = OBSTACLE.state_at(21 * T)
-    assert ekf.step([x, y]) == "update"
+    assert ekf.step([x, y]) == "update" and ekf.ghost() is None and ekf.maneuvers_ == 0
+
+
+def test_an_id_that_comes_to_name_someone_elsewhere_is_followed_from_the_second_sample():
+    """A tracker reuses an id: the walker it named walked along x at 0.5 m/s; from one sample on
+    it names a person 3 m away walking along y at 0.6 m/s. The first measurement there is gated
+    (far beyond any manoeuvre) and its ghost stands there at once; the second agrees with it:
+    the track follows the new person, its velocity from the two. Until 2026-12-02 the first was
+    a glitch with no ghost, and the person was unseen, the track forecast where the old walker
+    would have been, until the third rejection restarted it."""
+    T = 0.5
+    ekf = ObstacleEKF(T)
+    for k in range(12):
+        ekf.step([0.5 * k * T, 0.0])
+    other = [(2.0, 3.0 + 0.6 * k * T) for k in range(3)]
+    assert ekf.step(other[0]) == "outlier"
+    np.testing.assert_allclose(ekf.ghost().state_[:2], other[0], atol=1e-15)
+    assert ekf.step(other[1]) == "manoeuvre" and ekf.ghost() is None
+    means, _ = ekf.predict(2)
+    np.testing.assert_allclose(means, [(2.0, 3.0 + 0.6 * 2 * T), (2.0, 3.0 + 0.6 * 3 * T)], atol=1e-9)
+    assert ekf.step(other[2]) == "update"
 
 
 def test_a_plausible_rejection_leaves_a_ghost_until_the_next_sample_decides():
@@ -246,9 +269,10 @@ def test_controller_counts_missed_measurements_and_outliers():
     for k, z in enumerate(zs):
         obs = Observation(k * T, RobotState(0.0, 0.0, 0.0), ref, (ObstacleMeasurement(0, z, 0.3),))
         forecasts = ctrl.estimate(obs)
-        assert len(forecasts) == 1 and forecasts[0].means_m.shape == (cfg.horizon, 2)
+        # the glitch's sample: the track and the ghost standing where it was measured
+        assert len(forecasts) == (2 if k == 8 else 1) and forecasts[0].means_m.shape == (cfg.horizon, 2)
     assert ctrl.counters["missed_measurements"] == 1
-    assert ctrl.counters["outliers"] == 1
+    assert ctrl.counters["outliers"] == 1 and ctrl.counters["ghosts"] == 1
 
 
 def _matrix_step(ekf: ObstacleEKF, s: np.ndarray, P: np.ndarray, z) -> tuple[np.ndarray, np.ndarray]:

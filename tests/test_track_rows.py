@@ -124,4 +124,6 @@ def test_the_track_estimates_from_the_rows_are_the_filters(made):
             batched += 1
             for x, y in zip(forecast_arrays(a), forecast_arrays(b)):
                 assert np.array_equal(x, y)
-    assert batched > 20 and (given > 40 if made else given == 0)
+    # (a sample with a ghost makes its forecasts when read: since every gated measurement has
+    # one, 2026-12-02, some 40 % of these samples, with their 5 % of glitches a walker)
+    assert batched > 20 and (given > 20 if made else given == 0)

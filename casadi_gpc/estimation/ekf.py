@@ -10,12 +10,13 @@ constant turn increment), with T the sample time::
     V' = V,  dtheta' = dtheta
 
 Measurements are positions with white noise. An innovation beyond the Mahalanobis gate is
-not fused. When it is within what the obstacle could have done in a sample
-(``EKFSettings.max_maneuver_mps``) and the next measurement is gated out too and agrees with
-it (however far from the prediction), the obstacle manoeuvred (stopped dead, or set off): the
-velocity is estimated afresh from the two, counted; meanwhile :meth:`ObstacleEKF.ghost` stands
-at the pending measurement for planners to avoid too. A run of ``max_rejections``
-rejections restarts the track at the last one. The model, its noise levels and the frozen
+not fused. When the next measurement is gated out too and agrees with it (within what the
+obstacle could have done in a sample, ``EKFSettings.max_maneuver_mps``, however far from the
+prediction), the obstacle manoeuvred (stopped dead, or set off), or its id now names someone
+elsewhere (a tracker that reuses ids): the velocity is estimated afresh from the two, counted;
+meanwhile :meth:`ObstacleEKF.ghost` stands at the pending measurement for planners to avoid
+too. A run of ``max_rejections`` rejections that do not agree restarts the track at the last
+one. The model, its noise levels and the frozen
 estimate with its forecast are :mod:`casadi_gpc.estimation.obstacle_model`'s. Numpy only (the
 deployed policy uses it).
 """
@@ -57,8 +58,8 @@ class ObstacleEKF:
     _rejections_in_row: int = 0
     _since_z: int = 0  # samples since the last fused measurement (_last_z)
     pending_z_: np.ndarray | None = None
-    """A plausible measurement gated out at the last step, waiting for the next one to tell a
-    glitch from a manoeuvre (:meth:`ghost`)."""
+    """A measurement gated out at the last step, waiting for the next one to tell a glitch
+    from a manoeuvre or a jump (:meth:`ghost`)."""
     _steps_since_first: int = 1  # samples between the first and the second measurement
     _s: tuple | None = field(default=None, repr=False)
     """The state ``(x, y, V, theta, dtheta)`` in plain floats; None before the first measurement."""
@@ -248,14 +249,13 @@ class ObstacleEKF:
         passed, corrected, N = _correct(x, y, v, th, dth, U, zx, zy, c[3], self.settings.gate_chi2)
         if not passed:
             T = self.sample_time_s
-            i0, i1 = zx - x, zy - y
             z = np.array((zx, zy))
             reach = self.settings.max_maneuver_mps * T
-            plausible = i0 * i0 + i1 * i1 <= reach * reach
             pending = self.pending_z_
             if pending is not None and np.hypot(*(z - pending)) <= reach:
-                # Two rejections in a row, the first plausible, the second agreeing with it: a
-                # manoeuvre (a walker that stops dead at its goal, turns, or sets off). The
+                # Two rejections in a row, the second agreeing with the first: a manoeuvre (a
+                # walker that stops dead at its goal, turns, or sets off), or, the first beyond
+                # any manoeuvre, a jump (the id now names someone elsewhere). The
                 # constant-velocity model has no say in it: the velocity is estimated afresh
                 # from the two. The second is judged by the first, not by the prediction: a
                 # person setting off at 0.7 m/s is 0.76 m from the stale one a second on, and
@@ -267,10 +267,13 @@ class ObstacleEKF:
                 return "manoeuvre"
             # Not fused: a sensor glitch, or the first sample of a manoeuvre (a walker that stops
             # is 0.25 m from its prediction after 0.5 s; gated out three times in a row, a
-            # stopped walker was predicted walking on and the planner drove into it). While
-            # the next sample decides, a plausible one is kept as pending: :meth:`ghost` is
-            # the obstacle standing there, for planners to keep clear of as well.
-            self.pending_z_ = z if plausible else None
+            # stopped walker was predicted walking on and the planner drove into it) or of a
+            # jump. While the next sample decides, it is kept as pending: :meth:`ghost` is the
+            # obstacle standing there, for planners to keep clear of as well. (Until 2026-12-02
+            # one farther than a manoeuvre was taken for a glitch, without a ghost: an id that
+            # came to name a person 3 m away left that person unseen until the third
+            # rejection, 1 s at T = 0.5 s.)
+            self.pending_z_ = z
             self._set((x, y, v, th, dth), U)
             self.outliers_ += 1
             self._rejections_in_row += 1
@@ -307,7 +310,7 @@ class ObstacleEKF:
         return [row[0] == 1.0 for row in out]
 
     def ghost(self) -> "ObstacleEKF | None":
-        """While a plausible measurement waits for confirmation (``pending_z_``): a filter of
+        """While a gated measurement waits for confirmation (``pending_z_``): a filter of
         the obstacle standing there, as if it had stopped (its speed as uncertain as two equal
         measurements leave it), for a planner to keep clear of beside the track itself; else
         None."""

@@ -85,11 +85,13 @@ class EKFSettings:
     gate_chi2: float = GATE_CHI2_2DOF
     """Mahalanobis gate of the innovation; larger innovations are rejected as outliers."""
     max_maneuver_mps: float = 1.5
-    """The largest change of velocity an obstacle makes within one sample: a measurement
-    beyond the gate but nearer its prediction than this times T may be a manoeuvre (a stop, a
-    swerve), which the next measurement confirms; a farther one is a sensor glitch."""
+    """The largest change of velocity an obstacle makes within one sample: two measurements
+    beyond the gate in a row, the second within this times T of the first, are a manoeuvre (a
+    stop, a swerve) or a jump (the id names someone elsewhere), the velocity estimated from the
+    two; a lone one is a sensor glitch."""
     max_rejections: int = 3
-    """After this many outliers in a row the track restarts at the new measurement."""
+    """After this many outliers in a row (that do not agree) the track restarts at the new
+    measurement."""
 
     def __post_init__(self):
         """Every number finite and not negative, the gate above 0 and ``max_rejections`` a whole

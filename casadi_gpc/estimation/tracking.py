@@ -106,7 +106,7 @@ class TrackBank:
         ``t_s`` (where the samples since the last step's time are k > 1, every filter first steps
         k - 1 samples without a measurement: :func:`missed_steps`);
         returns the ``(measurement, filter)`` pairs of the tracks that have a state, then
-        those of their ghosts (a gated, plausible measurement: the obstacle standing there,
+        those of their ghosts (a gated measurement: the obstacle standing there,
         :meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.ghost`), which every planner avoids as well.
         From :data:`UPDATED_TOGETHER` filters on, the initialised tracks' steps with a finite
         measurement are taken together (:meth:`~casadi_gpc.estimation.ekf.ObstacleEKF.update_together`:

@@ -5,8 +5,10 @@ run the paper's two passes, run the three Fig. 7 scenarios with the GPC and the 
 (bare, as the paper ran it, and behind the safety filter), run the two-pass scheme with the
 GPC in place of the network (the scheme's own limit), run the random suite with both, run
 the solver benchmark, and write figures, tables, report.md and results.json into --out.
-The figures use the `paper` preset; the full run's tables add the `improved` preset's rows
-(GPC, and the network shipped for it) on the same scenarios and suite.
+The pipeline runs under ``--preset`` (default `paper`: the paper reproduced; `improved` runs the
+same pipeline, the paper's scheme and network, under the `improved` planner); the full run's
+tables add the other preset's rows (its GPC, and the network shipped for it) on the same
+scenarios and suite.
 
 Each stage records a key of its inputs in DIR/stages.json; a stage whose outputs exist with
 the same key is not redone, so a stopped run picks up where it was."""
@@ -21,6 +23,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from casadi_gpc.config import PRESETS
 from casadi_gpc.io import write_json
 
 from ..errors import UsageError
@@ -48,7 +51,7 @@ class Sizes:
     epochs: int
     suite_count: int
     improved: bool
-    """Add the `improved` preset's rows (its GPC and shipped network) to the tables."""
+    """Add the other preset's rows (its GPC and shipped network) to the tables."""
 
 
 QUICK = Sizes(scheme="two-pass", samples=6000, tie_margin=None, dart_random_episodes=0, dart_encounter_episodes=0,
@@ -63,13 +66,18 @@ on them took 7 min); ``--quick`` labels 6000 to stay under 3 minutes."""
 PASSES = 2
 """The paper's two passes."""
 LIMIT_MODES = ("rollout", "plan")
+TABLE_ORDER = ("paper", "improved")
+"""The presets, in the order the full run's tables list them."""
 """The first pass of the two-pass GPC rows (:class:`nn_export.training.two_pass.TwoPassGPC`)."""
 
 
 def add_arguments(p):
     p.add_argument("--out", type=Path, required=True, help="output folder (created; a stopped run resumes)")
     p.add_argument("--quick", action="store_true",
-                   help="a smaller dataset and suite, the paper preset only (< 3 min on 2 cores)")
+                   help="a smaller dataset and suite, the run's preset only (< 3 min on 2 cores)")
+    p.add_argument("--preset", choices=sorted(PRESETS), default="paper",
+                   help="the planner the pipeline labels with, trains for and runs (default: paper, the paper "
+                        "reproduced; improved: the same scheme and network under the improved planner)")
     p.add_argument("--seed", type=int, default=0, help="seed of the dataset, the training and the suite")
     p.add_argument("--workers", type=int, default=usable_cores(), help="worker processes (default: one a core)")
 
@@ -123,13 +131,15 @@ def run(args) -> int:
     make_output_folder(out, "--out")
     st = _Stages(out)
     t_start = time.perf_counter()
-    presets = ("paper", "improved") if sizes.improved else ("paper",)
-    onnx = _label_train_export(st, out, sizes, args.seed, args.workers)
+    trained = args.preset
+    presets = TABLE_ORDER if sizes.improved else (trained,)
+    onnx = _label_train_export(st, out, sizes, args.seed, args.workers, trained)
     model_key = _file_digest(onnx)
-    run_files = _scenario_runs(st, out / "runs", onnx, model_key, presets)
-    limit_files = _scheme_limit(st, out / "runs", sizes)
-    eval_files = _suite_runs(st, out / "eval", onnx, model_key, sizes.suite_count, args.seed, args.workers, presets)
-    bench = _bench(st, out, onnx, model_key)
+    run_files = _scenario_runs(st, out / "runs", onnx, model_key, presets, trained)
+    limit_files = _scheme_limit(st, out / "runs", sizes, trained)
+    eval_files = _suite_runs(st, out / "eval", onnx, model_key, sizes.suite_count, args.seed, args.workers, presets,
+                             trained)
+    bench = _bench(st, out, onnx, model_key, trained)
     # total work: the stages' own times (a resumed run reuses finished stages and their times)
     write_report(out, sizes, args, run_files, eval_files, bench, st.timing, sum(st.timing.values()), environment(),
                  limit_files)
@@ -137,14 +147,16 @@ def run(args) -> int:
     return 0
 
 
-def _label_train_export(st: _Stages, out: Path, sizes: Sizes, seed: int, workers: int) -> Path:
+def _label_train_export(st: _Stages, out: Path, sizes: Sizes, seed: int, workers: int, trained: str) -> Path:
     """1. the labels (resumable by themselves), 2. the GPC's own states (DART rounds, the
-    ``sampled`` scheme), 3. training and export; returns the model file."""
+    ``sampled`` scheme), 3. training and export, all under the preset ``trained``; returns the
+    model file."""
     data, model_dir, onnx = out / "dataset", out / "model", out / "model.onnx"
     tie = [] if sizes.tie_margin is None else ["--tie-margin", sizes.tie_margin]
-    st.run("dataset", {"samples": sizes.samples, "seed": seed, "scheme": sizes.scheme, "tie_margin": sizes.tie_margin},
+    st.run("dataset", {"samples": sizes.samples, "seed": seed, "scheme": sizes.scheme, "tie_margin": sizes.tie_margin,
+                       **_preset_key(trained)},
            [data / "manifest.json"], lambda: _cli(
-               ["dataset", "--out", data, "--samples", sizes.samples, "--preset", "paper", "--seed", seed,
+               ["dataset", "--out", data, "--samples", sizes.samples, "--preset", trained, "--seed", seed,
                 "--workers", workers, "--scheme", sizes.scheme, *tie]))
     rounds = ((1, "random", sizes.dart_random_episodes, ["--dagger-noise", 0.05, "--start-offset", 1.2]),
               (2, "encounters", sizes.dart_encounter_episodes, ["--dagger-noise", 0.03]))
@@ -154,29 +166,35 @@ def _label_train_export(st: _Stages, out: Path, sizes: Sizes, seed: int, workers
             man = json.loads((data / "manifest.json").read_text())
             if episodes and f"gpc{r}" not in man.get("parts", {}):
                 _cli(["dataset", "--out", data, "--dagger", "gpc", "--dagger-suite", suite, "--round", r,
-                      "--episodes", episodes, "--preset", "paper", "--seed", seed, "--workers", workers, *extra, *tie])
+                      "--episodes", episodes, "--preset", trained, "--seed", seed, "--workers", workers, *extra, *tie])
     if any(r[2] for r in rounds):
         st.run("onpolicy", {"dataset": st.key("dataset"), "rounds": [r[:3] for r in rounds]},
                [data / "manifest.json"], onpolicy)
 
     def train():
-        _cli(["train", data, "--out", model_dir, "--preset", "paper", "--seed", seed, "--epochs", sizes.epochs])
+        _cli(["train", data, "--out", model_dir, "--preset", trained, "--seed", seed, "--epochs", sizes.epochs])
         _cli(["export", model_dir, "--out", onnx, "--passes", PASSES])
     st.run("train", {"data": st.key("onpolicy") or st.key("dataset"), "epochs": sizes.epochs, "seed": seed,
                      "passes": PASSES}, [onnx], train)
     return onnx
 
 
-def _scenario_runs(st: _Stages, runs: Path, onnx: Path, model_key: str, presets) -> dict:
+def _preset_key(trained: str) -> dict:
+    """The run's preset in a stage's key (left out for `paper`, so that a run begun before
+    ``--preset`` existed resumes as it was)."""
+    return {} if trained == "paper" else {"preset": trained}
+
+
+def _scenario_runs(st: _Stages, runs: Path, onnx: Path, model_key: str, presets, trained: str) -> dict:
     """5. the Fig. 7 scenarios: the GPC, and the network bare (``nn``, as the paper ran it)
-    and behind the safety filter (``nn+filter``); the `paper` network is the one just
-    trained, the `improved` one the shipped. Under `paper` also the network shipped for it,
-    bare (``shipped``: the smallest network the study found to meet the claim)."""
+    and behind the safety filter (``nn+filter``); the ``trained`` preset's network is the one
+    just trained, the other's the shipped. When `paper` is trained, also the network shipped
+    for it, bare (``shipped``: the smallest network the study found to meet the claim)."""
     from scenarios import PAPER_DIR, PAPER_NAMES
     run_files = {}
     for preset_name in presets:
         for name in PAPER_NAMES:
-            for ctrl in ("gpc", "nn", "nn+filter") + (("shipped",) if preset_name == "paper" else ()):
+            for ctrl in ("gpc", "nn", "nn+filter") + (("shipped",) if preset_name == trained == "paper" else ()):
                 run_files[(preset_name, name, ctrl)] = runs / f"{name}_{preset_name}_{ctrl}.json"
 
     def scenario_runs():
@@ -185,14 +203,15 @@ def _scenario_runs(st: _Stages, runs: Path, onnx: Path, model_key: str, presets)
                     "--preset", preset_name, "--out", path]
             if ctrl in ("nn", "shipped"):
                 argv.append("--no-safety-filter")
-            if ctrl in ("nn", "nn+filter") and preset_name == "paper":
+            if ctrl in ("nn", "nn+filter") and preset_name == trained:
                 argv += ["--model", onnx]
             _cli(argv)
-    st.run("scenarios", {"model": model_key, "presets": presets}, list(run_files.values()), scenario_runs)
+    st.run("scenarios", {"model": model_key, "presets": presets, **_preset_key(trained)}, list(run_files.values()),
+           scenario_runs)
     return run_files
 
 
-def _scheme_limit(st: _Stages, runs: Path, sizes: Sizes) -> dict:
+def _scheme_limit(st: _Stages, runs: Path, sizes: Sizes, trained: str) -> dict:
     """6. the paper's two-pass scheme with the GPC in place of the network on the Fig. 7
     scenarios (:class:`nn_export.training.two_pass.TwoPassGPC`, labels as the dataset's):
     how close a network that imitated its labels exactly would come, with the first pass
@@ -200,7 +219,7 @@ def _scheme_limit(st: _Stages, runs: Path, sizes: Sizes) -> dict:
     the GPC's obstacle-free open-loop plan as the prediction (``plan``, which no network
     with two outputs can give). Keys ``(scenario, mode)``."""
     from scenarios import PAPER_NAMES
-    files = {(name, mode): runs / f"{name}_paper_two-pass-gpc-{mode}.json" for name in PAPER_NAMES
+    files = {(name, mode): runs / f"{name}_{trained}_two-pass-gpc-{mode}.json" for name in PAPER_NAMES
              for mode in LIMIT_MODES}
 
     def limit():
@@ -211,18 +230,19 @@ def _scheme_limit(st: _Stages, runs: Path, sizes: Sizes) -> dict:
         from nn_export.training.labels import Labeller
         from nn_export.training.two_pass import TwoPassGPC
         from scenarios import paper_scenarios
-        config = preset("paper")
+        config = preset(trained)
         for sc in paper_scenarios():
             for mode in LIMIT_MODES:
                 oracle = TwoPassGPC(Labeller(config, sc.robot, tie_margin=sizes.tie_margin), mode)
                 write_json(files[(sc.name, mode)],
-                           run_document(simulate(sc, oracle, f"two-pass-gpc-{mode}"), {"preset": "paper"}))
-    st.run("scheme_limit", {"tie_margin": sizes.tie_margin, "modes": LIMIT_MODES}, list(files.values()), limit)
+                           run_document(simulate(sc, oracle, f"two-pass-gpc-{mode}"), {"preset": trained}))
+    st.run("scheme_limit", {"tie_margin": sizes.tie_margin, "modes": LIMIT_MODES, **_preset_key(trained)},
+           list(files.values()), limit)
     return files
 
 
 def _suite_runs(st: _Stages, evals: Path, onnx: Path, model_key: str, count: int, seed: int, workers: int,
-                presets) -> dict:
+                presets, trained: str) -> dict:
     """7. the random suite, both controllers (the network behind the safety filter)."""
     eval_files = {(p, c): evals / f"random_{p}_{c}.json" for p in presets for c in ("gpc", "nn")}
 
@@ -230,21 +250,23 @@ def _suite_runs(st: _Stages, evals: Path, onnx: Path, model_key: str, count: int
         for (preset_name, ctrl), path in eval_files.items():
             argv = ["evaluate", "--suite", "random", "--count", count, "--seed", seed, "--controller", ctrl,
                     "--preset", preset_name, "--workers", workers, "--out", path]
-            if ctrl == "nn" and preset_name == "paper":
+            if ctrl == "nn" and preset_name == trained:
                 argv += ["--model", onnx]
             _cli(argv)
-    st.run("suite", {"model": model_key, "count": count, "seed": seed, "presets": presets}, list(eval_files.values()),
-           suite_runs)
+    st.run("suite", {"model": model_key, "count": count, "seed": seed, "presets": presets, **_preset_key(trained)},
+           list(eval_files.values()), suite_runs)
     return eval_files
 
 
-def _bench(st: _Stages, out: Path, onnx: Path, model_key: str) -> Path:
-    """8. the benchmark: the GPC solvers and the network paths on the same recorded problems."""
+def _bench(st: _Stages, out: Path, onnx: Path, model_key: str, trained: str) -> Path:
+    """8. the benchmark: the GPC solvers and the network paths on the same recorded problems (the
+    crowd's decisions not pooled over ten crossings: the paper's network is not a crowd's, and
+    under `improved` the pooling took most of a quick run)."""
     from scenarios import PAPER_DIR
     bench = out / "bench.json"
-    st.run("bench", {"model": model_key}, [bench], lambda: _cli(
-        ["bench", PAPER_DIR / "fig7_2_crossing.toml", "--preset", "paper", "--model", onnx, "--out", bench,
-         "--plot", out / "bench_solvers.png"]))
+    st.run("bench", {"model": model_key, **_preset_key(trained)}, [bench], lambda: _cli(
+        ["bench", PAPER_DIR / "fig7_2_crossing.toml", "--preset", trained, "--model", onnx, "--crowd-episodes", 0,
+         "--out", bench, "--plot", out / "bench_solvers.png"]))
     return bench
 
 

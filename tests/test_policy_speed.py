@@ -25,6 +25,11 @@ recorded streams, every decision stayed the same and one reported clearance chan
 candidate's check at step 22 of ``paper_curvy``'s one-pass, filtered variant, whose best way
 out is now another manoeuvre); that value was re-recorded by the replay, nothing else.
 
+On 2026-12-02 the obstacle filter came to plan around every gated measurement (a ghost) and to
+follow two agreeing ones however far from the track (docs/model.md): the two ``curvy`` streams,
+whose measurements hold far glitches, were re-recorded in the keys that changed (their situations
+and decisions; ``paper_crossing`` has none and is as it was).
+
 Regenerate (only when the meaning of a decision is meant to change):
 ``python tests/test_policy_speed.py``.
 """
@@ -336,7 +341,7 @@ def test_the_policys_session_options_leave_the_outputs_bit_identical(model):
 
 
 @pytest.mark.benchmark
-@pytest.mark.parametrize("two_pass, at_most", [(True, 28.0), (False, 9.0)])
+@pytest.mark.parametrize("two_pass, at_most", [(True, 40.0), (False, 16.0)])
 def test_decision_costs_a_bounded_number_of_bare_network_calls(two_pass, at_most):
     """The whole decision (EKF update and forecast, reference, features, the H-step
     roll-out, the clearance test, pass 2) against the bare onnxruntime call, both measured
@@ -345,7 +350,12 @@ def test_decision_costs_a_bounded_number_of_bare_network_calls(two_pass, at_most
     bare calls (88 us / 4.3 us), one pass 5.9 (35 us / 6.0 us at load 4; about 11 before
     the one-pass decision was made lighter, branch nnspeed); before the decision path was
     rewritten for speed, 30 and 21 bare calls of the slower call of then (172 us and
-    120 us / 5.7 us)."""
+    120 us / 5.7 us). On another session's host (2026-12-02, load 1.5) the bare call took 3.6-4
+    us and the decisions the same 40-50 and 120-130 us: 11-13 and 30-33 bare calls, with the code
+    of 2026-12-01 and of 2026-12-02 alike (the bounds were 9 and 28: a ratio of a Python path
+    to a C++ call moves from host to host by half, so the bounds are 16 and 40, above both
+    hosts' readings; the decisions before the rewrite, 120 and 172 us, would read 33 and 48
+    of this host's bare calls)."""
     with np.load(_path("paper_crossing")) as f:
         obs = observations_from(dict(f))
     pol = OnnxPolicy(preset="paper", two_pass=two_pass)

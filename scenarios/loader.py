@@ -18,7 +18,7 @@ from .model import TRACK_BEHAVIOURS, Faults, MovingObstacleSpec, Scenario, Sensi
 
 __all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "BEHAVIOURS"]
 
-_NAME = re.compile(r"^[A-Za-z0-9_-]+$")
+_NAME = re.compile(r"[A-Za-z0-9_-]+")  # fullmatch: '$' would pass a trailing line break
 LARGEST = 1e9
 """The largest magnitude of a number in a scenario (m, s, degrees, m/s): beyond it a place,
 length or time is no scene a robot drives in (map coordinates such as UTM northings, up to
@@ -133,7 +133,7 @@ def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
     r = _Reader(source)
     r.table(data, "", _TOP_KEYS, {"name", "duration_s", "robot", "reference"})
     name = data["name"]
-    if not isinstance(name, str) or not _NAME.match(name):
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
         r.fail("name", "must be a string of ASCII letters, digits, '_' and '-' (it names files and episodes)")
     description = data.get("description", "")
     if not isinstance(description, str):

@@ -82,3 +82,20 @@ def test_paper_scenarios_reach_the_goal_without_collision_or_stopping(name):
         assert doc["longest_stop_s"] <= 2.0, results
         assert np.isfinite(doc["compute_time_s"]["median"]) and doc["compute_time_s"]["median"] > 0
     assert len(results) == 3
+
+
+def test_run_json_records_the_sensing_seed_simulate_ran_with(tmp_path):
+    """simulate --seed S overrides the file's sensing seed; RUN.json says which seed ran (until
+    2026-12-02 it said none, so a run with --seed 2 could not be told from one with the file's 0)."""
+    scene = PAPER_DIR / "fig7_2_crossing.toml"
+    docs = {}
+    for seed in (None, 2):
+        out = tmp_path / f"run-{seed}.json"
+        res = run_cli("simulate", scene, "--controller", "nn", "--out", out, *(["--seed", seed] if seed else []))
+        assert res.returncode == 0, res.stderr
+        docs[seed] = json.loads(out.read_text())
+    file_sensing = paper_scenarios()[1].sensing
+    assert docs[None]["sensing"] == {"position_noise_std_m": file_sensing.position_noise_std_m,
+                                     "seed": file_sensing.seed, "range_m": None}
+    assert docs[2]["sensing"]["seed"] == 2 and file_sensing.seed != 2
+    assert docs[2]["trajectory"] != docs[None]["trajectory"]  # the seed is what differs

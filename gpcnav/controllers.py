@@ -462,9 +462,11 @@ def _version(dist: str) -> str:
 
 def parse_controller_list(text: str) -> list[str]:
     """``"gpc,nn,orca"`` -> the names, in order, each once."""
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    if not names:
+    names = [n.strip() for n in text.split(",")]
+    if not any(names):
         raise UsageError("--controllers: give at least one controller")
+    if not all(names):  # 'nn,' or 'nn,,orca' (a variable unset): the others ran, the gap unsaid
+        raise UsageError(f"--controllers {text!r}: an empty name between commas")
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:  # dropped silently before: a one-row table where two were asked for
         raise UsageError(f"--controllers: {', '.join(twice)} given twice (each controller runs once)")

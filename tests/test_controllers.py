@@ -263,6 +263,14 @@ def test_a_controller_named_twice_in_a_comparison_is_refused():
     assert parse_controller_list("gpc, orca") == ["gpc", "orca"]
 
 
+@pytest.mark.parametrize("text", ["nn,", "nn,,stand", ",nn", "nn, ,stand"])
+def test_an_empty_name_in_a_comparison_s_list_is_refused(text):
+    """It was skipped: 'nn,' (a name left out, a shell variable unset) ran nn alone, unsaid."""
+    from gpcnav.controllers import parse_controller_list
+    with pytest.raises(UsageError, match="an empty name between commas"):
+        parse_controller_list(text)
+
+
 def test_an_evaluation_records_a_peer_s_own_sample_time(outside):
     r = _cli(outside, "evaluate", "empty.toml", "--controller", "orca", "--workers", "1", "--out", "e.json")
     assert r.returncode == 0, r.stderr

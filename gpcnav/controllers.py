@@ -42,7 +42,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, is_dataclass
 from pathlib import Path
 
-from .errors import ControllerError, UsageError
+from .errors import ControllerError, UsageError, comma_items
 
 __all__ = ["BUILTIN", "PEERS", "REGISTRY", "SHIELD_MODES", "DEFAULT_SHIELD", "Kind", "ControllerSpec", "make",
            "make_controller", "check", "check_settings", "shield_mode", "load_user_class", "describe", "spec_from_args",
@@ -462,11 +462,9 @@ def _version(dist: str) -> str:
 
 def parse_controller_list(text: str) -> list[str]:
     """``"gpc,nn,orca"`` -> the names, in order, each once."""
-    names = [n.strip() for n in text.split(",")]
-    if not any(names):
+    names = comma_items(text, "--controllers")  # 'nn,' was nn alone, the gap unsaid
+    if not names:
         raise UsageError("--controllers: give at least one controller")
-    if not all(names):  # 'nn,' or 'nn,,orca' (a variable unset): the others ran, the gap unsaid
-        raise UsageError(f"--controllers {text!r}: an empty name between commas")
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:  # dropped silently before: a one-row table where two were asked for
         raise UsageError(f"--controllers: {', '.join(twice)} given twice (each controller runs once)")

@@ -265,10 +265,14 @@ def test_a_controller_named_twice_in_a_comparison_is_refused():
 
 @pytest.mark.parametrize("text", ["nn,", "nn,,stand", ",nn", "nn, ,stand"])
 def test_an_empty_name_in_a_comparison_s_list_is_refused(text):
-    """It was skipped: 'nn,' (a name left out, a shell variable unset) ran nn alone, unsaid."""
+    """It was skipped: 'nn,' (a name left out, a shell variable unset) ran nn alone, unsaid;
+    bench --solvers and train --parts skipped theirs too (one rule, gpcnav.errors.comma_items)."""
+    from gpcnav.commands.bench import parse_solvers
     from gpcnav.controllers import parse_controller_list
-    with pytest.raises(UsageError, match="an empty name between commas"):
+    with pytest.raises(UsageError, match="--controllers .*: an empty item between commas"):
         parse_controller_list(text)
+    with pytest.raises(UsageError, match="--solvers .*: an empty item between commas"):
+        parse_solvers(text.replace("nn", "ipopt").replace("stand", "fatrop"))
 
 
 def test_an_evaluation_records_a_peer_s_own_sample_time(outside):

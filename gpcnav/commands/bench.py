@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..errors import UsageError
+from ..errors import UsageError, comma_items
 from .common import add_preset_arguments, check_output_files, for_run, planner_config, progress
 
 DEFAULT_SCENARIO = "fig7_2_crossing"
@@ -174,7 +174,7 @@ def pooled_summary(pooled: dict) -> list[str]:
 
 def parse_solvers(text: str) -> list[str]:
     from casadi_gpc.solvers import canonical_name
-    names = [s.strip() for s in text.split(",") if s.strip()]
+    names = comma_items(text, "--solvers")
     if not names:
         raise UsageError("--solvers: give at least one solver")
     try:

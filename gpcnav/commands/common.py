@@ -10,7 +10,7 @@ from pathlib import Path
 
 from casadi_gpc.config import DEFAULT_PRESET, PRESETS, preset
 
-from ..errors import UsageError
+from ..errors import UsageError, comma_items
 
 
 MAX_HORIZON = 24
@@ -129,10 +129,11 @@ def _setting_value(name: str, text: str, annotation: str):
     elif low == "none":
         value = None
     elif "tuple[str" in annotation:
-        value = tuple(v.strip() for v in text.split(",") if v.strip())
+        value = tuple(comma_items(text, f"--set {name}"))
     elif "tuple" in annotation:
+        items = comma_items(text, f"--set {name}")  # (1,,2 was 1,2)
         try:
-            value = tuple(float(v) for v in text.split(",") if v.strip()) if text.strip() else ()
+            value = tuple(float(v) for v in items)
         except ValueError:
             raise UsageError(f"--set {name}: expected comma-separated numbers, got {text!r}") from None
     else:

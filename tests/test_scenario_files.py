@@ -228,3 +228,16 @@ def test_simulate_refuses_a_missing_file(tmp_path):
     res = run_cli("simulate", tmp_path / "nothere.toml")
     assert res.returncode == 2
     assert len(res.stderr.splitlines()) == 1 and "nothere.toml" in res.stderr
+
+
+def test_a_description_with_line_breaks_and_control_characters_is_written_back_as_it_reads():
+    """scenarios.writer wrote a string as it was but for quotes and backslashes: a description with a
+    line break (a file may say "a\\nb") made a file no TOML reader takes."""
+    import tomllib
+    from scenarios import scenario_from_dict
+    from scenarios.writer import scenario_document, to_toml
+    doc = tomllib.loads(GOOD)
+    doc["description"] = 'two\nlines\r\n\ttab \x00 \x1f \x7f del "quoted" \\ back \u2028 \U0001F600'
+    sc = scenario_from_dict(doc)
+    again = scenario_from_dict(tomllib.loads(to_toml(scenario_document(sc))))
+    assert again.description == doc["description"] and again.name == sc.name

@@ -376,7 +376,9 @@ class NavigationEnv(Env):
         a = np.clip(raw, -vmax, vmax)
         if not np.isfinite(raw).all():  # braked for by the simulator (its events count it too)
             self._actions["non_finite_actions"] += 1
-        elif (a != raw).any():  # beyond the wheel limit: applied at the limit
+        elif (np.abs(raw) > float(np.float32(vmax))).any():  # beyond the wheel limit: applied at the limit
+            # (the action space's float32 bound, 0.800000012 for 0.8, is the limit, not beyond it: an action
+            # at the space's high, or the float32 expert_action at the limit, was counted as clipped)
             self._actions["clipped_actions"] += 1
         before = self._s_m
         outcome = self.episode.step(ControlDecision(float(a[0]), float(a[1])))

@@ -128,6 +128,20 @@ def test_actions_not_applied_as_given_are_counted_in_info(tmp_path):
     assert (info["clipped_actions"], info["non_finite_actions"]) == (0, 0)
 
 
+def test_an_action_at_the_action_space_s_float32_bound_is_not_counted_as_clipped(tmp_path):
+    """The Box's high is float32(0.8) = 0.800000012: an action the space contains, counted as clipped
+    (a GPC expert's float32 expert_action at the wheel limit was too, 7 of an episode's 30)."""
+    env = NavigationEnv(scenario=_file(tmp_path))
+    env.reset(seed=0)
+    high, low = env.action_space.high, env.action_space.low
+    assert env.action_space.contains(high) and float(high[0]) > 0.8
+    _, _, _, _, info = env.step(high)
+    _, _, _, _, info = env.step(low)
+    assert info["clipped_actions"] == 0
+    _, _, _, _, info = env.step(np.nextafter(high, np.float32(1.0)))  # the next float32 up: beyond the space
+    assert info["clipped_actions"] == 1
+
+
 def test_an_episode_driven_by_the_gpc_reaches_the_goal():
     env = NavigationEnv(scenario=PAPER_DIR / "fig7_1_head_on.toml", expert="gpc")
     obs, info = env.reset(seed=1)

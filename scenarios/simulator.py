@@ -22,6 +22,10 @@ __all__ = ["RunLog", "Episode", "simulate", "GOAL_TOLERANCE_M", "SUBSTEPS"]
 
 GOAL_TOLERANCE_M = 0.3
 SUBSTEPS = 20  # collision-check instants per sample interval (the contract asks for >= 10)
+CLIP_TOLERANCE_MPS = 1e-6
+"""A command clipped by less than this (m/s) is not counted in ``clipped_commands``: a float32
+number's rounding (float32(0.4) is 0.4 + 6e-9) made a controller that keeps to the limits in float32,
+as a network does, count every command clipped (the tolerance was 1e-9)."""
 
 
 @dataclass
@@ -222,7 +226,7 @@ class Episode:
             log.events["non_finite_commands"] = log.events.get("non_finite_commands", 0) + 1
         lim = np.clip(np.clip(cmd, self.state[3:] - dv_max, self.state[3:] + dv_max),
                       -robot.max_wheel_speed_mps, robot.max_wheel_speed_mps)
-        if np.any(np.abs(lim - cmd) > 1e-9):
+        if np.any(np.abs(lim - cmd) > CLIP_TOLERANCE_MPS):
             log.clipped_commands += 1
         L = self.interval_s()  # T, or less for a last interval cut at duration_s
         self.world.advance(t + L, self._robot_motion(self.state, lim, t))

@@ -341,3 +341,13 @@ def test_the_improved_gpc_does_not_swerve_from_an_obstacle_it_has_seen_once():
     log = simulate(sc, ctrl)
     assert np.max(np.abs(np.asarray(log.states)[:, 1])) < 0.05
     assert log.events["unestimated_tracks"] == 1
+
+
+def test_a_float32_command_within_the_limits_is_not_counted_as_clipped():
+    """float32(0.4) is 0.4 + 6e-9 m/s, beyond the first step's acceleration limit by its rounding: a
+    controller keeping to the limits in float32 (a network's outputs) had every command counted as
+    clipped. A command beyond them by a thousandth of a m/s still is."""
+    def ramp(excess):
+        return Scripted(lambda t, r: (np.float32(min(0.8, r.v_right_mps + 0.4) + excess),) * 2)
+    assert simulate(scenario(duration_s=3.0), ramp(0.0)).clipped_commands == 0
+    assert simulate(scenario(duration_s=3.0), ramp(1e-3)).clipped_commands == 6

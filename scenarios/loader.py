@@ -218,6 +218,8 @@ def _moving(r: _Reader, ob, f: str) -> MovingObstacleSpec | WalkerSpec | TrackSp
     if isinstance(ob, dict) and "track" in ob:
         return _track_mover(r, ob, f)
     behaviour = ob.get("behaviour", "constant") if isinstance(ob, dict) else "constant"
+    if behaviour == "replay":  # (it said: must be one of constant, orca, social_force)
+        r.fail(f"{f}.behaviour", "'replay' replays a recording: it needs a track = [[t_s, x_m, y_m], ...]")
     if behaviour not in BEHAVIOURS:
         r.fail(f"{f}.behaviour", f"must be one of {', '.join(BEHAVIOURS)}, got {behaviour!r}")
     own, other = (_CONSTANT_KEYS, _WALKER_KEYS) if behaviour == "constant" else (_WALKER_KEYS, _CONSTANT_KEYS)

@@ -74,6 +74,8 @@ BAD = [
     ("wrong_type_bool", edit("speed_mps = 0.4\n[[reference", "speed_mps = true\n[[reference"), "reference.speed_mps"),
     ("wrong_type_name", edit('name = "good_one"', "name = 3"), "name"),
     ("bad_name_chars", edit('name = "good_one"', 'name = "good one!"'), "name"),
+    ("replay_without_track", edit("turn_rate_deg_s = 0.0\n", 'turn_rate_deg_s = 0.0\nbehaviour = "replay"\n'),
+     "moving_obstacles[0].behaviour: 'replay' replays a recording: it needs a track"),
     ("name_trailing_line_break", edit('name = "good_one"', 'name = "good_one\\n"'), "name"),
     ("wrong_shape_position", edit("[robot]\nposition = [0.0, 0.0]", "[robot]\nposition = [0.0, 0.0, 1.0]"),
      "robot.position"),

@@ -133,9 +133,11 @@ class Episode:
         self.state[3:] = 0.0
         self.k = 0
         # the run ends at duration_s (CONTRACT.md): its last interval is cut there when duration_s is not a
-        # whole number of samples (a run shorter than one sample has none: a run of no sample)
+        # whole number of samples, the first too in a run shorter than one sample (a decision at t = 0, driven
+        # and checked up to duration_s: until 2026-12-02 such a run had none, and a mover that ran through the
+        # robot before duration_s left it timed out, its clearance the start's)
         whole = int(np.floor(scenario.duration_s / T + 1e-9))
-        self.n_steps = whole + int(whole > 0 and scenario.duration_s - whole * T > 1e-9)
+        self.n_steps = whole + int(scenario.duration_s - whole * T > 1e-9)
         self.done = False
         self._static_xy = np.array([s.position_m for s in scenario.static], dtype=float).reshape(-1, 2)
         self._radii = np.array([m.radius_m for m in scenario.moving] + [s.radius_m for s in scenario.static])

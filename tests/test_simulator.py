@@ -92,6 +92,21 @@ def test_the_run_ends_at_duration_s_not_at_the_sample_before_it():
     assert short.outcome == "timed_out" and short.end_time_s == pytest.approx(10.0)
 
 
+def test_a_run_shorter_than_one_sample_is_driven_and_checked_up_to_duration_s():
+    """A controller deciding every 100 s in a 10 s scene (or a scene shorter than 0.5 s): the one
+    interval, cut at duration_s, is decided at t = 0, driven and checked. It had no interval at all,
+    so a mover running through the standing robot at 1.1 s left it timed out, its clearance the
+    start's 2.35 m."""
+    ob = MovingObstacleSpec((3.0, 0.0), math.pi, 1.0, 0.3)  # the discs touch at 2.35 s
+    slow = Scripted(lambda t, r: (0.0, 0.0), sample_time_s=100.0)
+    log = simulate(scenario(moving=[ob], duration_s=10.0), slow)
+    assert log.outcome == "collided" and 2.35 - 1e-9 <= log.end_time_s <= 2.35 + 10.0 / SUBSTEPS + 1e-9
+    assert len(log.decisions) == 1 and log.min_clearance_m < 0
+    log = simulate(scenario(duration_s=0.3), straight(0.4))  # 0.3 s of a 0.5 s sample: driven
+    assert log.outcome == "timed_out" and len(log.decisions) == 1 and log.t[-1] == pytest.approx(0.3)
+    assert log.states[-1][0] > 0.0
+
+
 def test_time_limit_gives_timed_out():
     log = simulate(scenario(duration_s=7.5), straight(0.4))
     assert log.outcome == "timed_out"

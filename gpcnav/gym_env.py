@@ -217,7 +217,6 @@ class NavigationEnv(Env):
                 raise ValueError(f"{', '.join(given + ['suite_seed'] * bool(suite_seed))}: options of a suite, not of "
                                  f"scenario={scenario!s} (a file runs as it is)")
             self._file_scenario = load_scenario(scenario)
-            self._check_duration(self._file_scenario)
         else:
             from scenarios import Suite
             from scenarios.suites import check_suite_options
@@ -273,14 +272,6 @@ class NavigationEnv(Env):
                              f"{self.sample_time_s} s")
 
     # --- episodes ----------------------------------------------------------------------
-    def _check_duration(self, scenario) -> None:
-        """Refuse a scenario whose episode would end before its first step (the first
-        ``step()`` then said "call reset() first" just after ``reset()``)."""
-        if scenario.duration_s < self.sample_time_s:
-            raise ValueError(f"{scenario.source or scenario.name}: duration_s {scenario.duration_s:g} s is shorter than "
-                             f"one step of the environment ({self.sample_time_s:g} s): an episode would end before its "
-                             f"first step")
-
     def _next_scenario(self, options: dict | None):
         unknown = sorted(map(str, set(options or {}) - {"index"}))
         if unknown:  # (a misspelt "idx" was taken and ignored: a random episode ran)
@@ -350,7 +341,6 @@ class NavigationEnv(Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         scenario = self._next_scenario(options)
-        self._check_duration(scenario)
         self.episode = Episode(scenario, self.sample_time_s, self.expert_name or "gym")
         self._bank = TrackBank(self.sample_time_s, EKFSettings().for_sample_time(self.sample_time_s))
         self._actions = {"clipped_actions": 0, "non_finite_actions": 0}

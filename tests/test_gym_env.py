@@ -203,11 +203,16 @@ def test_walls_give_the_expert_wall_slots_and_count_in_the_clearance(tmp_path):
     assert plain.expert.config.max_walls == 0 and info["clearance_m"] == math.inf
 
 
-def test_a_scenario_that_ends_before_the_first_step_is_refused_when_made(tmp_path):
-    """Its reset() said the episode had timed out and the first step() then asked for a
-    reset: any training loop stopped there."""
-    with pytest.raises(ValueError, match="shorter than one step of the environment"):
-        NavigationEnv(scenario=_file(tmp_path, duration=0.1))
+def test_a_scenario_shorter_than_one_step_has_one_step_cut_at_its_duration(tmp_path):
+    """Its reset() said the episode had timed out and the first step() then asked for a reset (any
+    training loop stopped there), so such a file was refused when the environment was made; the
+    simulator now runs it as one interval cut at duration_s, as the last of a longer run."""
+    short = NavigationEnv(scenario=_file(tmp_path, duration=0.1))
+    _, info = short.reset(seed=0)
+    assert info["outcome"] == "running"
+    *_, terminated, truncated, info = short.step(np.zeros(2, dtype=np.float32))
+    assert truncated and not terminated and info["outcome"] == "timed_out"
+    assert short.unwrapped.episode.log.t[-1] == pytest.approx(0.1)  # driven up to duration_s
     env = NavigationEnv(scenario=_file(tmp_path, duration=0.5))  # one step: it can be taken
     env.reset(seed=0)
     *_, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))

@@ -258,13 +258,16 @@ def load_user_class(text: str) -> type:
 
 
 def _check_protocol(text: str, controller) -> None:
-    """Refuse, in one line, an object that does not answer the Policy protocol."""
-    missing = [m for m in ("decide", "reset") if not callable(getattr(controller, m, None))]
+    """Refuse, in one line, an object that does not answer the Policy protocol, or raises when read."""
+    try:  # (a sample_time_s property that raised was a traceback, exit 1)
+        missing = [m for m in ("decide", "reset") if not callable(getattr(controller, m, None))]
+        T = getattr(controller, "sample_time_s", None)
+    except Exception as exc:  # noqa: BLE001  (the user's code)
+        raise UsageError(f"--controller {text}: reading its Policy protocol raised {_one_line(exc)}") from None
     if missing:
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (no {' and no '.join(missing)}"
                          f" method; see README, 'Your own controller')")
     from casadi_gpc.types import positive_seconds
-    T = getattr(controller, "sample_time_s", None)
     if not positive_seconds(T):  # numpy's numbers too
         raise UsageError(f"--controller {text}: does not answer the Policy protocol (sample_time_s must be a "
                          f"positive number of seconds, got {T!r})")

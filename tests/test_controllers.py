@@ -62,6 +62,11 @@ USER_MODULE = textwrap.dedent('''
     class RaisesInReset(MyPolicy):
         def reset(self):
             raise KeyError("calibration")
+
+    class SampleTimeRaises(MyPolicy):
+        @property
+        def sample_time_s(self):
+            raise RuntimeError("no clock yet")
 ''')
 
 
@@ -158,6 +163,8 @@ def test_a_user_class_from_outside_the_project_runs_in_simulate_and_evaluate(out
     ("mymod:Missing", "module 'mymod' has no class 'Missing'"),
     ("mymod:NoDecide", "does not answer the Policy protocol (no decide method"),
     ("mymod:NeedsArguments", "cannot be made with no arguments"),
+    # (a traceback, exit 1)
+    ("mymod:SampleTimeRaises", "reading its Policy protocol raised RuntimeError: no clock yet"),
     ("nonsense", "not a controller"),
 ])
 def test_a_controller_that_cannot_be_loaded_exits_2_with_one_line(outside, name, message):

@@ -313,7 +313,8 @@ class NavigationEnv(Env):
             vel = ekf.velocity_mps
             tracks.append((x, y, *vel, m.radius_m))
         vec = observation_vector(obs, tracks, self.layout, self.sample_time_s)
-        info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.t_s,
+        # t_s: once ended, when it ended (duration_s, a contact): the next sample's 10.5 s in a 10.25 s run
+        info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.log.end_time_s if ep.done else ep.t_s,
                 "clearance_m": self._clearance_now(), "min_clearance_m": float(ep.log.min_clearance_m),
                 "scenario": ep.scenario.name, **self._actions}
         expert = self.expert

@@ -213,6 +213,7 @@ def test_a_scenario_shorter_than_one_step_has_one_step_cut_at_its_duration(tmp_p
     *_, terminated, truncated, info = short.step(np.zeros(2, dtype=np.float32))
     assert truncated and not terminated and info["outcome"] == "timed_out"
     assert short.unwrapped.episode.log.t[-1] == pytest.approx(0.1)  # driven up to duration_s
+    assert info["t_s"] == pytest.approx(0.1)  # (it said 0.5 s, the next sample's time, past the end)
     env = NavigationEnv(scenario=_file(tmp_path, duration=0.5))  # one step: it can be taken
     env.reset(seed=0)
     *_, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))

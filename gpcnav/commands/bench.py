@@ -198,7 +198,7 @@ def run(args) -> int:
                          f"--controller nn")
     if args.shield and not args.controller:  # (it ran the whole bench, the option doing nothing)
         raise UsageError("--shield puts the --controller rows behind the check layer: give --controller NAME")
-    check_output_files(out=args.out, plot=args.plot)
+    check_output_files(inputs=[args.scenario], models=[args.model], out=args.out, plot=args.plot)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")
     if scenario.duration_s < config.sample_time_s:

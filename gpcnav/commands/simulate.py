@@ -54,7 +54,7 @@ def run(args) -> int:
     from scenarios import load_scenario
     from casadi_gpc.io import save_figure, write_json
     check_seed(args.seed)
-    check_output_files(inputs=[args.scenario], out=args.out, plot=args.plot, animate=args.animate)
+    check_output_files(inputs=[args.scenario], models=[args.model], out=args.out, plot=args.plot, animate=args.animate)
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)

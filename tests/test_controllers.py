@@ -158,6 +158,12 @@ def test_a_user_class_from_outside_the_project_runs_in_simulate_and_evaluate(out
     assert "gpcnav evaluate: empty.toml given more than once: each run counts" in r.stderr
 
 
+def test_a_name_of_no_controller_in_compare_s_list_is_named_as_compare_s_option(outside):
+    """It was said to be --controller's, an option compare was not given."""
+    r = _cli(outside, "compare", "empty.toml", "--controllers", "stand,NN", "--workers", "1", timeout=120)
+    assert r.returncode == 2 and r.stderr.startswith("gpcnav compare: error: --controllers 'NN': not a controller")
+
+
 @pytest.mark.parametrize("name, message", [
     ("nosuchmodule:MyPolicy", "cannot import module 'nosuchmodule'"),
     ("mymod:Missing", "module 'mymod' has no class 'Missing'"),

@@ -203,7 +203,7 @@ def run(args) -> int:
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")
     if scenario.duration_s < config.sample_time_s:
         raise UsageError(f"{scenario.source or scenario.name}: duration_s {scenario.duration_s:g} s is shorter than one "
-                         f"sample ({config.sample_time_s:g} s): the planner makes no decision there, nothing to time")
+                         f"sample ({config.sample_time_s:g} s): one decision cut short, nothing to time")
 
     def say(msg):
         print(msg, file=sys.stderr, flush=True)

@@ -42,7 +42,8 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, is_dataclass
 from pathlib import Path
 
-from .errors import MIN_SAMPLE_TIME_S, ControllerError, UsageError
+from .errors import UsageError, comma_items
+from .user_controllers import UserController, make_user, one_line as _one_line
 
 __all__ = ["BUILTIN", "PEERS", "REGISTRY", "SHIELD_MODES", "DEFAULT_SHIELD", "Kind", "ControllerSpec", "make",
            "make_controller", "check", "check_settings", "shield_mode", "load_user_class", "describe", "spec_from_args",
@@ -219,11 +220,6 @@ class ControllerSpec:
         return self.name not in BUILTIN
 
 
-def _one_line(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
 def check_controller_name(name: str, what: str = "--controller") -> None:
     """Refuse (``ValueError`` naming ``what``) a name that is neither a built-in controller nor
     ``MODULE:CLASS`` in form; the class itself is imported when the controller is made."""
@@ -257,62 +253,6 @@ def load_user_class(text: str) -> type:
     return obj
 
 
-def _check_protocol(text: str, controller) -> None:
-    """Refuse, in one line, an object that does not answer the Policy protocol."""
-    missing = [m for m in ("decide", "reset") if not callable(getattr(controller, m, None))]
-    if missing:
-        raise UsageError(f"--controller {text}: does not answer the Policy protocol (no {' and no '.join(missing)}"
-                         f" method; see README, 'Your own controller')")
-    from casadi_gpc.types import positive_seconds
-    T = getattr(controller, "sample_time_s", None)
-    if not positive_seconds(T):  # numpy's numbers too
-        raise UsageError(f"--controller {text}: does not answer the Policy protocol (sample_time_s must be a "
-                         f"positive number of seconds, got {T!r})")
-    if T < MIN_SAMPLE_TIME_S:  # --sample-time's rule (1e-9 s was taken: 4e10 decisions for 40 s)
-        raise UsageError(f"--controller {text}: sample_time_s must be at least {MIN_SAMPLE_TIME_S} s, as "
-                         f"--sample-time's, got {float(T):g} (one decision per sample)")
-
-
-def _make_user(text: str):
-    cls = load_user_class(text)
-    try:
-        controller = cls()
-    except Exception as exc:  # noqa: BLE001
-        raise UsageError(f"--controller {text}: cannot be made with no arguments ({_one_line(exc)})") from None
-    _check_protocol(text, controller)
-    return UserController(text, controller)
-
-
-class UserController:
-    """A user's class (``MODULE:CLASS``) as the commands run it: its ``reset()`` and
-    ``decide()`` called as they are, an exception of theirs a :class:`ControllerError` of one
-    line (the class, the instant, the error; the traceback kept as its cause), every other
-    attribute the class's own. ``wrapped``: the user's object."""
-
-    def __init__(self, text: str, wrapped):
-        self.text, self.wrapped = text, wrapped
-
-    def __getattr__(self, name):  # (not the proxy's own, nor a special name: a copy or pickle made before __init__)
-        if name in ("text", "wrapped") or name.startswith("__"):
-            raise AttributeError(name)
-        return getattr(self.wrapped, name)
-
-    def reset(self) -> None:
-        try:
-            self.wrapped.reset()
-        except Exception as exc:  # noqa: BLE001  (the user's code: any error of theirs)
-            raise ControllerError(f"--controller {self.text}: reset() raised {_one_line(exc)}") from exc
-
-    def decide(self, observation):
-        from casadi_gpc.types import checked_decision
-        try:
-            decision = self.wrapped.decide(observation)
-        except Exception as exc:  # noqa: BLE001
-            raise ControllerError(f"--controller {self.text}: decide() raised at t = {float(observation.t_s):g} s: "
-                                  f"{_one_line(exc)}") from exc
-        return checked_decision(decision, self.wrapped, numbers=True)  # named as the user's class
-
-
 def _make_peer(name: str, config, robot):
     if name == "mppi":
         try:
@@ -342,7 +282,7 @@ def _make_base(spec: ControllerSpec, config, robot):
     if spec.name in BASELINES:
         from .peers.baselines import BlindTracker, StandStill
         return (StandStill if spec.name == "stand" else BlindTracker)(robot)
-    return _make_peer(spec.name, config, robot) if spec.name in PEERS else _make_user(spec.name)
+    return _make_peer(spec.name, config, robot) if spec.name in PEERS else make_user(spec.name, load_user_class(spec.name))
 
 
 def make(spec: ControllerSpec, config, robot):
@@ -465,7 +405,7 @@ def _version(dist: str) -> str:
 
 def parse_controller_list(text: str) -> list[str]:
     """``"gpc,nn,orca"`` -> the names, in order, each once."""
-    names = [n.strip() for n in text.split(",") if n.strip()]
+    names = comma_items(text, "--controllers")  # 'nn,' was nn alone, the gap unsaid
     if not names:
         raise UsageError("--controllers: give at least one controller")
     twice = sorted({n for n in names if names.count(n) > 1})

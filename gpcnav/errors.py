@@ -14,3 +14,13 @@ MIN_SAMPLE_TIME_S = 0.05
 ``MODULE:CLASS`` controller's ``sample_time_s``): an episode is one decision per sample, so shorter
 ones multiply its length (a 40 s scenario at 0.05 s is 800 decisions, at 1e-6 s forty million); the
 presets use 0.5 and 1.5 s."""
+
+
+def comma_items(text: str, option: str) -> list[str]:
+    """The comma-separated items of ``text`` (an option's list), stripped; an empty item between
+    commas (``nn,``, ``1,,2``: a name or number left out, a shell variable unset) is a
+    :class:`UsageError` naming ``option``, not skipped. Empty ``text`` is no item."""
+    items = [v.strip() for v in text.split(",")] if text.strip() else []
+    if not all(items):
+        raise UsageError(f"{option} {text!r}: an empty item between commas")
+    return items

@@ -218,7 +218,6 @@ class NavigationEnv(Env):
                 raise ValueError(f"{', '.join(given + ['suite_seed'] * bool(suite_seed))}: options of a suite, not of "
                                  f"scenario={scenario!s} (a file runs as it is)")
             self._file_scenario = load_scenario(scenario)
-            self._check_duration(self._file_scenario)
         else:
             from scenarios import Suite
             from scenarios.suites import check_suite_options
@@ -274,14 +273,6 @@ class NavigationEnv(Env):
                              f"{self.sample_time_s} s")
 
     # --- episodes ----------------------------------------------------------------------
-    def _check_duration(self, scenario) -> None:
-        """Refuse a scenario whose episode would end before its first step (the first
-        ``step()`` then said "call reset() first" just after ``reset()``)."""
-        if scenario.duration_s < self.sample_time_s:
-            raise ValueError(f"{scenario.source or scenario.name}: duration_s {scenario.duration_s:g} s is shorter than "
-                             f"one step of the environment ({self.sample_time_s:g} s): an episode would end before its "
-                             f"first step")
-
     def _next_scenario(self, options: dict | None):
         unknown = sorted(map(str, set(options or {}) - {"index"}))
         if unknown:  # (a misspelt "idx" was taken and ignored: a random episode ran)
@@ -323,7 +314,8 @@ class NavigationEnv(Env):
             vel = ekf.velocity_mps
             tracks.append((x, y, *vel, m.radius_m))
         vec = observation_vector(obs, tracks, self.layout, self.sample_time_s)
-        info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.t_s,
+        # t_s: once ended, when it ended (duration_s, a contact): the next sample's 10.5 s in a 10.25 s run
+        info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.log.end_time_s if ep.done else ep.t_s,
                 "clearance_m": self._clearance_now(), "min_clearance_m": float(ep.log.min_clearance_m),
                 "scenario": ep.scenario.name, **self._actions}
         expert = self.expert
@@ -351,7 +343,6 @@ class NavigationEnv(Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         scenario = self._next_scenario(options)
-        self._check_duration(scenario)
         self.episode = Episode(scenario, self.sample_time_s, self.expert_name or "gym")
         self._bank = TrackBank(self.sample_time_s, EKFSettings().for_sample_time(self.sample_time_s))
         self._actions = {"clipped_actions": 0, "non_finite_actions": 0}
@@ -396,7 +387,9 @@ class NavigationEnv(Env):
         a = np.clip(raw, -vmax, vmax)
         if not np.isfinite(raw).all():  # braked for by the simulator (its events count it too)
             self._actions["non_finite_actions"] += 1
-        elif (a != raw).any():  # beyond the wheel limit: applied at the limit
+        elif (np.abs(raw) > float(np.float32(vmax))).any():  # beyond the wheel limit: applied at the limit
+            # (the action space's float32 bound, 0.800000012 for 0.8, is the limit, not beyond it: an action
+            # at the space's high, or the float32 expert_action at the limit, was counted as clipped)
             self._actions["clipped_actions"] += 1
         before = self._s_m
         outcome = self.episode.step(ControlDecision(float(a[0]), float(a[1])))

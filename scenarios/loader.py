@@ -18,7 +18,7 @@ from .model import TRACK_BEHAVIOURS, Faults, MovingObstacleSpec, Scenario, Sensi
 
 __all__ = ["ScenarioError", "load_scenario", "scenario_from_dict", "BEHAVIOURS"]
 
-_NAME = re.compile(r"^[A-Za-z0-9_-]+$")
+_NAME = re.compile(r"[A-Za-z0-9_-]+")  # fullmatch: '$' would pass a trailing line break
 LARGEST = 1e9
 """The largest magnitude of a number in a scenario (m, s, degrees, m/s): beyond it a place,
 length or time is no scene a robot drives in (map coordinates such as UTM northings, up to
@@ -133,7 +133,7 @@ def scenario_from_dict(data: dict, source: str = "<scenario>") -> Scenario:
     r = _Reader(source)
     r.table(data, "", _TOP_KEYS, {"name", "duration_s", "robot", "reference"})
     name = data["name"]
-    if not isinstance(name, str) or not _NAME.match(name):
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
         r.fail("name", "must be a string of ASCII letters, digits, '_' and '-' (it names files and episodes)")
     description = data.get("description", "")
     if not isinstance(description, str):
@@ -218,6 +218,8 @@ def _moving(r: _Reader, ob, f: str) -> MovingObstacleSpec | WalkerSpec | TrackSp
     if isinstance(ob, dict) and "track" in ob:
         return _track_mover(r, ob, f)
     behaviour = ob.get("behaviour", "constant") if isinstance(ob, dict) else "constant"
+    if behaviour == "replay":  # (it said: must be one of constant, orca, social_force)
+        r.fail(f"{f}.behaviour", "'replay' replays a recording: it needs a track = [[t_s, x_m, y_m], ...]")
     if behaviour not in BEHAVIOURS:
         r.fail(f"{f}.behaviour", f"must be one of {', '.join(BEHAVIOURS)}, got {behaviour!r}")
     own, other = (_CONSTANT_KEYS, _WALKER_KEYS) if behaviour == "constant" else (_WALKER_KEYS, _CONSTANT_KEYS)

@@ -272,6 +272,9 @@ def run_document(log: RunLog, extra: dict | None = None) -> dict:
         "reference": {"x": np.asarray(log.ref_poses)[:, 0].tolist(), "y": np.asarray(log.ref_poses)[:, 1].tolist()},
         "obstacles": obstacles,
         "walls": [{"points": [list(pt) for pt in w.points]} for w in getattr(sc, "walls", ())],
+        # the measurements' noise and its seed (simulate --seed overrides the file's): what reruns the episode
+        "sensing": {"position_noise_std_m": sc.sensing.position_noise_std_m, "seed": sc.sensing.seed,
+                    "range_m": sc.sensing.range_m},
     }
     doc.update(extra or {})
     return doc

@@ -22,6 +22,10 @@ __all__ = ["RunLog", "Episode", "simulate", "GOAL_TOLERANCE_M", "SUBSTEPS"]
 
 GOAL_TOLERANCE_M = 0.3
 SUBSTEPS = 20  # collision-check instants per sample interval (the contract asks for >= 10)
+CLIP_TOLERANCE_MPS = 1e-6
+"""A command clipped by less than this (m/s) is not counted in ``clipped_commands``: a float32
+number's rounding (float32(0.4) is 0.4 + 6e-9) made a controller that keeps to the limits in float32,
+as a network does, count every command clipped (the tolerance was 1e-9)."""
 
 
 @dataclass
@@ -129,9 +133,11 @@ class Episode:
         self.state[3:] = 0.0
         self.k = 0
         # the run ends at duration_s (CONTRACT.md): its last interval is cut there when duration_s is not a
-        # whole number of samples (a run shorter than one sample has none: a run of no sample)
+        # whole number of samples, the first too in a run shorter than one sample (a decision at t = 0, driven
+        # and checked up to duration_s: until 2026-12-02 such a run had none, and a mover that ran through the
+        # robot before duration_s left it timed out, its clearance the start's)
         whole = int(np.floor(scenario.duration_s / T + 1e-9))
-        self.n_steps = whole + int(whole > 0 and scenario.duration_s - whole * T > 1e-9)
+        self.n_steps = whole + int(scenario.duration_s - whole * T > 1e-9)
         self.done = False
         self._static_xy = np.array([s.position_m for s in scenario.static], dtype=float).reshape(-1, 2)
         self._radii = np.array([m.radius_m for m in scenario.moving] + [s.radius_m for s in scenario.static])
@@ -222,7 +228,7 @@ class Episode:
             log.events["non_finite_commands"] = log.events.get("non_finite_commands", 0) + 1
         lim = np.clip(np.clip(cmd, self.state[3:] - dv_max, self.state[3:] + dv_max),
                       -robot.max_wheel_speed_mps, robot.max_wheel_speed_mps)
-        if np.any(np.abs(lim - cmd) > 1e-9):
+        if np.any(np.abs(lim - cmd) > CLIP_TOLERANCE_MPS):
             log.clipped_commands += 1
         L = self.interval_s()  # T, or less for a last interval cut at duration_s
         self.world.advance(t + L, self._robot_motion(self.state, lim, t))

@@ -7,6 +7,17 @@ import math
 
 __all__ = ["scenario_document", "to_toml"]
 
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\n": "\\n", "\t": "\\t", "\r": "\\r", "\b": "\\b", "\f": "\\f"}
+
+
+def _escaped(c: str) -> str:
+    """One character of a TOML basic string: a quote, a backslash and the control characters
+    TOML takes only escaped (U+0000 to U+001F, U+007F) escaped; a description with a line break was
+    written as it was, which no TOML reader takes."""
+    if c in _ESCAPES:
+        return _ESCAPES[c]
+    return f"\\u{ord(c):04X}" if ord(c) < 0x20 or ord(c) == 0x7F else c
+
 
 def _value(v) -> str:
     if isinstance(v, bool):
@@ -14,7 +25,7 @@ def _value(v) -> str:
     if isinstance(v, (int, float)):
         return repr(float(v)) if isinstance(v, float) else str(v)
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + "".join(_escaped(c) for c in v) + '"'
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_value(x) for x in v) + "]"
     raise TypeError(f"cannot write {type(v).__name__} to TOML")

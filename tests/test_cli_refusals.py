@@ -236,6 +236,30 @@ def test_an_output_that_is_the_scenario_file_is_refused_and_the_file_kept(comman
         assert md.read_text() == SCENE.read_text()
 
 
+@pytest.mark.parametrize("command", ["simulate", "evaluate", "compare", "bench"])
+def test_an_output_that_is_the_model_file_or_bench_s_scenario_is_refused_and_the_file_kept(command, tmp_path):
+    """``--out M.onnx`` with ``--model M.onnx`` wrote the run's JSON over the model it had run (exit 0;
+    evaluate, compare and bench then failed on the model at their next run), and bench's ``--out``
+    was not checked against its scenario file."""
+    from nn_export.runtime.policy import shipped_model_path
+    model = tmp_path / "m.onnx"
+    model.write_bytes(shipped_model_path("improved").read_bytes())
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE.read_text())
+    ctl = {"compare": ["--controllers", "nn,stand"], "bench": ["--solvers", "sqpmethod-daqp+fatrop"]}.get(
+        command, ["--controller", "nn"])
+    outs = [("m.onnx", "is the model file")] + [("scene.toml", "is the scenario file")] * (command == "bench")
+    for out, words in outs:
+        proc = subprocess.run([sys.executable, "-m", "gpcnav", command, "scene.toml", *ctl, "--model", "m.onnx",
+                               "--out", out], capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                              env={**os.environ, "PYTHONPATH": str(REPO)})
+        assert proc.returncode == 2, proc.stderr[-2000:]
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and f"--out {out} {words}" in lines[0], proc.stderr
+    assert model.read_bytes() == shipped_model_path("improved").read_bytes()
+    assert scene.read_text() == SCENE.read_text()
+
+
 def test_bench_on_a_scene_shorter_than_one_sample_is_refused_before_any_work(tmp_path):
     """It recorded no problem and stopped on a division by zero after building every solver."""
     short = tmp_path / "short.toml"

@@ -59,6 +59,9 @@ def test_values_are_read_as_the_setting_s_type():
     ("guesses=straight,bogus", "unknown initial guesses"),
     ("guesses=", "give at least one initial guess"),  # (the planner never solved: the robot stood all run)
     ("cold_starts=1 cold_starts=2", "cold_starts: given twice"),  # (the last ran, the first was said nowhere)
+    # an item left out between commas was skipped: 1,,2 ran as 1,2
+    ("beyond_horizon_s=1,,2", "beyond_horizon_s '1,,2': an empty item between commas"),
+    ("guesses=straight,", "guesses 'straight,': an empty item between commas"),
 ])
 def test_bad_settings_are_refused_in_one_line(item, words):
     with pytest.raises(UsageError, match=words):

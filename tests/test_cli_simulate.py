@@ -82,3 +82,32 @@ def test_paper_scenarios_reach_the_goal_without_collision_or_stopping(name):
         assert doc["longest_stop_s"] <= 2.0, results
         assert np.isfinite(doc["compute_time_s"]["median"]) and doc["compute_time_s"]["median"] > 0
     assert len(results) == 3
+
+
+def test_run_json_records_the_sensing_seed_simulate_ran_with(tmp_path):
+    """simulate --seed S overrides the file's sensing seed; RUN.json says which seed ran (until
+    2026-12-02 it said none, so a run with --seed 2 could not be told from one with the file's 0)."""
+    scene = PAPER_DIR / "fig7_2_crossing.toml"
+    docs = {}
+    for seed in (None, 2):
+        out = tmp_path / f"run-{seed}.json"
+        res = run_cli("simulate", scene, "--controller", "nn", "--out", out, *(["--seed", seed] if seed else []))
+        assert res.returncode == 0, res.stderr
+        docs[seed] = json.loads(out.read_text())
+    file_sensing = paper_scenarios()[1].sensing
+    assert docs[None]["sensing"] == {"position_noise_std_m": file_sensing.position_noise_std_m,
+                                     "seed": file_sensing.seed, "range_m": None}
+    assert docs[2]["sensing"]["seed"] == 2 and file_sensing.seed != 2
+    assert docs[2]["trajectory"] != docs[None]["trajectory"]  # the seed is what differs
+
+
+def test_a_path_as_long_as_a_file_may_have_is_drawn_with_a_bounded_number_of_points(tmp_path):
+    """A 1e9 m line (the loader's largest length) made simulate ask for 1e10 points of the path
+    for RUN.json's reference_path: numpy's MemoryError, a traceback, exit 1."""
+    scene = tmp_path / "long.toml"
+    scene.write_text(straight_line_toml(name="long", duration_s=2.0, line_m=1e9), encoding="utf-8")
+    out = tmp_path / "run.json"
+    res = run_cli("simulate", scene, "--controller", "nn", "--out", out)
+    assert res.returncode == 0, res.stderr
+    path = json.loads(out.read_text())["reference_path"]
+    assert len(path) <= 20001 and path[0] == [0.0, 0.0] and path[-1][0] == pytest.approx(1e9)

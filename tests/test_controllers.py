@@ -62,6 +62,11 @@ USER_MODULE = textwrap.dedent('''
     class RaisesInReset(MyPolicy):
         def reset(self):
             raise KeyError("calibration")
+
+    class SampleTimeRaises(MyPolicy):
+        @property
+        def sample_time_s(self):
+            raise RuntimeError("no clock yet")
 ''')
 
 
@@ -153,11 +158,19 @@ def test_a_user_class_from_outside_the_project_runs_in_simulate_and_evaluate(out
     assert "gpcnav evaluate: empty.toml given more than once: each run counts" in r.stderr
 
 
+def test_a_name_of_no_controller_in_compare_s_list_is_named_as_compare_s_option(outside):
+    """It was said to be --controller's, an option compare was not given."""
+    r = _cli(outside, "compare", "empty.toml", "--controllers", "stand,NN", "--workers", "1", timeout=120)
+    assert r.returncode == 2 and r.stderr.startswith("gpcnav compare: error: --controllers 'NN': not a controller")
+
+
 @pytest.mark.parametrize("name, message", [
     ("nosuchmodule:MyPolicy", "cannot import module 'nosuchmodule'"),
     ("mymod:Missing", "module 'mymod' has no class 'Missing'"),
     ("mymod:NoDecide", "does not answer the Policy protocol (no decide method"),
     ("mymod:NeedsArguments", "cannot be made with no arguments"),
+    # (a traceback, exit 1)
+    ("mymod:SampleTimeRaises", "reading its Policy protocol raised RuntimeError: no clock yet"),
     ("nonsense", "not a controller"),
 ])
 def test_a_controller_that_cannot_be_loaded_exits_2_with_one_line(outside, name, message):
@@ -261,6 +274,18 @@ def test_a_controller_named_twice_in_a_comparison_is_refused():
     with pytest.raises(UsageError, match="gpc given twice"):
         parse_controller_list("gpc,orca,gpc")
     assert parse_controller_list("gpc, orca") == ["gpc", "orca"]
+
+
+@pytest.mark.parametrize("text", ["nn,", "nn,,stand", ",nn", "nn, ,stand"])
+def test_an_empty_name_in_a_comparison_s_list_is_refused(text):
+    """It was skipped: 'nn,' (a name left out, a shell variable unset) ran nn alone, unsaid;
+    bench --solvers and train --parts skipped theirs too (one rule, gpcnav.errors.comma_items)."""
+    from gpcnav.commands.bench import parse_solvers
+    from gpcnav.controllers import parse_controller_list
+    with pytest.raises(UsageError, match="--controllers .*: an empty item between commas"):
+        parse_controller_list(text)
+    with pytest.raises(UsageError, match="--solvers .*: an empty item between commas"):
+        parse_solvers(text.replace("nn", "ipopt").replace("stand", "fatrop"))
 
 
 def test_an_evaluation_records_a_peer_s_own_sample_time(outside):

@@ -128,6 +128,20 @@ def test_actions_not_applied_as_given_are_counted_in_info(tmp_path):
     assert (info["clipped_actions"], info["non_finite_actions"]) == (0, 0)
 
 
+def test_an_action_at_the_action_space_s_float32_bound_is_not_counted_as_clipped(tmp_path):
+    """The Box's high is float32(0.8) = 0.800000012: an action the space contains, counted as clipped
+    (a GPC expert's float32 expert_action at the wheel limit was too, 7 of an episode's 30)."""
+    env = NavigationEnv(scenario=_file(tmp_path))
+    env.reset(seed=0)
+    high, low = env.action_space.high, env.action_space.low
+    assert env.action_space.contains(high) and float(high[0]) > 0.8
+    _, _, _, _, info = env.step(high)
+    _, _, _, _, info = env.step(low)
+    assert info["clipped_actions"] == 0
+    _, _, _, _, info = env.step(np.nextafter(high, np.float32(1.0)))  # the next float32 up: beyond the space
+    assert info["clipped_actions"] == 1
+
+
 def test_an_episode_driven_by_the_gpc_reaches_the_goal():
     env = NavigationEnv(scenario=PAPER_DIR / "fig7_1_head_on.toml", expert="gpc")
     obs, info = env.reset(seed=1)
@@ -237,11 +251,17 @@ def test_an_expert_that_cannot_be_copied_makes_the_copy_a_clear_type_error():
         copy.deepcopy(env)
 
 
-def test_a_scenario_that_ends_before_the_first_step_is_refused_when_made(tmp_path):
-    """Its reset() said the episode had timed out and the first step() then asked for a
-    reset: any training loop stopped there."""
-    with pytest.raises(ValueError, match="shorter than one step of the environment"):
-        NavigationEnv(scenario=_file(tmp_path, duration=0.1))
+def test_a_scenario_shorter_than_one_step_has_one_step_cut_at_its_duration(tmp_path):
+    """Its reset() said the episode had timed out and the first step() then asked for a reset (any
+    training loop stopped there), so such a file was refused when the environment was made; the
+    simulator now runs it as one interval cut at duration_s, as the last of a longer run."""
+    short = NavigationEnv(scenario=_file(tmp_path, duration=0.1))
+    _, info = short.reset(seed=0)
+    assert info["outcome"] == "running"
+    *_, terminated, truncated, info = short.step(np.zeros(2, dtype=np.float32))
+    assert truncated and not terminated and info["outcome"] == "timed_out"
+    assert short.unwrapped.episode.log.t[-1] == pytest.approx(0.1)  # driven up to duration_s
+    assert info["t_s"] == pytest.approx(0.1)  # (it said 0.5 s, the next sample's time, past the end)
     env = NavigationEnv(scenario=_file(tmp_path, duration=0.5))  # one step: it can be taken
     env.reset(seed=0)
     *_, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))

@@ -74,6 +74,9 @@ BAD = [
     ("wrong_type_bool", edit("speed_mps = 0.4\n[[reference", "speed_mps = true\n[[reference"), "reference.speed_mps"),
     ("wrong_type_name", edit('name = "good_one"', "name = 3"), "name"),
     ("bad_name_chars", edit('name = "good_one"', 'name = "good one!"'), "name"),
+    ("replay_without_track", edit("turn_rate_deg_s = 0.0\n", 'turn_rate_deg_s = 0.0\nbehaviour = "replay"\n'),
+     "moving_obstacles[0].behaviour: 'replay' replays a recording: it needs a track"),
+    ("name_trailing_line_break", edit('name = "good_one"', 'name = "good_one\\n"'), "name"),
     ("wrong_shape_position", edit("[robot]\nposition = [0.0, 0.0]", "[robot]\nposition = [0.0, 0.0, 1.0]"),
      "robot.position"),
     ("wrong_type_position", edit("[robot]\nposition = [0.0, 0.0]", '[robot]\nposition = [0.0, "a"]'),
@@ -227,3 +230,16 @@ def test_simulate_refuses_a_missing_file(tmp_path):
     res = run_cli("simulate", tmp_path / "nothere.toml")
     assert res.returncode == 2
     assert len(res.stderr.splitlines()) == 1 and "nothere.toml" in res.stderr
+
+
+def test_a_description_with_line_breaks_and_control_characters_is_written_back_as_it_reads():
+    """scenarios.writer wrote a string as it was but for quotes and backslashes: a description with a
+    line break (a file may say "a\\nb") made a file no TOML reader takes."""
+    import tomllib
+    from scenarios import scenario_from_dict
+    from scenarios.writer import scenario_document, to_toml
+    doc = tomllib.loads(GOOD)
+    doc["description"] = 'two\nlines\r\n\ttab \x00 \x1f \x7f del "quoted" \\ back \u2028 \U0001F600'
+    sc = scenario_from_dict(doc)
+    again = scenario_from_dict(tomllib.loads(to_toml(scenario_document(sc))))
+    assert again.description == doc["description"] and again.name == sc.name

@@ -92,6 +92,21 @@ def test_the_run_ends_at_duration_s_not_at_the_sample_before_it():
     assert short.outcome == "timed_out" and short.end_time_s == pytest.approx(10.0)
 
 
+def test_a_run_shorter_than_one_sample_is_driven_and_checked_up_to_duration_s():
+    """A controller deciding every 100 s in a 10 s scene (or a scene shorter than 0.5 s): the one
+    interval, cut at duration_s, is decided at t = 0, driven and checked. It had no interval at all,
+    so a mover running through the standing robot at 1.1 s left it timed out, its clearance the
+    start's 2.35 m."""
+    ob = MovingObstacleSpec((3.0, 0.0), math.pi, 1.0, 0.3)  # the discs touch at 2.35 s
+    slow = Scripted(lambda t, r: (0.0, 0.0), sample_time_s=100.0)
+    log = simulate(scenario(moving=[ob], duration_s=10.0), slow)
+    assert log.outcome == "collided" and 2.35 - 1e-9 <= log.end_time_s <= 2.35 + 10.0 / SUBSTEPS + 1e-9
+    assert len(log.decisions) == 1 and log.min_clearance_m < 0
+    log = simulate(scenario(duration_s=0.3), straight(0.4))  # 0.3 s of a 0.5 s sample: driven
+    assert log.outcome == "timed_out" and len(log.decisions) == 1 and log.t[-1] == pytest.approx(0.3)
+    assert log.states[-1][0] > 0.0
+
+
 def test_time_limit_gives_timed_out():
     log = simulate(scenario(duration_s=7.5), straight(0.4))
     assert log.outcome == "timed_out"
@@ -341,3 +356,13 @@ def test_the_improved_gpc_does_not_swerve_from_an_obstacle_it_has_seen_once():
     log = simulate(sc, ctrl)
     assert np.max(np.abs(np.asarray(log.states)[:, 1])) < 0.05
     assert log.events["unestimated_tracks"] == 1
+
+
+def test_a_float32_command_within_the_limits_is_not_counted_as_clipped():
+    """float32(0.4) is 0.4 + 6e-9 m/s, beyond the first step's acceleration limit by its rounding: a
+    controller keeping to the limits in float32 (a network's outputs) had every command counted as
+    clipped. A command beyond them by a thousandth of a m/s still is."""
+    def ramp(excess):
+        return Scripted(lambda t, r: (np.float32(min(0.8, r.v_right_mps + 0.4) + excess),) * 2)
+    assert simulate(scenario(duration_s=3.0), ramp(0.0)).clipped_commands == 0
+    assert simulate(scenario(duration_s=3.0), ramp(1e-3)).clipped_commands == 6

@@ -354,3 +354,18 @@ def test_sample_weights_pull_the_fit_to_the_weighted_mean():
     assert abs(weighted - exact) < 0.03 and exact - Y[:, 0].mean() > 0.2
     with pytest.raises(ValueError, match="positive finite"):
         WheelSpeedMLP(**kw).fit(X, Y, sample_weight=np.zeros(len(X)))
+
+
+@pytest.mark.parametrize("name", ["model.json", "weights.npz"])
+def test_export_refuses_an_out_that_is_one_of_the_model_folder_s_own_files(fitted, tmp_path, capsys, name):
+    """``gpcnav export M --out M/model.json`` wrote the ONNX bytes over the trained model it had read
+    (exit 0), which no command could load again; now one line, and the folder is as it was."""
+    from gpcnav.cli import main
+    m, X, _ = fitted
+    m.save(tmp_path / "m", PROV)
+    before = (tmp_path / "m" / name).read_bytes()
+    assert main(["export", str(tmp_path / "m"), "--out", str(tmp_path / "m" / name)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"is the trained model's {name} in {tmp_path / 'm'}: it would be overwritten" in err[0]
+    assert (tmp_path / "m" / name).read_bytes() == before
+    assert main(["export", str(tmp_path / "m"), "--out", str(tmp_path / "m" / "model.onnx")]) == 0  # beside them

@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..errors import UsageError
+from ..errors import UsageError, comma_items
 from .common import add_preset_arguments, check_output_files, for_run, planner_config, progress
 
 DEFAULT_SCENARIO = "fig7_2_crossing"
@@ -174,7 +174,7 @@ def pooled_summary(pooled: dict) -> list[str]:
 
 def parse_solvers(text: str) -> list[str]:
     from casadi_gpc.solvers import canonical_name
-    names = [s.strip() for s in text.split(",") if s.strip()]
+    names = comma_items(text, "--solvers")
     if not names:
         raise UsageError("--solvers: give at least one solver")
     try:
@@ -198,12 +198,12 @@ def run(args) -> int:
                          f"--controller nn")
     if args.shield and not args.controller:  # (it ran the whole bench, the option doing nothing)
         raise UsageError("--shield puts the --controller rows behind the check layer: give --controller NAME")
-    check_output_files(out=args.out, plot=args.plot)
+    check_output_files(inputs=[args.scenario], models=[args.model], out=args.out, plot=args.plot)
     config = planner_config(args)
     scenario = load_scenario(args.scenario if args.scenario is not None else PAPER_DIR / f"{DEFAULT_SCENARIO}.toml")
     if scenario.duration_s < config.sample_time_s:
         raise UsageError(f"{scenario.source or scenario.name}: duration_s {scenario.duration_s:g} s is shorter than one "
-                         f"sample ({config.sample_time_s:g} s): the planner makes no decision there, nothing to time")
+                         f"sample ({config.sample_time_s:g} s): one decision cut short, nothing to time")
 
     def say(msg):
         print(msg, file=sys.stderr, flush=True)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from casadi_gpc.config import DEFAULT_PRESET, PRESETS, preset
 
-from ..errors import MIN_SAMPLE_TIME_S, UsageError
+from ..errors import MIN_SAMPLE_TIME_S, UsageError, comma_items
 
 
 MAX_HORIZON = 24
@@ -125,10 +125,11 @@ def _setting_value(name: str, text: str, annotation: str):
     elif low == "none":
         value = None
     elif "tuple[str" in annotation:
-        value = tuple(v.strip() for v in text.split(",") if v.strip())
+        value = tuple(comma_items(text, f"--set {name}"))
     elif "tuple" in annotation:
+        items = comma_items(text, f"--set {name}")  # (1,,2 was 1,2)
         try:
-            value = tuple(float(v) for v in text.split(",") if v.strip()) if text.strip() else ()
+            value = tuple(float(v) for v in items)
         except ValueError:
             raise UsageError(f"--set {name}: expected comma-separated numbers, got {text!r}") from None
     else:
@@ -362,15 +363,16 @@ ANIMATION_OPTIONS = ("animate",)
 """Output options that take an animation: a GIF (``.gif``), the one format written."""
 
 
-def check_output_files(inputs=(), **paths) -> None:
+def check_output_files(inputs=(), models=(), **paths) -> None:
     """Refuse in one line (exit 2), before any work, an output file (option name -> path or
     None) that could not be written: a path that is a folder, or whose folder cannot be made
     or written in (``/proc/x.png``); one of the ``inputs`` (the scenario files: it would be
-    overwritten), or the same file as another output; a figure whose extension matplotlib does
+    overwritten) or of the ``models`` (``--model``: ``--out M.onnx`` wrote RUN.json over the model
+    it ran, until 2026-12-02), or the same file as another output; a figure whose extension matplotlib does
     not write (``--plot r.txt`` failed after the whole run), an animation that is not a
     ``.gif``. Nothing is left behind: a missing folder is made when the file is written."""
     given = {option: Path(path) for option, path in paths.items() if path is not None}
-    ins = [Path(i) for i in inputs if i]
+    ins = [(Path(i), "scenario file") for i in inputs if i] + [(Path(m), "model file") for m in models if m]
     seen: dict[Path, str] = {}
     for option, path in given.items():
         what = f"--{option.replace('_', '-')} {path}"
@@ -378,9 +380,9 @@ def check_output_files(inputs=(), **paths) -> None:
         if path.is_dir():
             raise UsageError(f"{what} is a folder, not a file")
         check_regular_file(path, what)
-        for i in ins:
+        for i, kind in ins:
             if same_file(path, i):
-                raise UsageError(f"{what} is the scenario file {i}: it would be overwritten")
+                raise UsageError(f"{what} is the {kind} {i}: it would be overwritten")
         key = path.resolve()
         if key in seen:
             raise UsageError(f"{what} is also given to --{seen[key].replace('_', '-')}: one file for two outputs")

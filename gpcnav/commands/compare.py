@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..controllers import check_scenarios, parse_controller_list, spec_from_args
+from ..controllers import check_controller_name, check_scenarios, parse_controller_list, spec_from_args
 from ..errors import UsageError
 from .common import (add_controller_arguments, add_suite_arguments, check_name_lengths, check_output_files,
                      check_regular_file, connected, for_pool, for_run, planner_changes, planner_config,
@@ -38,10 +38,10 @@ def compare_document(specs, results, config, suite, seed, scenarios, extras, bac
             "suite_spec": suite.describe() if suite else None}
 
 
-def check_compare_outputs(out, inputs=()) -> None:
+def check_compare_outputs(out, inputs=(), models=()) -> None:
     """``--out`` and the table and figure beside it: each writable, none a folder, none one of
-    the scenario files ``inputs``."""
-    check_output_files(inputs=inputs, out=out)
+    the scenario files ``inputs``; ``--out`` not the ``--model`` file."""
+    check_output_files(inputs=inputs, models=models, out=out)
     if out is not None:
         for beside in (out.with_suffix(".md"), out.with_suffix(".png")):
             what = "table" if beside.suffix == ".md" else "figure"
@@ -61,8 +61,13 @@ def run(args) -> int:
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
     config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
-    check_compare_outputs(args.out, [sc.source for sc in scenarios])
+    check_compare_outputs(args.out, [sc.source for sc in scenarios], [args.model])
     names = parse_controller_list(args.controllers)
+    for name in names:  # (a name of no controller was said to be --controller's, an option not given)
+        try:
+            check_controller_name(name, "--controllers")
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
     if "nn" not in names and (args.model is not None or args.passes is not None):  # (dropped without a word)
         given = " and ".join(o for o, v in (("--model", args.model), ("--passes", args.passes)) if v is not None)
         raise UsageError(f"{given}: for the controller nn, which --controllers {args.controllers} does not name")

@@ -77,7 +77,10 @@ def _episode(index, job):
         log = simulate(scenario, _WORKER[key], spec.label)
     except ControllerError as exc:  # a user's class raised: which episode, in its one line
         raise ControllerError(f"{exc} (in {scenario.source or scenario.name})") from None
-    return index, (episode_metrics(log), log.compute_time_s, dict(log.events))
+    events = dict(log.events)
+    if log.clipped_commands:  # RUN.json's own field; here among the events, so that EVAL and COMPARE count them
+        events["clipped_commands"] = log.clipped_commands
+    return index, (episode_metrics(log), log.compute_time_s, events)
 
 
 def run_episodes(scenarios, specs, config, pool, desc: str = "episodes", store=None, keys=None,
@@ -289,7 +292,7 @@ def run(args) -> int:
     refuse_unused_fallback(args, [spec])
     check_scenarios(spec, config, scenarios)
     refuse_unread_changes([spec], config)
-    check_output_files(inputs=[sc.source for sc in scenarios], out=args.out)
+    check_output_files(inputs=[sc.source for sc in scenarios], models=[args.model], out=args.out)
     with connected(pool):
         extra = controller_extra(spec, config, scenarios[0].robot)
         store, keys = open_store(args, [spec], config, [extra], scenarios)

@@ -8,6 +8,11 @@ from ..controllers import ControllerSpec, check, describe, make, reads_planner_s
 from .common import (add_controller_arguments, check_output_files, check_seed, planner_config, for_pool, for_run,
                      progress, recorded_changes, refuse_unread_changes, refuse_unused_fallback)
 
+REFERENCE_POINTS = 20001
+"""The most points of RUN.json's ``reference_path`` (a point every 0.1 m up to 2 km of path, then
+farther apart): a path of 1e9 m, which a scenario file may have, asked for 1e10 points (numpy's
+MemoryError, a traceback), and one of 100 km wrote a 31 MB document for a 10 s run."""
+
 
 def add_arguments(p):
     p.add_argument("scenario", type=Path, help="scenario file (TOML)")
@@ -28,7 +33,9 @@ def run_one(scenario, spec: ControllerSpec | str, config, model=None, shield=Non
         spec = ControllerSpec(spec, model, shield, passes)
     controller = make(spec, config, scenario.robot)
     log = simulate(scenario, controller, spec.label, progress=progress)
-    extra = {"preset": config.name, "reference_path": scenario.reference.polyline(0.1)[:, :2].tolist(),
+    ref = scenario.reference  # the path drawn: a point every 0.1 m, at most REFERENCE_POINTS of them
+    path = ref.polyline(max(0.1, ref.length_m / (REFERENCE_POINTS - 1)))[:, :2]
+    extra = {"preset": config.name, "reference_path": path.tolist(),
              "robot_radius_m": scenario.robot.radius_m, "shield": spec.mode,  # docs/faults.md
              **recorded_changes(config, reads_planner_settings(spec)), "solve_lanes": config.solve_lanes}
     inner = getattr(controller, "policy", controller)  # the controller behind a Shield
@@ -47,7 +54,7 @@ def run(args) -> int:
     from scenarios import load_scenario
     from casadi_gpc.io import save_figure, write_json
     check_seed(args.seed)
-    check_output_files(inputs=[args.scenario], out=args.out, plot=args.plot, animate=args.animate)
+    check_output_files(inputs=[args.scenario], models=[args.model], out=args.out, plot=args.plot, animate=args.animate)
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)

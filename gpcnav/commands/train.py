@@ -8,7 +8,7 @@ import hashlib
 import sys
 from pathlib import Path
 
-from ..errors import UsageError
+from ..errors import UsageError, comma_items
 from .common import (add_preset_arguments, check_name_lengths, check_seed, check_writable_folder, config_differences,
                      planner_config, progress)
 
@@ -130,7 +130,7 @@ def run(args) -> int:
         raise UsageError(f"--cost-gap-weight must be positive, got {args.cost_gap_weight}")
     if not 0 < args.validation_fraction < 1:
         raise UsageError(f"--validation-fraction must be in (0, 1), got {args.validation_fraction}")
-    parts = None if args.parts is None else tuple(x.strip() for x in args.parts.split(",") if x.strip())
+    parts = None if args.parts is None else tuple(comma_items(args.parts, "--parts"))
     if parts is not None:
         for d in args.datasets:
             have = set(read_manifest(d).get("parts", {})) if (Path(d) / "manifest.json").is_file() else set()

@@ -47,7 +47,7 @@ def test_a_numpy_horizon_is_the_controllers_own():
 
 
 def test_the_command_line_takes_a_numpy_sample_time():
-    from gpcnav.controllers import _check_protocol
+    from gpcnav.user_controllers import _check_protocol
     from gpcnav.errors import UsageError
     _check_protocol("mymod:NumpyPolicy", NumpyPolicy(np.float32(0.5)))
     with pytest.raises(UsageError, match="sample_time_s must be a positive number"):

@@ -121,7 +121,8 @@ class ObservationLayout:
     def bounds(self, max_wheel_speed_mps: float) -> tuple[np.ndarray, np.ndarray]:
         """``(low, high)`` of every entry: the wheel limit, +-pi for the heading error, 0..1
         for ``present``, and loose physical bounds elsewhere (1 km, 10 m/s, 10 m radii,
-        100000 s)."""
+        100000 s). An observation beyond them is clipped into them, and counted
+        (``info["clipped_observations"]``)."""
         v = max_wheel_speed_mps
         whole = {"v_right": (-v, v), "v_left": (-v, v), "heading_error": (-math.pi, math.pi),
                  "time_left_s": (0.0, 1.0e5)}
@@ -314,10 +315,15 @@ class NavigationEnv(Env):
             vel = ekf.velocity_mps
             tracks.append((x, y, *vel, m.radius_m))
         vec = observation_vector(obs, tracks, self.layout, self.sample_time_s)
+        space = self.observation_space
+        inside = np.clip(vec, space.low, space.high)
+        if not np.array_equal(inside, vec):  # (a 15 m disc, a path over 1 km: outside the space, unsaid)
+            self._clipped_observations += 1
+            vec = inside
         # t_s: once ended, when it ended (duration_s, a contact): the next sample's 10.5 s in a 10.25 s run
         info = {"outcome": ep.log.outcome if ep.done else "running", "t_s": ep.log.end_time_s if ep.done else ep.t_s,
                 "clearance_m": self._clearance_now(), "min_clearance_m": float(ep.log.min_clearance_m),
-                "scenario": ep.scenario.name, **self._actions}
+                "scenario": ep.scenario.name, **self._actions, "clipped_observations": self._clipped_observations}
         expert = self.expert
         if expert is not None and not ep.done:
             d = expert.decide(obs)
@@ -346,6 +352,7 @@ class NavigationEnv(Env):
         self.episode = Episode(scenario, self.sample_time_s, self.expert_name or "gym")
         self._bank = TrackBank(self.sample_time_s, EKFSettings().for_sample_time(self.sample_time_s))
         self._actions = {"clipped_actions": 0, "non_finite_actions": 0}
+        self._clipped_observations = 0
         self._s_m = 0.0
         self._progress_m()
         self.expert = expert = self._expert(scenario)

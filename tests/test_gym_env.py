@@ -128,6 +128,28 @@ def test_actions_not_applied_as_given_are_counted_in_info(tmp_path):
     assert (info["clipped_actions"], info["non_finite_actions"]) == (0, 0)
 
 
+def test_an_observation_outside_the_space_is_clipped_into_it_and_counted(tmp_path):
+    """A static disc of 15 m radius (the space's radii end at 10 m): the observation was handed out
+    outside the declared space (Gymnasium's checker warned); now clipped into it and counted per
+    episode. A scene within the bounds counts none."""
+    from gymnasium.utils.env_checker import check_env
+    big = "[[static_obstacles]]\nposition = [10.0, 20.0]\nradius_m = 15.0\n"
+    env = NavigationEnv(scenario=_file(tmp_path, extra=big))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env, skip_render_check=True)
+    obs, info = env.reset(seed=0)
+    assert env.observation_space.contains(obs) and info["clipped_observations"] == 1
+    radius = env.unwrapped.layout.names().index("static0_radius")
+    assert obs[radius] == np.float32(10.0)
+    obs, *_, info = env.step([0.3, 0.3])
+    assert env.observation_space.contains(obs) and info["clipped_observations"] == 2
+    (tmp_path / "plain").mkdir()
+    plain = NavigationEnv(scenario=_file(tmp_path / "plain"))
+    _, info = plain.reset(seed=0)
+    assert info["clipped_observations"] == 0 and plain.step([0.3, 0.3])[4]["clipped_observations"] == 0
+
+
 def test_an_action_at_the_action_space_s_float32_bound_is_not_counted_as_clipped(tmp_path):
     """The Box's high is float32(0.8) = 0.800000012: an action the space contains, counted as clipped
     (a GPC expert's float32 expert_action at the wheel limit was too, 7 of an episode's 30)."""

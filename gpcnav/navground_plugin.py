@@ -45,6 +45,7 @@ first command).
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 from navground import core
@@ -99,6 +100,9 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self._neighbours = NeighbourTracks()
         self._clock_s = 0.0
         self._last_xy: tuple[float, float] | None = None
+        self.late_decisions = 0
+        """Decisions made later than due (navground's step does not divide the sample time), since
+        :meth:`prepare`; the first is said once as a :class:`RuntimeWarning`."""
         self._reset_target()
 
     # --- navground properties --------------------------------------------------------
@@ -191,6 +195,7 @@ class GPCBehavior(core.Behavior, name="GPC"):
         self._neighbours.reset()
         self._clock_s = 0.0
         self._last_xy = None
+        self.late_decisions = 0
 
     # --- one command -----------------------------------------------------------------
     def _reset_target(self) -> None:
@@ -256,6 +261,14 @@ class GPCBehavior(core.Behavior, name="GPC"):
                               static_obstacles(self._state.static_obstacles), lines)
             self.last_decision = d = controller.decide(obs)
             self._wheels = self._limited(d.v_right_mps, d.v_left_mps, current, T)
+            # navground's step does not divide T: late (by more than its float32 steps' rounding), said once
+            if now > self._next_decision_s + 1e-3 * dt:
+                self.late_decisions += 1
+                if self.late_decisions == 1:
+                    warnings.warn(f"gpcnav {type(self).__name__}: navground's time step {dt:g} s does not divide the "
+                                  f"controller's sample time {T:g} s: a decision came {now - self._next_decision_s:.3g}"
+                                  f" s late, and others will (counted in late_decisions; pick a step that divides "
+                                  f"it)", RuntimeWarning, stacklevel=2)
             while self._next_decision_s <= now + 1e-9:
                 self._next_decision_s += T
         right, left = self._wheels if self._wheels is not None else (0.0, 0.0)

@@ -10,6 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 import tomllib
 from importlib import metadata
 
@@ -142,6 +143,28 @@ def test_decisions_at_the_controller_s_sample_time_and_the_wheels_held_between()
     assert [[(m.obstacle_id, m.position_m, round(m.radius_m, 6)) for m in o.moving] for o in obs] == \
         [[(0, (2.0, 1.0), 0.3)]] * 3 and not obs[0].static
     assert obs[2].robot.x_m > 0.2                # it drove (0.25 m/s for 1 s, on an arc)
+
+
+def test_a_navground_step_that_does_not_divide_the_sample_time_makes_late_decisions_counted_and_said_once():
+    """At 0.3 s steps against the 0.5 s sample time the decisions come at 0, 0.6, 1.2 and 1.5 s:
+    two late ones, which were made in silence; now counted, the first said as a warning. At 0.1 s
+    steps (the test above) none."""
+    world = sim.World()
+    sim.load_scenario(WORLD).init_world(world, seed=0)
+    agent = world.agents[0]
+    with pytest.warns(RuntimeWarning, match=r"time step 0.3 s does not divide the controller's sample time 0.5 s") \
+            as said:
+        for _ in range(6):  # t = 0 .. 1.5 s
+            world.update(0.3)
+    assert [o.t_s for o in agent.behavior.controller.observations] == pytest.approx([0.0, 0.6, 1.2, 1.5], abs=1e-6)
+    assert agent.behavior.late_decisions == 2 and len(said) == 1
+    on_time = sim.World()
+    sim.load_scenario(WORLD).init_world(on_time, seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for _ in range(12):
+            on_time.update(0.1)
+    assert on_time.agents[0].behavior.late_decisions == 0
 
 
 class _StraightRecorder(_Recorder):

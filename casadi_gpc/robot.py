@@ -45,6 +45,15 @@ class RobotParams:
     max_wheel_accel_mps2: float = 0.8
     """Each wheel's acceleration limit: at most this times T change per step."""
 
+    def __post_init__(self):
+        # (a radius of -1 or a NaN wheel base was taken: a policy then blamed "another robot", a planner
+        # divided by it; the scenario files' rule: every one a positive number)
+        for name in ("wheel_base_m", "radius_m", "max_wheel_speed_mps", "max_wheel_accel_mps2"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) \
+                    or not (math.isfinite(v) and v > 0):
+                raise ValueError(f"RobotParams.{name} must be a positive number, got {v!r}")
+
     def max_step_change_mps(self, sample_time_s: float) -> float:
         """Largest change of one wheel's speed in one sample interval."""
         return self.max_wheel_accel_mps2 * sample_time_s

@@ -68,7 +68,7 @@ from casadi_gpc.types import ControlDecision, Observation
 from nn_export.runtime.features import wrap_pi
 
 from . import ENV_ID, register_envs
-from .errors import UsageError
+from .errors import MIN_SAMPLE_TIME_S, UsageError
 
 __all__ = ["ENV_ID", "DEFAULT_SUITE", "NavigationEnv", "ObservationLayout", "RewardSettings", "register_envs"]
 
@@ -205,8 +205,10 @@ class NavigationEnv(Env):
             suite = DEFAULT_SUITE
         self.config = preset_config(preset)
         self.sample_time_s = float(self.config.sample_time_s if sample_time_s is None else sample_time_s)
-        if not (math.isfinite(self.sample_time_s) and self.sample_time_s > 0):
-            raise ValueError(f"sample_time_s must be positive, got {sample_time_s}")
+        if not (math.isfinite(self.sample_time_s) and self.sample_time_s >= MIN_SAMPLE_TIME_S):
+            # (any positive step was taken: 1e-9 s made a 20 s episode twenty billion steps)
+            raise ValueError(f"sample_time_s must be at least {MIN_SAMPLE_TIME_S} s, the command line's shortest, "
+                             f"got {sample_time_s}")
         if expert is not None:  # a name of the registry, refused now rather than at the first reset
             from .controllers import check_controller_name
             check_controller_name(str(expert), "expert")

@@ -291,8 +291,9 @@ def test_a_scenario_shorter_than_one_step_has_one_step_cut_at_its_duration(tmp_p
 
 
 @pytest.mark.parametrize("kwargs, words", [
-    ({"sample_time_s": 0}, "sample_time_s must be positive"),  # was taken as "the preset's"
-    ({"sample_time_s": float("nan")}, "sample_time_s must be positive"),
+    ({"sample_time_s": 0}, "sample_time_s must be at least 0.05 s"),  # was taken as "the preset's"
+    ({"sample_time_s": float("nan")}, "sample_time_s must be at least 0.05 s"),
+    ({"sample_time_s": 1e-9}, "sample_time_s must be at least 0.05 s"),  # was taken: 2e10 steps in 20 s
     ({"expert": "nope"}, "expert 'nope': not a controller"),  # was refused only at the first reset
     ({"suite": "random", "movers": 7}, "movers: suite random has its own movers"),  # taken and ignored
     ({"suite": "encounters", "behaviour": "orca"}, "behaviour: suite encounters has its own movers"),

@@ -182,3 +182,15 @@ def test_wheel_helpers():
     assert RobotParams().max_step_change_mps(0.5) == pytest.approx(0.4)
     st = RobotState(1.0, 2.0, 0.3, 0.4, 0.5)
     np.testing.assert_array_equal(st.as_array(), [1.0, 2.0, 0.3, 0.4, 0.5])
+
+
+@pytest.mark.parametrize("field, value", [("radius_m", -1.0), ("wheel_base_m", float("nan")),
+                                          ("max_wheel_speed_mps", 0.0), ("max_wheel_accel_mps2", float("inf")),
+                                          ("radius_m", "0.3"), ("wheel_base_m", True)])
+def test_robot_params_that_are_no_robot_are_refused_naming_the_field(field, value):
+    """A radius of -1 or a NaN wheel base was taken (OnnxPolicy then said the model was "trained for
+    another robot"); each field must be a positive number, as a scenario file's."""
+    from casadi_gpc.robot import RobotParams
+    with pytest.raises(ValueError, match=rf"^RobotParams\.{field} must be a positive number, got "):
+        RobotParams(**{field: value})
+    assert RobotParams(**{field: 0.3}).to_dict()[field] == 0.3

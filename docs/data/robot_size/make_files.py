@@ -25,12 +25,13 @@ out = Path(out)
 texts = {}
 for i in range(s.count):
     sc = s.scenario(i)
-    sc = replace(sc, robot=replace(sc.robot, radius_m=float(radius)))
-    text = to_toml(scenario_document(sc))
     try:
+        sc = replace(sc, robot=replace(sc.robot, radius_m=float(radius)))
+        text = to_toml(scenario_document(sc))
         scenario_from_dict(tomllib.loads(text), f"{sc.name} (radius {radius})")
-    except ScenarioError as exc:
-        print(f"make_files.py: error: {exc}", file=sys.stderr)
+    except (ScenarioError, ValueError) as exc:  # (RobotParams refuses a radius that is no radius)
+        print(f"make_files.py: error: {exc if isinstance(exc, ScenarioError) else f'{sc.name}: {exc}'}",
+              file=sys.stderr)
         raise SystemExit(2)
     texts[out / f"{sc.name}.toml"] = text
 out.mkdir(parents=True, exist_ok=True)

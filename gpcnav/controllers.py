@@ -282,7 +282,9 @@ def _make_base(spec: ControllerSpec, config, robot):
     if spec.name in BASELINES:
         from .peers.baselines import BlindTracker, StandStill
         return (StandStill if spec.name == "stand" else BlindTracker)(robot)
-    return _make_peer(spec.name, config, robot) if spec.name in PEERS else make_user(spec.name, load_user_class(spec.name))
+    if spec.name in PEERS:
+        return _make_peer(spec.name, config, robot)
+    return make_user(spec.name, load_user_class(spec.name))
 
 
 def make(spec: ControllerSpec, config, robot):

@@ -365,7 +365,8 @@ def comparison(r: dict) -> str:
         + " m). Behind the safety filter: " + "; ".join(
             f"{TITLES[x['scenario']].split()[0]}: {x['outcome'].replace('_', ' ')}, {x['path_deviation_from_gpc_m']:.2f} m"
             for x in filt) + f" ({sum(x['fallbacks'] for x in filt)} decisions overridden).")
-    out.append(f"* **What it took.** {_recipe(r['sizes'] | {'seed': r['seed']}, network)}. The study behind this recipe "
+    out.append(f"* **What it took.** {_recipe(r['sizes'] | {'seed': r['seed']}, network)}. The study behind this "
+               "recipe "
                "(data, sizes, passes, the near-tie convention) is in docs/nn.md, \"The paper's network as the "
                "paper trained it\" (`tools/paper_nn_study.py`).")
     if lim and lim["scenarios"]:

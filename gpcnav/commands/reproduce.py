@@ -66,9 +66,9 @@ on them took 7 min); ``--quick`` labels 6000 to stay under 3 minutes."""
 PASSES = 2
 """The paper's two passes."""
 LIMIT_MODES = ("rollout", "plan")
+"""The first pass of the two-pass GPC rows (:class:`nn_export.training.two_pass.TwoPassGPC`)."""
 TABLE_ORDER = ("paper", "improved")
 """The presets, in the order the full run's tables list them."""
-"""The first pass of the two-pass GPC rows (:class:`nn_export.training.two_pass.TwoPassGPC`)."""
 
 
 def add_arguments(p):

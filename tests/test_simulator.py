@@ -375,3 +375,35 @@ def test_the_gpc_decides_within_the_wheel_limits_not_to_its_solver_s_tolerance()
         assert (followed_wheel(r0, r, dv, vmax), followed_wheel(l0, l, dv, vmax)) == (r, l), (r0, l0, r, l)
     assert log.clipped_commands == 0
     assert log.events["shield_candidate_limited"] == 0
+
+
+def test_a_candidate_the_check_keeps_is_the_controller_s_answer_not_a_fallback():
+    """A mover at 3 m/s head-on: at t = 0.5 s the check finds no manoeuvre safer than the GPC's own
+    command and keeps it ("no safer manoeuvre, candidate kept"). That step drove the controller's
+    answer, yet was counted a fallback (a kept alternative was not): RUN.json's `fallbacks` counted
+    3 for 2 manoeuvres. A fallback step is one that takes the fallback planner's answer or a
+    manoeuvre (docs/faults.md), and only those count."""
+    from gpcnav.controllers import make_controller
+    sc = Scenario(name="faster_head_on", duration_s=2.0, robot_start=RobotState(0.0, 0.0, 0.0),
+                  reference=ReferencePath((0.0, 0.0), 0.0, (Segment.line(8.0),), 0.4),
+                  moving=(MovingObstacleSpec((7.0, 0.1), math.pi, 3.0, 0.3),))
+    ctrl = make_controller("gpc", PRESETS["improved"], sc.robot)
+    sources = []
+
+    class Recorded:
+        sample_time_s = ctrl.sample_time_s
+        counters = property(lambda self: ctrl.counters)
+
+        def reset(self):
+            ctrl.reset()
+
+        def decide(self, obs):
+            d = ctrl.decide(obs)
+            sources.append((d.info.get("safety_source"), d.fallback))
+            return d
+
+    log = simulate(sc, Recorded(), "gpc")
+    assert ("candidate", False) in sources  # the case itself: the candidate kept
+    for source, fallback in sources:
+        assert fallback == (source is not None and (source == "fallback" or source.startswith("manoeuvre"))), source
+    assert log.fallbacks == sum(f for _, f in sources) == log.events["shield_manoeuvres"]

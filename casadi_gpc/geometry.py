@@ -6,11 +6,13 @@ these."""
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 from numba import njit
 
-__all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "segment_rows", "walls_reach_m",
+__all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "segment_rows", "straight_runs",
+           "walls_reach_m",
            "a_wall_within", "segments_near", "wall_scan", "wall_scans"]
 
 
@@ -47,6 +49,27 @@ def segment_rows(walls) -> np.ndarray:
     """The segments of ``walls`` (polylines of ``(x, y)`` points) as rows ``(ax, ay, bx, by)``,
     shape ``(n, 4)``."""
     return np.array([(*a, *b) for pts in walls for a, b in zip(pts[:-1], pts[1:])], dtype=float).reshape(-1, 4)
+
+
+@lru_cache(maxsize=4)
+def straight_runs(walls: tuple) -> tuple:
+    """``walls`` (polylines of ``(x, y)`` points, as tuples) with every point that a straight run goes
+    on through left out: the same walls, each straight stretch one segment however many pieces it
+    was drawn in (a point where the run turns, by more than 1e-9 rad, or turns back, is kept). What
+    the planner fills its wall slots with (:func:`casadi_gpc.problem.selection.select_walls`): each
+    slot a segment, a straight wall drawn in 0.25 m pieces filled its six slots with 1.5 m of wall,
+    and each of its joints counted as two walls (2026-12-02)."""
+    out = []
+    for pts in walls:
+        kept = [pts[0]]
+        for b, c in zip(pts[1:-1], pts[2:]):
+            a = kept[-1]
+            ux, uy, vx, vy = b[0] - a[0], b[1] - a[1], c[0] - b[0], c[1] - b[1]
+            if not (abs(ux * vy - uy * vx) <= 1e-9 * math.hypot(ux, uy) * math.hypot(vx, vy) and ux * vx + uy * vy > 0):
+                kept.append(b)
+        kept.append(pts[-1])
+        out.append(tuple(kept))
+    return tuple(out)
 
 
 def walls_reach_m(robot, horizon_s: float) -> float:

@@ -27,6 +27,7 @@ __all__ = [
     "wheel_to_unicycle",
     "brake_wheels",
     "followed_wheel",
+    "followed_plan",
 ]
 
 _SINC_SWITCH = 1e-3  # below this |u| the Taylor series is exact to ~1e-22
@@ -148,6 +149,17 @@ def followed_wheel(v_now: float, v_asked: float, dv_max: float, v_max: float) ->
     """The speed one wheel reaches when asked for ``v_asked`` from ``v_now``: the rate limit
     first, then the speed limit (the simulator's clipping, on plain floats)."""
     return min(max(min(max(v_asked, v_now - dv_max), v_now + dv_max), -v_max), v_max)
+
+
+def followed_plan(v_right: float, v_left: float, wheels, dv_max: float, v_max: float) -> np.ndarray:
+    """The (H, 2) wheel speeds the robot reaches when asked for the plan ``wheels`` (H, 2) from its
+    wheels' speeds now: :func:`followed_wheel` step by step (the simulator's clipping). A plan
+    within the limits comes back as it is, number for number."""
+    vr, vl, rows = float(v_right), float(v_left), []
+    for r, l in np.asarray(wheels, dtype=float).tolist():
+        vr, vl = followed_wheel(vr, r, dv_max, v_max), followed_wheel(vl, l, dv_max, v_max)
+        rows.append((vr, vl))
+    return np.array(rows).reshape(-1, 2)
 
 
 def brake_wheels(v_right: float, v_left: float, dv_max: float) -> tuple[float, float]:

@@ -56,9 +56,9 @@ class Observation:
     phantom, its filter stepped twice a sample, a 3 m/s obstacle that sent the check layer into
     reverse, and neither person was where it was forecast); and when a moving obstacle's id is not
     an integer (a tracker's name, "person_3", failed deep in the network's features, and in the
-    planner only once a wall came into view). A
-    missing or non-finite obstacle *position measurement* is a sensor fault, not an error: the
-    obstacle filters skip it and count it.
+    planner only once a wall came into view); and when a measured position is not two real numbers or
+    None (:func:`_refuse_position`). A missing or non-finite obstacle *position measurement* is a
+    sensor fault, not an error: the obstacle filters skip it and count it.
     """
 
     t_s: float
@@ -81,6 +81,9 @@ class Observation:
             if not (m.radius_m >= 0 and math.isfinite(m.radius_m)):
                 raise ValueError(f"observation at t={self.t_s} s: moving obstacle {m.obstacle_id} has radius "
                                  f"{m.radius_m!r} (a finite number, not negative)")
+            z = m.position_m
+            if z is not None and not (type(z) is tuple and len(z) == 2 and type(z[0]) is float and type(z[1]) is float):
+                _refuse_position(m, self.t_s)
             if not isinstance(m.obstacle_id, Integral):
                 raise ValueError(f"observation at t={self.t_s} s: moving obstacle id {m.obstacle_id!r} is a "
                                  f"{type(m.obstacle_id).__name__}, not an integer (an id is one obstacle's track, "
@@ -114,6 +117,24 @@ class Observation:
         from dataclasses import replace
         held = replace(r, v_right_mps=min(max(r.v_right_mps, -v), v), v_left_mps=min(max(r.v_left_mps, -v), v))
         return replace(self, robot=held)
+
+
+def _refuse_position(m: ObstacleMeasurement, t_s: float) -> None:
+    """Raise ``ValueError`` unless ``m``'s position is two real numbers (a sequence or an array; NaN
+    or infinite is a missing measurement, counted by the filters): until 2026-12-02 a position of
+    strings ("1", "2") or of booleans was read as numbers, one of (None, 1.0) taken for a missing one,
+    and a complex number or a word failed with an error that named neither the obstacle nor the time."""
+    z = m.position_m
+    ok = isinstance(z, np.ndarray) and z.shape == (2,) and z.dtype.kind in "fiu"
+    if not ok and not isinstance(z, (str, bytes, np.ndarray)):
+        try:
+            ok = len(z) == 2 and all(isinstance(v, Real) and not isinstance(v, (bool, np.bool_)) for v in z)
+        except TypeError:
+            ok = False
+    if not ok:
+        import reprlib
+        raise ValueError(f"observation at t={t_s} s: moving obstacle {m.obstacle_id!r} has position "
+                         f"{' '.join(reprlib.repr(z).split())} (two numbers x, y in m, or None when not measured)")
 
 
 def _walls_as_tuples(walls, t_s: float) -> tuple:

@@ -125,3 +125,26 @@ def test_the_controllers_count_the_samples_missed_and_refuse_a_repeated_time():
             controller.decide(obs(2.5))
         controller.reset()
         controller.decide(obs(0.0))  # a new episode after reset()
+
+
+@pytest.mark.parametrize("bank_class", [TrackBank, RowBank])
+def test_a_gap_longer_than_a_minute_starts_every_track_afresh(bank_class):
+    """A pause (or a clock that jumped) of more than STALE_GAP_S: the banks forget their tracks
+    instead of stepping every missed sample (a gap of 1e6 s was 2e6 steps a filter, 6 to 11 s for
+    one decision; a day, 172 800 samples, would be seconds a track), and every obstacle's next
+    measurement starts a new track, counted in ``dropped_tracks``. A gap of up to a minute is
+    still stepped sample by sample."""
+    from casadi_gpc.estimation.tracking import STALE_GAP_S
+    import time
+    for gap, stepped in ((STALE_GAP_S - 1.0, True), (STALE_GAP_S + 1.0, False), (1e9, False)):
+        bank = bank_class(T)
+        for t in TIMES[:4]:
+            bank.step(_walkers(t), t)
+        t_after = TIMES[3] + gap
+        t0 = time.perf_counter()
+        bank.step(_walkers(t_after), t_after)
+        assert time.perf_counter() - t0 < 0.5
+        assert bank.counters["missed_samples"] == round(gap / T) - 1
+        assert bank.counters.get("dropped_tracks", 0) == (0 if stepped else 6)
+        assert (bank.filters[0].measurements_seen_ >= 2) is stepped  # a new track has seen one position
+        assert bank.counters["missed_measurements"] == ((round(gap / T) - 1) * 6 if stepped else 0)

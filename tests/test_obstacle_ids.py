@@ -36,3 +36,21 @@ def test_the_deployed_network_and_the_planner_never_see_a_named_id():
     from nn_export import OnnxPolicy
     with pytest.raises(ValueError, match="is a str, not an integer"):
         OnnxPolicy().decide(Observation(0.0, ROBOT, REF, (ObstacleMeasurement("person_3", (3.0, 0.0), 0.3),)))
+
+
+@pytest.mark.parametrize("bad", [("1", "2"), (True, False), (None, 1.0), (1 + 2j, 0.0), "ab", (1.0, 2.0, 3.0),
+                                 [[1.0, 2.0]], 5.0, np.array(["1", "2"]), np.array([True, False])])
+def test_a_measured_position_that_is_not_two_numbers_is_refused_in_one_line(bad):
+    """A position is two real numbers, or None when not measured. Strings ("1", "2") and booleans
+    were read as numbers, (None, 1.0) taken for a missing measurement, and a complex number or a word
+    failed inside the filter with an error that named neither the obstacle nor the time."""
+    with pytest.raises(ValueError) as exc:
+        Observation(0.5, ROBOT, REF, (ObstacleMeasurement(0, (4.0, 1.0), 0.3), ObstacleMeasurement(7, bad, 0.3)))
+    assert str(exc.value).startswith("observation at t=0.5 s: moving obstacle 7 has position ")
+    assert "\n" not in str(exc.value)
+
+
+def test_a_measured_position_of_any_real_numbers_passes_and_a_non_finite_one_is_a_missing_measurement():
+    for z in (None, (3.0, 0.0), [3.0, 0.0], (3, 0), (np.float32(3.0), np.float64(0.0)), np.array([3.0, 0.0]),
+              np.array([3, 0]), (float("nan"), 0.0), (float("inf"), 1.0)):
+        Observation(0.5, ROBOT, REF, (ObstacleMeasurement(1, z, 0.3),))

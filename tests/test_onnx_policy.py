@@ -472,3 +472,24 @@ def test_bench_network_rows_beside_walls_are_said_not_timed_as_zero():
     assert forward_rows(path, observations, rounds=1, robot=robot) == []
     reason = unmeasured_reason(path, observations, robot)
     assert "not measured" in reason and "the walls network 12" in reason
+
+
+def test_wheel_speeds_reported_beyond_the_limits_are_held_to_them_as_the_planner_holds_them():
+    """A glitching encoder (5 m/s, -3 m/s): the bare network read those speeds into its features and
+    roll-out, far outside what it was trained on, and answered otherwise than behind its check layer,
+    which holds them (as the GPC does). Now the policy holds them itself, counted in
+    ``wheel_state_held``: the same decision as from the limits."""
+    ref = ReferencePath((0.0, 0.0), 0.0, (Segment.line(8.0),), 0.4)
+    answers = {}
+    for wheels in ((5.0, -3.0), (0.8, -0.8)):
+        pol = OnnxPolicy()
+        pol.reset()
+        out = []
+        for k in range(3):
+            obs = Observation(0.5 * k, RobotState(0.2 * k, 0.0, 0.0, *wheels), ref,
+                              (ObstacleMeasurement(1, (5.0 - 0.2 * k, 0.1), 0.3),))
+            d = pol.decide(obs)
+            out.append((d.v_right_mps, d.v_left_mps))
+        answers[wheels] = out, pol.counters.get("wheel_state_held", 0)
+    assert answers[(5.0, -3.0)] == (answers[(0.8, -0.8)][0], 3)
+    assert answers[(0.8, -0.8)][1] == 0

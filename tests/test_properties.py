@@ -80,7 +80,7 @@ measurement = st.one_of(
 def test_ekf_stays_finite_and_its_covariance_positive_whatever_it_is_fed(zs, T, H):
     ekf = ObstacleEKF(T)
     for z in zs:
-        assert ekf.step(z) in ("start", "update", "missed", "outlier", "manoeuvre")
+        assert ekf.step(z) in ("start", "update", "missed", "outlier", "manoeuvre")  # ObstacleEKF.step's answers
     if ekf.state_ is None:
         with pytest.raises(RuntimeError):
             ekf.predict(H)

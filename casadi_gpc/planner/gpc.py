@@ -22,7 +22,7 @@ from .guesses import check_guess_names
 from .lanes import SolveLanes
 from .multistart import MultiStart, Plan
 from ..progress import ReferenceClock
-from ..robot import RobotParams, brake_wheels
+from ..robot import RobotParams, brake_wheels, followed_plan, followed_wheel
 from ..problem.selection import planner_parameters
 from ..solvers import Backend, SolveResult
 from ..estimation.tracking import TrackBank
@@ -360,6 +360,13 @@ class GPCController(MultiStart):
         poses, wheels = to_world(self._rollout.output(0), x0), self._rollout.output(1)
         self._last_wheels = wheels
         self._path_xy = poses[:, :2]
+        # the solvers meet their bounds to their tolerance (IPOPT's 1e-8): a plan 6e-9 m/s beyond
+        # the wheel or rate limit was clipped by the robot and counted so (clipped_commands,
+        # shield_candidate_limited: every count of both in three runs); what is decided is the plan
+        # as the robot follows it
+        r = obs.robot
+        wheels = followed_plan(r.v_right_mps, r.v_left_mps, wheels, self.robot.max_step_change_mps(
+            self.config.sample_time_s), self.robot.max_wheel_speed_mps)
         return ControlDecision(
             float(wheels[0, 0]), float(wheels[0, 1]), False, best.guess, wheels, poses, best.cost,
             {"iterations": best.iterations, "candidates": len(candidates), "selected": len(sel.forecasts),
@@ -401,7 +408,7 @@ class GPCController(MultiStart):
             self._warm = Plan(np.concatenate([self._warm.u[2:], np.zeros(2)]), float("nan"), True, "shifted",
                               0, guess="shifted")
             self.candidates.restart_from(self._warm)
-            vr, vl = (float(np.clip(w, v - dv, v + dv)) for w, v in
+            vr, vl = (followed_wheel(v, float(w), dv, self.robot.max_wheel_speed_mps) for w, v in
                       zip(wheels[0], (obs.robot.v_right_mps, obs.robot.v_left_mps)))
             return ControlDecision(vr, vl, True, "shifted previous plan; " + reason, forecasts=forecasts)
         self._warm = None

@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from ..config import PlannerConfig
-from ..geometry import a_wall_within, distance_to_segments_m, segment_rows
+from ..geometry import a_wall_within, distance_to_segments_m, segment_rows, straight_runs
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["Selection", "select_obstacles", "select_walls", "planner_parameters", "pack_selection", "goal_weights",
@@ -67,7 +67,9 @@ def select_walls(x0: np.ndarray, walls, config: PlannerConfig, path_xy: np.ndarr
     polylines ``walls`` (``(x, y)`` points each), the nearest to the robot's predicted path
     (and to the robot now) first; and how many within ``relevance_range_m`` of it did not
     fit (counted: they are still in the check layer)."""
-    segs = segment_rows(walls)
+    if type(walls) is not tuple:  # an Observation's walls are tuples already
+        walls = tuple(tuple((float(x), float(y)) for x, y in pts) for pts in walls)
+    segs = segment_rows(straight_runs(walls))  # a straight wall one slot, however it was drawn
     if not len(segs) or config.max_walls == 0:
         return [], 0
     pts = np.asarray(x0[:2], dtype=float)[None] if path_xy is None else np.vstack([x0[:2], np.asarray(path_xy)[:, :2]])

@@ -11,7 +11,7 @@ from math import isfinite
 
 import numpy as np
 
-from ..robot import RobotParams, followed_wheel
+from ..robot import RobotParams, followed_plan
 from .clearances import Clearances
 from .distances import approach
 from .obstacles import Obstacles, forecast_arrays, forecast_covariances, shared_batch
@@ -205,12 +205,7 @@ class TrajectoryCheck(Clearances):
         exactly as the simulator clips them (rate first, then speed)."""
         dv, vmax = self.robot.max_step_change_mps(self.sample_time_s), self.robot.max_wheel_speed_mps
         if wheels.ndim == 2:  # one sequence: plain floats beat numpy calls on pairs
-            vr, vl = float(v0[0]), float(v0[1])
-            rows = []
-            for r, l in wheels.tolist():
-                vr, vl = followed_wheel(vr, r, dv, vmax), followed_wheel(vl, l, dv, vmax)
-                rows.append((vr, vl))
-            return np.array(rows)
+            return followed_plan(v0[0], v0[1], wheels, dv, vmax)
         out = np.empty_like(wheels)
         v = np.broadcast_to(np.asarray(v0, dtype=float), wheels[..., 0, :].shape)
         for i in range(wheels.shape[-2]):

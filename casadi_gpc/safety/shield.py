@@ -243,8 +243,10 @@ class Shield:
             info["rollout_wheels_mps"] = v.planned_wheels_mps
         if not v.intervened:
             return dec
-        # the controller's own alternative, or its previous plan, is its answer, not a fallback; the rest are
-        fallback = not (v.source.startswith("alternative") or v.source == "previous_plan")
+        # the controller's own answer kept (no option did better), its alternative or its previous plan is
+        # its answer, not a fallback; the fallback planner's and a manoeuvre are (until 2026-12-02 a kept
+        # candidate was counted a fallback too, an alternative kept so was not)
+        fallback = not (v.source == "candidate" or v.source.startswith("alternative") or v.source == "previous_plan")
         return ControlDecision(v.v_right_mps, v.v_left_mps, fallback, v.reason, v.planned_wheels_mps, None,
                                info={**info, "controller_wheels_mps": (dec.v_right_mps, dec.v_left_mps),
                                      "safety_source": v.source}, forecasts=dec.forecasts)

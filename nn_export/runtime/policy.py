@@ -383,7 +383,7 @@ class OnnxPolicy:
         features and the network's calls)."""
         clock = time.perf_counter
         t0 = clock()
-        tracks, ref_rows = self.tracker.track(obs)
+        obs, tracks, ref_rows = self.tracker.track_within(obs, self.robot.max_wheel_speed_mps, self._counters)
         # what the decision hands a check layer: the tracks, forecast as the preset's planner
         # forecasts them (made when the check first reads them)
         handed = straight_estimates(tracks) if self._straight_check else tracks

@@ -76,6 +76,17 @@ class SituationTracker:
         self._ahead = None
         return tracks, rows
 
+    def track_within(self, obs: Observation, max_wheel_speed_mps: float, counters: dict) -> tuple:
+        """``(obs, *track(obs))`` with the robot's wheel speeds held to ``max_wheel_speed_mps`` where it
+        reports more (a glitching encoder), counted in ``counters`` as ``wheel_state_held``: the
+        planner's rule (:meth:`~casadi_gpc.types.Observation.with_wheels_within`). Until 2026-12-02 the
+        network, bare, read 5 m/s into its features and roll-out, far outside what it was trained on."""
+        held = obs.with_wheels_within(max_wheel_speed_mps)
+        if held is not None:
+            obs = held
+            counters["wheel_state_held"] = counters.get("wheel_state_held", 0) + 1
+        return (obs, *self.track(obs))
+
     def update(self, obs: Observation) -> Situation:
         """Fuse one sample and return the situation at it (call once per sample).
         :attr:`reference_ahead_` then holds the desired poses at steps 0..``reference_steps``."""

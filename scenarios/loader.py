@@ -25,6 +25,13 @@ length or time is no scene a robot drives in (map coordinates such as UTM northi
 1e7 m, pass), and sums and squares of such numbers overflow to infinity. Integers (a seed)
 may be up to 2^63 - 1."""
 _LARGEST_INT = 2 ** 63 - 1
+SMALLEST_ROBOT_M = 0.01
+"""The smallest wheel base and robot radius a file takes: a wheel base of 1e-300 m (taken, as
+any positive number was until 2026-12-02) made a turn rate of 1e300 rad/s, and one solve of the
+planner's compiled problem never returned; a robot under a centimetre meets a thin wall between
+the collision check's instants. Where between the planner stops answering was not measured (each
+wheel base compiles its own problem, minutes each); a centimetre is below any robot gpcnav is
+likely to drive (a Thymio: 9.4 cm wheel axis, 5.5 cm radius)."""
 
 
 class ScenarioError(ValueError):
@@ -171,8 +178,13 @@ def _robot(r: _Reader, table) -> tuple[RobotParams, RobotState]:
     rob = r.table(table, "robot", {"position", "heading_deg", "wheel_base_m", "radius_m", "max_wheel_speed_mps",
                                    "max_wheel_accel_mps2"}, {"position", "heading_deg"})
     defaults = RobotParams()
-    params = RobotParams(**{k: float(r.number(rob, k, "robot", default=getattr(defaults, k), positive=True))
-                            for k in ("wheel_base_m", "radius_m", "max_wheel_speed_mps", "max_wheel_accel_mps2")})
+    values = {k: float(r.number(rob, k, "robot", default=getattr(defaults, k), positive=True))
+              for k in ("wheel_base_m", "radius_m", "max_wheel_speed_mps", "max_wheel_accel_mps2")}
+    for k in ("wheel_base_m", "radius_m"):
+        if values[k] < SMALLEST_ROBOT_M:
+            r.fail(f"robot.{k}", f"must be at least {SMALLEST_ROBOT_M} m, got {values[k]:g} (no robot is smaller "
+                                 f"than a centimetre; a wheel base of 1e-300 m stalled the planner's solver)")
+    params = RobotParams(**values)
     rx, ry = r.point(rob, "position", "robot")
     return params, RobotState(rx, ry, math.radians(r.number(rob, "heading_deg", "robot")))
 

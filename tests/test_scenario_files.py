@@ -98,6 +98,11 @@ BAD = [
      "static_obstacles[0].radius_m"),
     ("negative_robot_radius", edit("heading_deg = 0.0\n\n[reference]", "heading_deg = 0.0\nradius_m = -0.35\n\n"
                                    "[reference]"), "robot.radius_m"),
+    # a wheel base of 1e-300 m was taken, and one solve of the planner never returned
+    ("tiny_wheel_base", edit("heading_deg = 0.0\n\n[reference]", "heading_deg = 0.0\nwheel_base_m = 1e-300\n\n"
+                             "[reference]"), "robot.wheel_base_m"),
+    ("sub_centimetre_robot", edit("heading_deg = 0.0\n\n[reference]", "heading_deg = 0.0\nradius_m = 0.005\n\n"
+                                  "[reference]"), "robot.radius_m"),
     ("negative_arc_radius", edit("arc_radius_m = 3.0", "arc_radius_m = -3.0"), "reference.segments[1].arc_radius_m"),
     ("zero_duration", edit("duration_s = 40.0", "duration_s = 0.0"), "duration_s"),
     ("zero_line", edit("line_m = 6.0", "line_m = 0.0"), "reference.segments[0].line_m"),

@@ -7,7 +7,7 @@ import subprocess
 import sys
 import textwrap
 
-from conftest import REPO
+from conftest import REPO, straight_line_toml
 
 MODULE = textwrap.dedent('''
     from casadi_gpc import ControlDecision
@@ -20,19 +20,7 @@ MODULE = textwrap.dedent('''
             return ControlDecision(v_right_mps=5.0, v_left_mps=5.0)
 ''')
 
-SCENE = textwrap.dedent('''
-    name = "short"
-    duration_s = 2.0
-    [robot]
-    position = [0.0, 0.0]
-    heading_deg = 0.0
-    [reference]
-    position = [0.0, 0.0]
-    heading_deg = 0.0
-    speed_mps = 0.4
-    [[reference.segments]]
-    line_m = 3.0
-''')
+SCENE = straight_line_toml("short", duration_s=2.0, line_m=3.0)
 
 
 def _cli(cwd, *args):

@@ -368,6 +368,25 @@ def test_a_float32_command_within_the_limits_is_not_counted_as_clipped():
     assert simulate(scenario(duration_s=3.0), ramp(1e-3)).clipped_commands == 6
 
 
+class _Recorded:
+    """``ctrl`` as the simulator runs it, each decision handed to ``seen(observation, decision)``."""
+
+    def __init__(self, ctrl, seen):
+        self.ctrl, self.seen, self.sample_time_s = ctrl, seen, ctrl.sample_time_s
+
+    @property
+    def counters(self):
+        return self.ctrl.counters
+
+    def reset(self):
+        self.ctrl.reset()
+
+    def decide(self, obs):
+        d = self.ctrl.decide(obs)
+        self.seen(obs, d)
+        return d
+
+
 def test_the_gpc_decides_within_the_wheel_limits_not_to_its_solver_s_tolerance():
     """The solvers meet the wheels' bounds to their own tolerance: a head-on mover at 2.5 m/s had
     the improved GPC ask, at t = 0.5 s, for a wheel change 7.6e-9 m/s beyond the rate limit, which
@@ -381,20 +400,8 @@ def test_the_gpc_decides_within_the_wheel_limits_not_to_its_solver_s_tolerance()
                   moving=(MovingObstacleSpec((7.0, 0.0), math.pi, 2.5, 0.3),))
     ctrl = make_controller("gpc", PRESETS["improved"], sc.robot)
     asked = []
-
-    class Recorded:
-        sample_time_s = ctrl.sample_time_s
-        counters = property(lambda self: ctrl.counters)
-
-        def reset(self):
-            ctrl.reset()
-
-        def decide(self, obs):
-            d = ctrl.decide(obs)
-            asked.append((obs.robot.v_right_mps, obs.robot.v_left_mps, d.v_right_mps, d.v_left_mps))
-            return d
-
-    log = simulate(sc, Recorded(), "gpc")
+    log = simulate(sc, _Recorded(ctrl, lambda obs, d: asked.append(
+        (obs.robot.v_right_mps, obs.robot.v_left_mps, d.v_right_mps, d.v_left_mps))), "gpc")
     dv, vmax = ROBOT.max_step_change_mps(ctrl.sample_time_s), ROBOT.max_wheel_speed_mps
     for r0, l0, r, l in asked:  # each wheel's command is what the robot's clip leaves of it, to the bit
         assert (followed_wheel(r0, r, dv, vmax), followed_wheel(l0, l, dv, vmax)) == (r, l), (r0, l0, r, l)
@@ -414,20 +421,8 @@ def test_a_candidate_the_check_keeps_is_the_controller_s_answer_not_a_fallback()
                   moving=(MovingObstacleSpec((7.0, 0.1), math.pi, 3.0, 0.3),))
     ctrl = make_controller("gpc", PRESETS["improved"], sc.robot)
     sources = []
-
-    class Recorded:
-        sample_time_s = ctrl.sample_time_s
-        counters = property(lambda self: ctrl.counters)
-
-        def reset(self):
-            ctrl.reset()
-
-        def decide(self, obs):
-            d = ctrl.decide(obs)
-            sources.append((d.info.get("safety_source"), d.fallback))
-            return d
-
-    log = simulate(sc, Recorded(), "gpc")
+    log = simulate(sc, _Recorded(ctrl, lambda obs, d: sources.append((d.info.get("safety_source"), d.fallback))),
+                   "gpc")
     assert ("candidate", False) in sources  # the case itself: the candidate kept
     for source, fallback in sources:
         assert fallback == (source is not None and (source == "fallback" or source.startswith("manoeuvre"))), source

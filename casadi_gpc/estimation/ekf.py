@@ -16,9 +16,8 @@ prediction), the obstacle manoeuvred (stopped dead, or set off), or its id now n
 elsewhere (a tracker that reuses ids): the velocity is estimated afresh from the two, counted;
 meanwhile :meth:`ObstacleEKF.ghost` stands at the pending measurement for planners to avoid
 too. A run of ``max_rejections`` rejections that do not agree restarts the track at the last
-one. The model, its noise levels and the frozen
-estimate with its forecast are :mod:`casadi_gpc.estimation.obstacle_model`'s. Numpy only (the
-deployed policy uses it).
+one. The model, its noise levels and the frozen estimate with its forecast are
+:mod:`casadi_gpc.estimation.obstacle_model`'s. Numpy only (the deployed policy uses it).
 """
 from __future__ import annotations
 

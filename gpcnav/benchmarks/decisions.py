@@ -167,7 +167,13 @@ def crowd_decisions(scenarios, config: PlannerConfig | None, make_network=None, 
     (about 45) does not give. Per controller: the pooled decision times
     (:func:`decision_time_stats`), outcomes, and for the network the parts of its decisions
     (:func:`decision_parts`) and the check's interventions; and the GPC's times over the
-    network's at the median, p99 and max where both ran. ``progress``: wraps the scenes' loop (a bar)."""
+    network's at the median, p99 and max where both ran. ``progress``: wraps the scenes' loop (a bar).
+
+    The objects made before (the bench's recorded problems, its solvers) are frozen out of the
+    garbage collector's reach while the scenes run (``gc.freeze``, as a robot's control loop would
+    after loading its policy, docs/nn-deploy.md): a full collection over them landed in one
+    decision, 0.1-0.15 s in three bench runs of 2026-12-02, the same decision each time."""
+    import gc
     from collections import Counter
 
     from ..controllers import ControllerSpec, make
@@ -177,14 +183,19 @@ def crowd_decisions(scenarios, config: PlannerConfig | None, make_network=None, 
     if make_network is not None:
         runs["nn"] = make_network
     pooled = {k: {"times": [], "decisions": [], "outcomes": Counter(), "interventions": 0} for k in runs}
-    for sc in (progress(scenarios) if progress else scenarios):
-        for name, new in runs.items():
-            log = simulate(sc, new(sc), name)
-            acc = pooled[name]
-            acc["times"] += list(log.compute_time_s)
-            acc["decisions"] += list(log.decisions)
-            acc["outcomes"][log.outcome] += 1
-            acc["interventions"] += int(log.events.get("interventions", 0))
+    gc.collect()
+    gc.freeze()
+    try:
+        for sc in (progress(scenarios) if progress else scenarios):
+            for name, new in runs.items():
+                log = simulate(sc, new(sc), name)
+                acc = pooled[name]
+                acc["times"] += list(log.compute_time_s)
+                acc["decisions"] += list(log.decisions)
+                acc["outcomes"][log.outcome] += 1
+                acc["interventions"] += int(log.events.get("interventions", 0))
+    finally:
+        gc.unfreeze()
     out = {"scenarios": [sc.name for sc in scenarios], "episodes": len(scenarios)}
     for name, acc in pooled.items():
         row = {"decisions": len(acc["times"]), "time_s": decision_time_stats(acc["times"]),

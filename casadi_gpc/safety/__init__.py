@@ -52,7 +52,7 @@ the filter **intervenes**, in this order:
    forecast's uncertainty has grown, is not as bad as one in the next second), then the
    largest smallest clearance, then the earlier one in :data:`MANOEUVRES` (braking first).
    If none is better than the candidate itself, the candidate is kept and that is counted
-   (``no_safer_option``).
+   (``no_safer_option``; not in ``interventions``, the decisions the check changed).
 
 A moving obstacle seen only once (``initialised`` false on the policy's track estimate:
 speed and heading unknown) is checked as the planner plans with it

@@ -148,3 +148,19 @@ def test_compare_refuses_the_network_s_options_without_nn_among_the_controllers(
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and option[0] in err[0] and "nn" in err[0], err
     assert not (tmp_path / "C.json").exists()
+
+
+def test_the_caption_tells_replayed_people_from_walkers():
+    """COMPARE.md's and COMPARE.png's caption names the recorded suite's behaviour: `ucy` replayed
+    and `ucy --behaviour orca` are different episodes (until 2026-12-02 both read "suite ucy, seed 1")."""
+    from gpcnav.commands.compare_report import episodes_caption
+    from scenarios.suites import Suite
+
+    def caption(behaviour):
+        spec = Suite("ucy", count=3, seed=1, behaviour=behaviour).describe()
+        return episodes_caption({"controllers": [{"episodes": 3}], "preset": "improved", "suite_spec": spec})
+    assert caption("replay") == "3 episodes (suite ucy, seed 1, replay), preset improved"
+    assert caption("orca") == "3 episodes (suite ucy, seed 1, orca), preset improved"
+    crowd = Suite("circle-crossing", count=4, seed=1, behaviour="orca").describe()
+    assert episodes_caption({"controllers": [{"episodes": 4}], "preset": "improved", "suite_spec": crowd}) == \
+        "4 episodes (suite circle-crossing, seed 1, 5 orca movers), preset improved"

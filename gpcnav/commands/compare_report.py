@@ -25,6 +25,8 @@ def episodes_caption(doc: dict) -> str:
         what = f"suite {spec['suite']}, seed {spec['seed']}"
         if "movers" in spec:
             what += f", {spec['movers']} {spec['behaviour']} movers"
+        elif spec.get("behaviour"):  # ucy: the recorded people replayed, or walkers that follow them
+            what += f", {spec['behaviour']}"
     else:
         what = "scenario files"
     return f"{n} episodes ({what}), preset {doc.get('preset')}"

@@ -244,6 +244,33 @@ def test_export_of_a_model_folder_with_a_damaged_file_is_one_line(fitted, tmp_pa
     assert not (tmp_path / "m.onnx").exists()
 
 
+def test_a_save_interrupted_over_an_older_model_leaves_no_model_folder(fitted, tmp_path, capsys, monkeypatch):
+    """A `gpcnav train` stopped while saving over an older model folder left the new weights
+    under the old model.json: export was a traceback (another shape) or wrote a file whose
+    metadata (validation RMSE, dataset, hyper-parameters) were the older model's."""
+    import nn_export.training.train as train_module
+    from gpcnav.cli import main
+    m, X, Y = fitted
+    m.save(tmp_path / "m", PROV)
+    np.save(tmp_path / "m" / "validation_features.npy", X[m.validation_indices_])
+    wider = WheelSpeedMLP(hidden=24, max_epochs=3, random_state=4).fit(X, Y)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(train_module, "save_curve_figure", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        wider.save(tmp_path / "m", PROV)
+    assert not (tmp_path / "m" / "model.json").exists()
+    assert main(["export", str(tmp_path / "m"), "--out", str(tmp_path / "m.onnx")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a trained model folder (no model.json" in err[0], err
+    monkeypatch.undo()
+    wider.save(tmp_path / "m", PROV, {"validation_features": X[wider.validation_indices_]})
+    assert main(["export", str(tmp_path / "m"), "--out", str(tmp_path / "m.onnx")]) == 0
+    assert WheelSpeedMLP.load(tmp_path / "m").hidden == 24
+
+
 def test_deeper_network_roundtrip_and_export_parity(tmp_path):
     """layers=2: saved, loaded and exported with the same parity as the paper's one layer."""
     X, Y = _data()

@@ -211,8 +211,7 @@ def run(args) -> int:
     }
     if weighting is not None:
         provenance["training"] = {"sample_weights": weighting}  # into the file's trained_with
-    model.save(args.out, provenance)
-    np.save(args.out / "validation_features.npy", X[model.validation_indices_])
+    model.save(args.out, provenance, {"validation_features": X[model.validation_indices_]})
     shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-{Y.shape[1]}"
     if args.architecture == "set":
         rho = "-".join([str(args.hidden)] * args.layers)

@@ -403,12 +403,17 @@ class WheelSpeedMLP:
                 "y_mix": n.y_mix.numpy().copy()}
 
     # --- files -----------------------------------------------------------------------
-    def save(self, model_dir, provenance: dict | None = None) -> Path:
-        """Write the fitted model to ``model_dir`` (created); ``provenance`` (dataset, preset,
-        robot, layout...) is stored in ``model.json`` and travels on into the ONNX file."""
+    def save(self, model_dir, provenance: dict | None = None, arrays: dict | None = None) -> Path:
+        """Write the fitted model to ``model_dir`` with ``provenance`` (into ``model.json``, then the ONNX file) and
+        ``arrays`` as ``<name>.npy``. ``model.json`` goes first and comes back last: a save interrupted over
+        an older model leaves no model folder, not new weights under the older model's metadata."""
         self._check_fitted()
         from casadi_gpc.io import atomic_file, write_json
         model_dir = Path(model_dir)
+        (model_dir / "model.json").unlink(missing_ok=True)
+        for name, array in {"validation_indices": self.validation_indices_, **(arrays or {})}.items():
+            with atomic_file(model_dir / f"{name}.npy") as tmp:
+                np.save(tmp, array)
         with atomic_file(model_dir / "weights.npz") as tmp:
             np.savez(tmp, **self.numpy_params())
         write_json(model_dir / "training_curve.json", self.curve_)
@@ -421,7 +426,6 @@ class WheelSpeedMLP:
             self.validation_max_abs_error_, "n_train": int(len(self.train_indices_)),
             "n_validation": int(len(self.validation_indices_)), "best_epoch": self.best_epoch_,
             "stop_reason": self.stop_reason_, "provenance": provenance or {}})
-        np.save(model_dir / "validation_indices.npy", self.validation_indices_)
         self.provenance_ = dict(provenance or {})
         return model_dir
 

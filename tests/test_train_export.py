@@ -57,7 +57,8 @@ def test_fit_validates_arrays(X, Y, match):
 
 
 @pytest.mark.parametrize("kw", [{"hidden": 0}, {"activation": "cosine"}, {"validation_fraction": 1.0},
-                                {"learning_rate": -1.0}, {"patience": 0}])
+                                {"learning_rate": -1.0}, {"patience": 0}, {"weight_decay": -1.0},
+                                {"weight_decay": float("nan")}])
 def test_fit_validates_hyper_parameters(kw):
     X, Y = _data(50)
     with pytest.raises(ValueError):
@@ -215,10 +216,14 @@ def test_dataset_says_before_labelling_that_train_refuses_labels_at_another_timi
     (["--batch-size", "64"], "--batch-size: an option of --optimizer adam"),
     (["--lr", "0.1"], "--lr: an option of --optimizer adam"),
     (["--optimizer", "adam", "--encoder-width", "32"], "--encoder-width: an option of --architecture set"),
+    (["--weight-decay=-1"], "--weight-decay must be a finite number, 0 or more, got -1.0"),
+    (["--weight-decay", "nan"], "--weight-decay must be a finite number, 0 or more, got nan"),
 ])
 def test_train_refuses_options_the_training_does_not_use(tmp_path, capsys, option, words):
     """--encoder-width without --architecture set, --batch-size and --lr with L-BFGS were taken and
-    ignored (the same network as without them); now one line before any work."""
+    ignored (the same network as without them); now one line before any work. A negative --weight-decay
+    trained (a penalty that rewards large weights) and nan or inf failed after the work as "diverged
+    (learning_rate 0.003)", a setting L-BFGS does not use."""
     from gpcnav.cli import main
     code = main(["train", str(tmp_path / "data"), "--out", str(tmp_path / "m"), "--preset", "paper", *option])
     err = capsys.readouterr().err.strip().splitlines()

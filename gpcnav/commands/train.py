@@ -126,6 +126,8 @@ def run(args) -> int:
             raise UsageError(f"{name} must be at least {lo}, got {v}")
     if args.lr is not None and not args.lr > 0:
         raise UsageError(f"--lr must be positive, got {args.lr}")
+    if not 0 <= args.weight_decay < float("inf"):  # -1 trained, rewarding large weights; nan "diverged (learning_rate)"
+        raise UsageError(f"--weight-decay must be a finite number, 0 or more, got {args.weight_decay}")
     if args.cost_gap_weight is not None and not args.cost_gap_weight > 0:
         raise UsageError(f"--cost-gap-weight must be positive, got {args.cost_gap_weight}")
     if not 0 < args.validation_fraction < 1:

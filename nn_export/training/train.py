@@ -187,8 +187,9 @@ class WheelSpeedMLP:
         for name in ("max_epochs", "batch_size", "patience"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
-        if not self.learning_rate > 0:
-            raise ValueError(f"learning_rate must be positive, got {self.learning_rate}")
+        if not (self.learning_rate > 0 and 0 <= self.weight_decay < math.inf):
+            raise ValueError(f"learning_rate must be positive and weight_decay finite and not negative, got "
+                             f"{self.learning_rate} and {self.weight_decay}")
 
     # --- learning --------------------------------------------------------------------
     def fit(self, X, Y, groups=None, feature_names=None, label_names=None, progress=None,

@@ -65,6 +65,18 @@ def test_fit_validates_hyper_parameters(kw):
         WheelSpeedMLP(max_epochs=1, **kw).fit(X, Y)
 
 
+@pytest.mark.parametrize("groups", [None, "pairs"])
+def test_a_validation_fraction_that_leaves_nothing_to_train_on_is_refused(groups):
+    """--validation-fraction 0.999 on 200 situations put all 200 in validation: the training
+    split was empty and the training failed as "diverged (learning_rate 0.003)"."""
+    X, Y = _data(n=400)
+    g = None if groups is None else np.arange(400) // 2
+    with pytest.raises(ValueError, match=r"validation fraction 0.999 of (400 samples|200 situations) leaves none"):
+        WheelSpeedMLP(max_epochs=1, validation_fraction=0.999).fit(X, Y, groups=g)
+    m = WheelSpeedMLP(max_epochs=1, validation_fraction=0.99).fit(X, Y, groups=g)
+    assert len(m.train_indices_) > 0
+
+
 def test_learns_a_known_map_and_keeps_the_best_epoch(fitted):
     m, X, Y = fitted
     # the labels span about +-0.5 m/s; a fitted net must get far below their variance

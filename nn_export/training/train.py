@@ -32,7 +32,7 @@ from casadi_gpc.io import UNREADABLE_NPZ
 from ..runtime.layouts import WHEEL_INPUTS
 from .curve import save_curve_figure
 from .set_net import SetNet, set_standardisation, slot_structure
-from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale, weighted_loss
+from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale, validation_count, weighted_loss
 
 __all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure", "current_wheels", "wheel_selection"]
 
@@ -323,7 +323,8 @@ class WheelSpeedMLP:
             net.eval()
             tr, va = data.mse(net, xt, yt, wt), data.mse(net, xv, yv, wv)
             if not (math.isfinite(tr) and math.isfinite(va)):
-                raise FloatingPointError(f"training diverged at epoch {epoch} (learning_rate {self.learning_rate})")
+                raise FloatingPointError(f"training diverged at epoch {epoch} ("
+                                         + (f"learning_rate {self.learning_rate})" if self.optimizer == "adam" else "L-BFGS)"))
             if sched is not None:
                 sched.step(va)
             for key, value in zip(("epoch", "train_mse", "val_mse", "learning_rate"),
@@ -358,7 +359,7 @@ class WheelSpeedMLP:
     def _split(self, n: int, groups, rng: np.random.Generator):
         if groups is None:
             perm = rng.permutation(n)
-            n_val = max(1, int(round(self.validation_fraction * n)))
+            n_val = validation_count(self.validation_fraction, n, "samples")
             return np.sort(perm[n_val:]), np.sort(perm[:n_val])
         groups = np.asarray(groups)
         if groups.shape != (n,):
@@ -366,7 +367,7 @@ class WheelSpeedMLP:
         uniq = np.unique(groups)
         if len(uniq) < 2:
             raise ValueError("groups must hold at least two distinct ids")
-        n_val = max(1, int(round(self.validation_fraction * len(uniq))))
+        n_val = validation_count(self.validation_fraction, len(uniq), "situations")
         val_groups = rng.permutation(uniq)[:n_val]
         is_val = np.isin(groups, val_groups)
         return np.flatnonzero(~is_val), np.flatnonzero(is_val)

@@ -248,6 +248,7 @@ def test_dagger_round_appends_labelled_on_policy_situations(reference_dataset, t
     lab = Labeller(PAPER)
     arrays, stats = collect_on_policy(_SlowStraight(), scenarios, OnPolicyOptions(PAPER, lay, id_base=10 ** 12), lab)
     assert stats["situations"] == 12 and len(stats["episodes"]) == 2
+    assert stats["elapsed_s"] > 0  # the round's part recorded 0.0 s for any round
     n = len(arrays["labels"])
     assert n == 2 * (12 - stats["not_converged"])
     # the visited situations are what the deployed tracker sees: recompute the first one

@@ -57,11 +57,24 @@ def test_fit_validates_arrays(X, Y, match):
 
 
 @pytest.mark.parametrize("kw", [{"hidden": 0}, {"activation": "cosine"}, {"validation_fraction": 1.0},
-                                {"learning_rate": -1.0}, {"patience": 0}])
+                                {"learning_rate": -1.0}, {"patience": 0}, {"weight_decay": -1.0},
+                                {"weight_decay": float("nan")}])
 def test_fit_validates_hyper_parameters(kw):
     X, Y = _data(50)
     with pytest.raises(ValueError):
         WheelSpeedMLP(max_epochs=1, **kw).fit(X, Y)
+
+
+@pytest.mark.parametrize("groups", [None, "pairs"])
+def test_a_validation_fraction_that_leaves_nothing_to_train_on_is_refused(groups):
+    """--validation-fraction 0.999 on 200 situations put all 200 in validation: the training
+    split was empty and the training failed as "diverged (learning_rate 0.003)"."""
+    X, Y = _data(n=400)
+    g = None if groups is None else np.arange(400) // 2
+    with pytest.raises(ValueError, match=r"validation fraction 0.999 of (400 samples|200 situations) leaves none"):
+        WheelSpeedMLP(max_epochs=1, validation_fraction=0.999).fit(X, Y, groups=g)
+    m = WheelSpeedMLP(max_epochs=1, validation_fraction=0.99).fit(X, Y, groups=g)
+    assert len(m.train_indices_) > 0
 
 
 def test_learns_a_known_map_and_keeps_the_best_epoch(fitted):
@@ -215,10 +228,14 @@ def test_dataset_says_before_labelling_that_train_refuses_labels_at_another_timi
     (["--batch-size", "64"], "--batch-size: an option of --optimizer adam"),
     (["--lr", "0.1"], "--lr: an option of --optimizer adam"),
     (["--optimizer", "adam", "--encoder-width", "32"], "--encoder-width: an option of --architecture set"),
+    (["--weight-decay=-1"], "--weight-decay must be a finite number, 0 or more, got -1.0"),
+    (["--weight-decay", "nan"], "--weight-decay must be a finite number, 0 or more, got nan"),
 ])
 def test_train_refuses_options_the_training_does_not_use(tmp_path, capsys, option, words):
     """--encoder-width without --architecture set, --batch-size and --lr with L-BFGS were taken and
-    ignored (the same network as without them); now one line before any work."""
+    ignored (the same network as without them); now one line before any work. A negative --weight-decay
+    trained (a penalty that rewards large weights) and nan or inf failed after the work as "diverged
+    (learning_rate 0.003)", a setting L-BFGS does not use."""
     from gpcnav.cli import main
     code = main(["train", str(tmp_path / "data"), "--out", str(tmp_path / "m"), "--preset", "paper", *option])
     err = capsys.readouterr().err.strip().splitlines()
@@ -242,6 +259,33 @@ def test_export_of_a_model_folder_with_a_damaged_file_is_one_line(fitted, tmp_pa
     assert len(err) == 1 and err[0].startswith(f"gpcnav export: error: {tmp_path / 'm'}: cannot load the trained "
                                                f"model: {words}"), err
     assert not (tmp_path / "m.onnx").exists()
+
+
+def test_a_save_interrupted_over_an_older_model_leaves_no_model_folder(fitted, tmp_path, capsys, monkeypatch):
+    """A `gpcnav train` stopped while saving over an older model folder left the new weights
+    under the old model.json: export was a traceback (another shape) or wrote a file whose
+    metadata (validation RMSE, dataset, hyper-parameters) were the older model's."""
+    import nn_export.training.train as train_module
+    from gpcnav.cli import main
+    m, X, Y = fitted
+    m.save(tmp_path / "m", PROV)
+    np.save(tmp_path / "m" / "validation_features.npy", X[m.validation_indices_])
+    wider = WheelSpeedMLP(hidden=24, max_epochs=3, random_state=4).fit(X, Y)
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(train_module, "save_curve_figure", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        wider.save(tmp_path / "m", PROV)
+    assert not (tmp_path / "m" / "model.json").exists()
+    assert main(["export", str(tmp_path / "m"), "--out", str(tmp_path / "m.onnx")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a trained model folder (no model.json" in err[0], err
+    monkeypatch.undo()
+    wider.save(tmp_path / "m", PROV, {"validation_features": X[wider.validation_indices_]})
+    assert main(["export", str(tmp_path / "m"), "--out", str(tmp_path / "m.onnx")]) == 0
+    assert WheelSpeedMLP.load(tmp_path / "m").hidden == 24
 
 
 def test_deeper_network_roundtrip_and_export_parity(tmp_path):

@@ -126,6 +126,8 @@ def run(args) -> int:
             raise UsageError(f"{name} must be at least {lo}, got {v}")
     if args.lr is not None and not args.lr > 0:
         raise UsageError(f"--lr must be positive, got {args.lr}")
+    if not 0 <= args.weight_decay < float("inf"):  # -1 trained, rewarding large weights; nan "diverged (learning_rate)"
+        raise UsageError(f"--weight-decay must be a finite number, 0 or more, got {args.weight_decay}")
     if args.cost_gap_weight is not None and not args.cost_gap_weight > 0:
         raise UsageError(f"--cost-gap-weight must be positive, got {args.cost_gap_weight}")
     if not 0 < args.validation_fraction < 1:
@@ -211,8 +213,7 @@ def run(args) -> int:
     }
     if weighting is not None:
         provenance["training"] = {"sample_weights": weighting}  # into the file's trained_with
-    model.save(args.out, provenance)
-    np.save(args.out / "validation_features.npy", X[model.validation_indices_])
+    model.save(args.out, provenance, {"validation_features": X[model.validation_indices_]})
     shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-{Y.shape[1]}"
     if args.architecture == "set":
         rho = "-".join([str(args.hidden)] * args.layers)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-__all__ = ["Splits", "weighted_loss", "lbfgs_step", "adam_epoch", "robust_scale", "copy_state"]
+__all__ = ["Splits", "validation_count", "weighted_loss", "lbfgs_step", "adam_epoch", "robust_scale", "copy_state"]
 
 _STD_FLOOR = 1e-9  # below this a feature is constant (e.g. an absent-obstacle code): its scale is 1,
 # as in scikit-learn's StandardScaler, so that it neither divides by zero nor magnifies float32 rounding
@@ -34,6 +34,15 @@ class Splits:
         both wheels, (m/s)^2."""
         with torch.no_grad():
             return float(_mean((((net.normalised(xn) - yn) * self.y_scale) @ self.mix.T) ** 2, w))
+
+
+def validation_count(fraction: float, n: int, what: str) -> int:
+    """How many of ``n`` samples or situations go to the validation split; a fraction that leaves
+    none to train on is refused (--validation-fraction 0.999 trained on nothing, then "diverged")."""
+    n_val = max(1, int(round(fraction * n)))
+    if n_val >= n:
+        raise ValueError(f"validation fraction {fraction} of {n} {what} leaves none to train on")
+    return n_val
 
 
 def weighted_loss(pred: torch.Tensor, target: torch.Tensor, w: torch.Tensor | None) -> torch.Tensor:

@@ -32,7 +32,7 @@ from casadi_gpc.io import UNREADABLE_NPZ
 from ..runtime.layouts import WHEEL_INPUTS
 from .curve import save_curve_figure
 from .set_net import SetNet, set_standardisation, slot_structure
-from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale, weighted_loss
+from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale, validation_count, weighted_loss
 
 __all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure", "current_wheels", "wheel_selection"]
 
@@ -187,8 +187,9 @@ class WheelSpeedMLP:
         for name in ("max_epochs", "batch_size", "patience"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
-        if not self.learning_rate > 0:
-            raise ValueError(f"learning_rate must be positive, got {self.learning_rate}")
+        if not (self.learning_rate > 0 and 0 <= self.weight_decay < math.inf):
+            raise ValueError(f"learning_rate must be positive and weight_decay finite and not negative, got "
+                             f"{self.learning_rate} and {self.weight_decay}")
 
     # --- learning --------------------------------------------------------------------
     def fit(self, X, Y, groups=None, feature_names=None, label_names=None, progress=None,
@@ -322,7 +323,8 @@ class WheelSpeedMLP:
             net.eval()
             tr, va = data.mse(net, xt, yt, wt), data.mse(net, xv, yv, wv)
             if not (math.isfinite(tr) and math.isfinite(va)):
-                raise FloatingPointError(f"training diverged at epoch {epoch} (learning_rate {self.learning_rate})")
+                raise FloatingPointError(f"training diverged at epoch {epoch} ("
+                                         + (f"learning_rate {self.learning_rate})" if self.optimizer == "adam" else "L-BFGS)"))
             if sched is not None:
                 sched.step(va)
             for key, value in zip(("epoch", "train_mse", "val_mse", "learning_rate"),
@@ -357,7 +359,7 @@ class WheelSpeedMLP:
     def _split(self, n: int, groups, rng: np.random.Generator):
         if groups is None:
             perm = rng.permutation(n)
-            n_val = max(1, int(round(self.validation_fraction * n)))
+            n_val = validation_count(self.validation_fraction, n, "samples")
             return np.sort(perm[n_val:]), np.sort(perm[:n_val])
         groups = np.asarray(groups)
         if groups.shape != (n,):
@@ -365,7 +367,7 @@ class WheelSpeedMLP:
         uniq = np.unique(groups)
         if len(uniq) < 2:
             raise ValueError("groups must hold at least two distinct ids")
-        n_val = max(1, int(round(self.validation_fraction * len(uniq))))
+        n_val = validation_count(self.validation_fraction, len(uniq), "situations")
         val_groups = rng.permutation(uniq)[:n_val]
         is_val = np.isin(groups, val_groups)
         return np.flatnonzero(~is_val), np.flatnonzero(is_val)
@@ -403,12 +405,17 @@ class WheelSpeedMLP:
                 "y_mix": n.y_mix.numpy().copy()}
 
     # --- files -----------------------------------------------------------------------
-    def save(self, model_dir, provenance: dict | None = None) -> Path:
-        """Write the fitted model to ``model_dir`` (created); ``provenance`` (dataset, preset,
-        robot, layout...) is stored in ``model.json`` and travels on into the ONNX file."""
+    def save(self, model_dir, provenance: dict | None = None, arrays: dict | None = None) -> Path:
+        """Write the fitted model to ``model_dir`` with ``provenance`` (into ``model.json``, then the ONNX file) and
+        ``arrays`` as ``<name>.npy``. ``model.json`` goes first and comes back last: a save interrupted over
+        an older model leaves no model folder, not new weights under the older model's metadata."""
         self._check_fitted()
         from casadi_gpc.io import atomic_file, write_json
         model_dir = Path(model_dir)
+        (model_dir / "model.json").unlink(missing_ok=True)
+        for name, array in {"validation_indices": self.validation_indices_, **(arrays or {})}.items():
+            with atomic_file(model_dir / f"{name}.npy") as tmp:
+                np.save(tmp, array)
         with atomic_file(model_dir / "weights.npz") as tmp:
             np.savez(tmp, **self.numpy_params())
         write_json(model_dir / "training_curve.json", self.curve_)
@@ -421,7 +428,6 @@ class WheelSpeedMLP:
             self.validation_max_abs_error_, "n_train": int(len(self.train_indices_)),
             "n_validation": int(len(self.validation_indices_)), "best_epoch": self.best_epoch_,
             "stop_reason": self.stop_reason_, "provenance": provenance or {}})
-        np.save(model_dir / "validation_indices.npy", self.validation_indices_)
         self.provenance_ = dict(provenance or {})
         return model_dir
 

@@ -22,6 +22,7 @@ Two kinds of labels (:attr:`OnPolicyOptions.labels`):
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -167,6 +168,7 @@ def collect_on_policy(policy, scenarios, options: OnPolicyOptions, labeller: Lab
     config, layout = options.config, options.layout
     if abs(policy.sample_time_s - config.sample_time_s) > 1e-12:
         raise ValueError(f"policy sample time {policy.sample_time_s} s != planner's {config.sample_time_s} s")
+    t0 = time.perf_counter()
     labeller = labeller or Labeller(config, options.robot, options.solver, tie_margin=options.tie_margin)
     situations, episodes = _drive(policy, scenarios, options)
     n = len(situations) * (2 if options.mirror else 1)
@@ -178,6 +180,7 @@ def collect_on_policy(policy, scenarios, options: OnPolicyOptions, labeller: Lab
                      options.id_base)
     arrays = {k: (v[: builder.k] if isinstance(v, np.ndarray) else v) for k, v in builder.arrays().items()}
     stats["episodes"] = episodes
+    stats["elapsed_s"] = time.perf_counter() - t0  # driving and labelling (a round's part recorded 0.0)
     return arrays, stats
 
 

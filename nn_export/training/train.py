@@ -32,7 +32,8 @@ from casadi_gpc.io import UNREADABLE_NPZ
 from ..runtime.layouts import WHEEL_INPUTS
 from .curve import save_curve_figure
 from .set_net import SetNet, set_standardisation, slot_structure
-from .steps import Splits, adam_epoch, copy_state, lbfgs_step, robust_scale, validation_count, weighted_loss
+from .steps import (Splits, adam_epoch, checked_arrays as _checked_arrays, copy_state, lbfgs_step, robust_scale,
+                    validation_count, weighted_loss)
 
 __all__ = ["WheelSpeedMLP", "MODEL_FORMAT", "save_curve_figure", "current_wheels", "wheel_selection"]
 
@@ -484,22 +485,3 @@ def _load_mlp(net: _Net, arrays: dict) -> None:
             getattr(net, k).copy_(torch.from_numpy(arrays[k]))
         if "y_mix" in arrays:
             net.y_mix.copy_(torch.from_numpy(arrays["y_mix"]))
-
-
-def _checked_arrays(X, Y, feature_names, label_names) -> tuple[np.ndarray, np.ndarray]:
-    """``X`` and ``Y`` as float64 arrays, refused (ValueError) when they cannot be learned."""
-    X = np.asarray(X, dtype=np.float64)
-    Y = np.asarray(Y, dtype=np.float64)
-    if X.ndim != 2 or Y.ndim != 2:
-        raise ValueError(f"X and Y must be 2-D, got shapes {X.shape} and {Y.shape}")
-    if len(X) != len(Y):
-        raise ValueError(f"X has {len(X)} rows but Y has {len(Y)}")
-    if len(X) < 10:
-        raise ValueError(f"need at least 10 samples to train and validate, got {len(X)}")
-    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Y))):
-        raise ValueError("X and Y must be finite")
-    if feature_names is not None and len(feature_names) != X.shape[1]:
-        raise ValueError(f"{len(feature_names)} feature names for {X.shape[1]} features")
-    if label_names is not None and len(label_names) != Y.shape[1]:
-        raise ValueError(f"{len(label_names)} label names for {Y.shape[1]} labels")
-    return X, Y

@@ -9,13 +9,6 @@ from pathlib import Path
 from ..errors import UsageError
 from .common import check_output_files, same_file
 
-TRAINED_FILES = ("model.json", "weights.npz", "training_curve.json", "training_curve.png", "validation_features.npy",
-                 "validation_indices.npy")
-"""What ``gpcnav train`` writes in a model folder: an ``--out`` that is one of them is refused (``--out
-M/model.json`` wrote the ONNX bytes over the trained model it had just read, which no command could
-load again)."""
-
-
 def add_arguments(p):
     p.add_argument("model_dir", type=Path, help="folder written by `gpcnav train`")
     p.add_argument("--out", type=Path, required=True, help="write the ONNX model here")
@@ -28,10 +21,11 @@ def run(args) -> int:
     check_output_files(out=args.out)  # a folder, or a path that cannot be written: a traceback after the work
     if not (args.model_dir / "model.json").is_file():
         raise UsageError(f"{args.model_dir}: not a trained model folder (no model.json; run `gpcnav train` first)")
-    for name in TRAINED_FILES:
-        if same_file(args.out, args.model_dir / name):
-            raise UsageError(f"--out {args.out} is the trained model's {name} in {args.model_dir}: it would be "
-                             f"overwritten (name the ONNX file, e.g. {args.model_dir / 'model.onnx'})")
+    # a file of the trained folder itself (--out M/model.json wrote the ONNX bytes over the model it had just
+    # read, which no command could load again): any file there but an earlier export, whatever train writes
+    if args.out.is_file() and args.out.suffix != ".onnx" and same_file(args.out.parent, args.model_dir):
+        raise UsageError(f"--out {args.out} is the trained model's {args.out.name} in {args.model_dir}: it would be "
+                         f"overwritten (name the ONNX file, e.g. {args.model_dir / 'model.onnx'})")
     try:
         from nn_export.training.export import export_onnx
         from nn_export.training.train import WheelSpeedMLP

@@ -23,6 +23,7 @@ __all__ = [
     "policy_class_name",
     "samples_since",
     "positive_seconds",
+    "finite_real",
 ]
 
 
@@ -162,10 +163,16 @@ def _walls_as_tuples(walls, t_s: float) -> tuple:
     return tuple(out)
 
 
+def finite_real(value) -> bool:
+    """Whether ``value`` is a number: a real one (numpy's too; not a bool, not a string that
+    reads as one) and finite. The rule behind every numeric argument checked here."""
+    return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value)
+
+
 def positive_seconds(value) -> bool:
-    """Whether ``value`` is a sample time: a real number (numpy's too, not a bool), finite and
-    above 0 (``np.float32(0.5)`` read from a config array was refused as "not a positive number")."""
-    return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value) and value > 0
+    """Whether ``value`` is a sample time: a :func:`finite_real` above 0 (``np.float32(0.5)``
+    read from a config array was refused as "not a positive number")."""
+    return finite_real(value) and value > 0
 
 
 def samples_since(previous_t_s: float | None, t_s: float, sample_time_s: float) -> int:

@@ -132,15 +132,22 @@ def test_a_preset_that_is_none_is_said_so():
 
 @pytest.mark.parametrize("kw, words", [
     # a negative distance was taken (the second pass never ran); NaN and infinity were refused already
-    (dict(safety_distance_m=-1), r"^safety_distance_m must be finite and not negative, got -1$"),
-    (dict(safety_distance_m=math.nan), r"^safety_distance_m must be finite and not negative, got nan$"),
-    (dict(safety_distance_m=math.inf), r"^safety_distance_m must be finite and not negative, got inf$"),
+    (dict(safety_distance_m=-1), r"^safety_distance_m must be a finite number, not negative, got -1$"),
+    (dict(safety_distance_m=math.nan), r"^safety_distance_m must be a finite number, not negative, got nan$"),
+    (dict(safety_distance_m=math.inf), r"^safety_distance_m must be a finite number, not negative, got inf$"),
+    # "abc" failed inside float() ("could not convert string to float"), naming no argument;
+    # "0.3" and True were taken as 0.3 m and 1.0 m (the rule of RobotParams and EKFSettings: a real number)
+    (dict(safety_distance_m="abc"), r"^safety_distance_m must be a finite number, not negative, got 'abc'$"),
+    (dict(safety_distance_m="0.3"), r"^safety_distance_m must be a finite number, not negative, got '0.3'$"),
+    (dict(safety_distance_m=True), r"^safety_distance_m must be a finite number, not negative, got True$"),
+    (dict(safety_distance_m=[1.0]), r"^safety_distance_m must be a finite number, not negative, got \[1.0\]$"),
     (dict(check_forecast="curved"), r"^check_forecast must be 'turn' or 'straight'"),
 ])
 def test_a_bad_keyword_argument_is_a_value_error_naming_it(kw, words):
     with pytest.raises(ValueError, match=words):
         OnnxPolicy(**kw)
     assert OnnxPolicy(safety_distance_m=0).safety_distance_m == 0.0  # 0: a second pass only on a predicted overlap
+    assert OnnxPolicy(safety_distance_m=np.float32(0.5)).safety_distance_m == 0.5  # numpy's numbers are numbers
 
 
 @pytest.mark.parametrize("field, value", [("measurement_std_m", -0.02), ("speed_noise_mps2", math.nan),

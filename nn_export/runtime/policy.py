@@ -40,7 +40,7 @@ import numpy as np
 from casadi_gpc.config import DEFAULT_PRESET, preset as preset_config
 from casadi_gpc.estimation.ekf import EKFSettings
 from casadi_gpc.robot import RobotParams, robot_step_float
-from casadi_gpc.types import ControlDecision, Observation
+from casadi_gpc.types import ControlDecision, Observation, finite_real
 
 from .features import RolloutFeatures, feature_values, feature_values_from
 from .goal_hold import goal_hold
@@ -218,10 +218,10 @@ class OnnxPolicy:
                 raise ValueError(f"{path}: metadata decision_passes is {passes!r}, expected '1' or '2'")
             two_pass = passes == "2"
         self.two_pass = bool(two_pass)
-        self.safety_distance_m = float(DEFAULT_SAFETY_DISTANCE_M[self.config.name] if safety_distance_m is None
-                                       else safety_distance_m)
-        if not (math.isfinite(self.safety_distance_m) and self.safety_distance_m >= 0):  # (-1 was taken)
-            raise ValueError(f"safety_distance_m must be finite and not negative, got {safety_distance_m}")
+        d = DEFAULT_SAFETY_DISTANCE_M[self.config.name] if safety_distance_m is None else safety_distance_m
+        if not (finite_real(d) and d >= 0):  # (-1 was taken; "abc" failed inside float(), "0.3" passed)
+            raise ValueError(f"safety_distance_m must be a finite number, not negative, got {safety_distance_m!r}")
+        self.safety_distance_m = float(d)
         # two passes need the desired poses at steps 0..2H-1 (the window of roll-out step j is j..j+H)
         self.tracker = SituationTracker(self.config, ekf_settings,
                                         reference_steps=2 * self.horizon - 1 if self.two_pass else None)

@@ -507,9 +507,27 @@ def test_train_on_some_parts_only(reference_dataset, tmp_path):
         prov = json.loads((tmp_path / f"m_{parts}" / "model.json").read_text())["provenance"]["dataset"]
         assert prov["samples"] == n
         assert prov["parts"][str(out)] == (["offpolicy"] if parts else ["dagger1", "offpolicy"])
+    ids = {json.loads((tmp_path / f"m_{parts}" / "model.json").read_text())["provenance"]["dataset"]["id"]
+           for parts in ("offpolicy", None)}
+    assert len(ids) == 2  # other samples trained on, another dataset id
     proc = train("offpolicy,gpc9", tmp_path / "bad")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "gpc9" in proc.stderr
     assert not (tmp_path / "bad").exists()
+
+
+def test_the_dataset_id_of_a_training_says_which_parts_it_took():
+    """train's dataset id hashed every part of the manifest whatever ``--parts`` said: two
+    models trained on other parts of one folder had the same id. Naming every part is the
+    same data (the same id); another choice of parts, another id."""
+    from gpcnav.commands.train import _dataset_id
+    man = {"samples": 100, "shards": ["a.npz", "b.npz"], "seed": 3,
+           "parts": {"offpolicy": {"samples": 60, "shards": ["a.npz"]},
+                     "dagger1": {"samples": 40, "shards": ["b.npz"]}}}
+    every = _dataset_id([man])
+    assert _dataset_id([man], ("dagger1", "offpolicy")) == _dataset_id([man], ("offpolicy", "dagger1")) == every
+    ids = {every, _dataset_id([man], ("offpolicy",)), _dataset_id([man], ("dagger1",))}
+    assert len(ids) == 3
+    assert _dataset_id([man, man], ("offpolicy",)) != _dataset_id([man], ("offpolicy",))  # and every folder counts
 
 
 def test_every_sampler_number_is_part_of_the_spec_id(reference_dataset):

@@ -63,12 +63,18 @@ def _label_names(names, steps: int, target: str):
     return [f"{n}_{k}" for k in range(1, steps + 1) for n in names]
 
 
-def _dataset_id(manifests) -> str:
+def _dataset_id(manifests, parts: tuple[str, ...] | None = None) -> str:
+    """A short hash of what was trained on: each dataset's manifest (samples, shards, seed) and
+    the parts taken from it, ``parts`` (``--parts``) or all (None). Naming every part is the
+    same data, so the same id; other parts of the same folders are another id (until
+    2026-12-02 the id hashed every part whatever ``--parts`` said)."""
     import json
     h = hashlib.sha256()
     for m in manifests:
-        h.update(json.dumps({k: m.get(k) for k in ("samples", "shards", "parts", "seed")}, sort_keys=True,
-                            default=str).encode())
+        key = {k: m.get(k) for k in ("samples", "shards", "parts", "seed")}
+        if parts is not None and isinstance(key["parts"], dict):
+            key["parts"] = {k: v for k, v in key["parts"].items() if k in parts}
+        h.update(json.dumps(key, sort_keys=True, default=str).encode())
     return h.hexdigest()[:16]
 
 
@@ -206,7 +212,7 @@ def run(args) -> int:
         "preset": cfg.name, "horizon": cfg.horizon, "sample_time_s": cfg.sample_time_s, "output": args.target,
         "planner_config": cfg.to_dict(), "robot": first.manifest["robot"], "feature_layout": lay.name,
         "feature_layout_version": lay.version, "feature_layout_spec": lay.to_dict(),
-        "dataset": {"id": _dataset_id([s.manifest for s in sets]), "paths": [str(d) for d in args.datasets],
+        "dataset": {"id": _dataset_id([s.manifest for s in sets], parts), "paths": [str(d) for d in args.datasets],
                     "samples": int(len(X)),
                     "parts": {str(d): sorted(x for x in s.manifest.get("parts", {}) if parts is None or x in parts)
                               for d, s in zip(args.datasets, sets)}},

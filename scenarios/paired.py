@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from scipy.stats import binomtest
 
-__all__ = ["PAIRED_OUTCOMES", "outcome_changes", "sign_test"]
+__all__ = ["PAIRED_OUTCOMES", "outcome_changes", "run_changes", "episode_source", "sign_test"]
 
 PAIRED_OUTCOMES = ("reached_goal", "collided")
 
@@ -28,6 +28,33 @@ def outcome_changes(base: list[dict], new: list[dict]) -> dict[str, tuple[int, i
                              f"{b['scenario']!r} in the other")
     return {o: (sum(b["outcome"] == o != a["outcome"] for a, b in zip(base, new)),
                 sum(a["outcome"] == o != b["outcome"] for a, b in zip(base, new))) for o in PAIRED_OUTCOMES}
+
+
+def episode_source(doc: dict) -> dict | None:
+    """What an EVAL document records of where its episodes came from, beyond their names: its
+    suite's settings (``suite_spec``: suite, count, seed, movers, behaviour; ``suite`` and
+    ``seed`` in a document without it), or None for scenario files (their names are all it
+    records of them)."""
+    if doc.get("suite_spec") is not None:
+        return dict(doc["suite_spec"])
+    return None if doc.get("suite") is None else {"suite": doc["suite"], "seed": doc.get("seed")}
+
+
+def run_changes(base: dict, new: dict) -> dict[str, tuple[int, int]]:
+    """:func:`outcome_changes` of two EVAL documents, refused (ValueError, one line) unless they
+    ran the same cases: the same suite with the same settings, or both scenario files. A
+    name alone does not say it: the crowd suite ``ucy`` names an episode by its recorded case,
+    whatever the seed that orders the cases and draws the sensor's noise."""
+    a, b = episode_source(base), episode_source(new)
+    if a != b:
+        if a is None or b is None:
+            suite = (a or b)["suite"]
+            raise ValueError(f"not the same episodes: scenario files in one run, suite {suite!r} in the other")
+        # a setting only one records (an EVAL before suite_spec: suite and seed) is no difference
+        differ = [f"{k} {a[k]!r} against {b[k]!r}" for k in a if k in b and a[k] != b[k]]
+        if differ:
+            raise ValueError(f"not the same episodes: the suites differ in {', '.join(differ)}")
+    return outcome_changes(base["episodes_detail"], new["episodes_detail"])
 
 
 def sign_test(gained: int, lost: int) -> float:

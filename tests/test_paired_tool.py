@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from scenarios.paired import outcome_changes, sign_test
+from scenarios.paired import outcome_changes, run_changes, sign_test
 
 ROOT = Path(__file__).resolve().parents[1]
 TOOL = str(ROOT / "tools" / "paired.py")
@@ -19,9 +19,16 @@ def _rows(outcomes: list[str], names=None) -> list[dict]:
     return [{"scenario": f"s{i}" if names is None else names[i], "outcome": o} for i, o in enumerate(outcomes)]
 
 
-def _eval(path: Path, outcomes: list[str]) -> Path:
-    path.write_text(json.dumps({"episodes_detail": _rows(outcomes)}))
+def _eval(path: Path, outcomes: list[str], **source) -> Path:
+    path.write_text(json.dumps({"episodes_detail": _rows(outcomes), **source}))
     return path
+
+
+def _ucy(seed: int, count: int = 2) -> dict:
+    """What ``gpcnav evaluate --suite ucy`` records of its suite (the episode names are the
+    recorded cases', whatever the seed)."""
+    return {"suite": "ucy", "seed": seed, "suite_spec": {"suite": "ucy", "count": count, "seed": seed,
+                                                         "behaviour": "replay", "cases": 452}}
 
 
 def test_changes_are_counted_both_ways_episode_by_episode():
@@ -63,3 +70,41 @@ def test_the_command_line(tmp_path):
     for other in (tmp_path / "no.json", _eval(tmp_path / "c.json", ["collided"] * 3)):
         r = subprocess.run([sys.executable, TOOL, str(a), str(other)], capture_output=True, text=True)
         assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_runs_of_other_cases_are_refused_though_their_names_agree():
+    """Two runs were paired by their episodes' names alone: ``ucy`` under two seeds (other
+    sensor noise under the same case names: ``--count 1`` gives students003-across-back-031
+    under seeds 0 and 2) or a suite's run against files of the same names counted as one
+    episode run twice."""
+    names = ["crowds_zara02-along-back-015", "students003-along-back-000"]
+    base = {"episodes_detail": _rows(["collided", "reached_goal"], names), **_ucy(1)}
+    new = {"episodes_detail": _rows(["reached_goal", "reached_goal"], names), **_ucy(2)}
+    with pytest.raises(ValueError, match=r"^not the same episodes: the suites differ in seed 1 against 2$"):
+        run_changes(base, new)
+    files = {"episodes_detail": new["episodes_detail"], "suite": None, "seed": None}
+    with pytest.raises(ValueError, match=r"^not the same episodes: scenario files in one run, suite 'ucy' in the"):
+        run_changes(base, files)
+    old = {"episodes_detail": new["episodes_detail"], "suite": "ucy", "seed": 2}  # an EVAL without suite_spec
+    with pytest.raises(ValueError, match=r"^not the same episodes: the suites differ in seed 1 against 2$"):
+        run_changes(base, old)
+    assert run_changes(base, {**old, "seed": 1})["reached_goal"] == (1, 0)  # what it records agrees
+    # the same cases: the same suite settings, or both files
+    assert run_changes(base, {**new, **_ucy(1)}) == {"reached_goal": (1, 0), "collided": (0, 1)}
+    assert run_changes({**files, "episodes_detail": base["episodes_detail"]}, files)["collided"] == (0, 1)
+
+
+def test_the_command_line_refuses_runs_of_other_cases(tmp_path, capsys):
+    """tools/paired.py: one line and exit 2 (run in this process: its main)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("paired_tool", TOOL)
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    a = _eval(tmp_path / "a.json", ["collided", "reached_goal"], **_ucy(1))
+    b = _eval(tmp_path / "b.json", ["reached_goal", "reached_goal"], **_ucy(2))
+    assert tool.main([str(a), str(b)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"{a} / {b}: ValueError: not the same episodes: the suites differ in seed 1 against 2"]
+    c = _eval(tmp_path / "c.json", ["reached_goal", "reached_goal"], **_ucy(1))
+    assert tool.main([str(a), str(c)]) == 0
+    assert capsys.readouterr().out.startswith("a.json -> c.json (2 episodes): reached_goal: +1 -0")

@@ -7,8 +7,10 @@ Usage::
     python tools/paired.py BASE.json NEW.json [BASE2.json NEW2.json ...]
 
 Each file an EVAL.json of ``gpcnav evaluate``, the two of a pair on the same episodes in the
-same order (``gpcnav compare`` puts the same numbers under its table, against its first
-controller). docs/evaluation.md, "Two runs of the same episodes, compared".
+same order: the same suite with the same seed and settings, or both scenario files (anything
+else is refused in one line, exit 2; ``scenarios.paired.run_changes``). ``gpcnav compare``
+puts the same numbers under its table, against its first controller. docs/evaluation.md,
+"Two runs of the same episodes, compared".
 """
 from __future__ import annotations
 
@@ -17,7 +19,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from scenarios.paired import PAIRED_OUTCOMES, outcome_changes, sign_test  # noqa: E402
+from scenarios.paired import PAIRED_OUTCOMES, run_changes, sign_test  # noqa: E402
 
 
 def line(label: str, changes: dict[str, tuple[int, int]], n: int) -> str:
@@ -33,13 +35,14 @@ def main(argv: list[str]) -> int:
     episodes = 0
     for a, b in zip(argv[::2], argv[1::2]):
         try:
-            base, new = (json.loads(Path(p).read_text())["episodes_detail"] for p in (a, b))
-            changes = outcome_changes(base, new)
-        except (OSError, ValueError, KeyError, TypeError) as exc:
+            base, new = (json.loads(Path(p).read_text()) for p in (a, b))
+            changes = run_changes(base, new)
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
             print(f"{a} / {b}: {type(exc).__name__}: {exc}", file=sys.stderr)
             return 2
-        episodes += len(base)
-        print(line(f"{Path(a).name} -> {Path(b).name}", changes, len(base)))
+        n = len(base["episodes_detail"])
+        episodes += n
+        print(line(f"{Path(a).name} -> {Path(b).name}", changes, n))
         for o, (g, l) in changes.items():
             total[o][0] += g
             total[o][1] += l

@@ -129,3 +129,17 @@ def _claim(rows, preset):
     c = claim(rows, True, "nn", preset)
     assert set(c["scenarios"]) == set(PAPER_NAMES)  # the run's preset's rows, not the other's
     return c
+
+
+def test_the_report_names_the_network_that_was_trained(tmp_path):
+    """The report named the trained network ``<inputs>-35-2``, a copy of ``gpcnav train``'s
+    defaults, whatever was trained (and results.json's ``model`` looked for ``hidden`` beside
+    ``params``, not in it, so it never had it). Now read from model.json, or from the
+    exported file where the model folder is gone."""
+    import shutil
+    from gpcnav.commands.reproduce_report import network_shape
+    from nn_export import shipped_model_path
+    assert network_shape(tmp_path, {"params": {"hidden": 8, "layers": 2}, "n_outputs": 2}, 17) == "17-8-8-2"
+    assert network_shape(tmp_path, {"params": {"hidden": 35, "layers": 1}, "n_outputs": 2}, 23) == "23-35-2"
+    shutil.copyfile(shipped_model_path("paper"), tmp_path / "model.onnx")  # README: 17-64-64-64-2
+    assert network_shape(tmp_path, {}, 17) == "17-64-64-64-2"

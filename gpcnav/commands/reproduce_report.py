@@ -191,7 +191,7 @@ def write_report(out: Path, sizes, args, run_files: dict, eval_files: dict, benc
     if (out / "model" / "training_curve.png").is_file():
         shutil.copyfile(out / "model" / "training_curve.png", out / "fig6_training_error.png")
     trained = args.preset
-    network = f"{len(manifest['feature_names'])}-35-2"
+    network = network_shape(out, model_meta, len(manifest["feature_names"]))
     fig7(run_files, out / "fig7_scenarios.png", trained, network)
     # the closed-loop decision times: the network as deployed, behind the safety filter
     run_docs = {(k[0], k[1], "nn" if k[2] == "nn+filter" else k[2]): _load(p) for k, p in run_files.items()
@@ -217,7 +217,8 @@ def write_report(out: Path, sizes, args, run_files: dict, eval_files: dict, benc
         "sizes": sizes.__dict__, "stage_seconds": stage_timing, "total_seconds": total_s,
         "dataset": {k: manifest.get(k) for k in ("samples", "feature_layout", "preset", "seed", "shards")},
         "dataset_parts": {k: {kk: v.get(kk) for kk in ("samples", "kind")} for k, v in manifest.get("parts", {}).items()},
-        "model": {k: model_meta.get(k) for k in ("hidden", "activation", "validation_mse", "best_epoch") if k in model_meta},
+        "model": {k: v for k, v in {**model_meta, **(model_meta.get("params") or {})}.items()
+                  if k in ("hidden", "layers", "activation", "validation_mse", "best_epoch")},
         "scenarios": scen_rows, "suite": suite_rows, "timing": trows, "speedups": key_speedups(trows),
         "bench_speedup": bench.get("speedup", {}), "bench_chosen_solver": bench.get("chosen"),
         "decision_speedup_gpc_over_nn": decision_speedup, "paper_scenarios_all_reached": all_reached,
@@ -228,6 +229,19 @@ def write_report(out: Path, sizes, args, run_files: dict, eval_files: dict, benc
     }
     write_json(out / "results.json", results)
     write_text(out / "report.md", _markdown(results, manifest))
+
+
+def network_shape(out: Path, model_meta: dict, n_features: int) -> str:
+    """The network just trained as the report names it (inputs, each hidden layer, outputs:
+    17-35-2), read from its ``model.json`` (``params``) or, where that folder is gone, from the
+    exported ``model.onnx``: not a copy of ``gpcnav train``'s defaults, which reproduce trains
+    with for either preset (the report said 35 whatever was trained)."""
+    p = model_meta.get("params")
+    if p is None:
+        import onnxruntime as ort
+        p = ort.InferenceSession(str(out / "model.onnx")).get_modelmeta().custom_metadata_map
+    hidden = [str(int(p["hidden"]))] * int(p.get("layers", 1))
+    return "-".join([str(n_features), *hidden, str(model_meta.get("n_outputs", 2))])
 
 
 def _markdown(r: dict, manifest: dict) -> str:

@@ -13,10 +13,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from numbers import Real
 
 import numpy as np
 from numba import njit
+
+from .finite import finite_real
 
 __all__ = [
     "RobotParams",
@@ -52,7 +53,7 @@ class RobotParams:
         # divided by it; the scenario files' rule: every one a positive number)
         for name in ("wheel_base_m", "radius_m", "max_wheel_speed_mps", "max_wheel_accel_mps2"):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, Real) or not (math.isfinite(v) and v > 0):
+            if not (finite_real(v) and v > 0):
                 raise ValueError(f"RobotParams.{name} must be a positive number, got {v!r}")
 
     def max_step_change_mps(self, sample_time_s: float) -> float:

@@ -8,6 +8,7 @@ from typing import Protocol
 
 import numpy as np
 
+from .finite import finite_real
 from .reference import ReferencePath
 from .robot import RobotState
 
@@ -161,12 +162,6 @@ def _walls_as_tuples(walls, t_s: float) -> tuple:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"observation at t={t_s} s: walls must be polylines of (x, y) points: {exc}") from None
     return tuple(out)
-
-
-def finite_real(value) -> bool:
-    """Whether ``value`` is a number: a real one (numpy's too; not a bool, not a string that
-    reads as one) and finite. The rule behind every numeric argument checked here."""
-    return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def positive_seconds(value) -> bool:

@@ -64,6 +64,7 @@ from casadi_gpc.config import preset as preset_config
 from casadi_gpc.estimation.ekf import EKFSettings
 from scenarios.simulator import Episode
 from casadi_gpc.estimation.tracking import TrackBank
+from casadi_gpc.finite import finite_real
 from casadi_gpc.types import ControlDecision, Observation
 from nn_export.runtime.features import wrap_pi
 
@@ -152,7 +153,7 @@ class RewardSettings:
     def __post_init__(self):
         for f in fields(self):  # (a NaN was taken, and every reward of its kind was NaN)
             v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
+            if not finite_real(v):
                 raise ValueError(f"RewardSettings.{f.name} must be a finite number, got {v!r}")
 
 

@@ -31,6 +31,12 @@ from gpcnav.controllers import DEFAULT_SHIELD, REGISTRY, WALLS_CHECK_MARGIN_M, c
     (dict(substeps=2.5), "substeps must be a whole number"),
     (dict(horizon=math.nan), "horizon must be a whole number"),
     (dict(horizon=1.5), "horizon must be a whole number"),
+    # a string or a bool read as a number (until 2026-12-02 a string failed inside math.isfinite, a TypeError
+    # naming no field, and True passed as 1.0): the one rule for a number, casadi_gpc.finite.finite_real
+    (dict(margin_m="0.05"), "margin_m must be finite"),
+    (dict(sigmas=True), "sigmas must be finite"),
+    (dict(trust_planner_s="3"), "trust_planner_s must be finite"),
+    (dict(walls_margin_m=0.02, walls_sigmas="1"), "walls_sigmas must be finite"),
 ])
 def test_bad_settings_are_refused(bad, words):
     with pytest.raises(ValueError, match=words):

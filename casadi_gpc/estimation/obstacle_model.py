@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
-from numbers import Real
 from typing import NamedTuple
 
 import numpy as np
 
+from ..finite import finite_real
 from .ekf_floats import cov_array as _cov_array, forecast as _forecast, straight_noise
 
 __all__ = ["EKFSettings", "FilterState", "obstacle_model_step", "planning_covariances", "worst_std_m",
@@ -99,7 +99,7 @@ class EKFSettings:
         taken, and the filter's covariances were nonsense)."""
         for f in fields(self):
             value = getattr(self, f.name)
-            if not (isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value) and value >= 0):
+            if not (finite_real(value) and value >= 0):
                 raise ValueError(f"EKFSettings.{f.name} must be a finite number, not negative, got {value!r}")
         if self.gate_chi2 <= 0:
             raise ValueError(f"EKFSettings.gate_chi2 must be above 0, got {self.gate_chi2!r}")

@@ -8,9 +8,9 @@ controller it holds.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from numbers import Real
+
+from ..finite import finite_real
 
 __all__ = ["CheckSettings", "FALLBACKS"]
 
@@ -132,8 +132,8 @@ class CheckSettings:
             raise ValueError(f"fallback must be one of {', '.join(FALLBACKS)}, got {self.fallback!r}")
         for name in ("trust_planner_s", "trust_rollout_s"):
             value = getattr(self, name)
-            if value is not None and not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be finite and not negative, got {value}")
+            if value is not None and not (finite_real(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and not negative, got {value!r}")
         if self.search_two_phase and not self.search:
             raise ValueError("search_two_phase needs search (it extends the searched way out)")
         if self.search_near_walls and not self.search:
@@ -142,12 +142,12 @@ class CheckSettings:
             raise ValueError("walls_margin_m and walls_sigmas go together (both set, or neither)")
         for name in ("walls_margin_m", "walls_sigmas"):
             value = getattr(self, name)
-            if value is not None and not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be finite and not negative, got {value}")
-        if not (math.isfinite(self.margin_m) and self.margin_m >= 0):
-            raise ValueError(f"margin_m must be finite and not negative, got {self.margin_m}")
-        if not (math.isfinite(self.sigmas) and self.sigmas >= 0):
-            raise ValueError(f"sigmas must be finite and not negative, got {self.sigmas}")
+            if value is not None and not (finite_real(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and not negative, got {value!r}")
+        if not (finite_real(self.margin_m) and self.margin_m >= 0):
+            raise ValueError(f"margin_m must be finite and not negative, got {self.margin_m!r}")
+        if not (finite_real(self.sigmas) and self.sigmas >= 0):
+            raise ValueError(f"sigmas must be finite and not negative, got {self.sigmas!r}")
         # (NaN and 2.5 passed here, and failed only when the check was built, NaN without the field's name)
         if not (_whole(self.substeps) and self.substeps >= 1):
             raise ValueError(f"substeps must be a whole number, at least 1, got {self.substeps!r}")
@@ -161,4 +161,4 @@ class CheckSettings:
 
 def _whole(value) -> bool:
     """A whole number (4, np.int64(4), 4.0), not a bool, NaN or infinity."""
-    return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value) and value == int(value)
+    return finite_real(value) and value == int(value)

@@ -1,0 +1,44 @@
+"""The deployed network along a wall with no one about: a straight 8 m path, a wall 1.25 m to one
+side or both (docs/buildings.md, "A wall on one side"). The walls network was trained on the
+three building suites and navground's corridor, two walls always; with a single wall on the left
+it is not the mirror image of itself with the wall on the right (its features are: tested in
+test_wall_scan.py), and it stops short of its goal. The left case is a known defect, kept as a
+strict expected failure: it flips to a failure here when a network that reaches that goal ships.
+"""
+from __future__ import annotations
+
+import pytest
+
+from casadi_gpc.config import preset
+from gpcnav.commands.simulate import run_one
+from scenarios.loader import scenario_from_dict
+
+CONFIG = preset("improved")
+
+
+def along_walls(*ys: float):
+    return scenario_from_dict({
+        "name": "along-a-wall", "duration_s": 30.0,
+        "robot": {"position": [0.0, 0.0], "heading_deg": 0.0},
+        "reference": {"position": [0.0, 0.0], "heading_deg": 0.0, "speed_mps": 0.4, "segments": [{"line_m": 8.0}]},
+        "walls": [{"points": [[-10.0, y], [20.0, y]]} for y in ys]})
+
+
+@pytest.mark.parametrize("ys", [(1.25, -1.25), (-1.25,)], ids=["corridor", "wall-on-the-right"])
+def test_the_deployed_network_reaches_its_goal_along_walls(ys):
+    doc = run_one(along_walls(*ys), "nn", CONFIG)
+    assert doc["outcome"] == "reached_goal"
+    assert doc["model"]  # the shipped networks drove (the walls network among them: a wall within its 4 m)
+    assert doc["events"]["walls_network"] == doc["steps"]
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="known defect (docs/buildings.md, 'A wall on one side'): the shipped walls "
+                                       "network stops 0.4-0.6 m short of a goal with a single wall on its left")
+def test_the_deployed_network_reaches_its_goal_along_a_wall_on_the_left():
+    doc = run_one(along_walls(1.25), "nn", CONFIG)
+    assert doc["outcome"] == "reached_goal"
+
+
+def test_the_planner_reaches_its_goal_along_a_wall_on_either_side():
+    for y in (1.25, -1.25):
+        assert run_one(along_walls(y), "gpc", CONFIG)["outcome"] == "reached_goal"

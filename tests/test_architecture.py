@@ -107,8 +107,8 @@ def test_the_world_lives_outside_the_robot():
               "casadi_gpc.solvers", "casadi_gpc.safety.shield"):
         assert m in mods, m
     tops = {n.split(".")[1] for n in mods if n.startswith("casadi_gpc.")}
-    assert tops <= set(ROOMS) | {"finite", "robot", "reference", "progress", "types", "config", "io", "pool", "buffered",
-                                 "geometry"}
+    assert tops <= set(ROOMS) | {"finite", "robot", "reference", "progress", "types", "config", "io", "pool",
+                                 "buffered", "geometry"}
 
 
 def test_no_import_circle():

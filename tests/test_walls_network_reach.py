@@ -32,8 +32,9 @@ def test_the_deployed_network_reaches_its_goal_along_walls(ys):
     assert doc["events"]["walls_network"] == doc["steps"]
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="known defect (docs/buildings.md, 'A wall on one side'): the shipped walls "
-                                       "network stops 0.4-0.6 m short of a goal with a single wall on its left")
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="known defect (docs/buildings.md, 'A wall on one side'): the shipped walls network stops "
+                          "0.4-0.6 m short of a goal with a single wall on its left")
 def test_the_deployed_network_reaches_its_goal_along_a_wall_on_the_left():
     doc = run_one(along_walls(1.25), "nn", CONFIG)
     assert doc["outcome"] == "reached_goal"

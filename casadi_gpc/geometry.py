@@ -13,7 +13,8 @@ from numba import njit
 
 __all__ = ["nearest_on_segments", "distance_to_segments_m", "segments_cross", "segment_rows", "straight_runs",
            "walls_reach_m",
-           "a_wall_within", "segments_near", "wall_scan", "wall_scans"]
+           "a_wall_within", "segments_near", "segment_candidates", "map_segment_rows", "wall_scan", "wall_scans",
+           "GRID_MIN_SEGMENTS"]
 
 
 def nearest_on_segments(points, a, b) -> np.ndarray:
@@ -80,20 +81,147 @@ def walls_reach_m(robot, horizon_s: float) -> float:
     return robot.max_wheel_speed_mps * horizon_s + robot.radius_m + 1.0
 
 
+_MAP_ROWS: tuple = (None, None, None)  # the walls object last asked about, its segment rows, its straight runs' rows
+
+
+def map_segment_rows(walls: tuple, straight: bool = False) -> np.ndarray:
+    """:func:`segment_rows` of ``walls`` (an observation's tuple of polylines), or of their
+    :func:`straight_runs` with ``straight``, read-only, kept for the walls object last given: a
+    map is made into rows once, not at every decision (20 000 segments took milliseconds a
+    decision), and a large one is read through its grid (:func:`segment_candidates`)."""
+    kept = _MAP_ROWS
+    if walls is not kept[0]:
+        rows, runs = segment_rows(walls).copy(), segment_rows(straight_runs(walls)).copy()
+        rows.flags.writeable = runs.flags.writeable = False
+        kept = _remember_map((walls, rows, runs))
+    return kept[2] if straight else kept[1]
+
+
+def _remember_map(kept: tuple) -> tuple:
+    global _MAP_ROWS
+    _MAP_ROWS = kept  # one assignment: a thread reads the old entry or the new one, whole
+    return kept
+
+
 def a_wall_within(walls, xy, reach_m: float) -> bool:
     """Whether a segment of ``walls`` (polylines of ``(x, y)`` points) comes within ``reach_m``
     of the point ``xy`` (the planner's test of :func:`walls_reach_m`; the check takes the
-    segments themselves, :func:`casadi_gpc.safety.walls.wall_segments_within`)."""
-    s = segment_rows(walls)
+    segments themselves, :func:`casadi_gpc.safety.walls.wall_segments_within`). A large map is
+    read through its grid: the same segments measured the same way."""
+    s = map_segment_rows(walls) if type(walls) is tuple else segment_rows(walls)
+    idx = segment_candidates(s, float(xy[0]), float(xy[1]), reach_m)
+    if idx is not None:
+        s = s[idx]
     return bool(len(s)) and bool((distance_to_segments_m(np.asarray(xy, dtype=float), s[:, :2], s[:, 2:])
                                   <= reach_m).any())
 
 
+GRID_MIN_SEGMENTS = 256
+"""From this many segments on, a read-only array of segment rows is indexed by a grid once
+(:func:`segment_candidates`) and a query measures only the segments of the cells it touches:
+below it, measuring all of them costs less than the index's lookup."""
+GRID_CELL_M = 2.0
+"""The grid's cell (m): a query within a wall scan's 4 m reads some 25 cells."""
+_GRIDS: dict = {}  # (data address, shape, strides) -> (the array, kept alive; its grid)
+
+
+def segment_candidates(rows: np.ndarray, x: float, y: float, reach_m: float) -> np.ndarray | None:
+    """The indices, ascending, of the segment rows (``(n, 4)``, ``(ax, ay, bx, by)``) whose
+    bounding box meets the square of half side ``reach_m`` round ``(x, y)``: every segment within
+    ``reach_m`` of the point among them. None (measure them all) for fewer than
+    :data:`GRID_MIN_SEGMENTS` rows, or rows that can still change (a writeable array): the grid
+    is built once per read-only array, on its first query, and kept while that array is used
+    (a map of 20 000 segments queried at a decision's pace: docs/buildings.md, "Maps of any
+    size")."""
+    if len(rows) < GRID_MIN_SEGMENTS or rows.flags.writeable or not (math.isfinite(reach_m) and reach_m >= 0):
+        return None
+    owner = rows  # the array that owns the memory: read-only too, or the rows could change under the grid
+    while isinstance(owner.base, np.ndarray):
+        owner = owner.base
+    if owner.flags.writeable:
+        return None
+    key = (rows.__array_interface__["data"][0], rows.shape, rows.strides)
+    hit = _GRIDS.get(key)  # the owner kept alive with its grid: no other array can take its address meanwhile
+    if hit is None or hit[0] is not owner:
+        if len(_GRIDS) >= 8:
+            _GRIDS.pop(next(iter(_GRIDS)))
+        hit = _GRIDS[key] = (owner, _build_grid(rows))
+    lo_x, lo_y, c, nx, ny, offsets, members, mark = hit[1]
+    # a cell more on each side: the cells were numbered by numpy's floor division, these by math.floor
+    i0, i1 = math.floor((x - reach_m - lo_x) / c) - 1, math.floor((x + reach_m - lo_x) / c) + 1
+    j0, j1 = math.floor((y - reach_m - lo_y) / c) - 1, math.floor((y + reach_m - lo_y) / c) + 1
+    return _grid_query(offsets, members, nx, ny, max(i0, 0), min(i1, nx - 1), max(j0, 0), min(j1, ny - 1), mark)
+
+
+def _build_grid(rows: np.ndarray) -> tuple:
+    """Each segment listed in every cell its bounding box meets (compressed rows: ``offsets``,
+    ``members``, each cell's ascending), with the grid's origin, cell and size. The cell is
+    :data:`GRID_CELL_M`, doubled until the grid and its listings hold at most 64 entries a segment
+    (a stray point kilometres off, or a long diagonal wall, would make millions of 2 m cells)."""
+    xs, ys = rows[:, 0::2], rows[:, 1::2]
+    lo_x, lo_y = float(xs.min()), float(ys.min())
+    c, limit = GRID_CELL_M, 64 * len(rows) + 4096
+    while True:
+        nx, ny = int((xs.max() - lo_x) // c) + 1, int((ys.max() - lo_y) // c) + 1
+        i0, i1 = ((xs.min(1) - lo_x) // c).astype(np.int64), ((xs.max(1) - lo_x) // c).astype(np.int64)
+        j0, j1 = ((ys.min(1) - lo_y) // c).astype(np.int64), ((ys.max(1) - lo_y) // c).astype(np.int64)
+        if nx * ny <= limit and int(((i1 - i0 + 1) * (j1 - j0 + 1)).sum()) <= limit:
+            break
+        c *= 2.0
+    offsets, members = _grid_fill(i0, i1, j0, j1, ny, nx * ny)
+    return lo_x, lo_y, c, nx, ny, offsets, members, np.zeros(len(rows), dtype=np.uint8)
+
+
+@njit("Tuple((int64[::1], int64[::1]))(int64[::1], int64[::1], int64[::1], int64[::1], int64, int64)", cache=True)
+def _grid_fill(i0, i1, j0, j1, ny, cells):  # pragma: no cover - compiled
+    """The compressed listing of :func:`_build_grid`: segment ``m`` in cells ``[i0[m], i1[m]] x [j0[m], j1[m]]``."""
+    counts = np.zeros(cells + 1, dtype=np.int64)
+    for m in range(i0.shape[0]):
+        for i in range(i0[m], i1[m] + 1):
+            for j in range(j0[m], j1[m] + 1):
+                counts[i * ny + j + 1] += 1
+    offsets = np.cumsum(counts)
+    members = np.empty(offsets[-1], dtype=np.int64)
+    fill = offsets[:-1].copy()
+    for m in range(i0.shape[0]):
+        for i in range(i0[m], i1[m] + 1):
+            for j in range(j0[m], j1[m] + 1):
+                cell = i * ny + j
+                members[fill[cell]] = m
+                fill[cell] += 1
+    return offsets, members
+
+
+# compiled at import (signatures), never inside a decision
+@njit("int64[::1](int64[::1], int64[::1], int64, int64, int64, int64, int64, int64, uint8[::1])", cache=True)
+def _grid_query(offsets, members, nx, ny, i0, i1, j0, j1, mark):  # pragma: no cover - compiled
+    """The members of the cells ``[i0, i1] x [j0, j1]``, each once, ascending (``mark``: zeros,
+    left zeros)."""
+    found = []
+    for i in range(i0, i1 + 1):
+        for j in range(j0, j1 + 1):
+            cell = i * ny + j
+            for k in range(offsets[cell], offsets[cell + 1]):
+                m = members[k]
+                if mark[m] == 0:
+                    mark[m] = 1
+                    found.append(m)
+    out = np.empty(len(found), dtype=np.int64)
+    for k in range(len(found)):
+        out[k] = found[k]
+        mark[found[k]] = 0
+    return np.sort(out)
+
+
 def segments_near(rows: np.ndarray, x: float, y: float, reach_m: float) -> np.ndarray:
     """The rows of ``rows`` (:func:`segment_rows`) that come within ``reach_m`` of the
-    point ``(x, y)``."""
+    point ``(x, y)``, in their order. A large read-only array is read through its grid
+    (:func:`segment_candidates`): the same rows, measured by the same operations."""
     if not len(rows):
         return rows
+    idx = segment_candidates(rows, x, y, reach_m)
+    if idx is not None:
+        rows = rows[idx]
     a, d = rows[:, :2] - (x, y), rows[:, 2:] - rows[:, :2]
     dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-18)
     t = np.clip(-np.einsum("ij,ij->i", a, d) / dd, 0.0, 1.0)
@@ -142,8 +270,17 @@ def wall_scans(rows: np.ndarray, x: np.ndarray, y: np.ndarray, cos_h: np.ndarray
     """:func:`wall_scan` from ``p`` points at once, ``(p, n)``: the points ``(x, y)`` and their
     headings' cosines and sines (``(p,)`` each). The same numbers as one point at a time (the
     same operations on the same floats, compiled; a segment out of range lowers no sector below
-    the cap, so none is left out here)."""
+    the cap, so none needs leaving out, and those a large map's grid leaves out, farther than the
+    range from every point, change nothing)."""
     rows = np.ascontiguousarray(rows, dtype=float).reshape(-1, 4)
+    if len(x):  # a large map: the segments of the grid's cells round the points alone (none farther lowers a sector)
+        lo, hi = (float(np.min(x)), float(np.min(y))), (float(np.max(x)), float(np.max(y)))
+        idx = segment_candidates(rows, (lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2,
+                                 max(hi[0] - lo[0], hi[1] - lo[1]) / 2 + range_m)
+        if idx is not None:
+            rows = rows[idx]
+    if not rows.flags.writeable:  # the kernel's signature takes a writeable array: a small read-only map copied
+        rows = rows.copy()
     u0, u1 = _edges(n)
     out = np.empty((len(x), n))
     _scan_kernel(rows, np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(y, dtype=float),

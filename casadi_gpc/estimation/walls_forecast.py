@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from ..geometry import segment_rows, wall_scans
+from ..geometry import map_segment_rows, wall_scans
 from ..types import ObstacleForecast
 
 __all__ = ["WallsForecast", "UNION_ID", "walker_features", "MODEL_PATH", "N_INPUTS"]
@@ -173,7 +173,7 @@ class WallsForecast:
         if not obs.walls or not forecasts:
             return forecasts
         if obs.walls is not self._walls_key:  # the map's segments, made again only when it changes
-            self._walls_key, self._wall_rows = obs.walls, segment_rows(obs.walls)
+            self._walls_key, self._wall_rows = obs.walls, map_segment_rows(obs.walls)  # read-only: a grid's
         ids = sorted(self._col)  # the walkers in the order of their ids (the neighbours' ties)
         meas = self._buf[:, [self._col[i] for i in ids]]
         col = {i: c for c, i in enumerate(ids)}

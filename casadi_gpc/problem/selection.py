@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from ..config import PlannerConfig
-from ..geometry import a_wall_within, distance_to_segments_m, segment_rows, straight_runs
+from ..geometry import a_wall_within, distance_to_segments_m, map_segment_rows, segment_candidates
 from ..types import ObstacleForecast, StaticObstacle
 
 __all__ = ["Selection", "select_obstacles", "select_walls", "planner_parameters", "pack_selection", "goal_weights",
@@ -69,11 +69,25 @@ def select_walls(x0: np.ndarray, walls, config: PlannerConfig, path_xy: np.ndarr
     fit (counted: they are still in the check layer)."""
     if type(walls) is not tuple:  # an Observation's walls are tuples already
         walls = tuple(tuple((float(x), float(y)) for x, y in pts) for pts in walls)
-    segs = segment_rows(straight_runs(walls))  # a straight wall one slot, however it was drawn
+    segs = map_segment_rows(walls, straight=True)  # a straight wall one slot, however it was drawn
     if not len(segs) or config.max_walls == 0:
         return [], 0
     pts = np.asarray(x0[:2], dtype=float)[None] if path_xy is None else np.vstack([x0[:2], np.asarray(path_xy)[:, :2]])
-    d = distance_to_segments_m(pts, segs[:, :2], segs[:, 2:]).min(axis=0)
+    # a large map: only the segments of the grid's cells round the path, where at least the slots' number lie
+    # within relevance_range_m of it (then the nearest, in the same order, and every one left out within that
+    # range are among them); else all
+    lo, hi, reach = pts.min(axis=0), pts.max(axis=0), config.relevance_range_m
+    idx = segment_candidates(segs, *((lo + hi) / 2).tolist(), float((hi - lo).max()) / 2 + reach)
+    d = None
+    if idx is not None:
+        near = segs[idx]
+        d = distance_to_segments_m(pts, near[:, :2], near[:, 2:]).min(axis=0)
+        if np.count_nonzero(d <= reach) >= config.max_walls:
+            segs = near
+        else:
+            d = None
+    if d is None:
+        d = distance_to_segments_m(pts, segs[:, :2], segs[:, 2:]).min(axis=0)
     order = np.argsort(d, kind="stable")
     chosen = order[:config.max_walls]
     left_out = int(np.count_nonzero(d[order[config.max_walls:]] < config.relevance_range_m))

@@ -19,6 +19,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..geometry import segment_candidates
 from .distances import path_segment_distances, point_segment_distance
 
 __all__ = ["wall_segments", "wall_segments_within", "point_segment_distance", "path_segment_distances",
@@ -36,11 +37,33 @@ def wall_segments(walls: tuple) -> np.ndarray:
     return out
 
 
+_LAST_MAP: tuple = (None, None, None)  # the walls last asked about: the object, its segments, its rows as floats
+
+
+def _segments_and_rows(walls: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`wall_segments` of ``walls`` and the same as read-only ``(ax, ay, bx, by)`` rows, kept for
+    the walls object last given (its hash, which the cache of :func:`wall_segments` takes, reads
+    every point: 2 ms a decision for a map of 20 000 segments)."""
+    global _LAST_MAP
+    kept = _LAST_MAP
+    if walls is not kept[0]:
+        seg = wall_segments(walls)
+        rows = np.column_stack((seg[:, 0].real, seg[:, 0].imag, seg[:, 1].real, seg[:, 1].imag))
+        rows.flags.writeable = False
+        kept = _LAST_MAP = (walls, seg, rows)  # one assignment: another thread reads the old entry or this, whole
+    return kept[1], kept[2]
+
+
 def wall_segments_within(walls: tuple, xy, reach_m: float) -> np.ndarray:
     """The rows of :func:`wall_segments` that come within ``reach_m`` of the point ``xy``: the
     only ones a robot that moves at most ``reach_m`` minus its radius over the horizon can
-    touch (the check's cost grows with every segment it is given)."""
-    seg = wall_segments(walls)
+    touch (the check's cost grows with every segment it is given). In their order; a large map is
+    read through its grid (:func:`casadi_gpc.geometry.segment_candidates`), the same rows measured
+    by the same operations."""
+    seg, rows = _segments_and_rows(walls)
+    idx = segment_candidates(rows, float(xy[0]), float(xy[1]), reach_m)
+    if idx is not None:
+        seg = seg[idx]
     return seg[point_segment_distance(complex(xy[0], xy[1]), seg[:, 0], seg[:, 1]) <= reach_m]  # a copy
 
 

@@ -50,7 +50,7 @@ from .set_slots import CrowdSlots
 from .situation import Situation, reference_rows, straight_estimates
 from .side_networks import CrowdNetwork, WallsNetwork
 from .tracker import SituationTracker
-from .wall_scan import scan_rows, static_wall_rows, wall_segment_rows
+from .wall_scan import map_rows, scan_rows, static_wall_rows
 
 __all__ = ["OnnxPolicy", "MODELS_DIR", "shipped_model_path", "shipped_crowd_model_path", "shipped_walls_model_path",
            "SHIPPED", "read_model_metadata", "POLICY_FORMAT", "DEFAULT_SAFETY_DISTANCE_M"]
@@ -477,7 +477,7 @@ class OnnxPolicy:
         """The map's walls as segment rows (:func:`~nn_export.runtime.wall_scan.wall_segment_rows`),
         made again only when the map changes."""
         if walls is not self._wall_key:
-            self._wall_key, self._wall_rows = walls, wall_segment_rows(walls)
+            self._wall_key, self._wall_rows = walls, map_rows(walls)
         return self._wall_rows
 
     def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list, handed: tuple) -> ControlDecision:

@@ -26,8 +26,8 @@ from casadi_gpc.geometry import segment_rows as wall_segment_rows  # the walls' 
 from casadi_gpc.geometry import segments_near
 from casadi_gpc.geometry import wall_scan as _scan
 
-__all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "DISC_SIDES", "wall_segment_rows", "static_wall_rows", "scan_rows",
-           "segments_near", "wall_scan", "sector_mirror"]
+__all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "DISC_SIDES", "wall_segment_rows", "map_rows", "static_wall_rows",
+           "scan_rows", "segments_near", "wall_scan", "sector_mirror"]
 
 WALL_SECTORS = 24
 """Sectors of the scan (15 degrees each: at 2 m a sector is 0.52 m wide, less than a door)."""
@@ -41,6 +41,15 @@ seconds)."""
 DISC_SIDES = 8
 """Sides of the polygon a static disc is drawn as in the scan (:func:`static_wall_rows`): its
 edges stay within 8 % of the radius outside the disc."""
+
+
+def map_rows(walls) -> np.ndarray:
+    """The map's walls as segment rows (:func:`wall_segment_rows`), read-only: what a policy keeps
+    for its map, so that a map of hundreds of segments and more is read through its grid
+    (:func:`casadi_gpc.geometry.segment_candidates`: the same rows, fewer measured)."""
+    rows = wall_segment_rows(walls).copy()  # an array of its own memory (segment_rows' is a reshaped view)
+    rows.flags.writeable = False
+    return rows
 
 
 def static_wall_rows(statics, sides: int = DISC_SIDES) -> np.ndarray:

@@ -139,6 +139,11 @@ def _refuse_position(m: ObstacleMeasurement, t_s: float) -> None:
                          f"{' '.join(reprlib.repr(z).split())} (two numbers x, y in m, or None when not measured)")
 
 
+_CHECKED_WALLS: list = [None]
+"""The walls tuple last found valid by :func:`_walls_as_tuples`: a map of 20 000 segments took 2-3 ms
+to check again at every observation (docs/buildings.md, "Maps of any size")."""
+
+
 def _walls_as_tuples(walls, t_s: float) -> tuple:
     """``walls`` as a tuple of polylines, each a tuple of ``(x, y)`` float pairs, whatever
     sequences or arrays held them (lists, read from JSON, failed in the check layer as
@@ -146,10 +151,13 @@ def _walls_as_tuples(walls, t_s: float) -> tuple:
     number that is not finite refused (a NaN wall had the planner fail every solve; a
     one-point wall was dropped silently). Walls given as such tuples already are returned as
     they are."""
+    if walls is _CHECKED_WALLS[0]:  # the map found valid last time: tuples of floats, it cannot have changed
+        return walls
     try:
         if type(walls) is tuple and all(type(w) is tuple and len(w) >= 2 and all(
                 type(p) is tuple and len(p) == 2 and type(p[0]) is float and type(p[1]) is float
                 and math.isfinite(p[0]) and math.isfinite(p[1]) for p in w) for w in walls):
+            _CHECKED_WALLS[0] = walls  # (kept alive: no other object can take its identity meanwhile)
             return walls
         out = []
         for i, w in enumerate(walls):

@@ -170,3 +170,41 @@ def test_the_planner_s_wall_slots_where_the_map_is_dense_and_where_the_near_wall
             want = _select_walls_measuring_all(x0, case, cfg, path)
             assert got[1] == want[1] and len(got[0]) == len(want[0]) == 6
             assert all(np.array_equal(np.array(a), np.array(b)) for a, b in zip(got[0], want[0]))
+
+
+def test_an_observation_takes_a_map_found_valid_as_it_is_and_still_refuses_a_bad_one():
+    """The observation checks its walls once per map object (tuples of floats cannot change), and
+    every other object again: a bad map after a good one is refused."""
+    from casadi_gpc.types import Observation, RobotState
+    from casadi_gpc.reference import ReferencePath, Segment
+    path = ReferencePath((0.0, 0.0), 0.0, (Segment.line(5.0),), 0.4)
+    good = _map(np.random.default_rng(3), 300)
+    a = Observation(0.0, RobotState(0.0, 0.0, 0.0, 0.0, 0.0), path, (), walls=good)
+    b = Observation(0.5, RobotState(0.0, 0.0, 0.0, 0.0, 0.0), path, (), walls=good)
+    assert a.walls is good and b.walls is good
+    bad = good[:-1] + (((0.0, 0.0), (math.nan, 1.0)),)
+    with pytest.raises(ValueError, match="not finite"):
+        Observation(1.0, RobotState(0.0, 0.0, 0.0, 0.0, 0.0), path, (), walls=bad)
+    listed = [list(map(list, w)) for w in good]  # lists: read into tuples, a new object
+    c = Observation(1.5, RobotState(0.0, 0.0, 0.0, 0.0, 0.0), path, (), walls=listed)
+    assert c.walls == good and c.walls is not good
+
+
+def test_the_simulator_measures_every_wall_in_one_call_as_each_wall_measures_itself():
+    """The world's side of a large map: the gaps to every wall at the collision check's instants in
+    one call (``Episode._wall_gaps``) are each wall's own ``distance_m`` less the radius, to the bit."""
+    from scenarios.loader import scenario_from_dict
+    from scenarios.simulator import Episode
+    rng = np.random.default_rng(21)
+    from casadi_gpc.geometry import distance_to_segments_m
+    walls = [w for w in _map(rng, 300) if all(a != b for a, b in zip(w[:-1], w[1:]))  # a file refuses zero length
+             and distance_to_segments_m(np.zeros(2), np.array(w[:-1]), np.array(w[1:])).min() > 1.0]
+    sc = scenario_from_dict({"name": "w", "duration_s": 10.0, "robot": {"position": [0.0, 0.0], "heading_deg": 0.0},
+                             "reference": {"position": [0.0, 0.0], "heading_deg": 0.0, "speed_mps": 0.4,
+                                           "segments": [{"line_m": 3.0}]},
+                             "walls": [{"points": [list(p) for p in w]} for w in walls]})
+    ep = Episode(sc, 0.5)
+    xy = rng.uniform(-40, 40, (20, 2))
+    want = np.stack([w.distance_m(xy) - sc.robot.radius_m for w in sc.walls], axis=-1)
+    got = ep._wall_gaps(xy)
+    assert got.shape == want.shape == (20, len(sc.walls)) and np.array_equal(got, want)

@@ -208,3 +208,27 @@ def test_the_simulator_measures_every_wall_in_one_call_as_each_wall_measures_its
     want = np.stack([w.distance_m(xy) - sc.robot.radius_m for w in sc.walls], axis=-1)
     got = ep._wall_gaps(xy)
     assert got.shape == want.shape == (20, len(sc.walls)) and np.array_equal(got, want)
+
+
+def test_a_query_of_a_large_map_is_several_times_faster_through_its_grid():
+    """Timed in one run, the ratio asserted (the machines are shared): 10 002 segments of a
+    building (two long walls, 2 500 small rooms up to 50 m off), a query within a scan's 4 m
+    through the grid against the same query measuring every segment (about ten times, measured)."""
+    import time
+    rng = np.random.default_rng(3)
+    walls = [((-5.0, s), (25.0, s)) for s in (-1.5, 1.5)]
+    for _ in range(2500):
+        cx, cy = float(rng.uniform(-50, 50)), float(rng.choice([-1, 1]) * rng.uniform(3, 50))
+        walls.append(((cx, cy), (cx + 0.3, cy), (cx + 0.3, cy + 0.3), (cx, cy + 0.3), (cx, cy)))
+    rows = map_rows(tuple(walls))
+    whole = rows.copy()
+    pts = rng.uniform(-30, 30, (200, 2)).tolist()
+    segments_near(rows, 0.0, 0.0, 4.0)  # the grid built
+    best = {}
+    for _ in range(3):
+        for name, r in (("grid", rows), ("all", whole)):
+            t0 = time.perf_counter()
+            for x, y in pts:
+                segments_near(r, x, y, 4.0)
+            best[name] = min(best.get(name, math.inf), time.perf_counter() - t0)
+    assert best["all"] / best["grid"] > 3.0, best

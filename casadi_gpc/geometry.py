@@ -91,9 +91,13 @@ def map_segment_rows(walls: tuple, straight: bool = False) -> np.ndarray:
     decision), and a large one is read through its grid (:func:`segment_candidates`)."""
     kept = _MAP_ROWS
     if walls is not kept[0]:
-        rows, runs = segment_rows(walls).copy(), segment_rows(straight_runs(walls)).copy()
-        rows.flags.writeable = runs.flags.writeable = False
-        kept = _remember_map((walls, rows, runs))
+        rows = segment_rows(walls).copy()
+        rows.flags.writeable = False
+        kept = _remember_map((walls, rows, None))
+    if straight and kept[2] is None:  # (made when first asked: straight_runs hashes the walls, tuples all through)
+        runs = segment_rows(straight_runs(walls)).copy()
+        runs.flags.writeable = False
+        kept = _remember_map((walls, kept[1], runs))
     return kept[2] if straight else kept[1]
 
 

@@ -137,8 +137,9 @@ def segment_candidates(rows: np.ndarray, x: float, y: float, reach_m: float) -> 
     is built once per read-only array, on its first query, and kept while that array is used
     (a map of 20 000 segments queried at a decision's pace: docs/buildings.md, "Maps of any
     size")."""
-    if len(rows) < GRID_MIN_SEGMENTS or rows.flags.writeable or not (math.isfinite(reach_m) and reach_m >= 0):
-        return None
+    if len(rows) < GRID_MIN_SEGMENTS or rows.flags.writeable or not (
+            math.isfinite(reach_m) and reach_m >= 0 and math.isfinite(x) and math.isfinite(y)):
+        return None  # (a NaN point, a predicted path that failed, is measured against all: NaN as before)
     owner = rows  # the array that owns the memory: read-only too, or the rows could change under the grid
     while isinstance(owner.base, np.ndarray):
         owner = owner.base

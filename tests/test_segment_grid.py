@@ -95,6 +95,8 @@ def test_a_writeable_or_small_array_is_measured_whole():
     rng = np.random.default_rng(9)
     big = map_rows(_map(rng, 400))
     assert segment_candidates(big.copy(), 0.0, 0.0, 4.0) is None  # writeable: it could change under a grid
+    assert segment_candidates(big, math.nan, 0.0, 4.0) is None and segment_candidates(big, 0.0, 0.0, math.inf) is None
+    assert len(segments_near(big, math.nan, 0.0, 4.0)) == 0  # NaN is near nothing, as without a grid
     small = map_rows(_map(rng, 10))
     assert len(small) < GRID_MIN_SEGMENTS and segment_candidates(small, 0.0, 0.0, 4.0) is None
     view = np.asarray(big, dtype=float).reshape(-1, 4)  # a read-only view of a read-only map: its grid

@@ -81,30 +81,28 @@ def walls_reach_m(robot, horizon_s: float) -> float:
     return robot.max_wheel_speed_mps * horizon_s + robot.radius_m + 1.0
 
 
-_MAP_ROWS: tuple = (None, None, None)  # the walls object last asked about, its segment rows, its straight runs' rows
+_MAPS: dict = {}  # id(walls) -> (walls, kept alive; its segment rows; its straight runs' rows, or None)
+_MAPS_KEPT = 4
 
 
 def map_segment_rows(walls: tuple, straight: bool = False) -> np.ndarray:
     """:func:`segment_rows` of ``walls`` (an observation's tuple of polylines), or of their
-    :func:`straight_runs` with ``straight``, read-only, kept for the walls object last given: a
-    map is made into rows once, not at every decision (20 000 segments took milliseconds a
-    decision), and a large one is read through its grid (:func:`segment_candidates`)."""
-    kept = _MAP_ROWS
-    if walls is not kept[0]:
+    :func:`straight_runs` with ``straight``, read-only, kept for the last few walls objects given
+    (by identity: a map is made into rows once, not at every decision, 20 000 segments took
+    milliseconds a decision): the one array of a map that the deployed policy, the check, the
+    planner and the walkers' forecast read, and so one grid (:func:`segment_candidates`)."""
+    kept = _MAPS.get(id(walls))
+    if kept is None or kept[0] is not walls:
         rows = segment_rows(walls).copy()
         rows.flags.writeable = False
-        kept = _remember_map((walls, rows, None))
+        if len(_MAPS) >= _MAPS_KEPT:
+            _MAPS.pop(next(iter(_MAPS)), None)
+        kept = _MAPS[id(walls)] = (walls, rows, None)  # one assignment: a thread reads an entry whole
     if straight and kept[2] is None:  # (made when first asked: straight_runs hashes the walls, tuples all through)
         runs = segment_rows(straight_runs(walls)).copy()
         runs.flags.writeable = False
-        kept = _remember_map((walls, kept[1], runs))
+        kept = _MAPS[id(walls)] = (walls, kept[1], runs)
     return kept[2] if straight else kept[1]
-
-
-def _remember_map(kept: tuple) -> tuple:
-    global _MAP_ROWS
-    _MAP_ROWS = kept  # one assignment: a thread reads the old entry or the new one, whole
-    return kept
 
 
 def a_wall_within(walls, xy, reach_m: float) -> bool:

@@ -19,7 +19,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..geometry import segment_candidates
+from ..geometry import map_segment_rows, segment_candidates
 from .distances import path_segment_distances, point_segment_distance
 
 __all__ = ["wall_segments", "wall_segments_within", "point_segment_distance", "path_segment_distances",
@@ -47,9 +47,10 @@ def _segments_and_rows(walls: tuple) -> tuple[np.ndarray, np.ndarray]:
     global _LAST_MAP
     kept = _LAST_MAP
     if walls is not kept[0]:
-        seg = wall_segments(walls)
-        rows = np.column_stack((seg[:, 0].real, seg[:, 0].imag, seg[:, 1].real, seg[:, 1].imag))
-        rows.flags.writeable = False
+        rows = map_segment_rows(walls)  # the map's one array (and grid), shared with the planner and the policy
+        seg = np.empty((len(rows), 2), dtype=complex)  # the same numbers as wall_segments: each x + iy, exactly
+        seg.real, seg.imag = rows[:, 0::2], rows[:, 1::2]
+        seg.flags.writeable = False
         kept = _LAST_MAP = (walls, seg, rows)  # one assignment: another thread reads the old entry or this, whole
     return kept[1], kept[2]
 

@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from casadi_gpc.geometry import segment_rows as wall_segment_rows  # the walls' segments as (ax, ay, bx, by) rows
-from casadi_gpc.geometry import segments_near
+from casadi_gpc.geometry import map_segment_rows, segments_near
 from casadi_gpc.geometry import wall_scan as _scan
 
 __all__ = ["WALL_SECTORS", "WALL_SCAN_RANGE_M", "DISC_SIDES", "wall_segment_rows", "map_rows", "static_wall_rows",
@@ -46,7 +46,11 @@ edges stay within 8 % of the radius outside the disc."""
 def map_rows(walls) -> np.ndarray:
     """The map's walls as segment rows (:func:`wall_segment_rows`), read-only: what a policy keeps
     for its map, so that a map of hundreds of segments and more is read through its grid
-    (:func:`casadi_gpc.geometry.segment_candidates`: the same rows, fewer measured)."""
+    (:func:`casadi_gpc.geometry.segment_candidates`: the same rows, fewer measured). An
+    observation's walls (tuples) share the array the check and the planner read
+    (:func:`casadi_gpc.geometry.map_segment_rows`), and its grid."""
+    if type(walls) is tuple:
+        return map_segment_rows(walls)
     rows = wall_segment_rows(walls).copy()  # an array of its own memory (segment_rows' is a reshaped view)
     rows.flags.writeable = False
     return rows

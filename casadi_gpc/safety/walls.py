@@ -41,9 +41,10 @@ _LAST_MAP: tuple = (None, None, None)  # the walls last asked about: the object,
 
 
 def _segments_and_rows(walls: tuple) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`wall_segments` of ``walls`` and the same as read-only ``(ax, ay, bx, by)`` rows, kept for
-    the walls object last given (its hash, which the cache of :func:`wall_segments` takes, reads
-    every point: 2 ms a decision for a map of 20 000 segments)."""
+    """The numbers of :func:`wall_segments` of ``walls`` (made from the map's one read-only array of
+    ``(ax, ay, bx, by)`` rows, :func:`casadi_gpc.geometry.map_segment_rows`) and those rows, kept for
+    the walls object last given: :func:`wall_segments`' cache hashes the walls, every point, which
+    took 2 ms a decision for a map of 20 000 segments."""
     global _LAST_MAP
     kept = _LAST_MAP
     if walls is not kept[0]:

@@ -128,7 +128,6 @@ class WallsForecast:
         self._seen: dict[int, int] = {}  # walker id -> the last sample it was measured at
         self._free: list[int] = list(range(16))[::-1]  # the buffer's free columns, the lowest last
         self._k: int | None = None
-        self._walls_key, self._wall_rows = None, None
 
     def _keep(self, obs) -> int:
         """Move the buffer on to this sample and write its measurements; the sample's index."""
@@ -172,13 +171,12 @@ class WallsForecast:
         self._keep(obs)
         if not obs.walls or not forecasts:
             return forecasts
-        if obs.walls is not self._walls_key:  # the map's segments, made again only when it changes
-            self._walls_key, self._wall_rows = obs.walls, map_segment_rows(obs.walls)  # read-only: a grid's
         ids = sorted(self._col)  # the walkers in the order of their ids (the neighbours' ties)
         meas = self._buf[:, [self._col[i] for i in ids]]
         col = {i: c for c, i in enumerate(ids)}
         where = [n for n, f in enumerate(forecasts) if f.obstacle_id in col]
-        X, cos, sin, cols = walker_features(meas, [col[forecasts[n].obstacle_id] for n in where], self._wall_rows)
+        X, cos, sin, cols = walker_features(meas, [col[forecasts[n].obstacle_id] for n in where],
+                                            map_segment_rows(obs.walls))  # the map's one array, made once
         if not cols:
             return forecasts
         kept = set(cols)

@@ -263,7 +263,6 @@ class OnnxPolicy:
         self._static_key, self._static_rows = None, None  # the static discs as wall pieces, made once per set
         if self._walls is not None:
             self.model_info["walls_model"] = self._walls.info
-        self._wall_key, self._wall_rows = None, None  # the map's walls as segment rows, made once per map
         self.outputs_plans = self.steps > 1 or any(n is not None and n.steps > 1 for n in (self._crowd, self._walls))
         """Whether a decision may carry the network's own plan (check it as a plan, keep the
         shifted previous one: ``casadi_gpc.safety.CheckSettings(previous_plan=True)``)."""
@@ -391,7 +390,7 @@ class OnnxPolicy:
         counters["decisions"] += 1
         self._last = self._last_slots = None  # what rollout() needs, for a one-command decision
         crowd, walls = self._crowd, self._walls
-        wall_rows = self._map_rows(obs.walls) if obs.walls else None
+        wall_rows = map_rows(obs.walls) if obs.walls else None  # the map's rows, made once per map
         x, y = obs.robot.x_m, obs.robot.y_m
         side = (walls, wall_rows) if walls is not None and wall_rows is not None and walls.near(x, y, wall_rows) else \
             (crowd, None) if crowd is not None and crowd.needed(x, y, tracks, obs.static) else None
@@ -472,13 +471,6 @@ class OnnxPolicy:
         if statics is not self._static_key:
             self._static_key, self._static_rows = statics, static_wall_rows(statics)
         return self._static_rows
-
-    def _map_rows(self, walls) -> np.ndarray:
-        """The map's walls as segment rows (:func:`~nn_export.runtime.wall_scan.wall_segment_rows`),
-        made again only when the map changes."""
-        if walls is not self._wall_key:
-            self._wall_key, self._wall_rows = walls, map_rows(walls)
-        return self._wall_rows
 
     def _two_passes(self, obs: Observation, tracks: tuple, ref_rows: list, handed: tuple) -> ControlDecision:
         """The paper's scheme (module docstring), from the sample's track estimates and the

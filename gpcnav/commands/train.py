@@ -5,6 +5,7 @@ paper's Fig. 6) as training_curve.json and training_curve.png."""
 from __future__ import annotations
 
 import hashlib
+import json
 import sys
 from pathlib import Path
 
@@ -52,6 +53,10 @@ def add_arguments(p):
                         "(nn_export/training/weights.py; against averaging the two sides of an obstacle)")
     p.add_argument("--validation-fraction", type=float, default=0.15, help="share of situations held out")
     p.add_argument("--seed", type=int, default=0, help="seeds the split, the initial weights and the batch order")
+    p.add_argument("--init", type=Path, default=None, metavar="MODEL.onnx",
+                   help="train this exported set network further (its weights, standardisation and output basis) on "
+                        "the datasets, of its layout; --architecture set, --relative and --hidden, --layers, "
+                        "--encoder-width and --activation as its own (default: fresh weights)")
     add_preset_arguments(p)
 
 
@@ -93,6 +98,29 @@ def _check_distinct(datasets) -> None:
             raise UsageError(f"{d}: the same dataset folder as {seen[key]}, given twice (its samples would be "
                              f"both trained on and validated on)")
         seen[key] = d
+
+
+def _init_network(args) -> dict | None:
+    """``--init``'s network (:func:`nn_export.training.warm_start.read_set_network`), its shape
+    checked against the options given; None without it."""
+    if args.init is None:
+        return None
+    from nn_export.training.warm_start import read_set_network
+    try:
+        init = read_set_network(args.init)
+    except ValueError as exc:
+        raise UsageError(f"--init {args.init}: {str(exc).removeprefix(f'{args.init}: ')}") from None
+    if init["preset"] != args.preset:
+        raise UsageError(f"--init {args.init}: a network of preset {init['preset']!r}, not --preset {args.preset}")
+    width = 64 if args.encoder_width is None else args.encoder_width  # (the set network's default)
+    for name, own, given in (("--architecture", "set", args.architecture), ("--relative", True, args.relative),
+                             ("--hidden", init["hidden"], args.hidden), ("--layers", init["layers"], args.layers),
+                             ("--encoder-width", init["encoder_width"], width),
+                             ("--activation", init["activation"], args.activation)):
+        if own != given:
+            raise UsageError(f"--init {args.init}: the network's {name} is {own}, this training's {given}: give "
+                             f"{name} as its own")
+    return init
 
 
 def run(args) -> int:
@@ -138,6 +166,7 @@ def run(args) -> int:
         raise UsageError(f"--cost-gap-weight must be positive, got {args.cost_gap_weight}")
     if not 0 < args.validation_fraction < 1:
         raise UsageError(f"--validation-fraction must be in (0, 1), got {args.validation_fraction}")
+    init = _init_network(args)
     parts = None if args.parts is None else tuple(comma_items(args.parts, "--parts"))
     if parts is not None:
         for d in args.datasets:
@@ -177,6 +206,10 @@ def run(args) -> int:
     if args.architecture == "set" and not first.layout.is_set:
         raise UsageError(f"--architecture set needs a dataset of the set layout, not {first.layout.name!r} "
                          f"(gpcnav dataset --layout set)")
+    if init is not None and tuple(init["feature_names"]) != tuple(first.layout.feature_names):
+        raise UsageError(f"--init {args.init}: a network of the {init['layout']!r} layout, the datasets' is "
+                         f"{first.layout.name!r}" + (" (another version of it)" if init["layout"] == first.layout.name
+                                                     else ""))
     X = np.concatenate([s.X for s in sets])
     Y = np.concatenate([s.Y for s in sets])
     # situation ids are unique within a dataset; offset them so that datasets do not collide
@@ -202,7 +235,7 @@ def run(args) -> int:
     try:
         model.fit(X, Y, groups=G, feature_names=first.layout.feature_names,
                   label_names=_label_names(first.manifest.get("label_names"), Y.shape[1] // 2, args.target),
-                  progress=tick, sample_weight=weights)
+                  progress=tick, sample_weight=weights, init_state=None if init is None else init["state"])
     except (ValueError, FloatingPointError) as exc:
         raise UsageError(f"training failed: {exc}") from None
     finally:
@@ -219,6 +252,10 @@ def run(args) -> int:
     }
     if weighting is not None:
         provenance["training"] = {"sample_weights": weighting}  # into the file's trained_with
+    if init is not None:  # the network trained further, and what it was trained on before
+        provenance.setdefault("training", {})["init"] = {
+            "model": args.init.name, "sha256": hashlib.sha256(args.init.read_bytes()).hexdigest(),
+            "dataset": json.loads(init["metadata"].get("dataset") or "{}")}
     model.save(args.out, provenance, {"validation_features": X[model.validation_indices_]})
     shape = f"{X.shape[1]}-{'-'.join([str(args.hidden)] * args.layers)}-{Y.shape[1]}"
     if args.architecture == "set":

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["compile_set_network", "CompiledSetNet", "TOLERANCE_MPS", "read_onnx_tensors"]
+__all__ = ["compile_set_network", "CompiledSetNet", "TOLERANCE_MPS", "read_onnx_tensors", "set_network_weights"]
 
 TOLERANCE_MPS = 2e-5
 """The largest difference from onnxruntime's wheel speeds allowed on the probe rows."""
@@ -119,12 +119,14 @@ class CompiledSetNet:
         return float(self.out[0]), float(self.out[1])
 
 
-def _weights(nodes, tensors, n_in: int, slots: tuple[int, int, int]) -> tuple[tuple, bool]:
+def set_network_weights(nodes, tensors, n_in: int, slots: tuple[int, int, int]) -> tuple[tuple, bool]:
     """The set network's weights, each found through the node that uses it (the graph
     :class:`~nn_export.training.set_net.SetNet` exports, wrapped with its relative output and
     clip), for ``n_in`` inputs whose obstacle slots are ``slots`` (the layout's
-    :attr:`~nn_export.runtime.layouts.FeatureLayout.set_slots`); a ``ValueError`` naming what
-    does not fit."""
+    :attr:`~nn_export.runtime.layouts.FeatureLayout.set_slots`), float32 in the compiled pass's
+    order, and whether its head is tanh (else relu); a ``ValueError`` naming what does not fit.
+    ``gpcnav train --init`` reads a network back through it too
+    (:func:`nn_export.training.warm_start.read_set_network`)."""
     ops = [n[0] for n in nodes]
 
     def operand(op: str, k: int, shape_len: int) -> np.ndarray:
@@ -185,7 +187,7 @@ def compile_set_network(data: bytes, n_in: int, slots: tuple[int, int, int],
     :data:`TOLERANCE_MPS`; else None and why."""
     try:
         nodes, tensors = read_onnx_tensors(data)
-        weights, tanh = _weights(nodes, tensors, n_in, slots)
+        weights, tanh = set_network_weights(nodes, tensors, n_in, slots)
     except (ValueError, KeyError, IndexError, TypeError) as exc:
         return None, f"onnxruntime (the graph is not the set network's: {exc})"
     net = CompiledSetNet(weights, tanh)

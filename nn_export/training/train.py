@@ -32,6 +32,7 @@ from casadi_gpc.io import UNREADABLE_NPZ
 from ..runtime.layouts import WHEEL_INPUTS
 from .curve import save_curve_figure
 from .set_net import SetNet, set_standardisation, slot_structure
+from .warm_start import start_from
 from .steps import (Splits, adam_epoch, checked_arrays as _checked_arrays, copy_state, lbfgs_step, robust_scale,
                     validation_count, weighted_loss)
 
@@ -194,7 +195,7 @@ class WheelSpeedMLP:
 
     # --- learning --------------------------------------------------------------------
     def fit(self, X, Y, groups=None, feature_names=None, label_names=None, progress=None,
-            sample_weight=None) -> "WheelSpeedMLP":
+            sample_weight=None, init_state=None) -> "WheelSpeedMLP":
         """Learn the map ``X -> Y``.
 
         Parameters
@@ -214,6 +215,11 @@ class WheelSpeedMLP:
             Positive weights of the samples in the loss and in the validation error that
             picks the best epoch (:mod:`nn_export.training.weights`); the errors the model
             reports (``train_mse_``, ``validation_mse_``) stay unweighted.
+        init_state : dict, optional
+            Start from these weights, standardisation and output basis (a network of this
+            architecture's state, as :func:`nn_export.training.warm_start.read_set_network` reads it
+            from an exported file) instead of fresh ones: the network trained further. Epoch 0 of
+            the curve is the network as given.
         """
         self._check_params()
         X, Y = _checked_arrays(X, Y, feature_names, label_names)
@@ -227,7 +233,7 @@ class WheelSpeedMLP:
         torch.set_num_threads(1)  # a small net: threads only add nondeterminism and contention
         torch.manual_seed(self.random_state)
         gen = torch.Generator().manual_seed(self.random_state)
-        net, data = self._standardised(X, Y, train_idx, val_idx, feature_names)
+        net, data = self._standardised(X, Y, train_idx, val_idx, feature_names, init_state)
         if sample_weight is not None:
             w = torch.from_numpy(sample_weight)
             data = replace(data, wt=w[train_idx], wv=w[val_idx])
@@ -243,10 +249,10 @@ class WheelSpeedMLP:
                        "train_time_s": time.perf_counter() - t0, "units": "(m/s)^2, mean over samples and wheels"}
         return self
 
-    def _standardised(self, X: np.ndarray, Y: np.ndarray, train_idx, val_idx, feature_names=None
-                      ) -> tuple[_Net, "Splits"]:
-        """The network with the training split's standardisation in its buffers, and both
-        splits standardised (in the learned output basis)."""
+    def _standardised(self, X: np.ndarray, Y: np.ndarray, train_idx, val_idx, feature_names=None,
+                      init_state=None) -> tuple[_Net, "Splits"]:
+        """The network with the training split's standardisation in its buffers (or ``init_state``'s
+        weights and standardisation), and both splits standardised (in the learned output basis)."""
         x_mean, x_scale = X[train_idx].mean(0), robust_scale(X[train_idx])
         if self.architecture == "set":
             if feature_names is None:
@@ -267,6 +273,8 @@ class WheelSpeedMLP:
         U = Y @ np.linalg.inv(mix).T  # the learned basis: wheels = U @ mix^T
         y_mean, y_scale = U[train_idx].mean(0), robust_scale(U[train_idx])
         net = self._new_net(X.shape[1], Y.shape[1], feature_names)
+        if init_state is not None:
+            x_mean, x_scale, y_mean, y_scale = start_from(net, init_state, mix)
         with torch.no_grad():
             net.y_mix.copy_(torch.from_numpy(mix))
             net.x_mean.copy_(torch.from_numpy(x_mean))

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The fine-tuning dataset and its candidates (rule.md): run from the repository root.
 #   bash docs/data/buildings/walls_finetune/run.sh [OUT]      (default out/wf; about 40 min on 2 cores)
+# c1 and c2: E trained further on the first rounds (learning rates 1e-3 and 3e-4); c3: on those and a DAgger
+# round driven by c1 bare (it collided at the door on the development cases, dev.sh).
 set -euo pipefail
 OUT=${1:-out/wf}
 HERE=docs/data/buildings/walls_finetune
@@ -25,3 +27,22 @@ round gpc74 --dagger gpc --dagger-suite corner --movers 5 --behaviour orca --epi
 round gpc75 --dagger gpc --dagger-suite corner --movers 5 --behaviour social_force --episodes 30 --dagger-noise 0.05 \
   --round 75
 round gpc76 --dagger gpc --dagger-files "$OUT"/navground/*.toml --dagger-noise 0.05 --round 76
+
+tune() {  # tune NAME LR: E trained further on the whole dataset, exported
+  [ -f "$OUT/models/$1.onnx" ] && return
+  gpcnav train "$D" --out "$OUT/models/$1" --preset improved --architecture set --encoder-width 32 --hidden 64 \
+    --layers 2 --seed 0 --optimizer adam --epochs 30 --patience 10 --batch-size 512 --relative --lr "$2" --init "$E"
+  gpcnav export "$OUT/models/$1" --out "$OUT/models/$1.onnx" --passes 1
+}
+[ -f "$OUT/models/c1.onnx" ] || tune c1 1e-3
+[ -f "$OUT/models/c2.onnx" ] || tune c2 3e-4
+C1="$OUT/models/c1.onnx"
+[ -d "$OUT/scenes-9103" ] || python "$HERE/scenes.py" "$OUT/scenes-9103" 9103 150
+[ -d "$OUT/navground2" ] || python tools/export_navground_scenario.py --scene corridor --out "$OUT/navground2" \
+  --count 40 --seed 26141
+round dagger77 --dagger "$C1" --dagger-suite doorway --movers 5 --behaviour orca --episodes 100 --round 77
+round dagger78 --dagger "$C1" --dagger-suite corner --movers 5 --behaviour orca --episodes 60 --round 78
+round dagger79 --dagger "$C1" --dagger-suite corridor --movers 5 --behaviour orca --episodes 60 --round 79
+round dagger80 --dagger "$C1" --dagger-files "$OUT"/navground2/*.toml --round 80
+round dagger81 --dagger "$C1" --dagger-files "$OUT"/scenes-9103/*.toml --round 81
+tune c3 1e-3

@@ -46,3 +46,14 @@ round dagger79 --dagger "$C1" --dagger-suite corridor --movers 5 --behaviour orc
 round dagger80 --dagger "$C1" --dagger-files "$OUT"/navground2/*.toml --round 80
 round dagger81 --dagger "$C1" --dagger-files "$OUT"/scenes-9103/*.toml --round 81
 tune c3 1e-3
+# c4 (rule2.md): one more DAgger round, driven by c3 bare, and E trained further on everything
+C3="$OUT/models/c3.onnx"
+[ -d "$OUT/scenes-9104" ] || python "$HERE/scenes.py" "$OUT/scenes-9104" 9104 150
+[ -d "$OUT/navground3" ] || python tools/export_navground_scenario.py --scene corridor --out "$OUT/navground3" \
+  --count 40 --seed 26181
+round dagger82 --dagger "$C3" --dagger-suite corner --movers 5 --behaviour orca --episodes 100 --round 82
+round dagger83 --dagger "$C3" --dagger-suite doorway --movers 5 --behaviour orca --episodes 100 --round 83
+round dagger84 --dagger "$C3" --dagger-suite corridor --movers 5 --behaviour orca --episodes 60 --round 84
+round dagger85 --dagger "$C3" --dagger-files "$OUT"/navground3/*.toml --round 85
+round dagger86 --dagger "$C3" --dagger-files "$OUT"/scenes-9104/*.toml --round 86
+tune c4 1e-3

@@ -57,3 +57,8 @@ round dagger84 --dagger "$C3" --dagger-suite corridor --movers 5 --behaviour orc
 round dagger85 --dagger "$C3" --dagger-files "$OUT"/navground3/*.toml --round 85
 round dagger86 --dagger "$C3" --dagger-files "$OUT"/scenes-9104/*.toml --round 86
 tune c4 1e-3
+# c5 (rule3.md): E trained further on the same dataset, its own answers as the labels outside the open buildings
+if [ ! -f "$OUT/models/c5.onnx" ]; then
+  python "$HERE/distil.py" "$D" "$E" "$OUT/models/c5"
+  gpcnav export "$OUT/models/c5" --out "$OUT/models/c5.onnx" --passes 1
+fi

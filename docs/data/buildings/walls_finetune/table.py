@@ -1,17 +1,23 @@
-"""The rule's table from the documents of judge.sh (argv[1]: the runs folder; default runs/ beside this file):
-reached / collided (robot approaching) / timed out for each set and network, and the rule's sums.
+"""The rule's table from the documents of judge.sh: reached / collided (robot approaching) / timed out for each
+set and network, and the rule's sums. argv: the runs folder (default runs/ beside this file), the candidates
+(comma-separated, default c3), the suites' seed (default 82; rule3.md's: 83).
 
-    python docs/data/buildings/walls_finetune/table.py
+    python docs/data/buildings/walls_finetune/table.py                 # rule.md: table.md
+    python docs/data/buildings/walls_finetune/table.py runs3 c5 83     # rule3.md: table3.md
 """
 import json
 import sys
 from pathlib import Path
 
-R = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).with_name("runs")
-SETS = [("open buildings (scenes.py seed 8301, 60)", "open", "A"), ("one wall (gen.py seed 11, 40)", "onewall", "A"),
-        ("corridor, seed 82 (200)", "corridor-s82", "B"), ("doorway, seed 82 (200)", "doorway-s82", "B"),
-        ("corner, seed 82 (200)", "corner-s82", "B"), ("navground's corridor, seeds 7341-7440", "navground", "B")]
-NETS = [("E (shipped)", "E"), ("c3 (E trained further)", "c3")]
+R = Path(__file__).with_name(sys.argv[1] if len(sys.argv) > 1 else "runs")
+CANDIDATES = (sys.argv[2] if len(sys.argv) > 2 else "c3").split(",")
+S = int(sys.argv[3]) if len(sys.argv) > 3 else 82
+J = {82: (8301, 11, 7341), 83: (8302, 12, 7441)}[S]
+SETS = [(f"open buildings (scenes.py seed {J[0]}, 60)", "open", "A"), (f"one wall (gen.py seed {J[1]}, 40)", "onewall", "A"),
+        (f"corridor, seed {S} (200)", f"corridor-s{S}", "B"), (f"doorway, seed {S} (200)", f"doorway-s{S}", "B"),
+        (f"corner, seed {S} (200)", f"corner-s{S}", "B"),
+        (f"navground's corridor, seeds {J[2]}-{J[2] + 99}", "navground", "B")]
+NETS = [("E (shipped)", "E")] + [(c, c) for c in CANDIDATES]
 
 
 def tally(doc):
@@ -40,9 +46,10 @@ print("\n".join(rows))
 for g in ("A", "B"):
     print(f"| **sum {g}** | " + " | ".join(
         "{1} / {2} ({3}) / {4} of {0}".format(*sums[(g, n)]) if (g, n) in sums else "-" for _, n in NETS) + " |")
-if all((g, n) in sums for g in "AB" for _, n in NETS):
-    (_, ea, eca, _, _), (_, ca, cca, _, _) = sums[("A", "E")], sums[("A", "c3")]
-    (_, eb, ecb, eab, _), (_, cb, ccb, cab, _) = sums[("B", "E")], sums[("B", "c3")]
+if len(CANDIDATES) == 1 and all((g, n) in sums for g in "AB" for _, n in NETS):
+    c = CANDIDATES[0]
+    (_, ea, eca, _, _), (_, ca, cca, _, _) = sums[("A", "E")], sums[("A", c)]
+    (_, eb, ecb, eab, _), (_, cb, ccb, cab, _) = sums[("B", "E")], sums[("B", c)]
     rule = {"1. A: at least 10 more goals, no collision": ca >= ea + 10 and cca == 0,
             "2. B: collisions no more": ccb <= ecb, "2. B: collisions approaching no more": cab <= eab,
             "2. B: goals no fewer": cb >= eb}

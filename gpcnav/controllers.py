@@ -39,7 +39,7 @@ import math
 import os
 import sys
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, is_dataclass
+from dataclasses import asdict, dataclass, is_dataclass, replace
 from pathlib import Path
 
 from .errors import UsageError, comma_items
@@ -194,12 +194,16 @@ class ControllerSpec:
         (:attr:`mode`).
     passes : int or None
         ``nn``: 1 or 2 passes, None for what the model file says.
+    walls_model : Path or None
+        ``nn``: the walls network, which answers with a wall within 4 m (None: the one shipped
+        for the preset, where the model is the shipped one; ``gpcnav train --init`` trains one further).
     """
 
     name: str
     model: Path | None = None
     shield: str | None = None
     passes: int | None = None
+    walls_model: Path | None = None
 
     @property
     def mode(self) -> str:
@@ -274,7 +278,8 @@ def _make_base(spec: ControllerSpec, config, robot):
         try:
             from nn_export import OnnxPolicy
             return OnnxPolicy(spec.model, preset=config.name, robot=robot,
-                              two_pass=None if spec.passes is None else spec.passes == 2)
+                              two_pass=None if spec.passes is None else spec.passes == 2,
+                              **({} if spec.walls_model is None else {"walls_model": spec.walls_model}))
         except ImportError as exc:
             raise UsageError(f"--controller nn is not available: {exc}") from None
         except (FileNotFoundError, ValueError) as exc:
@@ -333,12 +338,12 @@ def check(spec: ControllerSpec, config, robot) -> None:
     name, a user class that does not load or answer the protocol, ``mppi`` without torch,
     ``nn`` with a bad model, an unknown shield mode. Options meant for ``nn`` given to
     another controller are refused too."""
-    if spec.name != "nn" and (spec.model is not None or spec.passes is not None):
-        raise UsageError(f"--model and --passes are options of --controller nn, not of {spec.name}")
+    if spec.name != "nn" and (spec.model is not None or spec.passes is not None or spec.walls_model is not None):
+        raise UsageError(f"--model, --walls-model and --passes are options of --controller nn, not of {spec.name}")
     if spec.mode not in SHIELD_MODES:
         raise UsageError(f"unknown shield mode {spec.shield!r} (choose from {', '.join(SHIELD_MODES)})")
     if spec.name == "nn":
-        make(ControllerSpec("nn", spec.model, "off", spec.passes), config, robot)  # the model loads
+        make(replace(spec, shield="off"), config, robot)  # the models load
     elif spec.name in PEERS + BASELINES or spec.is_user_class:
         _check_standby(spec, make(ControllerSpec(spec.name, shield="off"), config, robot), config)
 
@@ -437,6 +442,7 @@ def spec_from_args(args, name: str | None = None) -> ControllerSpec:
     they go to ``--controller`` as given, and :func:`check` refuses them for another one."""
     if name is None:
         name = args.controller
-        return ControllerSpec(name, args.model, shield_mode(args, name), args.passes)
+        return ControllerSpec(name, args.model, shield_mode(args, name), args.passes, args.walls_model)
     is_nn = name == "nn"
-    return ControllerSpec(name, args.model if is_nn else None, shield_mode(args, name), args.passes if is_nn else None)
+    return ControllerSpec(name, args.model if is_nn else None, shield_mode(args, name), args.passes if is_nn else None,
+                          args.walls_model if is_nn else None)

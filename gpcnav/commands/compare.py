@@ -68,8 +68,9 @@ def run(args) -> int:
             check_controller_name(name, "--controllers")
         except ValueError as exc:
             raise UsageError(str(exc)) from None
-    if "nn" not in names and (args.model is not None or args.passes is not None):  # (dropped without a word)
-        given = " and ".join(o for o, v in (("--model", args.model), ("--passes", args.passes)) if v is not None)
+    if "nn" not in names and (args.model is not None or args.passes is not None or args.walls_model is not None):
+        given = " and ".join(o for o, v in (("--model", args.model), ("--walls-model", args.walls_model),
+                                             ("--passes", args.passes)) if v is not None)  # (dropped without a word)
         raise UsageError(f"{given}: for the controller nn, which --controllers {args.controllers} does not name")
     specs = [spec_from_args(args, name) for name in names]
     refuse_unused_fallback(args, specs)

@@ -183,12 +183,14 @@ def run_key(spec, config, extra: dict) -> str:
     change only the planner's speed (:data:`~gpcnav.commands.common.SPEED_ONLY`: the solve
     lanes, fitted to the workers) are left out, as the worker count is."""
     from .common import SPEED_ONLY
-    model = spec.model
+    def digest(model):
+        return _file_digest(Path(model)) if model is not None and Path(model).is_file() else model
     return _digest({
         "format": STORE_FORMAT, "code": code_stamp(),
         "config": {k: v for k, v in config.to_dict().items() if k not in SPEED_ONLY},
         "controller": {"name": spec.name, "mode": spec.mode, "passes": spec.passes, "label": spec.label,
-                       "model": _file_digest(Path(model)) if model is not None and Path(model).is_file() else model,
+                       "model": digest(spec.model),
+                       **({} if spec.walls_model is None else {"walls_model": digest(spec.walls_model)}),
                        "user_module": _user_module_digest(spec.name) if spec.is_user_class else None},
         "extra": extra,
     })

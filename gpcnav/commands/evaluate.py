@@ -7,6 +7,7 @@ only the rest; the document is the one an uninterrupted run writes (docs/evaluat
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from ..controllers import ControllerSpec, check_scenarios, reads_planner_settings, spec_from_args
@@ -259,7 +260,7 @@ def controller_extra(spec: ControllerSpec, config, robot) -> dict:
     from .. import controllers
     extra = {"shield": spec.mode, "decision_passes": None, "solver": None}
     if spec.name == "nn":
-        controller = controllers.make(ControllerSpec("nn", spec.model, "off", spec.passes), config, robot)
+        controller = controllers.make(replace(spec, shield="off"), config, robot)
         extra["decision_passes"] = 2 if controller.two_pass else 1
     elif spec.name == "gpc":
         extra["solver"] = config.solver

@@ -281,7 +281,7 @@ class GPCNetworkBehavior(GPCBehavior, name="GPCNetwork"):
     out, no planner on standby, so no CasADi), as a navground behaviour.
 
     *Registered properties*: ``preset`` [str], ``max_wheel_acceleration`` [float],
-    ``model`` [str].
+    ``model`` [str], ``walls_model`` [str].
 
     *State*: :py:class:`navground.core.GeometricState`.
     """
@@ -295,6 +295,7 @@ class GPCNetworkBehavior(GPCBehavior, name="GPCNetwork"):
     def __init__(self, kinematics: core.Kinematics | None = None, radius: float = 0.0):
         GPCBehavior.__init__(self, kinematics, radius)
         self._model = ""
+        self._walls_model = ""
 
     @property
     @core.register("", "The ONNX model's path (empty: the one shipped for the preset)")
@@ -308,6 +309,19 @@ class GPCNetworkBehavior(GPCBehavior, name="GPCNetwork"):
         self._model = str(value)
         self._controller = None
 
+    @property
+    @core.register("", "The walls network's path (empty: the one shipped for the preset), as --walls-model")
+    def walls_model(self) -> str:
+        """The walls network's ONNX file, which answers where a wall is within 4 m (a path, relative to the
+        current folder; empty: the one shipped for :attr:`preset`; ``--walls-model`` of the command line)."""
+        return self._walls_model
+
+    @walls_model.setter
+    def walls_model(self, value: str) -> None:
+        self._walls_model = str(value)
+        self._controller = None
+
     def controller_spec(self):
         from .controllers import ControllerSpec
-        return ControllerSpec("nn", Path(self._model) if self._model else None, shield="on")
+        return ControllerSpec("nn", Path(self._model) if self._model else None, shield="on",
+                              walls_model=Path(self._walls_model) if self._walls_model else None)

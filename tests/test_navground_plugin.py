@@ -292,7 +292,28 @@ def test_the_entry_points_name_the_classes_registered_under_those_names():
     for name in eps:
         assert core.Behavior.make_type(name) is not None
         assert {"preset", "max_wheel_acceleration"} <= set(core.Behavior.type_properties[name])
-    assert "model" in core.Behavior.type_properties["GPCNetwork"]
+    assert {"model", "walls_model"} <= set(core.Behavior.type_properties["GPCNetwork"])
+
+
+def test_the_network_behaviour_runs_the_walls_network_it_is_given(tmp_path):
+    """``walls_model`` (``--walls-model``): the file given answers near walls; one that is not a walls
+    network is the behaviour's error."""
+    import hashlib
+
+    from synthetic_models import tracker_model
+    k = core.Kinematics.make_type("2WDiff")
+    k.wheel_axis, k.max_speed = 0.5, 0.8
+    k.set("max_backward_speed", 0.8)
+    walls = tracker_model(tmp_path / "walls.onnx", "improved", layout_name="set-walls", decision_passes="1")
+    b = core.Behavior.make_type("GPCNetwork")
+    b.kinematics, b.radius = k, 0.35
+    b.set("walls_model", str(walls))
+    b.prepare()
+    assert b.controller.policy.model_info["walls_model"]["sha256"] == hashlib.sha256(walls.read_bytes()).hexdigest()
+    b.set("walls_model", str(tracker_model(tmp_path / "set.onnx", "improved", layout_name="set",
+                                           decision_passes="1")))
+    with pytest.raises(ValueError, match=r"^navground behaviour GPCNetwork: .*set.onnx: a walls network must read"):
+        b.prepare()
 
 
 # --- the example experiment, recorded by navground and read back ----------------------------

@@ -194,9 +194,10 @@ class ControllerSpec:
         (:attr:`mode`).
     passes : int or None
         ``nn``: 1 or 2 passes, None for what the model file says.
-    walls_model : Path or None
-        ``nn``: the walls network, which answers with a wall within 4 m (None: the one shipped
-        for the preset, where the model is the shipped one; ``gpcnav train --init`` trains one further).
+    walls_model, crowd_model : Path or None
+        ``nn``: the walls network, which answers with a wall within 4 m, and the crowd network, which
+        answers where the model cannot hold the obstacles in range (None: the ones shipped for the
+        preset, where the model is the shipped one; ``gpcnav train --init`` trains one further).
     """
 
     name: str
@@ -204,6 +205,7 @@ class ControllerSpec:
     shield: str | None = None
     passes: int | None = None
     walls_model: Path | None = None
+    crowd_model: Path | None = None
 
     @property
     def mode(self) -> str:
@@ -279,7 +281,8 @@ def _make_base(spec: ControllerSpec, config, robot):
             from nn_export import OnnxPolicy
             return OnnxPolicy(spec.model, preset=config.name, robot=robot,
                               two_pass=None if spec.passes is None else spec.passes == 2,
-                              **({} if spec.walls_model is None else {"walls_model": spec.walls_model}))
+                              **{k: v for k, v in (("walls_model", spec.walls_model),
+                                                   ("crowd_model", spec.crowd_model)) if v is not None})
         except ImportError as exc:
             raise UsageError(f"--controller nn is not available: {exc}") from None
         except (FileNotFoundError, ValueError) as exc:
@@ -338,8 +341,9 @@ def check(spec: ControllerSpec, config, robot) -> None:
     name, a user class that does not load or answer the protocol, ``mppi`` without torch,
     ``nn`` with a bad model, an unknown shield mode. Options meant for ``nn`` given to
     another controller are refused too."""
-    if spec.name != "nn" and (spec.model is not None or spec.passes is not None or spec.walls_model is not None):
-        raise UsageError(f"--model, --walls-model and --passes are options of --controller nn, not of {spec.name}")
+    if spec.name != "nn" and any(v is not None for v in (spec.model, spec.passes, spec.walls_model, spec.crowd_model)):
+        raise UsageError(f"--model, --walls-model, --crowd-model and --passes are options of --controller nn, not of "
+                         f"{spec.name}")
     if spec.mode not in SHIELD_MODES:
         raise UsageError(f"unknown shield mode {spec.shield!r} (choose from {', '.join(SHIELD_MODES)})")
     if spec.name == "nn":
@@ -442,7 +446,8 @@ def spec_from_args(args, name: str | None = None) -> ControllerSpec:
     they go to ``--controller`` as given, and :func:`check` refuses them for another one."""
     if name is None:
         name = args.controller
-        return ControllerSpec(name, args.model, shield_mode(args, name), args.passes, args.walls_model)
+        return ControllerSpec(name, args.model, shield_mode(args, name), args.passes, args.walls_model,
+                              args.crowd_model)
     is_nn = name == "nn"
     return ControllerSpec(name, args.model if is_nn else None, shield_mode(args, name), args.passes if is_nn else None,
-                          args.walls_model if is_nn else None)
+                          args.walls_model if is_nn else None, args.crowd_model if is_nn else None)

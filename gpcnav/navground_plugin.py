@@ -281,7 +281,7 @@ class GPCNetworkBehavior(GPCBehavior, name="GPCNetwork"):
     out, no planner on standby, so no CasADi), as a navground behaviour.
 
     *Registered properties*: ``preset`` [str], ``max_wheel_acceleration`` [float],
-    ``model`` [str], ``walls_model`` [str].
+    ``model`` [str], ``walls_model`` [str], ``crowd_model`` [str].
 
     *State*: :py:class:`navground.core.GeometricState`.
     """
@@ -296,6 +296,7 @@ class GPCNetworkBehavior(GPCBehavior, name="GPCNetwork"):
         GPCBehavior.__init__(self, kinematics, radius)
         self._model = ""
         self._walls_model = ""
+        self._crowd_model = ""
 
     @property
     @core.register("", "The ONNX model's path (empty: the one shipped for the preset)")
@@ -321,7 +322,20 @@ class GPCNetworkBehavior(GPCBehavior, name="GPCNetwork"):
         self._walls_model = str(value)
         self._controller = None
 
+    @property
+    @core.register("", "The crowd network's path (empty: the one shipped for the preset), as --crowd-model")
+    def crowd_model(self) -> str:
+        """The crowd network's ONNX file, which answers where the model cannot hold the obstacles in range
+        (a path as :attr:`walls_model`; empty: the one shipped for :attr:`preset`)."""
+        return self._crowd_model
+
+    @crowd_model.setter
+    def crowd_model(self, value: str) -> None:
+        self._crowd_model = str(value)
+        self._controller = None
+
     def controller_spec(self):
         from .controllers import ControllerSpec
         return ControllerSpec("nn", Path(self._model) if self._model else None, shield="on",
-                              walls_model=Path(self._walls_model) if self._walls_model else None)
+                              walls_model=Path(self._walls_model) if self._walls_model else None,
+                              crowd_model=Path(self._crowd_model) if self._crowd_model else None)

@@ -292,7 +292,7 @@ def test_the_entry_points_name_the_classes_registered_under_those_names():
     for name in eps:
         assert core.Behavior.make_type(name) is not None
         assert {"preset", "max_wheel_acceleration"} <= set(core.Behavior.type_properties[name])
-    assert {"model", "walls_model"} <= set(core.Behavior.type_properties["GPCNetwork"])
+    assert {"model", "walls_model", "crowd_model"} <= set(core.Behavior.type_properties["GPCNetwork"])
 
 
 def test_the_network_behaviour_runs_the_walls_network_it_is_given(tmp_path):

@@ -1,7 +1,7 @@
-"""``--walls-model`` (simulate, evaluate, compare): the deployed network with a walls network of the user's
-(one trained further by ``gpcnav train --init``) in place of the shipped one; recorded in RUN.json, part
-of a resumed run's key, and refused in one line (exit 2) for another controller or a file that is not a
-walls network."""
+"""``--walls-model`` and ``--crowd-model`` (simulate, evaluate, compare): the deployed network with a walls or
+crowd network of the user's (one trained further by ``gpcnav train --init``) in place of the shipped one;
+recorded in RUN.json, part of a resumed run's key, and refused in one line (exit 2) for another controller or
+a file that is not such a network."""
 from __future__ import annotations
 
 import hashlib
@@ -29,6 +29,23 @@ line_m = 8.0
 [[walls]]
 points = [[-10.0, 1.25], [20.0, 1.25]]
 """
+CROWD = """name = "three-walkers-aside"
+duration_s = 6.0
+[robot]
+position = [0.0, 0.0]
+heading_deg = 0.0
+[reference]
+position = [0.0, 0.0]
+heading_deg = 0.0
+speed_mps = 0.4
+[[reference.segments]]
+line_m = 8.0
+""" + "".join(f"""[[moving_obstacles]]
+position = [{x}, 4.0]
+heading_deg = 0.0
+speed_mps = 0.3
+radius_m = 0.3
+""" for x in (1.0, 3.0, 5.0))
 
 
 def gpcnav(*argv, rc=0):
@@ -61,20 +78,33 @@ def test_the_walls_network_given_answers_near_walls_and_is_recorded(files):
     assert doc["model"]["walls_model"]["sha256"] == hashlib.sha256(walls.read_bytes()).hexdigest()
 
 
+def test_the_crowd_network_given_answers_among_several_movers_and_is_recorded(files):
+    d, _, _, crowd = files
+    scene = d / "crowd.toml"
+    scene.write_text(CROWD)
+    gpcnav("simulate", scene, "--controller", "nn", "--crowd-model", crowd, "--out", d / "crowd.json")
+    doc = json.loads((d / "crowd.json").read_text())
+    assert doc["events"]["crowd_network"] == doc["steps"] > 0
+    assert doc["model"]["crowd_model"]["sha256"] == hashlib.sha256(crowd.read_bytes()).hexdigest()
+
+
 def test_a_run_with_another_walls_network_is_another_run():
     from gpcnav.commands.episode_store import run_key
     from gpcnav.controllers import ControllerSpec
     from nn_export.runtime.policy import shipped_crowd_model_path, shipped_walls_model_path
     cfg = preset("improved")
-    keys = {run_key(ControllerSpec("nn", walls_model=w), cfg, {}) for w in (
-        None, shipped_walls_model_path("improved"), shipped_crowd_model_path("improved"))}
-    assert len(keys) == 3
+    walls, crowd = shipped_walls_model_path("improved"), shipped_crowd_model_path("improved")
+    keys = {run_key(ControllerSpec("nn", walls_model=w, crowd_model=c), cfg, {})
+            for w, c in ((None, None), (walls, None), (crowd, None), (None, crowd))}
+    assert len(keys) == 4
 
 
 def test_walls_model_refused_in_one_line(files):
     d, scene, _, crowd = files
     for argv, words in (
             (("simulate", scene, "--controller", "gpc", "--walls-model", crowd), "options of --controller nn"),
+            (("simulate", scene, "--controller", "orca", "--crowd-model", crowd), "options of --controller nn"),
+            (("simulate", scene, "--controller", "nn", "--crowd-model", d / "none.onnx"), "no such model file"),
             (("simulate", scene, "--controller", "nn", "--walls-model", crowd), "must read walls"),
             (("simulate", scene, "--controller", "nn", "--walls-model", d / "none.onnx"), "no such model file"),
             (("compare", scene, "--controllers", "gpc,stand", "--walls-model", crowd),
@@ -82,3 +112,8 @@ def test_walls_model_refused_in_one_line(files):
         err = gpcnav(*argv, "--out", d / "x.json", rc=2).stderr
         assert len(err.strip().splitlines()) == 1 and words in err, err
     assert not (d / "x.json").exists()
+    walls_copy = d / "walls-copy.onnx"
+    walls_copy.write_bytes(files[2].read_bytes())
+    err = gpcnav("simulate", scene, "--controller", "nn", "--walls-model", walls_copy, "--out", walls_copy, rc=2).stderr
+    assert len(err.strip().splitlines()) == 1 and "model file" in err, err  # the run would have written over it
+    assert walls_copy.read_bytes() == files[2].read_bytes()

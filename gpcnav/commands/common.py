@@ -330,6 +330,9 @@ def add_controller_arguments(p: argparse.ArgumentParser, many: bool = False) -> 
     p.add_argument("--walls-model", type=Path, default=None, metavar="MODEL.onnx",
                    help="--controller nn: the walls network, which answers where a wall is within 4 m (default: the "
                         "one shipped for --preset, with the shipped model; one trained further by gpcnav train --init)")
+    p.add_argument("--crowd-model", type=Path, default=None, metavar="MODEL.onnx",
+                   help="--controller nn: the crowd network, which answers where the model cannot hold the obstacles "
+                        "in range (default: the one shipped for --preset, with the shipped model)")
     p.add_argument("--shield", dest="shield", action="store_const", const="on", default=None,
                    help="put the controller behind the safety check layer (the default for gpc and nn; "
                         "docs/faults.md)")

@@ -61,16 +61,16 @@ def run(args) -> int:
     scenarios, suite = scenarios_from_args(args)
     pool = pool_from_args(args)
     config = for_pool(for_run(planner_config(args), scenarios), pool)  # lanes: as many as the workers leave
-    check_compare_outputs(args.out, [sc.source for sc in scenarios], [args.model])
+    check_compare_outputs(args.out, [sc.source for sc in scenarios], [args.model, args.walls_model, args.crowd_model])
     names = parse_controller_list(args.controllers)
     for name in names:  # (a name of no controller was said to be --controller's, an option not given)
         try:
             check_controller_name(name, "--controllers")
         except ValueError as exc:
             raise UsageError(str(exc)) from None
-    if "nn" not in names and (args.model is not None or args.passes is not None or args.walls_model is not None):
-        given = " and ".join(o for o, v in (("--model", args.model), ("--walls-model", args.walls_model),
-                                             ("--passes", args.passes)) if v is not None)  # (dropped without a word)
+    given = " and ".join(o for o, v in (("--model", args.model), ("--walls-model", args.walls_model),
+                                         ("--crowd-model", args.crowd_model), ("--passes", args.passes)) if v is not None)
+    if "nn" not in names and given:  # (dropped without a word)
         raise UsageError(f"{given}: for the controller nn, which --controllers {args.controllers} does not name")
     specs = [spec_from_args(args, name) for name in names]
     refuse_unused_fallback(args, specs)

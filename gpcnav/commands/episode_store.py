@@ -190,7 +190,8 @@ def run_key(spec, config, extra: dict) -> str:
         "config": {k: v for k, v in config.to_dict().items() if k not in SPEED_ONLY},
         "controller": {"name": spec.name, "mode": spec.mode, "passes": spec.passes, "label": spec.label,
                        "model": digest(spec.model),
-                       **({} if spec.walls_model is None else {"walls_model": digest(spec.walls_model)}),
+                       **{k: digest(v) for k, v in (("walls_model", spec.walls_model),
+                                                    ("crowd_model", spec.crowd_model)) if v is not None},
                        "user_module": _user_module_digest(spec.name) if spec.is_user_class else None},
         "extra": extra,
     })

@@ -293,7 +293,8 @@ def run(args) -> int:
     refuse_unused_fallback(args, [spec])
     check_scenarios(spec, config, scenarios)
     refuse_unread_changes([spec], config)
-    check_output_files(inputs=[sc.source for sc in scenarios], models=[args.model], out=args.out)
+    check_output_files(inputs=[sc.source for sc in scenarios], models=[args.model, args.walls_model, args.crowd_model],
+                       out=args.out)
     with connected(pool):
         extra = controller_extra(spec, config, scenarios[0].robot)
         store, keys = open_store(args, [spec], config, [extra], scenarios)

@@ -54,7 +54,8 @@ def run(args) -> int:
     from scenarios import load_scenario
     from casadi_gpc.io import save_figure, write_json
     check_seed(args.seed)
-    check_output_files(inputs=[args.scenario], models=[args.model], out=args.out, plot=args.plot, animate=args.animate)
+    check_output_files(inputs=[args.scenario], models=[args.model, args.walls_model, args.crowd_model], out=args.out,
+                       plot=args.plot, animate=args.animate)
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)

@@ -68,8 +68,9 @@ def run(args) -> int:
             check_controller_name(name, "--controllers")
         except ValueError as exc:
             raise UsageError(str(exc)) from None
-    given = " and ".join(o for o, v in (("--model", args.model), ("--walls-model", args.walls_model),
-                                         ("--crowd-model", args.crowd_model), ("--passes", args.passes)) if v is not None)
+    options = (("--model", args.model), ("--walls-model", args.walls_model), ("--crowd-model", args.crowd_model),
+               ("--passes", args.passes))
+    given = " and ".join(o for o, v in options if v is not None)
     if "nn" not in names and given:  # (dropped without a word)
         raise UsageError(f"{given}: for the controller nn, which --controllers {args.controllers} does not name")
     specs = [spec_from_args(args, name) for name in names]

@@ -13,7 +13,8 @@ R = Path(__file__).with_name(sys.argv[1] if len(sys.argv) > 1 else "runs")
 CANDIDATES = (sys.argv[2] if len(sys.argv) > 2 else "c3").split(",")
 S = int(sys.argv[3]) if len(sys.argv) > 3 else 82
 J = {82: (8301, 11, 7341), 83: (8302, 12, 7441)}[S]
-SETS = [(f"open buildings (scenes.py seed {J[0]}, 60)", "open", "A"), (f"one wall (gen.py seed {J[1]}, 40)", "onewall", "A"),
+SETS = [(f"open buildings (scenes.py seed {J[0]}, 60)", "open", "A"),
+        (f"one wall (gen.py seed {J[1]}, 40)", "onewall", "A"),
         (f"corridor, seed {S} (200)", f"corridor-s{S}", "B"), (f"doorway, seed {S} (200)", f"doorway-s{S}", "B"),
         (f"corner, seed {S} (200)", f"corner-s{S}", "B"),
         (f"navground's corridor, seeds {J[2]}-{J[2] + 99}", "navground", "B")]

@@ -15,37 +15,18 @@ from casadi_gpc.config import preset
 
 pytest.importorskip("onnx")
 
-ALONG_A_WALL = """name = "along-a-wall-on-the-left"
-duration_s = 30.0
-[robot]
-position = [0.0, 0.0]
-heading_deg = 0.0
-[reference]
-position = [0.0, 0.0]
-heading_deg = 0.0
-speed_mps = 0.4
-[[reference.segments]]
-line_m = 8.0
-[[walls]]
-points = [[-10.0, 1.25], [20.0, 1.25]]
-"""
-CROWD = """name = "three-walkers-aside"
-duration_s = 6.0
-[robot]
-position = [0.0, 0.0]
-heading_deg = 0.0
-[reference]
-position = [0.0, 0.0]
-heading_deg = 0.0
-speed_mps = 0.4
-[[reference.segments]]
-line_m = 8.0
-""" + "".join(f"""[[moving_obstacles]]
-position = [{x}, 4.0]
-heading_deg = 0.0
-speed_mps = 0.3
-radius_m = 0.3
-""" for x in (1.0, 3.0, 5.0))
+
+def _scene(name: str, duration_s: float, rest: str) -> str:
+    """A scenario file: the robot at the origin on an 8 m path along +x at 0.4 m/s, and ``rest``."""
+    return (f'name = "{name}"\nduration_s = {duration_s}\n[robot]\nposition = [0.0, 0.0]\nheading_deg = 0.0\n'
+            '[reference]\nposition = [0.0, 0.0]\nheading_deg = 0.0\nspeed_mps = 0.4\n[[reference.segments]]\n'
+            f'line_m = 8.0\n{rest}')
+
+
+ALONG_A_WALL = _scene("along-a-wall-on-the-left", 30.0, "[[walls]]\npoints = [[-10.0, 1.25], [20.0, 1.25]]\n")
+CROWD = _scene("three-walkers-aside", 6.0, "".join(
+    f"[[moving_obstacles]]\nposition = [{x}, 4.0]\nheading_deg = 0.0\nspeed_mps = 0.3\nradius_m = 0.3\n"
+    for x in (1.0, 3.0, 5.0)))
 
 
 def gpcnav(*argv, rc=0):

@@ -31,10 +31,10 @@ def _metadata(path: Path) -> dict:
 
 def read_set_network(path) -> dict:
     """The set network in the exported ONNX file ``path``: ``state`` (SetNet's state dict, float64
-    arrays), its shape (``hidden``, ``layers``, ``encoder_width``, ``activation``; ``relative`` is
-    always true: the reader takes the relative graph that ``gpcnav export`` writes for ``--relative``
-    networks), ``feature_names``, ``preset``, ``layout`` (its name) and ``metadata``; a
-    ``ValueError`` naming what is not such a network."""
+    arrays), its shape (``hidden``, ``layers``, ``encoder_width``, ``activation``; it is always a
+    ``--relative`` network: the reader takes the graph ``gpcnav export`` writes for those),
+    ``feature_names``, ``preset``, ``layout`` (its name) and ``metadata``; a ``ValueError`` naming what
+    is not such a network."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"{path}: no such model file")
@@ -62,7 +62,7 @@ def read_set_network(path) -> dict:
              "x_mean": mean, "x_scale": scale, "y_mean": y_mean, "y_scale": y_scale, "y_mix": W_mix.T}
     return {"state": {k: np.array(v, dtype=np.float64) for k, v in state.items()},
             "hidden": int(W1.shape[0]), "layers": 1 + int(deeper), "encoder_width": int(W_enc.shape[0]),
-            "activation": "tanh" if tanh else "relu", "relative": True, "feature_names": layout.feature_names,
+            "activation": "tanh" if tanh else "relu", "feature_names": layout.feature_names,
             "preset": meta.get("preset"), "layout": layout.name, "metadata": meta}
 
 

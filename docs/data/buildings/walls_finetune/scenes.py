@@ -59,7 +59,7 @@ line_m = {length:.2f}
     elif kind == "room":
         width = rng.uniform(3.0, 6.0)
         yc = -rng.uniform(-0.25, 0.25) * width  # the room's middle, seen from the path
-        xe = length + rng.uniform(0.6, 2.5) + 0.0
+        xe = length + rng.uniform(0.6, 2.5)
         h = width / 2
         pts = [[-1.0, yc - h], [xe, yc - h], [xe, yc + h], [-1.0, yc + h], [-1.0, yc - h]]
         walls = "[[walls]]\npoints = [" + ", ".join(f"[{x:.2f}, {y:.3f}]" for x, y in pts) + "]\n"

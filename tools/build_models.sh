@@ -2,7 +2,7 @@
 # Rebuild the shipped networks nn_export/models/{paper,improved,improved-crowd,improved-walls}.onnx from
 # scratch, and the multi-obstacle network for the random-multi suite (not shipped):
 #
-#   tools/build_models.sh [OUT_DIR]        (default out/nn; about 3 h on 2 cores)
+#   tools/build_models.sh [OUT_DIR]        (default out/nn; about 3 h 40 min on 2 cores)
 #
 # The recipe (docs/nn-recipe.md, "The shipped models"): GPC labels of 20000 sampled situations,
 # then on-policy rounds labelled by the GPC:
@@ -222,4 +222,7 @@ ng_dagger 20 "$OUT/models/improved-walls-ng-c.onnx" 22001
 wallnet improved-walls-ng-d
 ng_dagger 30 "$OUT/models/improved-walls-ng-d.onnx" 23001
 wallnet improved-walls-ng-e
-cp "$OUT/models/improved-walls-ng-e.onnx" nn_export/models/improved-walls.onnx
+# trained further on open buildings (one wall, rooms, an end wall; docs/buildings.md, "The walls network trained
+# further on open buildings"; adopted by docs/data/buildings/walls_finetune/rule4.md): c5, shipped
+E="$OUT/models/improved-walls-ng-e.onnx" WORKERS="$WORKERS" bash docs/data/buildings/walls_finetune/run.sh "$OUT/wf"
+cp "$OUT/wf/models/c5.onnx" nn_export/models/improved-walls.onnx

@@ -8,7 +8,11 @@ set -euo pipefail
 OUT=${1:-out/ww}
 HERE=docs/data/buildings/walls_widths
 D="$OUT/data"
-C5=${C5:-nn_export/models/improved-walls.onnx}
+mkdir -p "$OUT"
+if [ -z "${C5:-}" ]; then  # c5, the walls network shipped at 109d3ed (sha256 9b060ce7...), or the one C5 names
+  C5="$OUT/c5.onnx"
+  [ -f "$C5" ] || git show 109d3ed:nn_export/models/improved-walls.onnx > "$C5"
+fi
 W=${WORKERS:-2}
 round() {  # one round unless the dataset has it: round PART ARGS...
   local part=$1
